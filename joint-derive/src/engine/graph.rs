@@ -1,0 +1,385 @@
+//! The arena of scalar nodes.
+//!
+//! Nodes are created only through the smart constructors below, which fold
+//! constants, apply the 0/1 and negation rules, put commutative operands in a
+//! canonical order and hash-cons the result. A node's children always have smaller
+//! ids than the node, so the arena is already in emission order, and equal
+//! subexpressions are one node: common-subexpression sharing comes for free.
+
+use std::collections::HashMap;
+
+/// Index of a node in the [`Graph`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Id(pub u32);
+
+impl Id {
+    /// The position in the arena.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// Index of an input variable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct VarId(pub u32);
+
+/// One scalar operation. Constants are stored by their bits so that nodes hash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A numeric constant (`f64::to_bits`, never `-0.0`).
+    Const(u64),
+    /// An input.
+    Var(VarId),
+    /// `a + b`, with `a < b`.
+    Add(Id, Id),
+    /// `a - b`, with `a < b` (the other order is a negated `Sub`).
+    Sub(Id, Id),
+    /// `a * b`, with `a <= b`; a constant factor comes first.
+    Mul(Id, Id),
+    /// `-a`: free in the operation count.
+    Neg(Id),
+    /// `sin a`.
+    Sin(Id),
+    /// `cos a`.
+    Cos(Id),
+}
+
+/// What kind of input a variable is; the derivative rules and emission read it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Var {
+    /// The name used in generated code.
+    pub name: String,
+    /// Bit in the dependency mask (`None` for parameters, which are constant in
+    /// time and never differentiated).
+    pub bit: Option<u32>,
+}
+
+/// The arena.
+#[derive(Default)]
+pub struct Graph {
+    nodes: Vec<Node>,
+    /// Bitmask of the differentiable variables each node depends on.
+    masks: Vec<u64>,
+    lookup: HashMap<Node, Id>,
+    vars: Vec<Var>,
+    next_bit: u32,
+    /// Readable names for intermediates (first hint wins).
+    hints: HashMap<Id, String>,
+}
+
+impl Graph {
+    /// An empty graph.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The node behind an id.
+    pub fn node(&self, id: Id) -> Node {
+        self.nodes[id.index()]
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Gives a node a readable name for emission; the first name given wins, and
+    /// variables and constants keep their own.
+    pub fn hint(&mut self, id: Id, name: impl Into<String>) {
+        if matches!(self.node(id), Node::Mul(..) | Node::Add(..) | Node::Sub(..) | Node::Sin(_) | Node::Cos(_)) {
+            self.hints.entry(id).or_insert_with(|| name.into());
+        }
+    }
+
+    /// The readable name of a node, if it has one.
+    pub fn hint_of(&self, id: Id) -> Option<&str> {
+        self.hints.get(&id).map(String::as_str)
+    }
+
+    /// The variables, by `VarId`.
+    pub fn vars(&self) -> &[Var] {
+        &self.vars
+    }
+
+    /// Dependency mask of a node (see [`Graph::var_mask`]).
+    pub fn mask(&self, id: Id) -> u64 {
+        self.masks[id.index()]
+    }
+
+    /// The mask bit of a differentiable variable (0 for a parameter).
+    pub fn var_mask(&self, v: VarId) -> u64 {
+        self.vars[v.0 as usize].bit.map_or(0, |b| 1u64 << b)
+    }
+
+    /// A parameter: an input that is constant in time (a joint's axes and points).
+    pub fn param(&mut self, name: impl Into<String>) -> Id {
+        self.new_var(name.into(), None)
+    }
+
+    /// A differentiable input: a coordinate, a velocity or a time-function value.
+    pub fn state(&mut self, name: impl Into<String>) -> Id {
+        let bit = self.next_bit;
+        assert!(bit < 64, "more than 64 differentiable inputs");
+        self.next_bit += 1;
+        self.new_var(name.into(), Some(bit))
+    }
+
+    fn new_var(&mut self, name: String, bit: Option<u32>) -> Id {
+        let v = VarId(self.vars.len() as u32);
+        self.vars.push(Var { name, bit });
+        self.intern(Node::Var(v))
+    }
+
+    /// The variable behind a `Var` node.
+    pub fn as_var(&self, id: Id) -> Option<VarId> {
+        match self.node(id) {
+            Node::Var(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    /// The value of a constant node.
+    pub fn as_const(&self, id: Id) -> Option<f64> {
+        match self.node(id) {
+            Node::Const(bits) => Some(f64::from_bits(bits)),
+            _ => None,
+        }
+    }
+
+    fn is_const(&self, id: Id, value: f64) -> bool {
+        self.as_const(id) == Some(value)
+    }
+
+    fn intern(&mut self, node: Node) -> Id {
+        if let Some(&id) = self.lookup.get(&node) {
+            return id;
+        }
+        let mask = match node {
+            Node::Const(_) => 0,
+            Node::Var(v) => self.var_mask(v),
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => self.mask(a) | self.mask(b),
+            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => self.mask(a),
+        };
+        let id = Id(self.nodes.len() as u32);
+        self.nodes.push(node);
+        self.masks.push(mask);
+        self.lookup.insert(node, id);
+        id
+    }
+
+    /// A constant (`-0.0` is stored as `0.0`).
+    pub fn constant(&mut self, value: f64) -> Id {
+        let value = if value == 0.0 { 0.0 } else { value };
+        self.intern(Node::Const(value.to_bits()))
+    }
+
+    /// `0`.
+    pub fn zero(&mut self) -> Id {
+        self.constant(0.0)
+    }
+
+    /// `-a`.
+    pub fn neg(&mut self, a: Id) -> Id {
+        match self.node(a) {
+            Node::Const(_) => {
+                let v = self.as_const(a).unwrap_or_default();
+                self.constant(-v)
+            }
+            Node::Neg(x) => x,
+            // -(x - y) = y - x: canonical order makes this a negated Sub again,
+            // so the sign stays outside where it is free.
+            _ => self.intern(Node::Neg(a)),
+        }
+    }
+
+    /// Splits a node into a sign and a magnitude: `-x` gives `(true, x)`.
+    fn unsign(&self, a: Id) -> (bool, Id) {
+        match self.node(a) {
+            Node::Neg(x) => (true, x),
+            _ => (false, a),
+        }
+    }
+
+    /// Splits `c * x` into `(c, x)`, anything else into `(1, x)`.
+    fn coefficient(&self, a: Id) -> (f64, Id) {
+        match self.node(a) {
+            Node::Mul(c, x) => match self.as_const(c) {
+                Some(c) => (c, x),
+                None => (1.0, a),
+            },
+            Node::Neg(x) => {
+                let (c, y) = self.coefficient(x);
+                (-c, y)
+            }
+            _ => (1.0, a),
+        }
+    }
+
+    /// `a + b`.
+    pub fn add(&mut self, a: Id, b: Id) -> Id {
+        if let (Some(x), Some(y)) = (self.as_const(a), self.as_const(b)) {
+            return self.constant(x + y);
+        }
+        if self.is_const(a, 0.0) {
+            return b;
+        }
+        if self.is_const(b, 0.0) {
+            return a;
+        }
+        let (sa, ma) = self.unsign(a);
+        let (sb, mb) = self.unsign(b);
+        // Like terms: c1·x + c2·x = (c1 + c2)·x (and x + x = 2x).
+        let (ca, xa) = self.coefficient(a);
+        let (cb, xb) = self.coefficient(b);
+        if xa == xb && self.as_const(xa).is_none() {
+            let c = self.constant(ca + cb);
+            return self.mul(c, xa);
+        }
+        match (sa, sb) {
+            (false, false) => {
+                let (lo, hi) = if ma <= mb { (ma, mb) } else { (mb, ma) };
+                self.intern(Node::Add(lo, hi))
+            }
+            (false, true) => self.sub(ma, mb),
+            (true, false) => self.sub(mb, ma),
+            (true, true) => {
+                let s = self.add(ma, mb);
+                self.neg(s)
+            }
+        }
+    }
+
+    /// `a - b`.
+    pub fn sub(&mut self, a: Id, b: Id) -> Id {
+        if let (Some(x), Some(y)) = (self.as_const(a), self.as_const(b)) {
+            return self.constant(x - y);
+        }
+        if self.is_const(b, 0.0) {
+            return a;
+        }
+        if self.is_const(a, 0.0) {
+            return self.neg(b);
+        }
+        if a == b {
+            return self.zero();
+        }
+        let (sa, ma) = self.unsign(a);
+        let (sb, mb) = self.unsign(b);
+        let (ca, xa) = self.coefficient(a);
+        let (cb, xb) = self.coefficient(b);
+        if xa == xb && self.as_const(xa).is_none() {
+            let c = self.constant(ca - cb);
+            return self.mul(c, xa);
+        }
+        match (sa, sb) {
+            (false, true) => self.add(ma, mb),
+            (true, false) => {
+                let s = self.add(ma, mb);
+                self.neg(s)
+            }
+            (true, true) => self.sub(mb, ma),
+            (false, false) => {
+                if ma < mb {
+                    self.intern(Node::Sub(ma, mb))
+                } else {
+                    let s = self.intern(Node::Sub(mb, ma));
+                    self.neg(s)
+                }
+            }
+        }
+    }
+
+    /// `a * b`.
+    pub fn mul(&mut self, a: Id, b: Id) -> Id {
+        if let (Some(x), Some(y)) = (self.as_const(a), self.as_const(b)) {
+            return self.constant(x * y);
+        }
+        // Constant first, then the rules for 0, 1 and -1. The zero rule is what
+        // makes an entry whose scale is 0 an exact zero for every input.
+        let (a, b) = if self.as_const(b).is_some() { (b, a) } else { (a, b) };
+        if let Some(c) = self.as_const(a) {
+            if c == 0.0 {
+                return self.zero();
+            }
+            if c == 1.0 {
+                return b;
+            }
+            if c == -1.0 {
+                return self.neg(b);
+            }
+            let (sb, mb) = self.unsign(b);
+            if sb {
+                return self.mul_signed(-c, mb);
+            }
+            // c1·(c2·x) = (c1c2)·x
+            if let Node::Mul(c2, x) = self.node(b) {
+                if let Some(c2) = self.as_const(c2) {
+                    let k = self.constant(c * c2);
+                    return self.mul(k, x);
+                }
+            }
+            if c < 0.0 {
+                let k = self.constant(-c);
+                let m = self.intern(Node::Mul(k, b));
+                return self.neg(m);
+            }
+            return self.intern(Node::Mul(a, b));
+        }
+        // Constant factors stay where they are: (2x)·y is one multiplication when
+        // 2x is shared, which is how the rotation matrix is built.
+        let (sa, ma) = self.unsign(a);
+        let (sb, mb) = self.unsign(b);
+        let (lo, hi) = if ma <= mb { (ma, mb) } else { (mb, ma) };
+        let m = self.intern(Node::Mul(lo, hi));
+        if sa != sb { self.neg(m) } else { m }
+    }
+
+    fn mul_signed(&mut self, c: f64, x: Id) -> Id {
+        let k = self.constant(c);
+        self.mul(k, x)
+    }
+
+    /// `sin a`.
+    pub fn sin(&mut self, a: Id) -> Id {
+        match self.as_const(a) {
+            Some(x) => self.constant(x.sin()),
+            None => self.intern(Node::Sin(a)),
+        }
+    }
+
+    /// `cos a`.
+    pub fn cos(&mut self, a: Id) -> Id {
+        match self.as_const(a) {
+            Some(x) => self.constant(x.cos()),
+            None => self.intern(Node::Cos(a)),
+        }
+    }
+
+    /// `Σ terms` (0 for none), summed left to right.
+    pub fn sum(&mut self, terms: &[Id]) -> Id {
+        let mut acc = self.zero();
+        for &t in terms {
+            acc = self.add(acc, t);
+        }
+        acc
+    }
+
+    /// Evaluates a node at given variable values (for tests and for checking
+    /// constant geometry at compile time).
+    pub fn eval(&self, id: Id, vars: &dyn Fn(VarId) -> f64) -> f64 {
+        let mut values = vec![0.0; id.index() + 1];
+        for i in 0..=id.index() {
+            values[i] = match self.nodes[i] {
+                Node::Const(bits) => f64::from_bits(bits),
+                Node::Var(v) => vars(v),
+                Node::Add(a, b) => values[a.index()] + values[b.index()],
+                Node::Sub(a, b) => values[a.index()] - values[b.index()],
+                Node::Mul(a, b) => values[a.index()] * values[b.index()],
+                Node::Neg(a) => -values[a.index()],
+                Node::Sin(a) => values[a.index()].sin(),
+                Node::Cos(a) => values[a.index()].cos(),
+            };
+        }
+        values[id.index()]
+    }
+}

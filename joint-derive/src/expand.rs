@@ -1,0 +1,269 @@
+//! The pipeline: declaration → rows over the graph → Φ, Φ_t, J, γ → Rust.
+
+use proc_macro2::{Span, TokenStream};
+use quote::{format_ident, quote};
+
+use crate::dsl::{self, Declaration, FieldShape, ScalarKind, Source};
+use crate::engine::emit::{self, ScalarTy};
+use crate::engine::Id;
+use crate::joints::{Primitive, Role};
+use crate::kinematics::{self, Formulation, Ground, Kinematics, V3};
+
+/// The derive's entry point: tokens in, tokens out; errors become
+/// `compile_error!` beside a stub impl.
+pub fn derive(input: &syn::DeriveInput) -> TokenStream {
+    match dsl::parse(input).and_then(|decl| expand(&decl)) {
+        Ok(tokens) => tokens,
+        Err(e) => crate::fallback::expand(input, e),
+    }
+}
+
+/// Everything derived for one declaration, before printing.
+pub struct Derived {
+    /// The kinematics and graph.
+    pub k: Kinematics,
+    /// Φ rows.
+    pub phi: Vec<Id>,
+    /// Φ_t rows.
+    pub phi_t: Vec<Id>,
+    /// J, row-major.
+    pub jacobian: Vec<Vec<Id>>,
+    /// γ rows.
+    pub gamma: Vec<Id>,
+    /// Parameter nodes bound from fields: (member, shape, sub-field, nodes).
+    pub bindings: Vec<(syn::Ident, FieldShape, &'static str, Vec<Id>)>,
+}
+
+/// Builds Φ from the joint's primitives and derives the rest.
+pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
+    let mut k = Kinematics::new(decl.formulation, decl.ground);
+    let mut bindings = Vec::new();
+    let mut values: Vec<(&'static str, Vec<Id>)> = Vec::new();
+    for (name, source) in &decl.params {
+        let nodes: Vec<Id> = match source {
+            Source::Const(v, _) => v.iter().map(|&x| k.g.constant(x)).collect(),
+            Source::Field { member, shape, .. } => {
+                let role = decl.kind.param(name).map(|p| p.role);
+                if role == Some(Role::Scalar) {
+                    let n = k.g.param(name.to_string());
+                    bindings.push((member.clone(), *shape, "", vec![n]));
+                    vec![n]
+                } else {
+                    let n: Vec<Id> = ["x", "y", "z"].iter().map(|c| k.g.param(format!("{name}_{c}"))).collect();
+                    let sub = if *shape == FieldShape::SlidingFrame { name } else { "" };
+                    bindings.push((member.clone(), *shape, sub, n.clone()));
+                    n
+                }
+            }
+        };
+        values.push((name, nodes));
+    }
+    let get = |name: &str| -> Vec<Id> {
+        values.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone()).unwrap_or_default()
+    };
+    let v3 = |name: &str, k: &mut Kinematics| -> V3 {
+        let v = get(name);
+        if v.len() == 3 {
+            [v[0], v[1], v[2]]
+        } else {
+            let z = k.g.zero();
+            [z; 3]
+        }
+    };
+    let mut phi = Vec::new();
+    for prim in decl.kind.rows {
+        match *prim {
+            Primitive::Spherical => {
+                let (r1, r2) = (v3("rho1", &mut k), v3("rho2", &mut k));
+                phi.extend(k.separation(r1, r2));
+            }
+            Primitive::Dot1(a, b) => {
+                let (a_v, b_v) = (v3(a, &mut k), v3(b, &mut k));
+                let u = k.rotate(0, a_v, &format!("{a}_n"));
+                let w = k.rotate(1, b_v, &format!("{b}_n"));
+                phi.push(kinematics::dot(&mut k.g, u, w));
+            }
+            Primitive::Dot2(a) => {
+                let (r1, r2, a_v) = (v3("rho1", &mut k), v3("rho2", &mut k), v3(a, &mut k));
+                let d = k.separation(r1, r2);
+                let u = k.rotate(0, a_v, &format!("{a}_n"));
+                phi.push(kinematics::dot(&mut k.g, u, d));
+            }
+            Primitive::Distance(len) => {
+                let (r1, r2) = (v3("rho1", &mut k), v3("rho2", &mut k));
+                let d = k.separation(r1, r2);
+                let dd = kinematics::dot(&mut k.g, d, d);
+                let l = get(len)[0];
+                let ll = k.g.mul(l, l);
+                phi.push(k.g.sub(dd, ll));
+            }
+        }
+    }
+    let mut jacobian = Vec::new();
+    let mut gamma = Vec::new();
+    let mut phi_t = Vec::new();
+    for &row in &phi {
+        let d = k.derive_row(row).map_err(|m| syn::Error::new(Span::call_site(), m))?;
+        jacobian.push(d.jacobian);
+        gamma.push(d.gamma);
+        phi_t.push(d.phi_t);
+    }
+    Ok(Derived { k, phi, phi_t, jacobian, gamma, bindings })
+}
+
+fn expand(decl: &Declaration) -> syn::Result<TokenStream> {
+    let derived = derive_rows(decl)?;
+    Ok(print(decl, &derived))
+}
+
+/// The impl for a derived joint.
+pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
+    let krate = quote!(::joint_runtime);
+    let rows = d.phi.len();
+    let cols = d.k.velocities.len();
+    let (scalar, concrete) = match &decl.scalar {
+        ScalarKind::Generic(t) => (quote!(#t), None),
+        ScalarKind::Concrete(t) => (quote!(#t), Some(t.to_string())),
+        ScalarKind::Any => (quote!(__JointScalar), None),
+    };
+    let sty = ScalarTy { ty: scalar.clone(), krate: krate.clone(), concrete_f64: concrete.as_deref() == Some("f64") };
+
+    let jac_flat: Vec<Id> = (0..cols).flat_map(|c| d.jacobian.iter().map(move |row| row[c])).collect();
+    let vector = |outs: &[TokenStream]| quote!(#krate::__private::SMatrix::from_data(#krate::__private::ArrayStorage([[#(#outs),*]])));
+    let matrix = |outs: &[TokenStream]| {
+        let columns = outs.chunks(rows.max(1)).map(|c| quote!([#(#c),*]));
+        quote!(#krate::__private::SMatrix::from_data(#krate::__private::ArrayStorage([#(#columns),*])))
+    };
+
+    let function = |outputs: &[Id]| -> (TokenStream, Vec<TokenStream>, usize) {
+        let e = emit::emit(&d.k.g, outputs, &sty);
+        let bind = bindings(d, &e.used_vars);
+        let body = e.body;
+        (quote!(#bind #body), e.outputs, e.ops)
+    };
+    let (phi_body, phi_out, phi_ops) = function(&d.phi);
+    let (phi_t_body, phi_t_out, phi_t_ops) = function(&d.phi_t);
+    let (jac_body, jac_out, jac_ops) = function(&jac_flat);
+    let (gamma_body, gamma_out, gamma_ops) = function(&d.gamma);
+    let all: Vec<Id> = d.phi.iter().chain(&jac_flat).chain(&d.gamma).copied().collect();
+    let (eval_body, eval_out, eval_ops) = function(&all);
+    let phi_expr = vector(&phi_out);
+    let phi_t_expr = vector(&phi_t_out);
+    let jac_expr = matrix(&jac_out);
+    let gamma_expr = vector(&gamma_out);
+    let (ep, rest) = eval_out.split_at(rows);
+    let (ej, eg) = rest.split_at(rows * cols);
+    let (ep, ej, eg) = (vector(ep), matrix(ej), vector(eg));
+
+    let body_ty = match decl.formulation {
+        Formulation::Euler => quote!(#krate::EulerBody<#scalar>),
+        _ => quote!(#krate::OmegaBody<#scalar>),
+    };
+    let state_ty = match (decl.formulation.is_relative(), decl.ground) {
+        (true, _) => quote!(#krate::RelativeState<#scalar>),
+        (false, Ground::None) => quote!(#krate::TwoBodies<#body_ty>),
+        (false, _) => quote!(#krate::OneBody<#body_ty>),
+    };
+    let kind = decl.kind.name;
+    let variant = format_ident!("{}", decl.formulation.variant());
+    let ident = &decl.ident;
+    let (impl_generics, ty_generics, where_clause) = decl.generics.split_for_impl();
+    let impl_head = match &decl.scalar {
+        ScalarKind::Generic(t) => {
+            let mut generics = decl.generics.clone();
+            generics.make_where_clause().predicates.push(syn::parse_quote!(#t: #krate::__private::SimdRealField + ::core::marker::Copy));
+            let (ig, _, wc) = generics.split_for_impl();
+            quote!(impl #ig #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #wc)
+        }
+        ScalarKind::Concrete(t) => quote!(impl #impl_generics #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #where_clause),
+        ScalarKind::Any => quote!(
+            impl<__JointScalar: #krate::__private::SimdRealField + ::core::marker::Copy>
+                #krate::Joint<__JointScalar, #rows, #cols> for #ident
+        ),
+    };
+    let touch_unused = decl.unused_fields.iter().map(|f| quote!(let _ = &self.#f;));
+    let touch = quote!(#(#touch_unused)*);
+    let doc_ops = format!(
+        "Operation counts (binary + − ×): phi {phi_ops}, phi_t {phi_t_ops}, jacobian {jac_ops}, gamma {gamma_ops}, evaluate {eval_ops}."
+    );
+    quote! {
+        #[doc = #doc_ops]
+        #[allow(clippy::all, clippy::pedantic, unused_variables, non_snake_case)]
+        #[deny(clippy::panic, clippy::unwrap_used, clippy::indexing_slicing)]
+        #impl_head {
+            type State = #state_ty;
+            const KIND: &'static str = #kind;
+            const FORMULATION: #krate::Formulation = #krate::Formulation::#variant;
+            const OPS: #krate::Ops = #krate::Ops {
+                phi: #phi_ops, phi_t: #phi_t_ops, jacobian: #jac_ops, gamma: #gamma_ops, evaluate: #eval_ops,
+            };
+            #[inline]
+            fn phi(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows> {
+                #touch #phi_body #phi_expr
+            }
+            #[inline]
+            fn phi_t(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows> {
+                #touch #phi_t_body #phi_t_expr
+            }
+            #[inline]
+            fn jacobian(&self, state: &Self::State) -> #krate::__private::SMatrix<#scalar, #rows, #cols> {
+                #touch #jac_body #jac_expr
+            }
+            #[inline]
+            fn gamma(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows> {
+                #touch #gamma_body #gamma_expr
+            }
+            #[inline]
+            fn evaluate(&self, state: &Self::State) -> #krate::Evaluation<#scalar, #rows, #cols> {
+                #touch #eval_body
+                #krate::Evaluation { phi: #ep, jacobian: #ej, gamma: #eg }
+            }
+        }
+    }
+}
+
+/// `let` statements that destructure exactly the inputs a function reads.
+fn bindings(d: &Derived, used: &std::collections::BTreeSet<crate::engine::graph::VarId>) -> TokenStream {
+    let g = &d.k.g;
+    let pattern = |nodes: &[Id]| -> Option<TokenStream> {
+        let mut any = false;
+        let names: Vec<TokenStream> = nodes
+            .iter()
+            .map(|&n| match g.as_var(n) {
+                Some(v) if used.contains(&v) => {
+                    any = true;
+                    let id = format_ident!("{}", g.vars()[v.0 as usize].name);
+                    quote!(#id)
+                }
+                _ => quote!(_),
+            })
+            .collect();
+        any.then(|| quote!([[#(#names),*]]))
+    };
+    let mut out = TokenStream::new();
+    for (member, shape, sub, nodes) in &d.bindings {
+        if nodes.len() == 1 {
+            if let Some(v) = g.as_var(nodes[0]).filter(|v| used.contains(v)) {
+                let id = format_ident!("{}", g.vars()[v.0 as usize].name);
+                out.extend(quote!(let #id = self.#member;));
+            }
+            continue;
+        }
+        if let Some(p) = pattern(nodes) {
+            let source = if *shape == FieldShape::SlidingFrame {
+                let s = format_ident!("{}", sub);
+                quote!(self.#member.#s)
+            } else {
+                quote!(self.#member)
+            };
+            out.extend(quote!(let #p = #source.data.0;));
+        }
+    }
+    for input in &d.k.inputs {
+        if let Some(p) = pattern(&input.vars) {
+            let path = input.path.iter().map(|s| format_ident!("{}", s));
+            out.extend(quote!(let #p = state #(.#path)*.data.0;));
+        }
+    }
+    out
+}

@@ -1,0 +1,372 @@
+//! Formulations: which inputs exist, how each body's frame moves, and the
+//! kinematic rules for the time derivative (`CONVENTIONS.md`, "Formulations").
+//!
+//! Every formulation is reduced to the same picture: two frames with rotation
+//! matrices `A1`, `A2` and origins `r1`, `r2` in a reference frame, plus rules that
+//! say how they move. The ω formulations register `d/dt (A a') = ω × (A a')` with
+//! inertial ω for every rotated vector; in `omega_body` that ω is the node
+//! `A ω'` (constant when ω̇' = 0, since ω̇ = A ω̇'), so both J and γ come out in
+//! vector form and J's columns are `Aᵀ (…)`. The relative formulations are the
+//! same picture with B1 as the reference frame (`A1 = I`) and `d = δ`.
+
+use crate::engine::{Graph, Id, TimeRules, grad};
+
+/// Three nodes: a vector's components.
+pub type V3 = [Id; 3];
+
+/// The five formulations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Formulation {
+    /// `r, p; ṙ, ṗ`.
+    Euler,
+    /// `r, p; ṙ, ω` (inertial ω).
+    OmegaInertial,
+    /// `r, p; ṙ, ω'` (body ω').
+    OmegaBody,
+    /// `δ, p_rel; δ̇, ω_rel` (B1 components).
+    RelativeB1,
+    /// `δ, p_rel; δ̇, ω_rel` (B2 components).
+    RelativeB2,
+}
+
+impl Formulation {
+    /// All five, in the order of `CONVENTIONS.md`.
+    pub const ALL: [Formulation; 5] = [
+        Formulation::Euler,
+        Formulation::OmegaInertial,
+        Formulation::OmegaBody,
+        Formulation::RelativeB1,
+        Formulation::RelativeB2,
+    ];
+
+    /// The DSL name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Formulation::Euler => "euler",
+            Formulation::OmegaInertial => "omega_inertial",
+            Formulation::OmegaBody => "omega_body",
+            Formulation::RelativeB1 => "relative_b1",
+            Formulation::RelativeB2 => "relative_b2",
+        }
+    }
+
+    /// The runtime enum variant.
+    pub fn variant(self) -> &'static str {
+        match self {
+            Formulation::Euler => "Euler",
+            Formulation::OmegaInertial => "OmegaInertial",
+            Formulation::OmegaBody => "OmegaBody",
+            Formulation::RelativeB1 => "RelativeB1",
+            Formulation::RelativeB2 => "RelativeB2",
+        }
+    }
+
+    /// Whether the inputs are `δ, p_rel` rather than two bodies.
+    pub fn is_relative(self) -> bool {
+        matches!(self, Formulation::RelativeB1 | Formulation::RelativeB2)
+    }
+}
+
+/// Which body, if any, is the inertial frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ground {
+    /// Both bodies move.
+    None,
+    /// Body 1 is the ground.
+    Body1,
+    /// Body 2 is the ground.
+    Body2,
+}
+
+/// A state vector the generated code destructures: `state.<path>` holds `vars`.
+pub struct Input {
+    /// Field path below `state`, e.g. `["body1", "r"]`.
+    pub path: Vec<&'static str>,
+    /// One variable node per component.
+    pub vars: Vec<Id>,
+}
+
+struct Frame {
+    /// Rotation matrix entries `a[row][col]`.
+    a: [[Id; 3]; 3],
+    /// Origin.
+    r: V3,
+    /// Inertial angular velocity, when the ω rule applies to this frame.
+    omega: Option<V3>,
+}
+
+/// The inputs and motion rules of one formulation, over a [`Graph`].
+pub struct Kinematics {
+    /// The graph every expression lives in.
+    pub g: Graph,
+    /// Rules for Φ̇ and γ: coordinates move, velocities are held (v̇ = 0), and a
+    /// time function's rate moves with its acceleration.
+    pub rules: TimeRules,
+    /// Rules for Φ_t: only explicit time moves.
+    pub time_rules: TimeRules,
+    /// The formulation.
+    pub formulation: Formulation,
+    /// Coordinates in column order (`euler`: J = ∂Φ/∂q).
+    pub coords: Vec<Id>,
+    /// Velocities in column order.
+    pub velocities: Vec<Id>,
+    /// State vectors to bind, in order.
+    pub inputs: Vec<Input>,
+    frames: [Frame; 2],
+    delta: Option<V3>,
+}
+
+impl Kinematics {
+    /// Sets up the inputs and rules of `formulation` with `ground`.
+    pub fn new(formulation: Formulation, ground: Ground) -> Self {
+        let mut g = Graph::new();
+        let identity = identity_frame(&mut g);
+        let mut k = Kinematics {
+            g,
+            rules: TimeRules::new(),
+            time_rules: TimeRules::new(),
+            formulation,
+            coords: Vec::new(),
+            velocities: Vec::new(),
+            inputs: Vec::new(),
+            frames: [identity_frame_copy(&identity), identity],
+            delta: None,
+        };
+        if formulation.is_relative() {
+            let delta = k.vector("delta", &["delta"], "delta", true);
+            let p = k.vector4("p", &["p"], "p");
+            let delta_dot = k.vector("delta_dot", &["delta_dot"], "delta_dot", false);
+            let w = k.vector("w", &["omega"], "omega", false);
+            for j in 0..3 {
+                k.rules.set_var(&k.g, delta[j], delta_dot[j]);
+            }
+            k.coords.extend(delta);
+            k.coords.extend(p);
+            k.velocities.extend(delta_dot);
+            k.velocities.extend(w);
+            let a = rotation_matrix(&mut k.g, p, "a");
+            let body = formulation == Formulation::RelativeB2;
+            let omega = k.angular_velocity(&a, w, body);
+            k.frames[1] = Frame { a, r: k.zero3(), omega: Some(omega) };
+            k.register_columns(1);
+            k.delta = Some(delta);
+            return k;
+        }
+        for body in 0..2 {
+            let grounded = matches!((ground, body), (Ground::Body1, 0) | (Ground::Body2, 1));
+            if grounded {
+                continue;
+            }
+            let field: &'static str = match (ground, body) {
+                (Ground::None, 0) => "body1",
+                (Ground::None, _) => "body2",
+                _ => "body",
+            };
+            let n = body + 1;
+            let r = k.vector(&format!("r{n}"), &[field, "r"], "", true);
+            let p = k.vector4(&format!("p{n}"), &[field, "p"], "");
+            let rdot = k.vector(&format!("rdot{n}"), &[field, "rdot"], "", false);
+            for j in 0..3 {
+                k.rules.set_var(&k.g, r[j], rdot[j]);
+            }
+            k.coords.extend(r);
+            k.coords.extend(p);
+            k.velocities.extend(rdot);
+            let a = rotation_matrix(&mut k.g, p, &format!("a{n}"));
+            let omega = if formulation == Formulation::Euler {
+                let pdot = k.vector4(&format!("pdot{n}"), &[field, "pdot"], "");
+                for j in 0..4 {
+                    k.rules.set_var(&k.g, p[j], pdot[j]);
+                }
+                k.velocities.extend(pdot);
+                None
+            } else {
+                let w = k.vector(&format!("w{n}"), &[field, "omega"], "", false);
+                k.velocities.extend(w);
+                Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody))
+            };
+            k.frames[body] = Frame { a, r, omega };
+            k.register_columns(body);
+        }
+        k
+    }
+
+    fn zero3(&mut self) -> V3 {
+        let z = self.g.zero();
+        [z; 3]
+    }
+
+    /// Declares a 3-vector input; `coordinate` says whether it is a coordinate
+    /// (only for naming in errors; rules are set by the caller).
+    fn vector(&mut self, name: &str, path: &[&'static str], _doc: &str, _coordinate: bool) -> V3 {
+        let vars = ["x", "y", "z"].map(|c| self.g.state(format!("{name}_{c}")));
+        self.inputs.push(Input { path: path.to_vec(), vars: vars.to_vec() });
+        vars
+    }
+
+    fn vector4(&mut self, name: &str, path: &[&'static str], _doc: &str) -> [Id; 4] {
+        let vars = [0, 1, 2, 3].map(|c| self.g.state(format!("{name}_{c}")));
+        self.inputs.push(Input { path: path.to_vec(), vars: vars.to_vec() });
+        vars
+    }
+
+    /// Inertial ω of a frame: the variables themselves, or `A ω'` held constant
+    /// (ω̇ = A ω̇' = 0 when ω̇' = 0).
+    fn angular_velocity(&mut self, a: &[[Id; 3]; 3], w: V3, body_components: bool) -> V3 {
+        if !body_components {
+            return w;
+        }
+        let omega = mat_vec(&mut self.g, a, w);
+        let zero = self.g.zero();
+        for (j, &o) in omega.iter().enumerate() {
+            self.g.hint(o, format!("omega_{}", ["x", "y", "z"][j]));
+            self.rules.set_node(&self.g, o, zero);
+        }
+        omega
+    }
+
+    /// `d/dt A[:, k] = ω × A[:, k]` for every column of a moving frame.
+    fn register_columns(&mut self, body: usize) {
+        let Some(omega) = self.frames[body].omega else { return };
+        for col in 0..3 {
+            let c = [0, 1, 2].map(|row| self.frames[body].a[row][col]);
+            let dc = cross(&mut self.g, omega, c);
+            for j in 0..3 {
+                self.rules.set_node(&self.g, c[j], dc[j]);
+            }
+        }
+    }
+
+    /// `A_body a'`: a vector fixed in `body` (0 or 1) in reference components.
+    pub fn rotate(&mut self, body: usize, a: V3, hint: &str) -> V3 {
+        let m = self.frames[body].a;
+        let u = mat_vec(&mut self.g, &m, a);
+        for (j, &c) in u.iter().enumerate() {
+            self.g.hint(c, format!("{hint}_{}", ["x", "y", "z"][j]));
+        }
+        if let Some(omega) = self.frames[body].omega {
+            let du = cross(&mut self.g, omega, u);
+            for j in 0..3 {
+                self.rules.set_node(&self.g, u[j], du[j]);
+            }
+        }
+        u
+    }
+
+    /// `d = r2 + A2 ρ2' − r1 − A1 ρ1'` (absolute) or `δ` (relative).
+    pub fn separation(&mut self, rho1: V3, rho2: V3) -> V3 {
+        if let Some(delta) = self.delta {
+            return delta;
+        }
+        let w1 = self.rotate(0, rho1, "rho1_n");
+        let w2 = self.rotate(1, rho2, "rho2_n");
+        let (r1, r2) = (self.frames[0].r, self.frames[1].r);
+        // (r2 − r1) + (w2 − w1): the large positions cancel first.
+        let d = [0, 1, 2].map(|j| {
+            let dr = self.g.sub(r2[j], r1[j]);
+            let dw = self.g.sub(w2[j], w1[j]);
+            self.g.add(dr, dw)
+        });
+        for (j, &c) in d.iter().enumerate() {
+            self.g.hint(c, format!("d_{}", ["x", "y", "z"][j]));
+        }
+        d
+    }
+
+    /// Φ̇, J and γ of one row Φ, and Φ_t. Fails when J would depend on the
+    /// velocities (the row is not linear in them).
+    pub fn derive_row(&mut self, phi: Id) -> Result<RowDerivatives, &'static str> {
+        let phi_dot = self.rules.dt(&mut self.g, phi);
+        let jacobian = if self.formulation == Formulation::Euler {
+            let coords = self.coords.clone();
+            grad(&mut self.g, phi, &coords)
+        } else {
+            let velocities = self.velocities.clone();
+            grad(&mut self.g, phi_dot, &velocities)
+        };
+        let vmask = self.velocities.iter().fold(0u64, |m, &v| {
+            m | self.g.var_mask(self.g.as_var(v).unwrap_or(crate::engine::graph::VarId(0)))
+        });
+        if jacobian.iter().any(|&j| self.g.mask(j) & vmask != 0) {
+            return Err("the derivative of this row is not linear in the velocities");
+        }
+        let phi_ddot = self.rules.dt(&mut self.g, phi_dot);
+        let gamma = self.g.neg(phi_ddot);
+        let phi_t = self.time_rules.dt(&mut self.g, phi);
+        Ok(RowDerivatives { jacobian, gamma, phi_t })
+    }
+}
+
+/// What [`Kinematics::derive_row`] gives for one row.
+pub struct RowDerivatives {
+    /// J's row, in column order.
+    pub jacobian: Vec<Id>,
+    /// γ.
+    pub gamma: Id,
+    /// Φ_t.
+    pub phi_t: Id,
+}
+
+fn identity_frame(g: &mut Graph) -> Frame {
+    let (zero, one) = (g.zero(), g.constant(1.0));
+    Frame {
+        a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]],
+        r: [zero; 3],
+        omega: None,
+    }
+}
+
+fn identity_frame_copy(f: &Frame) -> Frame {
+    Frame { a: f.a, r: f.r, omega: f.omega }
+}
+
+/// `A(p) = (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ`, homogeneous in `p` (no unit-norm
+/// shortcut: `euler` evaluates it off the unit sphere).
+pub fn rotation_matrix(g: &mut Graph, p: [Id; 4], name: &str) -> [[Id; 3]; 3] {
+    let [e0, e1, e2, e3] = p;
+    let sq = p.map(|e| g.mul(e, e));
+    let two = g.constant(2.0);
+    let (d0, d1, d2) = (g.mul(two, e0), g.mul(two, e1), g.mul(two, e2));
+    // Diagonal: (e0² − e3²) ± (e1² − e2²) and (e0² + e3²) − (e1² + e2²).
+    let x = g.sub(sq[0], sq[3]);
+    let y = g.sub(sq[1], sq[2]);
+    let a11 = g.add(x, y);
+    let a22 = g.sub(x, y);
+    let s03 = g.add(sq[0], sq[3]);
+    let s12 = g.add(sq[1], sq[2]);
+    let a33 = g.sub(s03, s12);
+    let (p12, p03) = (g.mul(d1, e2), g.mul(d0, e3));
+    let (p13, p02) = (g.mul(d1, e3), g.mul(d0, e2));
+    let (p23, p01) = (g.mul(d2, e3), g.mul(d0, e1));
+    let a = [
+        [a11, g.sub(p12, p03), g.add(p13, p02)],
+        [g.add(p12, p03), a22, g.sub(p23, p01)],
+        [g.sub(p13, p02), g.add(p23, p01), a33],
+    ];
+    for (i, row) in a.iter().enumerate() {
+        for (j, &e) in row.iter().enumerate() {
+            g.hint(e, format!("{name}_{}{}", i + 1, j + 1));
+        }
+    }
+    a
+}
+
+/// `M v`.
+pub fn mat_vec(g: &mut Graph, m: &[[Id; 3]; 3], v: V3) -> V3 {
+    m.map(|row| dot(g, row, v))
+}
+
+/// `a · b`, summed left to right.
+pub fn dot(g: &mut Graph, a: V3, b: V3) -> Id {
+    let terms = [0, 1, 2].map(|j| g.mul(a[j], b[j]));
+    g.sum(&terms)
+}
+
+/// `a × b`.
+pub fn cross(g: &mut Graph, a: V3, b: V3) -> V3 {
+    [(1, 2), (2, 0), (0, 1)].map(|(i, j)| {
+        let l = g.mul(a[i], b[j]);
+        let r = g.mul(a[j], b[i]);
+        g.sub(l, r)
+    })
+}

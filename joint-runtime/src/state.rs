@@ -1,0 +1,102 @@
+//! State types: what the generated functions read, one type per kind of input.
+//!
+//! Euler parameters are stored scalar first, `p = [e0, e1, e2, e3]`, as in
+//! `CONVENTIONS.md` (nalgebra's `Quaternion` stores the scalar last; use
+//! [`EulerBody::from_rotation`] or [`OmegaBody::from_rotation`] to convert).
+
+use nalgebra::{RealField, Scalar, UnitQuaternion, Vector3, Vector4};
+
+fn euler_parameters<T: RealField>(q: &UnitQuaternion<T>) -> Vector4<T> {
+    Vector4::new(q.w.clone(), q.i.clone(), q.j.clone(), q.k.clone())
+}
+
+/// A body in the `euler` formulation: position, Euler parameters and their rates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EulerBody<T: Scalar> {
+    /// Origin of the body frame, inertial components.
+    pub r: Vector3<T>,
+    /// Euler parameters `[e0, e1, e2, e3]`; need not be unit (Newton passes through such `p`).
+    pub p: Vector4<T>,
+    /// `ṙ`, inertial components.
+    pub rdot: Vector3<T>,
+    /// `ṗ`; need not be tangent to the unit sphere.
+    pub pdot: Vector4<T>,
+}
+
+/// A body in the `omega_inertial` and `omega_body` formulations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OmegaBody<T: Scalar> {
+    /// Origin of the body frame, inertial components.
+    pub r: Vector3<T>,
+    /// Unit Euler parameters `[e0, e1, e2, e3]`.
+    pub p: Vector4<T>,
+    /// `ṙ`, inertial components.
+    pub rdot: Vector3<T>,
+    /// Angular velocity: inertial components in `omega_inertial`, the body's own
+    /// components in `omega_body`.
+    pub omega: Vector3<T>,
+}
+
+impl<T: RealField> EulerBody<T> {
+    /// A body at `r` with orientation `rotation`, moving with `rdot` and `pdot`.
+    pub fn from_rotation(r: Vector3<T>, rotation: &UnitQuaternion<T>, rdot: Vector3<T>, pdot: Vector4<T>) -> Self {
+        EulerBody { r, p: euler_parameters(rotation), rdot, pdot }
+    }
+}
+
+impl<T: RealField> OmegaBody<T> {
+    /// A body at `r` with orientation `rotation`, moving with `rdot` and `omega`.
+    pub fn from_rotation(r: Vector3<T>, rotation: &UnitQuaternion<T>, rdot: Vector3<T>, omega: Vector3<T>) -> Self {
+        OmegaBody { r, p: euler_parameters(rotation), rdot, omega }
+    }
+}
+
+/// The state of an absolute formulation: both bodies and the time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoBodies<B> {
+    /// Body 1 (`B1`).
+    pub body1: B,
+    /// Body 2 (`B2`).
+    pub body2: B,
+    /// Time, read only by driven joints.
+    pub t: f64,
+}
+
+/// The state of an absolute formulation with one body grounded (`ground = body1`
+/// or `ground = body2`): only the free body remains.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OneBody<B> {
+    /// The body that is not the ground.
+    pub body: B,
+    /// Time, read only by driven joints.
+    pub t: f64,
+}
+
+/// The state of a relative formulation (`relative_b1`, `relative_b2`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RelativeState<T: Scalar> {
+    /// `δ`: the point `rho2` of B2 seen from the point `rho1` of B1, B1 components.
+    pub delta: Vector3<T>,
+    /// `p_rel` with `A(p_rel) = A1ᵀ A2`.
+    pub p: Vector4<T>,
+    /// `δ̇`, the time derivative of those components.
+    pub delta_dot: Vector3<T>,
+    /// ω of B2 relative to B1: B1 components in `relative_b1`, B2 components in `relative_b2`.
+    pub omega: Vector3<T>,
+    /// Time, read only by driven joints.
+    pub t: f64,
+}
+
+impl<B> TwoBodies<B> {
+    /// Both bodies at time zero.
+    pub fn new(body1: B, body2: B) -> Self {
+        TwoBodies { body1, body2, t: 0.0 }
+    }
+}
+
+impl<B> OneBody<B> {
+    /// The free body at time zero.
+    pub fn new(body: B) -> Self {
+        OneBody { body, t: 0.0 }
+    }
+}
