@@ -236,7 +236,10 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     }
     let Some((kind, kind_span)) = kind else {
         if errors.0.is_empty() {
-            errors.at(input.ident.span(), format!("missing joint kind in `#[joint(...)]`; expected one of {}", joints::names()));
+            errors.at(
+                input.ident.span(),
+                format!("missing joint kind in `#[joint(...)]`; expected one of {}", joints::names()),
+            );
         }
         errors.finish()?;
         unreachable!("finish fails when there are errors")
@@ -273,7 +276,10 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     for (key, value) in consts {
         let name = key.to_string();
         if !accepts(&name) {
-            errors.at(key.span(), format!("unknown parameter `{name}` for `{}`; expected one of {}", kind.name, expected()));
+            errors.at(
+                key.span(),
+                format!("unknown parameter `{name}` for `{}`; expected one of {}", kind.name, expected()),
+            );
             continue;
         }
         let role = role_of(&name);
@@ -319,7 +325,9 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                     name = arg.key.to_string();
                     span = arg.key.span();
                 }
-                Some(v) => errors.at(value_span(&v), format!("expected a parameter name, as in `#[joint({})]`", arg.key)),
+                Some(v) => {
+                    errors.at(value_span(&v), format!("expected a parameter name, as in `#[joint({})]`", arg.key))
+                }
             }
         }
         if skip {
@@ -368,7 +376,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     let scalar = match type_params.as_slice() {
         [t] => {
             for (s, span) in &scalar_names {
-                if *s != t.ident.to_string() {
+                if t.ident != s {
                     errors.at(*span, format!("expected the struct's scalar `{}` here, found `{s}`", t.ident));
                 }
             }
@@ -378,7 +386,10 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             None => ScalarKind::Any,
             Some((s, span)) => {
                 if s != "f64" && s != "f32" {
-                    errors.at(*span, format!("unknown scalar `{s}`; make the struct generic (`struct S<T>`) or use `f64` or `f32`"));
+                    errors.at(
+                        *span,
+                        format!("unknown scalar `{s}`; make the struct generic (`struct S<T>`) or use `f64` or `f32`"),
+                    );
                 }
                 for (other, span) in &scalar_names[1..] {
                     if other != s {
@@ -412,7 +423,12 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                     if let Some((_, Source::Const(v, span))) = params.iter().find(|(n, _)| n == axis) {
                         let cos = dot3(v, d) / (norm3(v) * norm3(d));
                         if cos.abs() > 1e-12 {
-                            errors.at(*span, format!("`{axis}` must be perpendicular to the sliding direction `d` (cosine {cos:.3e})"));
+                            errors.at(
+                                *span,
+                                format!(
+                                    "`{axis}` must be perpendicular to the sliding direction `d` (cosine {cos:.3e})"
+                                ),
+                            );
                         }
                     }
                 }
@@ -432,7 +448,9 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     for p in kind.params {
         let pos = params.iter().position(|(n, _)| n == p.name);
         let from_frame = params.iter().find_map(|(n, s)| match s {
-            Source::Field { member, span, shape: FieldShape::SlidingFrame } if n == "d" => Some((member.clone(), *span)),
+            Source::Field { member, span, shape: FieldShape::SlidingFrame } if n == "d" => {
+                Some((member.clone(), *span))
+            }
             _ => None,
         });
         match (pos, from_frame) {
@@ -518,7 +536,8 @@ pub fn perpendicular_pair(d: &[f64]) -> ([f64; 3], [f64; 3]) {
     } else {
         [0.0, 0.0, 1.0]
     };
-    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
     let b = cross(u, e);
     let nb = norm3(&b);
     let b = [b[0] / nb, b[1] / nb, b[2] / nb];

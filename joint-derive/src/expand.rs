@@ -4,8 +4,8 @@ use proc_macro2::{Span, TokenStream};
 use quote::{format_ident, quote};
 
 use crate::dsl::{self, Declaration, FieldShape, ScalarKind, Source};
-use crate::engine::emit::{self, ScalarTy};
 use crate::engine::Id;
+use crate::engine::emit::{self, ScalarTy};
 use crate::joints::{Primitive, Role};
 use crate::kinematics::{self, Formulation, Ground, Kinematics, V3};
 
@@ -58,9 +58,8 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
         };
         values.push((name, nodes));
     }
-    let get = |name: &str| -> Vec<Id> {
-        values.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone()).unwrap_or_default()
-    };
+    let get =
+        |name: &str| -> Vec<Id> { values.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone()).unwrap_or_default() };
     let v3 = |name: &str, k: &mut Kinematics| -> V3 {
         let v = get(name);
         if v.len() == 3 {
@@ -171,11 +170,16 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let impl_head = match &decl.scalar {
         ScalarKind::Generic(t) => {
             let mut generics = decl.generics.clone();
-            generics.make_where_clause().predicates.push(syn::parse_quote!(#t: #krate::__private::SimdRealField + ::core::marker::Copy));
+            generics
+                .make_where_clause()
+                .predicates
+                .push(syn::parse_quote!(#t: #krate::__private::SimdRealField + ::core::marker::Copy));
             let (ig, _, wc) = generics.split_for_impl();
             quote!(impl #ig #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #wc)
         }
-        ScalarKind::Concrete(t) => quote!(impl #impl_generics #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #where_clause),
+        ScalarKind::Concrete(t) => {
+            quote!(impl #impl_generics #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #where_clause)
+        }
         ScalarKind::Any => quote!(
             impl<__JointScalar: #krate::__private::SimdRealField + ::core::marker::Copy>
                 #krate::Joint<__JointScalar, #rows, #cols> for #ident

@@ -51,16 +51,6 @@ impl JointKind {
     pub fn param(&self, name: &str) -> Option<&'static Param> {
         self.params.iter().find(|p| p.name == name)
     }
-
-    /// Number of constraint rows.
-    pub fn row_count(&self) -> usize {
-        self.rows.iter().map(|r| if matches!(r, Primitive::Spherical) { 3 } else { 1 }).sum()
-    }
-
-    /// Whether the joint uses the separation `d` (and so the points `rho1, rho2`).
-    pub fn uses_points(&self) -> bool {
-        self.rows.iter().any(|r| !matches!(r, Primitive::Dot1(..)))
-    }
 }
 
 const fn axis(name: &'static str, body: usize) -> Param {

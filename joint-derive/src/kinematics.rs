@@ -284,9 +284,10 @@ impl Kinematics {
             let velocities = self.velocities.clone();
             grad(&mut self.g, phi_dot, &velocities)
         };
-        let vmask = self.velocities.iter().fold(0u64, |m, &v| {
-            m | self.g.var_mask(self.g.as_var(v).unwrap_or(crate::engine::graph::VarId(0)))
-        });
+        let vmask = self
+            .velocities
+            .iter()
+            .fold(0u64, |m, &v| m | self.g.var_mask(self.g.as_var(v).unwrap_or(crate::engine::graph::VarId(0))));
         if jacobian.iter().any(|&j| self.g.mask(j) & vmask != 0) {
             return Err("the derivative of this row is not linear in the velocities");
         }
@@ -309,11 +310,7 @@ pub struct RowDerivatives {
 
 fn identity_frame(g: &mut Graph) -> Frame {
     let (zero, one) = (g.zero(), g.constant(1.0));
-    Frame {
-        a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]],
-        r: [zero; 3],
-        omega: None,
-    }
+    Frame { a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]], r: [zero; 3], omega: None }
 }
 
 fn identity_frame_copy(f: &Frame) -> Frame {

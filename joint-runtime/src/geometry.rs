@@ -18,7 +18,7 @@ use nalgebra::{Matrix3, RealField, Scalar, Vector3, Vector4};
 /// ```
 pub fn perpendicular_pair<T: RealField + Copy>(d: &Vector3<T>) -> Option<(Vector3<T>, Vector3<T>)> {
     let norm = d.norm();
-    if !(norm > T::zero()) || !norm.is_finite() {
+    if norm.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) || !norm.is_finite() {
         return None;
     }
     let unit = d / norm;

@@ -37,7 +37,6 @@ declare!(universal_translational [s, h, b, c, rho1, rho2] =>
     UniversalTranslationalOmegaBody = omega_body, UniversalTranslationalRelativeB1 = relative_b1,
     UniversalTranslationalRelativeB2 = relative_b2);
 
-
 fn boxed<G: Group + 'static>(g: Result<G, String>) -> Option<Result<Box<dyn Group>, String>> {
     Some(g.map(|g| Box::new(g) as Box<dyn Group>))
 }

@@ -1,1 +1,3 @@
+//! The main example.
+
 fn main() {}

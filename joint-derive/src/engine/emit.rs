@@ -58,14 +58,6 @@ pub fn reachable(g: &Graph, outputs: &[Id]) -> Vec<Id> {
     (0..g.len()).filter(|&i| live[i]).map(|i| Id(i as u32)).collect()
 }
 
-/// Binary operations needed by `outputs` (shared nodes counted once).
-pub fn count_ops(g: &Graph, outputs: &[Id]) -> usize {
-    reachable(g, outputs)
-        .into_iter()
-        .filter(|&id| matches!(g.node(id), Node::Add(..) | Node::Sub(..) | Node::Mul(..)))
-        .count()
-}
-
 const ATOM: u8 = 4;
 
 /// Emits the computation of `outputs`.
@@ -165,11 +157,8 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     let mut prologue = TokenStream::new();
     for (bits, name) in &consts {
         let lit = proc_macro2::Literal::f64_suffixed(f64::from_bits(*bits));
-        let value = if scalar.concrete_f64 {
-            quote!(#lit)
-        } else {
-            quote!(#krate::__private::convert::<f64, #ty>(#lit))
-        };
+        let value =
+            if scalar.concrete_f64 { quote!(#lit) } else { quote!(#krate::__private::convert::<f64, #ty>(#lit)) };
         prologue.extend(quote!(let #name: #ty = #value;));
     }
     prologue.extend(body);
@@ -191,4 +180,3 @@ fn const_name(v: f64) -> Ident {
         }
     }
 }
-

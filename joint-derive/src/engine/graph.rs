@@ -312,11 +312,11 @@ impl Graph {
                 return self.mul_signed(-c, mb);
             }
             // c1·(c2·x) = (c1c2)·x
-            if let Node::Mul(c2, x) = self.node(b) {
-                if let Some(c2) = self.as_const(c2) {
-                    let k = self.constant(c * c2);
-                    return self.mul(k, x);
-                }
+            if let Node::Mul(c2, x) = self.node(b)
+                && let Some(c2) = self.as_const(c2)
+            {
+                let k = self.constant(c * c2);
+                return self.mul(k, x);
             }
             if c < 0.0 {
                 let k = self.constant(-c);
@@ -364,6 +364,7 @@ impl Graph {
         acc
     }
 
+    #[cfg(test)]
     /// Evaluates a node at given variable values (for tests and for checking
     /// constant geometry at compile time).
     pub fn eval(&self, id: Id, vars: &dyn Fn(VarId) -> f64) -> f64 {

@@ -29,7 +29,10 @@ fn main() -> ExitCode {
             _ => file = a,
         }
     }
-    let doc = match std::fs::read_to_string(&file).map_err(|e| e.to_string()).and_then(|s| serde_json::from_str(&s).map_err(|e| e.to_string())) {
+    let doc = match std::fs::read_to_string(&file)
+        .map_err(|e| e.to_string())
+        .and_then(|s| serde_json::from_str(&s).map_err(|e| e.to_string()))
+    {
         Ok(d) => d,
         Err(e) => {
             eprintln!("conformance: cannot read `{file}`: {e}");
