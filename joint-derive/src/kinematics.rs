@@ -93,6 +93,15 @@ struct Frame {
     r: V3,
     /// Inertial angular velocity, when the ω rule applies to this frame.
     omega: Option<V3>,
+    /// `p`, `ṗ` and `A(ṗ)`, when the Euler-parameter rule applies.
+    euler: Option<EulerRates>,
+}
+
+#[derive(Clone, Copy)]
+struct EulerRates {
+    p: [Id; 4],
+    pdot: [Id; 4],
+    a_of_pdot: [[Id; 3]; 3],
 }
 
 /// The inputs and motion rules of one formulation, over a [`Graph`].
@@ -147,7 +156,7 @@ impl Kinematics {
             let a = rotation_matrix(&mut k.g, p, "a");
             let body = formulation == Formulation::RelativeB2;
             let omega = k.angular_velocity(&a, w, body);
-            k.frames[1] = Frame { a, r: k.zero3(), omega: Some(omega) };
+            k.frames[1] = Frame { a, r: k.zero3(), omega: Some(omega), euler: None };
             k.register_columns(1);
             k.delta = Some(delta);
             return k;
@@ -173,19 +182,20 @@ impl Kinematics {
             k.coords.extend(p);
             k.velocities.extend(rdot);
             let a = rotation_matrix(&mut k.g, p, &format!("a{n}"));
-            let omega = if formulation == Formulation::Euler {
+            let (omega, euler) = if formulation == Formulation::Euler {
                 let pdot = k.vector4(&format!("pdot{n}"), &[field, "pdot"], "");
                 for j in 0..4 {
                     k.rules.set_var(&k.g, p[j], pdot[j]);
                 }
                 k.velocities.extend(pdot);
-                None
+                let a_of_pdot = rotation_matrix(&mut k.g, pdot, &format!("a{n}_pdot"));
+                (None, Some(EulerRates { p, pdot, a_of_pdot }))
             } else {
                 let w = k.vector(&format!("w{n}"), &[field, "omega"], "", false);
                 k.velocities.extend(w);
-                Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody))
+                (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody)), None)
             };
-            k.frames[body] = Frame { a, r, omega };
+            k.frames[body] = Frame { a, r, omega, euler };
             k.register_columns(body);
         }
         k
@@ -250,7 +260,47 @@ impl Kinematics {
                 self.rules.set_node(&self.g, u[j], du[j]);
             }
         }
+        if let Some(rates) = self.frames[body].euler {
+            self.euler_rule(rates, a, u, hint);
+        }
         u
+    }
+
+    /// The Euler-parameter rule for `u = A(p) a'`, exact for any `p` (unit or not):
+    /// `∂u/∂p = [w, s I − w̃]` with `w = 2 (e0 a' + e × a')` and `s = 2 e·a'`, so
+    /// `u̇ = w ė0 + s ė + ė × w`; and along `p + t ṗ`, `ü = 2 A(ṗ) a'` (A is quadratic).
+    /// The structural derivative of the quadratic `A(p)` gives the same numbers with
+    /// about half again as many operations.
+    fn euler_rule(&mut self, rates: EulerRates, a: V3, u: V3, hint: &str) {
+        let g = &mut self.g;
+        let two = g.constant(2.0);
+        let a2 = a.map(|x| g.mul(two, x));
+        let [e0, e1, e2, e3] = rates.p;
+        let e = [e1, e2, e3];
+        let c = cross(g, e, a2);
+        let w = [0, 1, 2].map(|j| {
+            let m = g.mul(e0, a2[j]);
+            g.add(m, c[j])
+        });
+        let s = dot(g, e, a2);
+        for (j, &x) in w.iter().enumerate() {
+            g.hint(x, format!("{hint}_w{}", ["x", "y", "z"][j]));
+        }
+        g.hint(s, format!("{hint}_s"));
+        let [d0, d1, d2, d3] = rates.pdot;
+        let ed = [d1, d2, d3];
+        let ew = cross(g, ed, w);
+        let udot = [0, 1, 2].map(|j| {
+            let l = g.mul(w[j], d0);
+            let m = g.mul(s, ed[j]);
+            let lm = g.add(l, m);
+            g.add(lm, ew[j])
+        });
+        let second = mat_vec(g, &rates.a_of_pdot, a2);
+        for j in 0..3 {
+            self.rules.set_node(&self.g, u[j], udot[j]);
+            self.rules.set_node(&self.g, udot[j], second[j]);
+        }
     }
 
     /// `d = r2 + A2 ρ2' − r1 − A1 ρ1'` (absolute) or `δ` (relative).
@@ -277,13 +327,9 @@ impl Kinematics {
     /// velocities (the row is not linear in them).
     pub fn derive_row(&mut self, phi: Id) -> Result<RowDerivatives, &'static str> {
         let phi_dot = self.rules.dt(&mut self.g, phi);
-        let jacobian = if self.formulation == Formulation::Euler {
-            let coords = self.coords.clone();
-            grad(&mut self.g, phi, &coords)
-        } else {
-            let velocities = self.velocities.clone();
-            grad(&mut self.g, phi_dot, &velocities)
-        };
+        // J is the coefficient of the velocities in Φ̇ (in `euler` that is ∂Φ/∂q).
+        let velocities = self.velocities.clone();
+        let jacobian = grad(&mut self.g, phi_dot, &velocities);
         let vmask = self
             .velocities
             .iter()
@@ -310,11 +356,11 @@ pub struct RowDerivatives {
 
 fn identity_frame(g: &mut Graph) -> Frame {
     let (zero, one) = (g.zero(), g.constant(1.0));
-    Frame { a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]], r: [zero; 3], omega: None }
+    Frame { a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]], r: [zero; 3], omega: None, euler: None }
 }
 
 fn identity_frame_copy(f: &Frame) -> Frame {
-    Frame { a: f.a, r: f.r, omega: f.omega }
+    Frame { a: f.a, r: f.r, omega: f.omega, euler: f.euler }
 }
 
 /// `A(p) = (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ`, homogeneous in `p` (no unit-norm
