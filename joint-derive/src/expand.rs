@@ -1,12 +1,12 @@
 //! The pipeline: declaration → rows over the graph → Φ, Φ_t, J, γ → Rust.
 
-use proc_macro2::{Span, TokenStream};
+use proc_macro2::{Literal, Span, TokenStream};
 use quote::{format_ident, quote};
 
 use crate::dsl::{self, Declaration, FieldShape, ScalarKind, Source};
 use crate::engine::Id;
 use crate::engine::emit::{self, ScalarTy};
-use crate::joints::{Primitive, Role};
+use crate::joints::{Expr, JointKind, Role, Row, VExpr};
 use crate::kinematics::{self, Formulation, Ground, Kinematics, V3};
 
 /// The derive's entry point: tokens in, tokens out; errors become
@@ -44,7 +44,11 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
             Source::Const(v, _) => v.iter().map(|&x| k.g.constant(x)).collect(),
             Source::Field { member, shape, .. } => {
                 let role = decl.kind.param(name).map(|p| p.role);
-                if role == Some(Role::Scalar) {
+                if role == Some(Role::Time) {
+                    let n = k.time_function(name).to_vec();
+                    bindings.push((member.clone(), *shape, "", n.clone()));
+                    n
+                } else if role == Some(Role::Scalar) {
                     let n = k.g.param(name.to_string());
                     bindings.push((member.clone(), *shape, "", vec![n]));
                     vec![n]
@@ -58,43 +62,16 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
         };
         values.push((name, nodes));
     }
-    let get =
-        |name: &str| -> Vec<Id> { values.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone()).unwrap_or_default() };
-    let v3 = |name: &str, k: &mut Kinematics| -> V3 {
-        let v = get(name);
-        if v.len() == 3 {
-            [v[0], v[1], v[2]]
-        } else {
-            let z = k.g.zero();
-            [z; 3]
-        }
-    };
     let mut phi = Vec::new();
-    for prim in decl.kind.rows {
-        match *prim {
-            Primitive::Spherical => {
-                let (r1, r2) = (v3("rho1", &mut k), v3("rho2", &mut k));
-                phi.extend(k.separation(r1, r2));
-            }
-            Primitive::Dot1(a, b) => {
-                let (a_v, b_v) = (v3(a, &mut k), v3(b, &mut k));
-                let u = k.rotate(0, a_v, &format!("{a}_n"));
-                let w = k.rotate(1, b_v, &format!("{b}_n"));
-                phi.push(kinematics::dot(&mut k.g, u, w));
-            }
-            Primitive::Dot2(a) => {
-                let (r1, r2, a_v) = (v3("rho1", &mut k), v3("rho2", &mut k), v3(a, &mut k));
-                let d = k.separation(r1, r2);
-                let u = k.rotate(0, a_v, &format!("{a}_n"));
-                phi.push(kinematics::dot(&mut k.g, u, d));
-            }
-            Primitive::Distance(len) => {
-                let (r1, r2) = (v3("rho1", &mut k), v3("rho2", &mut k));
-                let d = k.separation(r1, r2);
-                let dd = kinematics::dot(&mut k.g, d, d);
-                let l = get(len)[0];
-                let ll = k.g.mul(l, l);
-                phi.push(k.g.sub(dd, ll));
+    {
+        let mut lower = Lowering { k: &mut k, values: &values, kind: decl.kind };
+        for row in &decl.kind.rows {
+            match row {
+                Row::Spherical => {
+                    let d = lower.separation();
+                    phi.extend(d);
+                }
+                Row::Scalar(e) => phi.push(lower.expr(e)),
             }
         }
     }
@@ -118,8 +95,8 @@ fn expand(decl: &Declaration) -> syn::Result<TokenStream> {
 /// The impl for a derived joint.
 pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let krate = quote!(::joint_runtime);
-    let rows = d.phi.len();
-    let cols = d.k.velocities.len();
+    let (rows, cols) = (d.phi.len(), d.k.velocities.len());
+    let (rows_lit, cols_lit) = (Literal::usize_unsuffixed(rows), Literal::usize_unsuffixed(cols));
     let (scalar, concrete) = match &decl.scalar {
         ScalarKind::Generic(t) => (quote!(#t), None),
         ScalarKind::Concrete(t) => (quote!(#t), Some(t.to_string())),
@@ -146,6 +123,8 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let (gamma_body, gamma_out, gamma_ops) = function(&d.gamma);
     let all: Vec<Id> = d.phi.iter().chain(&jac_flat).chain(&d.gamma).copied().collect();
     let (eval_body, eval_out, eval_ops) = function(&all);
+    let [phi_ops_lit, phi_t_ops_lit, jac_ops_lit, gamma_ops_lit, eval_ops_lit] =
+        [phi_ops, phi_t_ops, jac_ops, gamma_ops, eval_ops].map(Literal::usize_unsuffixed);
     let phi_expr = vector(&phi_out);
     let phi_t_expr = vector(&phi_t_out);
     let jac_expr = matrix(&jac_out);
@@ -175,20 +154,20 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
                 .predicates
                 .push(syn::parse_quote!(#t: #krate::__private::SimdRealField + ::core::marker::Copy));
             let (ig, _, wc) = generics.split_for_impl();
-            quote!(impl #ig #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #wc)
+            quote!(impl #ig #krate::Joint<#t, #rows_lit, #cols_lit> for #ident #ty_generics #wc)
         }
         ScalarKind::Concrete(t) => {
-            quote!(impl #impl_generics #krate::Joint<#t, #rows, #cols> for #ident #ty_generics #where_clause)
+            quote!(impl #impl_generics #krate::Joint<#t, #rows_lit, #cols_lit> for #ident #ty_generics #where_clause)
         }
         ScalarKind::Any => quote!(
             impl<__JointScalar: #krate::__private::SimdRealField + ::core::marker::Copy>
-                #krate::Joint<__JointScalar, #rows, #cols> for #ident
+                #krate::Joint<__JointScalar, #rows_lit, #cols_lit> for #ident
         ),
     };
     let touch_unused = decl.unused_fields.iter().map(|f| quote!(let _ = &self.#f;));
     let touch = quote!(#(#touch_unused)*);
     let doc_ops = format!(
-        "Operation counts (binary + − ×): phi {phi_ops}, phi_t {phi_t_ops}, jacobian {jac_ops}, gamma {gamma_ops}, evaluate {eval_ops}."
+        " Operation counts (binary + − ×): phi {phi_ops}, phi_t {phi_t_ops}, jacobian {jac_ops}, gamma {gamma_ops}, evaluate {eval_ops}."
     );
     quote! {
         #[doc = #doc_ops]
@@ -199,26 +178,26 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
             const KIND: &'static str = #kind;
             const FORMULATION: #krate::Formulation = #krate::Formulation::#variant;
             const OPS: #krate::Ops = #krate::Ops {
-                phi: #phi_ops, phi_t: #phi_t_ops, jacobian: #jac_ops, gamma: #gamma_ops, evaluate: #eval_ops,
+                phi: #phi_ops_lit, phi_t: #phi_t_ops_lit, jacobian: #jac_ops_lit, gamma: #gamma_ops_lit, evaluate: #eval_ops_lit,
             };
             #[inline]
-            fn phi(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows> {
+            fn phi(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows_lit> {
                 #touch #phi_body #phi_expr
             }
             #[inline]
-            fn phi_t(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows> {
+            fn phi_t(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows_lit> {
                 #touch #phi_t_body #phi_t_expr
             }
             #[inline]
-            fn jacobian(&self, state: &Self::State) -> #krate::__private::SMatrix<#scalar, #rows, #cols> {
+            fn jacobian(&self, state: &Self::State) -> #krate::__private::SMatrix<#scalar, #rows_lit, #cols_lit> {
                 #touch #jac_body #jac_expr
             }
             #[inline]
-            fn gamma(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows> {
+            fn gamma(&self, state: &Self::State) -> #krate::__private::SVector<#scalar, #rows_lit> {
                 #touch #gamma_body #gamma_expr
             }
             #[inline]
-            fn evaluate(&self, state: &Self::State) -> #krate::Evaluation<#scalar, #rows, #cols> {
+            fn evaluate(&self, state: &Self::State) -> #krate::Evaluation<#scalar, #rows_lit, #cols_lit> {
                 #touch #eval_body
                 #krate::Evaluation { phi: #ep, jacobian: #ej, gamma: #eg }
             }
@@ -270,4 +249,115 @@ fn bindings(d: &Derived, used: &std::collections::BTreeSet<crate::engine::graph:
         }
     }
     out
+}
+
+/// Lowers row expressions onto the graph.
+struct Lowering<'a> {
+    k: &'a mut Kinematics,
+    values: &'a [(&'static str, Vec<Id>)],
+    kind: &'a JointKind,
+}
+
+impl Lowering<'_> {
+    fn nodes(&self, name: &str) -> Vec<Id> {
+        self.values.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone()).unwrap_or_default()
+    }
+
+    fn v3(&mut self, name: &str) -> V3 {
+        match self.nodes(name).as_slice() {
+            [x, y, z] => [*x, *y, *z],
+            // Absent points (relative formulations) are never read there.
+            _ => [self.k.g.zero(); 3],
+        }
+    }
+
+    fn body(&self, name: &str) -> usize {
+        match self.kind.param(name).map(|p| p.role) {
+            Some(Role::Axis(b) | Role::Point(b)) => b,
+            _ => 0,
+        }
+    }
+
+    fn separation(&mut self) -> V3 {
+        let (r1, r2) = (self.v3("rho1"), self.v3("rho2"));
+        self.k.separation(r1, r2)
+    }
+
+    fn axis(&mut self, name: &str) -> V3 {
+        let (body, v) = (self.body(name), self.v3(name));
+        self.k.rotate(body, v, &format!("{name}_n"))
+    }
+
+    fn expr(&mut self, e: &Expr) -> Id {
+        match e {
+            Expr::Num(x) => self.k.g.constant(*x),
+            Expr::Scalar(n) | Expr::Time(n) => match self.nodes(n).first() {
+                Some(&x) => x,
+                None => self.k.g.zero(),
+            },
+            Expr::Dot1(a, b) => {
+                let (u, w) = (self.axis(a), self.axis(b));
+                kinematics::dot(&mut self.k.g, u, w)
+            }
+            Expr::Dot2(a) => {
+                let u = self.axis(a);
+                let d = self.separation();
+                kinematics::dot(&mut self.k.g, u, d)
+            }
+            Expr::Dot(a, b) => {
+                let (u, w) = (self.vexpr(a), self.vexpr(b));
+                kinematics::dot(&mut self.k.g, u, w)
+            }
+            Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) => {
+                let (x, y) = (self.expr(a), self.expr(b));
+                let g = &mut self.k.g;
+                match e {
+                    Expr::Add(..) => g.add(x, y),
+                    Expr::Sub(..) => g.sub(x, y),
+                    _ => g.mul(x, y),
+                }
+            }
+            Expr::Neg(a) => {
+                let x = self.expr(a);
+                self.k.g.neg(x)
+            }
+            Expr::Sin(a) => {
+                let x = self.expr(a);
+                self.k.g.sin(x)
+            }
+            Expr::Cos(a) => {
+                let x = self.expr(a);
+                self.k.g.cos(x)
+            }
+        }
+    }
+
+    fn vexpr(&mut self, v: &VExpr) -> V3 {
+        match v {
+            VExpr::Axis(n) => self.axis(n),
+            VExpr::Point(n) => {
+                let (body, p) = (self.body(n), self.v3(n));
+                let (r1, r2) = (self.v3("rho1"), self.v3("rho2"));
+                self.k.point(body, p, [r1, r2], &format!("{n}_n"))
+            }
+            VExpr::Separation => self.separation(),
+            VExpr::Add(a, b) | VExpr::Sub(a, b) | VExpr::Cross(a, b) => {
+                let (x, y) = (self.vexpr(a), self.vexpr(b));
+                let g = &mut self.k.g;
+                match v {
+                    VExpr::Add(..) => [0, 1, 2].map(|j| g.add(x[j], y[j])),
+                    VExpr::Sub(..) => [0, 1, 2].map(|j| g.sub(x[j], y[j])),
+                    _ => kinematics::cross(g, x, y),
+                }
+            }
+            VExpr::Scale(s, a) => {
+                let (c, x) = (self.expr(s), self.vexpr(a));
+                x.map(|xj| self.k.g.mul(c, xj))
+            }
+            VExpr::Neg(a) => {
+                let x = self.vexpr(a);
+                x.map(|xj| self.k.g.neg(xj))
+            }
+        }
+    }
 }

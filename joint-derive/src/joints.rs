@@ -1,6 +1,9 @@
 //! The joint catalogue: each joint is a list of parameters and a list of rows,
-//! every row one of the four primitives of `CONVENTIONS.md`. This table is the
-//! only place joints are described; no derivative appears here.
+//! every row an expression over the four primitives of `CONVENTIONS.md` (and, for
+//! drivers, a time function). This table is the only place joints are described;
+//! no derivative appears here. User-written rows use the same [`Expr`] language.
+
+use std::sync::OnceLock;
 
 /// Where a parameter lives and what it means.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -9,30 +12,79 @@ pub enum Role {
     Axis(usize),
     /// A point fixed in body 1 or 2.
     Point(usize),
-    /// A scalar (a length).
+    /// A scalar (a length, an angle).
     Scalar,
+    /// A time function θ(t) (a field whose type implements `TimeFunction`).
+    Time,
 }
 
 /// A parameter of a joint.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Param {
-    /// The name in the DSL and in `CONVENTIONS.md`.
+    /// The name in the DSL and in `CONVENTIONS.md` (leaked for user-declared
+    /// parameters: a few bytes per derive, and `&'static` keeps the parser simple).
     pub name: &'static str,
     /// Its role.
     pub role: Role,
 }
 
-/// One row (or block of rows) of a joint.
-#[derive(Clone, Copy, Debug)]
-pub enum Primitive {
+/// A scalar expression of a row.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    /// A number.
+    Num(f64),
+    /// A scalar parameter.
+    Scalar(String),
+    /// The value of a time function.
+    Time(String),
+    /// `a'ᵀ A1ᵀ A2 b'` (dot-1) with `a'` in B1, `b'` in B2.
+    Dot1(String, String),
+    /// `a'ᵀ A1ᵀ d` (dot-2) with `a'` in B1.
+    Dot2(String),
+    /// `u · v`.
+    Dot(Box<VExpr>, Box<VExpr>),
+    /// `a + b`.
+    Add(Box<Expr>, Box<Expr>),
+    /// `a − b`.
+    Sub(Box<Expr>, Box<Expr>),
+    /// `a · b`.
+    Mul(Box<Expr>, Box<Expr>),
+    /// `−a`.
+    Neg(Box<Expr>),
+    /// `sin a`.
+    Sin(Box<Expr>),
+    /// `cos a`.
+    Cos(Box<Expr>),
+}
+
+/// A vector expression, in the reference frame's components.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VExpr {
+    /// A body-fixed direction, rotated into the reference frame.
+    Axis(String),
+    /// A body-fixed point's position.
+    Point(String),
+    /// The separation `d` of the joint points `rho1`, `rho2`.
+    Separation,
+    /// `u + v`.
+    Add(Box<VExpr>, Box<VExpr>),
+    /// `u − v`.
+    Sub(Box<VExpr>, Box<VExpr>),
+    /// `u × v`.
+    Cross(Box<VExpr>, Box<VExpr>),
+    /// `s · u`.
+    Scale(Box<Expr>, Box<VExpr>),
+    /// `−u`.
+    Neg(Box<VExpr>),
+}
+
+/// One row, or the block of three rows of the spherical primitive.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Row {
     /// `d = 0`: three rows.
     Spherical,
-    /// `a'ᵀ A1ᵀ A2 b' = 0` with `a'` in B1, `b'` in B2.
-    Dot1(&'static str, &'static str),
-    /// `a'ᵀ A1ᵀ d = 0` with `a'` in B1.
-    Dot2(&'static str),
-    /// `dᵀ d − L² = 0`.
-    Distance(&'static str),
+    /// One scalar row.
+    Scalar(Expr),
 }
 
 /// A joint kind.
@@ -41,90 +93,118 @@ pub struct JointKind {
     /// The name in the DSL.
     pub name: &'static str,
     /// Its parameters.
-    pub params: &'static [Param],
+    pub params: Vec<Param>,
     /// Its rows, in order.
-    pub rows: &'static [Primitive],
+    pub rows: Vec<Row>,
 }
 
 impl JointKind {
     /// The parameter called `name`.
-    pub fn param(&self, name: &str) -> Option<&'static Param> {
+    pub fn param(&self, name: &str) -> Option<&Param> {
         self.params.iter().find(|p| p.name == name)
     }
 }
 
-const fn axis(name: &'static str, body: usize) -> Param {
+fn axis(name: &'static str, body: usize) -> Param {
     Param { name, role: Role::Axis(body) }
 }
 
-const RHO1: Param = Param { name: "rho1", role: Role::Point(0) };
-const RHO2: Param = Param { name: "rho2", role: Role::Point(1) };
+fn points() -> [Param; 2] {
+    [Param { name: "rho1", role: Role::Point(0) }, Param { name: "rho2", role: Role::Point(1) }]
+}
 
-use Primitive::{Distance, Dot1, Dot2, Spherical};
+/// `dot1(a, b)`.
+pub fn dot1(a: &str, b: &str) -> Expr {
+    Expr::Dot1(a.into(), b.into())
+}
+
+/// `dot2(a)`.
+pub fn dot2(a: &str) -> Expr {
+    Expr::Dot2(a.into())
+}
+
+/// `dᵀd − L²`.
+pub fn distance(length: &str) -> Expr {
+    let d = || Box::new(VExpr::Separation);
+    let l = || Box::new(Expr::Scalar(length.into()));
+    Expr::Sub(Box::new(Expr::Dot(d(), d())), Box::new(Expr::Mul(l(), l())))
+}
+
+fn kind(name: &'static str, params: Vec<Param>, rows: Vec<Row>) -> JointKind {
+    JointKind { name, params, rows }
+}
+
+fn with_points(mut params: Vec<Param>) -> Vec<Param> {
+    params.extend(points());
+    params
+}
+
+fn build() -> Vec<JointKind> {
+    use Row::{Scalar as S, Spherical};
+    let time = |name: &'static str| Param { name, role: Role::Time };
+    // Rotational driver: sin(angle − θ) = (g·k) cos θ − (f·k) sin θ, the angle of
+    // `k` measured from `f` towards `g`.
+    let theta = || Box::new(Expr::Time("theta".into()));
+    let rotational = Expr::Sub(
+        Box::new(Expr::Mul(Box::new(dot1("g", "k")), Box::new(Expr::Cos(theta())))),
+        Box::new(Expr::Mul(Box::new(dot1("f", "k")), Box::new(Expr::Sin(theta())))),
+    );
+    let translational = Expr::Sub(Box::new(dot2("h")), Box::new(Expr::Time("x".into())));
+    vec![
+        kind("spherical", points().to_vec(), vec![Spherical]),
+        kind("universal", with_points(vec![axis("s", 0), axis("h", 1)]), vec![Spherical, S(dot1("s", "h"))]),
+        kind(
+            "universal_translational",
+            with_points(vec![axis("s", 0), axis("h", 1), axis("b", 0), axis("c", 0)]),
+            vec![S(dot2("b")), S(dot2("c")), S(dot1("s", "h"))],
+        ),
+        kind(
+            "revolute",
+            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1)]),
+            vec![Spherical, S(dot1("f", "h")), S(dot1("g", "h"))],
+        ),
+        kind(
+            "cylindrical",
+            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1)]),
+            vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("f")), S(dot2("g"))],
+        ),
+        kind(
+            "translational",
+            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1)]),
+            vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("f")), S(dot2("g")), S(dot1("f", "k"))],
+        ),
+        kind(
+            "fixed",
+            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1)]),
+            vec![Spherical, S(dot1("f", "h")), S(dot1("g", "h")), S(dot1("f", "k"))],
+        ),
+        kind(
+            "planar",
+            with_points(vec![axis("f", 0), axis("g", 0), axis("n", 0), axis("h", 1)]),
+            vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("n"))],
+        ),
+        kind("point_on_line", with_points(vec![axis("f", 0), axis("g", 0)]), vec![S(dot2("f")), S(dot2("g"))]),
+        kind("point_in_plane", with_points(vec![axis("n", 0)]), vec![S(dot2("n"))]),
+        kind("parallel", vec![axis("f", 0), axis("g", 0), axis("h", 1)], vec![S(dot1("f", "h")), S(dot1("g", "h"))]),
+        kind("perpendicular", vec![axis("s", 0), axis("h", 1)], vec![S(dot1("s", "h"))]),
+        kind("distance", with_points(vec![Param { name: "length", role: Role::Scalar }]), vec![S(distance("length"))]),
+        kind("rotational_driver", vec![axis("f", 0), axis("g", 0), axis("k", 1), time("theta")], vec![S(rotational)]),
+        kind("translational_driver", with_points(vec![axis("h", 0), time("x")]), vec![S(translational)]),
+    ]
+}
 
 /// Every joint the derive knows.
-pub const CATALOGUE: &[JointKind] = &[
-    JointKind { name: "spherical", params: &[RHO1, RHO2], rows: &[Spherical] },
-    JointKind {
-        name: "universal",
-        params: &[axis("s", 0), axis("h", 1), RHO1, RHO2],
-        rows: &[Spherical, Dot1("s", "h")],
-    },
-    JointKind {
-        name: "universal_translational",
-        params: &[axis("s", 0), axis("h", 1), axis("b", 0), axis("c", 0), RHO1, RHO2],
-        rows: &[Dot2("b"), Dot2("c"), Dot1("s", "h")],
-    },
-    JointKind {
-        name: "revolute",
-        params: &[axis("f", 0), axis("g", 0), axis("h", 1), RHO1, RHO2],
-        rows: &[Spherical, Dot1("f", "h"), Dot1("g", "h")],
-    },
-    JointKind {
-        name: "cylindrical",
-        params: &[axis("f", 0), axis("g", 0), axis("h", 1), RHO1, RHO2],
-        rows: &[Dot1("f", "h"), Dot1("g", "h"), Dot2("f"), Dot2("g")],
-    },
-    JointKind {
-        name: "translational",
-        params: &[axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1), RHO1, RHO2],
-        rows: &[Dot1("f", "h"), Dot1("g", "h"), Dot2("f"), Dot2("g"), Dot1("f", "k")],
-    },
-    JointKind {
-        name: "fixed",
-        params: &[axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1), RHO1, RHO2],
-        rows: &[Spherical, Dot1("f", "h"), Dot1("g", "h"), Dot1("f", "k")],
-    },
-    JointKind {
-        name: "planar",
-        params: &[axis("f", 0), axis("g", 0), axis("n", 0), axis("h", 1), RHO1, RHO2],
-        rows: &[Dot1("f", "h"), Dot1("g", "h"), Dot2("n")],
-    },
-    JointKind {
-        name: "point_on_line",
-        params: &[axis("f", 0), axis("g", 0), RHO1, RHO2],
-        rows: &[Dot2("f"), Dot2("g")],
-    },
-    JointKind { name: "point_in_plane", params: &[axis("n", 0), RHO1, RHO2], rows: &[Dot2("n")] },
-    JointKind {
-        name: "parallel",
-        params: &[axis("f", 0), axis("g", 0), axis("h", 1)],
-        rows: &[Dot1("f", "h"), Dot1("g", "h")],
-    },
-    JointKind { name: "perpendicular", params: &[axis("s", 0), axis("h", 1)], rows: &[Dot1("s", "h")] },
-    JointKind {
-        name: "distance",
-        params: &[RHO1, RHO2, Param { name: "length", role: Role::Scalar }],
-        rows: &[Distance("length")],
-    },
-];
+pub fn catalogue() -> &'static [JointKind] {
+    static CATALOGUE: OnceLock<Vec<JointKind>> = OnceLock::new();
+    CATALOGUE.get_or_init(build)
+}
 
 /// The joint called `name`.
 pub fn lookup(name: &str) -> Option<&'static JointKind> {
-    CATALOGUE.iter().find(|k| k.name == name)
+    catalogue().iter().find(|k| k.name == name)
 }
 
 /// The names, for error messages: "`spherical`, `universal`, ...".
 pub fn names() -> String {
-    CATALOGUE.iter().map(|k| format!("`{}`", k.name)).collect::<Vec<_>>().join(", ")
+    catalogue().iter().map(|k| format!("`{}`", k.name)).collect::<Vec<_>>().join(", ")
 }

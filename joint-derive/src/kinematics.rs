@@ -11,6 +11,8 @@
 
 use crate::engine::{Graph, Id, TimeRules, grad};
 
+const XYZ: [&str; 3] = ["x", "y", "z"];
+
 /// Three nodes: a vector's components.
 pub type V3 = [Id; 3];
 
@@ -113,8 +115,6 @@ pub struct Kinematics {
     pub rules: TimeRules,
     /// Rules for Φ_t: only explicit time moves.
     pub time_rules: TimeRules,
-    /// The formulation.
-    pub formulation: Formulation,
     /// Coordinates in column order (`euler`: J = ∂Φ/∂q).
     pub coords: Vec<Id>,
     /// Velocities in column order.
@@ -134,7 +134,6 @@ impl Kinematics {
             g,
             rules: TimeRules::new(),
             time_rules: TimeRules::new(),
-            formulation,
             coords: Vec::new(),
             velocities: Vec::new(),
             inputs: Vec::new(),
@@ -155,7 +154,7 @@ impl Kinematics {
             k.velocities.extend(w);
             let a = rotation_matrix(&mut k.g, p, "a");
             let body = formulation == Formulation::RelativeB2;
-            let omega = k.angular_velocity(&a, w, body);
+            let omega = k.angular_velocity(&a, w, body, "omega_rel");
             k.frames[1] = Frame { a, r: k.zero3(), omega: Some(omega), euler: None };
             k.register_columns(1);
             k.delta = Some(delta);
@@ -193,7 +192,7 @@ impl Kinematics {
             } else {
                 let w = k.vector(&format!("w{n}"), &[field, "omega"], "", false);
                 k.velocities.extend(w);
-                (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody)), None)
+                (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody, &format!("omega{n}"))), None)
             };
             k.frames[body] = Frame { a, r, omega, euler };
             k.register_columns(body);
@@ -222,14 +221,15 @@ impl Kinematics {
 
     /// Inertial ω of a frame: the variables themselves, or `A ω'` held constant
     /// (ω̇ = A ω̇' = 0 when ω̇' = 0).
-    fn angular_velocity(&mut self, a: &[[Id; 3]; 3], w: V3, body_components: bool) -> V3 {
+    fn angular_velocity(&mut self, a: &[[Id; 3]; 3], w: V3, body_components: bool, name: &str) -> V3 {
         if !body_components {
             return w;
         }
+        let start = self.g.len();
         let omega = mat_vec(&mut self.g, a, w);
         let zero = self.g.zero();
         for (j, &o) in omega.iter().enumerate() {
-            self.g.hint(o, format!("omega_{}", ["x", "y", "z"][j]));
+            self.g.hint_new(start, o, format!("{name}_{}", XYZ[j]));
             self.rules.set_node(&self.g, o, zero);
         }
         omega
@@ -250,9 +250,10 @@ impl Kinematics {
     /// `A_body a'`: a vector fixed in `body` (0 or 1) in reference components.
     pub fn rotate(&mut self, body: usize, a: V3, hint: &str) -> V3 {
         let m = self.frames[body].a;
+        let start = self.g.len();
         let u = mat_vec(&mut self.g, &m, a);
         for (j, &c) in u.iter().enumerate() {
-            self.g.hint(c, format!("{hint}_{}", ["x", "y", "z"][j]));
+            self.g.hint_new(start, c, format!("{hint}_{}", XYZ[j]));
         }
         if let Some(omega) = self.frames[body].omega {
             let du = cross(&mut self.g, omega, u);
@@ -273,6 +274,7 @@ impl Kinematics {
     /// about half again as many operations.
     fn euler_rule(&mut self, rates: EulerRates, a: V3, u: V3, hint: &str) {
         let g = &mut self.g;
+        let start = g.len();
         let two = g.constant(2.0);
         let a2 = a.map(|x| g.mul(two, x));
         let [e0, e1, e2, e3] = rates.p;
@@ -284,9 +286,9 @@ impl Kinematics {
         });
         let s = dot(g, e, a2);
         for (j, &x) in w.iter().enumerate() {
-            g.hint(x, format!("{hint}_w{}", ["x", "y", "z"][j]));
+            g.hint_new(start, x, format!("{hint}_w{}", XYZ[j]));
         }
-        g.hint(s, format!("{hint}_s"));
+        g.hint_new(start, s, format!("{hint}_s"));
         let [d0, d1, d2, d3] = rates.pdot;
         let ed = [d1, d2, d3];
         let ew = cross(g, ed, w);
@@ -303,6 +305,36 @@ impl Kinematics {
         }
     }
 
+    /// A time function's value node; its rate and acceleration follow it in the
+    /// returned triple. Φ̇ and γ see `θ̇ = rate`, `θ̈ = accel`; so does Φ_t.
+    pub fn time_function(&mut self, name: &str) -> [Id; 3] {
+        let value = self.g.state(name.to_string());
+        let rate = self.g.state(format!("{name}_rate"));
+        let accel = self.g.state(format!("{name}_accel"));
+        for rules in [&mut self.rules, &mut self.time_rules] {
+            rules.set_var(&self.g, value, rate);
+            rules.set_var(&self.g, rate, accel);
+        }
+        [value, rate, accel]
+    }
+
+    /// The position of a point `q'` fixed in `body`: `r + A q'` (absolute), or,
+    /// in a relative formulation, measured from the joint point `ρ1'` of B1 in B1
+    /// components: `q' − ρ1'` on B1 and `δ + A_rel (q' − ρ2')` on B2.
+    pub fn point(&mut self, body: usize, q: V3, rho: [V3; 2], hint: &str) -> V3 {
+        if let Some(delta) = self.delta {
+            let local = [0, 1, 2].map(|j| self.g.sub(q[j], rho[body][j]));
+            if body == 0 {
+                return local;
+            }
+            let u = self.rotate(1, local, hint);
+            return [0, 1, 2].map(|j| self.g.add(delta[j], u[j]));
+        }
+        let u = self.rotate(body, q, hint);
+        let r = self.frames[body].r;
+        [0, 1, 2].map(|j| self.g.add(r[j], u[j]))
+    }
+
     /// `d = r2 + A2 ρ2' − r1 − A1 ρ1'` (absolute) or `δ` (relative).
     pub fn separation(&mut self, rho1: V3, rho2: V3) -> V3 {
         if let Some(delta) = self.delta {
@@ -312,13 +344,14 @@ impl Kinematics {
         let w2 = self.rotate(1, rho2, "rho2_n");
         let (r1, r2) = (self.frames[0].r, self.frames[1].r);
         // (r2 − r1) + (w2 − w1): the large positions cancel first.
+        let start = self.g.len();
         let d = [0, 1, 2].map(|j| {
             let dr = self.g.sub(r2[j], r1[j]);
             let dw = self.g.sub(w2[j], w1[j]);
             self.g.add(dr, dw)
         });
         for (j, &c) in d.iter().enumerate() {
-            self.g.hint(c, format!("d_{}", ["x", "y", "z"][j]));
+            self.g.hint_new(start, c, format!("d_{}", XYZ[j]));
         }
         d
     }
@@ -366,6 +399,7 @@ fn identity_frame_copy(f: &Frame) -> Frame {
 /// `A(p) = (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ`, homogeneous in `p` (no unit-norm
 /// shortcut: `euler` evaluates it off the unit sphere).
 pub fn rotation_matrix(g: &mut Graph, p: [Id; 4], name: &str) -> [[Id; 3]; 3] {
+    let start = g.len();
     let [e0, e1, e2, e3] = p;
     let sq = p.map(|e| g.mul(e, e));
     let two = g.constant(2.0);
@@ -388,7 +422,7 @@ pub fn rotation_matrix(g: &mut Graph, p: [Id; 4], name: &str) -> [[Id; 3]; 3] {
     ];
     for (i, row) in a.iter().enumerate() {
         for (j, &e) in row.iter().enumerate() {
-            g.hint(e, format!("{name}_{}{}", i + 1, j + 1));
+            g.hint_new(start, e, format!("{name}_{}{}", i + 1, j + 1));
         }
     }
     a

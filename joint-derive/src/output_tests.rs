@@ -1,1 +1,309 @@
+//! Expansion snapshots: what `#[derive(Joint)]` generates for representative
+//! declarations, pretty-printed, so a change to the engine shows up as a
+//! readable diff of generated code (after zerocopy-derive's `output_tests`).
+//!
+//! Each snapshot starts with a comment line holding the operation counts of the
+//! generated impl, then the expansion formatted by `prettyplease`; the input
+//! declaration is recorded in the snapshot's `description`.
+//!
+//! After an intended change to the generated code, re-accept the snapshots with
+//!
+//! ```text
+//! INSTA_UPDATE=always cargo test -p joint-derive --lib output_tests
+//! ```
+//!
+//! and review the diff of `src/snapshots/` before committing.
 
+use quote::ToTokens;
+use syn::parse_quote;
+
+/// The derive input as readable source, for the snapshot's description.
+///
+/// `prettyplease` breaks `#[joint(..., s = [0, 0, 1])]` over many lines (its
+/// arguments are not a standard meta), so the attributes are printed on one
+/// line each from their tokens and only the struct itself goes through it.
+fn describe(input: &syn::DeriveInput) -> String {
+    let mut out = String::new();
+    for attr in &input.attrs {
+        let tokens = attr.meta.to_token_stream().to_string();
+        let tidy = tokens.replace(" ,", ",").replace("[ ", "[").replace(" ]", "]").replacen(" (", "(", 1);
+        out.push_str(&format!("#[{tidy}]\n"));
+    }
+    let mut item = input.clone();
+    item.attrs.clear();
+    match syn::parse2::<syn::File>(item.into_token_stream()) {
+        Ok(file) => out.push_str(&prettyplease::unparse(&file)),
+        Err(e) => panic!("the derive input does not parse as a Rust file: {e}"),
+    }
+    out
+}
+
+/// The `#[doc = "Operation counts ..."]` line of the generated impl, if any.
+fn op_counts(file: &syn::File) -> Option<String> {
+    file.items.iter().find_map(|item| {
+        let syn::Item::Impl(imp) = item else { return None };
+        imp.attrs.iter().find_map(|attr| match &attr.meta {
+            syn::Meta::NameValue(nv) if nv.path.is_ident("doc") => match &nv.value {
+                syn::Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) => {
+                    let text = s.value();
+                    text.trim().starts_with("Operation counts").then(|| text.trim().to_owned())
+                }
+                _ => None,
+            },
+            _ => None,
+        })
+    })
+}
+
+/// Expands `input`, pretty-prints the result under a header line with the
+/// operation counts, and compares it with the stored snapshot `name`.
+#[track_caller]
+fn check(name: &str, input: syn::DeriveInput) {
+    let output = crate::expand::derive(&input);
+    let file = match syn::parse2::<syn::File>(output) {
+        Ok(file) => file,
+        Err(e) => panic!("the expansion of `{name}` does not parse as a Rust file: {e}"),
+    };
+    let header = match op_counts(&file) {
+        Some(counts) => format!("// {counts}"),
+        None => "// No operation counts: the declaration is rejected (compile_error! plus stub impl).".to_owned(),
+    };
+    let text = format!("{header}\n\n{}", prettyplease::unparse(&file));
+
+    let mut settings = insta::Settings::clone_current();
+    settings.set_description(describe(&input));
+    settings.set_omit_expression(true);
+    settings.bind(|| insta::assert_snapshot!(name, text));
+}
+
+/// `spherical` with `rho1`, `rho2` as fields, in `formulation`.
+fn spherical(formulation: &str) -> syn::DeriveInput {
+    let f = syn::Ident::new(formulation, proc_macro2::Span::call_site());
+    parse_quote! {
+        #[joint(spherical, formulation = #f)]
+        struct Ball<T> {
+            rho1: Vector3<T>,
+            rho2: Vector3<T>,
+        }
+    }
+}
+
+/// `universal` with `s`, `h`, `rho1`, `rho2` as fields, in `formulation`.
+fn universal(formulation: &str) -> syn::DeriveInput {
+    let f = syn::Ident::new(formulation, proc_macro2::Span::call_site());
+    parse_quote! {
+        #[joint(universal, formulation = #f)]
+        struct Cardan<T> {
+            s: Vector3<T>,
+            h: Vector3<T>,
+            rho1: Vector3<T>,
+            rho2: Vector3<T>,
+        }
+    }
+}
+
+/// `universal_translational` with `s`, `h`, `b`, `c`, `rho1`, `rho2` as fields,
+/// in `formulation`.
+fn universal_translational(formulation: &str) -> syn::DeriveInput {
+    let f = syn::Ident::new(formulation, proc_macro2::Span::call_site());
+    parse_quote! {
+        #[joint(universal_translational, formulation = #f)]
+        struct CardanSlider<T> {
+            s: Vector3<T>,
+            h: Vector3<T>,
+            b: Vector3<T>,
+            c: Vector3<T>,
+            rho1: Vector3<T>,
+            rho2: Vector3<T>,
+        }
+    }
+}
+
+// --- spherical, every formulation, every parameter a field -------------------
+
+#[test]
+fn spherical_euler() {
+    check("spherical_euler", spherical("euler"));
+}
+
+#[test]
+fn spherical_omega_inertial() {
+    check("spherical_omega_inertial", spherical("omega_inertial"));
+}
+
+#[test]
+fn spherical_omega_body() {
+    check("spherical_omega_body", spherical("omega_body"));
+}
+
+#[test]
+fn spherical_relative_b1() {
+    check("spherical_relative_b1", spherical("relative_b1"));
+}
+
+#[test]
+fn spherical_relative_b2() {
+    check("spherical_relative_b2", spherical("relative_b2"));
+}
+
+// --- universal, every formulation, every parameter a field -------------------
+
+#[test]
+fn universal_euler() {
+    check("universal_euler", universal("euler"));
+}
+
+#[test]
+fn universal_omega_inertial() {
+    check("universal_omega_inertial", universal("omega_inertial"));
+}
+
+#[test]
+fn universal_omega_body() {
+    check("universal_omega_body", universal("omega_body"));
+}
+
+#[test]
+fn universal_relative_b1() {
+    check("universal_relative_b1", universal("relative_b1"));
+}
+
+#[test]
+fn universal_relative_b2() {
+    check("universal_relative_b2", universal("relative_b2"));
+}
+
+// --- universal_translational, every formulation, every parameter a field -----
+
+#[test]
+fn universal_translational_euler() {
+    check("universal_translational_euler", universal_translational("euler"));
+}
+
+#[test]
+fn universal_translational_omega_inertial() {
+    check("universal_translational_omega_inertial", universal_translational("omega_inertial"));
+}
+
+#[test]
+fn universal_translational_omega_body() {
+    check("universal_translational_omega_body", universal_translational("omega_body"));
+}
+
+#[test]
+fn universal_translational_relative_b1() {
+    check("universal_translational_relative_b1", universal_translational("relative_b1"));
+}
+
+#[test]
+fn universal_translational_relative_b2() {
+    check("universal_translational_relative_b2", universal_translational("relative_b2"));
+}
+
+// --- constants folded into the generated code ---------------------------------
+
+#[test]
+fn universal_const_axes_omega_body() {
+    check(
+        "universal_const_axes_omega_body",
+        parse_quote! {
+            #[joint(universal, formulation = omega_body, s = [0, 0, 1], h = [1, 0, 0])]
+            struct Cardan<T> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn universal_const_axes_euler() {
+    check(
+        "universal_const_axes_euler",
+        parse_quote! {
+            #[joint(universal, formulation = euler, s = [0, 0, 1], h = [1, 0, 0])]
+            struct Cardan<T> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn universal_grounded_body1_omega_inertial() {
+    check(
+        "universal_grounded_body1_omega_inertial",
+        parse_quote! {
+            #[joint(universal, formulation = omega_inertial, ground = body1, s = [0, 0, 1], rho1 = [0, 0, 0])]
+            struct Grounded<T> {
+                h: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn universal_translational_const_sliding_direction_omega_body() {
+    check(
+        "universal_translational_const_sliding_direction_omega_body",
+        parse_quote! {
+            #[joint(universal_translational, formulation = omega_body, d = [1, 0, 0])]
+            struct CardanSlider<T> {
+                s: Vector3<T>,
+                h: Vector3<T>,
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+// --- concrete scalar ------------------------------------------------------------
+
+#[test]
+fn universal_f64_omega_body() {
+    check(
+        "universal_f64_omega_body",
+        parse_quote! {
+            #[joint(universal, formulation = omega_body)]
+            struct Cardan {
+                s: Vector3<f64>,
+                h: Vector3<f64>,
+                rho1: Vector3<f64>,
+                rho2: Vector3<f64>,
+            }
+        },
+    );
+}
+
+#[test]
+fn spherical_f64_relative_b1() {
+    check(
+        "spherical_f64_relative_b1",
+        parse_quote! {
+            #[joint(spherical, formulation = relative_b1)]
+            struct Ball {
+                rho1: Vector3<f64>,
+                rho2: Vector3<f64>,
+            }
+        },
+    );
+}
+
+// --- rejected declarations --------------------------------------------------------
+
+#[test]
+fn error_unknown_joint_kind() {
+    check(
+        "error_unknown_joint_kind",
+        parse_quote! {
+            #[joint(hinge, formulation = omega_body)]
+            struct Hinge<T> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}

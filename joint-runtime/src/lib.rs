@@ -15,10 +15,12 @@
 mod geometry;
 mod joint;
 mod state;
+mod time;
 
 pub use geometry::{SlidingFrame, perpendicular_pair, rotation_matrix};
 pub use joint::{Evaluation, Formulation, Joint, Ops};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
+pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};
 
 /// Re-exported so that users need one dependency.
 pub use joint_derive::Joint;

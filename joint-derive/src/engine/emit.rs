@@ -4,7 +4,7 @@
 //! gets a `let`, named by its hint or `t<n>` in order of appearance. Parentheses
 //! are written exactly where Rust's precedence would otherwise change the
 //! evaluation order, so the printed code evaluates the graph's operations in the
-//! graph's order, bit for bit.
+//! graph's order, bit for bit (up to the sign of a zero, see [`Ex`]).
 
 use std::collections::{BTreeSet, HashMap};
 
@@ -60,6 +60,26 @@ pub fn reachable(g: &Graph, outputs: &[Id]) -> Vec<Id> {
 
 const ATOM: u8 = 4;
 
+/// A node as printed: the expression and its precedence (1 `+ −`, 2 `×`, 3 unary
+/// minus, 4 atom), and the same for its negation. Negations are pushed into the
+/// printed expression (`−(a − b)` as `b − a`), which IEEE arithmetic makes exact
+/// up to the sign of a zero result.
+struct Ex {
+    pos: (TokenStream, u8),
+    neg: (TokenStream, u8),
+}
+
+impl Ex {
+    fn atom(t: TokenStream) -> Self {
+        Ex { neg: (quote!(-#t), 3), pos: (t, ATOM) }
+    }
+}
+
+fn paren(e: &(TokenStream, u8), min: u8) -> TokenStream {
+    let (t, p) = e;
+    if *p >= min { t.clone() } else { quote!((#t)) }
+}
+
 /// Emits the computation of `outputs`.
 pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     let nodes = reachable(g, outputs);
@@ -77,11 +97,18 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     for &o in outputs {
         *uses.entry(o).or_default() += 1;
     }
+    // A negation is free and never bound: its uses are its operand's uses.
+    for &id in nodes.iter().rev() {
+        if let Node::Neg(a) = g.node(id) {
+            let extra = uses.get(&id).copied().unwrap_or(0).saturating_sub(1);
+            *uses.entry(a).or_default() += extra;
+        }
+    }
 
     let ty = &scalar.ty;
     let krate = &scalar.krate;
-    // Expression and precedence of every node emitted so far.
-    let mut exprs: HashMap<Id, (TokenStream, u8)> = HashMap::new();
+    // Every node emitted so far, as itself and as its negation.
+    let mut exprs: HashMap<Id, Ex> = HashMap::new();
     let mut body = TokenStream::new();
     let mut used_vars = BTreeSet::new();
     let mut taken: HashMap<String, usize> = HashMap::new();
@@ -91,52 +118,62 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
 
     for &id in &nodes {
         let node = g.node(id);
-        let paren = |e: &(TokenStream, u8), min: u8| -> TokenStream {
-            let (t, p) = e;
-            if *p >= min { t.clone() } else { quote!((#t)) }
+        // Operands of + and × are printed with the running sum (or product) on the
+        // left, where Rust needs no parentheses; both orders give the same bits.
+        let ordered = |a: Id, b: Id, prec: u8| {
+            let (pa, pb) = (exprs[&a].pos.1, exprs[&b].pos.1);
+            if pb == prec && pa != prec { (b, a) } else { (a, b) }
         };
-        let (expr, prec) = match node {
+        let ex = match node {
             Node::Const(bits) => {
                 // Bound once per magnitude in the prologue; the sign is free.
                 let v = f64::from_bits(bits);
                 let name = consts.entry(v.abs().to_bits()).or_insert_with(|| const_name(v.abs())).clone();
-                if v < 0.0 { (quote!(-#name), 3) } else { (quote!(#name), ATOM) }
+                let (plain, negated) = ((quote!(#name), ATOM), (quote!(-#name), 3));
+                if v < 0.0 { Ex { pos: negated, neg: plain } } else { Ex { pos: plain, neg: negated } }
             }
             Node::Var(v) => {
                 used_vars.insert(v);
                 let name = Ident::new(&g.vars()[v.0 as usize].name, Span::call_site());
-                (quote!(#name), ATOM)
+                Ex::atom(quote!(#name))
             }
             Node::Add(a, b) => {
                 ops += 1;
-                let (l, r) = (paren(&exprs[&a], 1), paren(&exprs[&b], 2));
-                (quote!(#l + #r), 1)
+                let (a, b) = ordered(a, b, 1);
+                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (l, r, ln) = (paren(&ea.pos, 1), paren(&eb.pos, 2), paren(&ea.neg, 1));
+                // −(a + b) = (−a) − b
+                Ex { pos: (quote!(#l + #r), 1), neg: (quote!(#ln - #r), 1) }
             }
             Node::Sub(a, b) => {
                 ops += 1;
-                let (l, r) = (paren(&exprs[&a], 1), paren(&exprs[&b], 2));
-                (quote!(#l - #r), 1)
+                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (l, r) = (paren(&ea.pos, 1), paren(&eb.pos, 2));
+                let (bl, ar) = (paren(&eb.pos, 1), paren(&ea.pos, 2));
+                // −(a − b) = b − a
+                Ex { pos: (quote!(#l - #r), 1), neg: (quote!(#bl - #ar), 1) }
             }
             Node::Mul(a, b) => {
                 ops += 1;
-                let (l, r) = (paren(&exprs[&a], 2), paren(&exprs[&b], 3));
-                (quote!(#l * #r), 2)
+                let (a, b) = ordered(a, b, 2);
+                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (l, r, ln) = (paren(&ea.pos, 2), paren(&eb.pos, 3), paren(&ea.neg, 2));
+                // −(a · b) = (−a) · b
+                Ex { pos: (quote!(#l * #r), 2), neg: (quote!(#ln * #r), 2) }
             }
             Node::Neg(a) => {
-                let x = paren(&exprs[&a], 3);
-                (quote!(-#x), 3)
+                let ea = &exprs[&a];
+                Ex { pos: ea.neg.clone(), neg: ea.pos.clone() }
             }
-            Node::Sin(a) => {
-                let x = paren(&exprs[&a], 1);
-                (quote!(<#ty as #krate::__private::SimdComplexField>::simd_sin(#x)), ATOM)
-            }
-            Node::Cos(a) => {
-                let x = paren(&exprs[&a], 1);
-                (quote!(<#ty as #krate::__private::SimdComplexField>::simd_cos(#x)), ATOM)
+            Node::Sin(a) | Node::Cos(a) => {
+                let x = paren(&exprs[&a].pos, 1);
+                let f = if matches!(node, Node::Sin(_)) { quote!(simd_sin) } else { quote!(simd_cos) };
+                Ex::atom(quote!(<#ty as #krate::__private::SimdComplexField>::#f(#x)))
             }
         };
         let shared = uses.get(&id).copied().unwrap_or(0) > 1;
-        let bind = shared && prec < ATOM;
+        let bind =
+            shared && matches!(node, Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Sin(_) | Node::Cos(_));
         if bind {
             let base = match g.hint_of(id) {
                 Some(h) => h.to_string(),
@@ -148,10 +185,11 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
             let n = taken.entry(base.clone()).or_insert(0);
             *n += 1;
             let name = if *n == 1 { format_ident!("{}", base) } else { format_ident!("{}_{}", base, *n) };
+            let expr = ex.pos.0;
             body.extend(quote!(let #name = #expr;));
-            exprs.insert(id, (quote!(#name), ATOM));
+            exprs.insert(id, Ex::atom(quote!(#name)));
         } else {
-            exprs.insert(id, (expr, prec));
+            exprs.insert(id, ex);
         }
     }
     let mut prologue = TokenStream::new();
@@ -163,7 +201,7 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     }
     prologue.extend(body);
     let body = prologue;
-    let outputs = outputs.iter().map(|o| exprs[o].0.clone()).collect();
+    let outputs = outputs.iter().map(|o| exprs[o].pos.0.clone()).collect();
     Emitted { body, outputs, used_vars, ops }
 }
 

@@ -91,6 +91,15 @@ impl Graph {
         }
     }
 
+    /// Names `id` only if it was created at or after arena position `start`, so
+    /// that code naming its results never renames a node some other code built
+    /// (a doubled Euler parameter is not an axis's `w`).
+    pub fn hint_new(&mut self, start: usize, id: Id, name: impl Into<String>) {
+        if id.index() >= start {
+            self.hint(id, name);
+        }
+    }
+
     /// The readable name of a node, if it has one.
     pub fn hint_of(&self, id: Id) -> Option<&str> {
         self.hints.get(&id).map(String::as_str)
