@@ -35,7 +35,8 @@ pub struct Arg {
 
 fn number(input: ParseStream) -> syn::Result<(f64, Span)> {
     let neg = input.parse::<Option<Token![-]>>()?.is_some();
-    let lit: syn::Lit = input.parse()?;
+    let lit: syn::Lit =
+        input.parse().map_err(|e| syn::Error::new(e.span(), "expected a number, as in `[0, 0, 1]` or `0.5`"))?;
     let v = match &lit {
         syn::Lit::Int(i) => i.base10_parse::<f64>()?,
         syn::Lit::Float(f) => f.base10_parse::<f64>()?,
@@ -96,6 +97,8 @@ pub enum FieldShape {
     Scalar,
     /// `SlidingFrame<T>` (only for `d`).
     SlidingFrame,
+    /// Any type implementing `joint_runtime::TimeFunction` (a driver's time function).
+    Time,
 }
 
 /// The scalar the impl is for.
@@ -126,6 +129,8 @@ pub struct Declaration {
     pub scalar: ScalarKind,
     /// Fields that are parameters the formulation does not read.
     pub unused_fields: Vec<syn::Ident>,
+    /// Types of the time-function fields (each gets a `TimeFunction` bound).
+    pub time_fields: Vec<syn::Type>,
 }
 
 /// Collects errors so that one run reports every mistake (after serde's `Ctxt`).
@@ -136,6 +141,11 @@ impl Errors {
     /// Records an error at `span`.
     pub fn at(&mut self, span: Span, message: impl std::fmt::Display) {
         self.0.push(syn::Error::new(span, message));
+    }
+
+    /// Records an error spanning every token of `tokens` (a whole type, say).
+    pub fn spanned(&mut self, tokens: impl quote::ToTokens, message: impl std::fmt::Display) {
+        self.0.push(syn::Error::new_spanned(tokens, message));
     }
 
     /// Records a parse error.
@@ -169,24 +179,48 @@ fn joint_args(attrs: &[syn::Attribute], errors: &mut Errors) -> Vec<Arg> {
     out
 }
 
+const FORMULATIONS: &str = "`euler`, `omega_inertial`, `omega_body`, `relative_b1`, `relative_b2`";
+
+/// A parameter name the struct gave that the joint does not take, reported once
+/// the missing parameters are known (it is most likely a misspelling of one).
+struct Unknown {
+    name: String,
+    span: Span,
+    field: bool,
+}
+
 /// Parses and checks a derive input.
 pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     let mut errors = Errors::default();
+    const SHAPE: &str = "expected a struct with named fields, as in `struct Cardan<T> { h: Vector3<T>, .. }`";
     let fields = match &input.data {
         syn::Data::Struct(syn::DataStruct { fields: syn::Fields::Named(named), .. }) => Some(&named.named),
         syn::Data::Struct(syn::DataStruct { fields: syn::Fields::Unit, .. }) => None,
-        _ => {
-            return Err(syn::Error::new(
-                input.ident.span(),
-                "`Joint` can only be derived for a struct with named fields, as in `struct Cardan<T> { h: Vector3<T> }`",
-            ));
+        syn::Data::Struct(syn::DataStruct { fields: syn::Fields::Unnamed(unnamed), .. }) => {
+            let message = format!("`Joint` cannot be derived for a tuple struct; {SHAPE}");
+            return Err(syn::Error::new(unnamed.paren_token.span.join(), message));
         }
+        syn::Data::Enum(e) => {
+            let message = format!("`Joint` cannot be derived for an enum; {SHAPE}");
+            return Err(syn::Error::new(e.enum_token.span, message));
+        }
+        syn::Data::Union(u) => {
+            let message = format!("`Joint` cannot be derived for a union; {SHAPE}");
+            return Err(syn::Error::new(u.union_token.span, message));
+        }
+    };
+    // The scalar as the user wrote it, for messages: `T` in `struct S<T>`.
+    let scalar_name = match input.generics.type_params().collect::<Vec<_>>().as_slice() {
+        [t] => t.ident.to_string(),
+        _ => "f64".to_string(),
     };
 
     // Struct attribute: kind, formulation, ground, constants.
     let mut kind: Option<(&'static JointKind, Span)> = None;
     let mut formulation: Option<Formulation> = None;
-    let mut ground = (Ground::None, Span::call_site());
+    // A formulation was written (perhaps misspelled): do not also call it missing.
+    let mut formulation_given = false;
+    let mut ground = (Ground::None, Span::call_site(), String::new());
     let mut consts: Vec<(syn::Ident, Value)> = Vec::new();
     let args = joint_args(&input.attrs, &mut errors);
     if args.is_empty() && errors.0.is_empty() {
@@ -195,47 +229,69 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             "missing `#[joint(...)]`: name the joint and formulation, as in `#[joint(universal, formulation = omega_body)]`",
         );
     }
+    let mut kind_given = false;
     for arg in args {
         let name = arg.key.to_string();
         match (name.as_str(), arg.value) {
-            (_, None) => match joints::lookup(&name) {
-                Some(k) if kind.is_none() => kind = Some((k, arg.key.span())),
-                Some(_) => errors.at(arg.key.span(), "the joint kind is given twice"),
-                None => errors.at(
-                    arg.key.span(),
-                    format!("unknown joint `{name}`; expected one of {}", joints::names()),
-                ),
-            },
-            ("formulation", Some(Value::Ident(f))) => {
-                match Formulation::ALL.into_iter().find(|x| f == x.name()) {
-                    Some(x) if formulation.is_none() => formulation = Some(x),
-                    Some(_) => errors.at(f.span(), "`formulation` is given twice"),
-                    None => errors.at(
-                        f.span(),
-                        format!(
-                            "unknown formulation `{f}`; expected one of `euler`, `omega_inertial`, `omega_body`, `relative_b1`, `relative_b2`"
-                        ),
-                    ),
-                }
-            }
-            ("ground", Some(Value::Ident(b))) => {
-                ground = match b.to_string().as_str() {
-                    "body1" => (Ground::Body1, b.span()),
-                    "body2" => (Ground::Body2, b.span()),
-                    _ => {
-                        errors.at(b.span(), format!("unknown body `{b}`; expected `ground = body1` or `ground = body2`"));
-                        ground
+            (_, None) => {
+                kind_given = true;
+                match joints::lookup(&name) {
+                    Some(k) if kind.is_none() => kind = Some((k, arg.key.span())),
+                    Some(_) => errors.at(arg.key.span(), "the joint kind is given twice; expected one joint name"),
+                    None => {
+                        let all = joints::catalogue().iter().map(|k| k.name);
+                        errors.at(
+                            arg.key.span(),
+                            format!(
+                                "unknown joint `{name}`{}; expected one of {}",
+                                did_you_mean(&name, all),
+                                joints::names()
+                            ),
+                        )
                     }
                 }
             }
+            ("formulation", Some(Value::Ident(f))) => {
+                formulation_given = true;
+                let f_name = f.to_string();
+                match Formulation::ALL.into_iter().find(|x| f_name == x.name()) {
+                    Some(x) if formulation.is_none() => formulation = Some(x),
+                    Some(_) => errors.at(f.span(), "`formulation` is given twice; expected it once"),
+                    None => {
+                        let all = Formulation::ALL.into_iter().map(|x| x.name());
+                        errors.at(
+                            f.span(),
+                            format!(
+                                "unknown formulation `{f}`{}; expected one of {FORMULATIONS}",
+                                did_you_mean(&f_name, all)
+                            ),
+                        )
+                    }
+                }
+            }
+            ("ground", Some(Value::Ident(b))) => match b.to_string().as_str() {
+                "body1" => ground = (Ground::Body1, b.span(), "body1".into()),
+                "body2" => ground = (Ground::Body2, b.span(), "body2".into()),
+                other => errors.at(
+                    b.span(),
+                    format!(
+                        "unknown body `{b}`{}; expected `ground = body1` or `ground = body2`",
+                        did_you_mean(other, ["body1", "body2"])
+                    ),
+                ),
+            },
             ("formulation" | "ground", Some(v)) => {
-                errors.at(value_span(&v), format!("expected a name, as in `{name} = {}`", if name == "ground" { "body1" } else { "omega_body" }))
+                if name == "formulation" {
+                    formulation_given = true;
+                }
+                let example = if name == "ground" { "body1" } else { "omega_body" };
+                errors.at(value_span(&v), format!("expected a name, as in `{name} = {example}`"))
             }
             (_, Some(v)) => consts.push((arg.key, v)),
         }
     }
     let Some((kind, kind_span)) = kind else {
-        if errors.0.is_empty() {
+        if !kind_given && errors.0.is_empty() {
             errors.at(
                 input.ident.span(),
                 format!("missing joint kind in `#[joint(...)]`; expected one of {}", joints::names()),
@@ -247,72 +303,111 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     let formulation = match formulation {
         Some(f) => f,
         None => {
-            errors.at(kind_span, "missing formulation; add `formulation = euler | omega_inertial | omega_body | relative_b1 | relative_b2`");
+            if !formulation_given {
+                errors.at(
+                    kind_span,
+                    format!("missing formulation; add `formulation = NAME` with NAME one of {FORMULATIONS}"),
+                );
+            }
             Formulation::OmegaBody
         }
     };
     if formulation.is_relative() && ground.0 != Ground::None {
-        errors.at(ground.1, "`ground` applies to the absolute formulations only: in a relative formulation B1 already is the reference frame");
+        errors.at(
+            ground.1,
+            format!(
+                "`ground` needs an absolute formulation (`euler`, `omega_inertial` or `omega_body`); remove `ground = {}` \
+                 with `formulation = {}`",
+                ground.2,
+                formulation.name()
+            ),
+        );
     }
 
     // Which parameters this joint takes; `d` stands in for `b, c` where allowed.
     let accepts = |name: &str| kind.param(name).is_some() || (name == "d" && kind.param("b").is_some());
     let role_of = |name: &str| kind.param(name).map(|p| p.role).unwrap_or(Role::Axis(0));
-    let expected = || {
-        let mut names: Vec<String> = kind.params.iter().map(|p| format!("`{}`", p.name)).collect();
+    let param_names = || {
+        let mut names: Vec<&'static str> = kind.params.iter().map(|p| p.name).collect();
         if kind.param("b").is_some() {
-            names.push("`d`".into());
+            names.push("d");
         }
-        names.join(", ")
+        names
     };
+    let expected = || param_names().iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
     let mut params: Vec<(String, Source)> = Vec::new();
-    let mut add = |errors: &mut Errors, name: String, span: Span, source: Source| {
-        if params.iter().any(|(n, _)| *n == name) {
-            errors.at(span, format!("parameter `{name}` is given twice"));
-        } else {
-            params.push((name, source));
+    // Where each parameter was given, for "given twice".
+    let mut origins: Vec<(String, String)> = Vec::new();
+    // Parameters given but rejected: present for "missing", absent from the result.
+    let mut invalid: Vec<String> = Vec::new();
+    let mut unknown: Vec<Unknown> = Vec::new();
+    let mut add = |errors: &mut Errors, name: String, span: Span, origin: String, source: Option<Source>| {
+        if let Some((_, first)) = origins.iter().find(|(n, _)| *n == name) {
+            errors.at(span, format!("parameter `{name}` is given twice, here and {first}; expected it once"));
+            return;
+        }
+        origins.push((name.clone(), origin));
+        match source {
+            Some(source) => params.push((name, source)),
+            None => invalid.push(name),
         }
     };
     for (key, value) in consts {
         let name = key.to_string();
         if !accepts(&name) {
-            errors.at(
-                key.span(),
-                format!("unknown parameter `{name}` for `{}`; expected one of {}", kind.name, expected()),
-            );
+            unknown.push(Unknown { name, span: key.span(), field: false });
             continue;
         }
         let role = role_of(&name);
-        let (values, span) = match (value, role) {
-            (Value::List(v, s), Role::Axis(_) | Role::Point(_)) if v.len() == 3 => (v, s),
-            (Value::List(v, s), Role::Axis(_) | Role::Point(_)) => {
-                errors.at(s, format!("`{name}` takes 3 components, found {}; expected `{name} = [x, y, z]`", v.len()));
-                continue;
+        let origin = format!("by `{name} = ..` in `#[joint(...)]`");
+        let checked = if matches!(role, Role::Axis(_) | Role::Point(_)) {
+            match value {
+                Value::List(v, s) if v.len() == 3 => Ok((v, s)),
+                Value::List(v, s) => {
+                    Err((s, format!("`{name}` takes 3 components, found {}; expected `{name} = [x, y, z]`", v.len())))
+                }
+                v => Err((value_span(&v), format!("`{name}` is a vector; expected `{name} = [x, y, z]`"))),
             }
-            (Value::Number(v, s), Role::Scalar) => (vec![v], s),
-            (v, Role::Scalar) => {
-                errors.at(value_span(&v), format!("`{name}` is a number; expected `{name} = 1.5`"));
-                continue;
+        } else if matches!(role, Role::Scalar) {
+            match value {
+                Value::Number(v, s) => Ok((vec![v], s)),
+                v => Err((value_span(&v), format!("`{name}` is a number; expected `{name} = 1.5`"))),
             }
-            (v, _) => {
-                errors.at(value_span(&v), format!("`{name}` is a vector; expected `{name} = [x, y, z]`"));
+        } else {
+            let message = format!(
+                "`{name}` is a time function and cannot be a constant; expected a field `{name}: F` with \
+                 `F: joint_runtime::TimeFunction`"
+            );
+            Err((key.span(), message))
+        };
+        let (values, span) = match checked {
+            Ok(ok) => ok,
+            Err((span, message)) => {
+                errors.at(span, message);
+                add(&mut errors, name, span, origin, None);
                 continue;
             }
         };
         if matches!(role, Role::Axis(_)) && values.iter().all(|&x| x == 0.0) {
-            errors.at(span, format!("`{name}` is an axis and must not be zero"));
+            errors.at(
+                span,
+                format!("`{name}` is an axis and must not be zero; expected a direction, as in `{name} = [0, 0, 1]`"),
+            );
+            add(&mut errors, name, span, origin, None);
             continue;
         }
         if values.iter().any(|x| !x.is_finite()) {
-            errors.at(span, format!("`{name}` must be finite"));
+            errors.at(span, format!("`{name}` must be finite; expected `{name} = [x, y, z]` with finite numbers"));
+            add(&mut errors, name, span, origin, None);
             continue;
         }
-        add(&mut errors, name, span, Source::Const(values, span));
+        add(&mut errors, name, key.span(), origin, Some(Source::Const(values, span)));
     }
 
     // Fields.
     let mut scalar_names: Vec<(String, Span)> = Vec::new();
     let mut unused_fields = Vec::new();
+    let mut time_fields: Vec<syn::Type> = Vec::new();
     for field in fields.into_iter().flatten() {
         let Some(ident) = field.ident.clone() else { continue };
         let mut name = ident.to_string();
@@ -325,56 +420,72 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                     name = arg.key.to_string();
                     span = arg.key.span();
                 }
-                Some(v) => {
-                    errors.at(value_span(&v), format!("expected a parameter name, as in `#[joint({})]`", arg.key))
-                }
+                Some(v) => errors.at(
+                    value_span(&v),
+                    format!(
+                        "a field's `#[joint(...)]` takes a parameter name or `skip`; expected `#[joint({})]`",
+                        arg.key
+                    ),
+                ),
             }
         }
         if skip {
             continue;
         }
         if !accepts(&name) {
-            errors.at(
-                span,
-                format!(
-                    "unknown parameter `{name}` for `{}`; expected one of {} (mark other fields `#[joint(skip)]`)",
-                    kind.name,
-                    expected()
-                ),
-            );
+            unknown.push(Unknown { name, span, field: true });
             continue;
         }
+        let origin = if ident == name {
+            format!("by field `{ident}`")
+        } else {
+            format!("by field `{ident}` (`#[joint({name})]`)")
+        };
+        let role = role_of(&name);
         let want = if name == "d" {
             FieldShape::SlidingFrame
-        } else if role_of(&name) == Role::Scalar {
+        } else if matches!(role, Role::Scalar) {
             FieldShape::Scalar
-        } else {
+        } else if matches!(role, Role::Axis(_) | Role::Point(_)) {
             FieldShape::Vector
+        } else {
+            FieldShape::Time
         };
-        match field_scalar(&field.ty, want) {
-            Some(s) => scalar_names.push((s, field.ty.span())),
-            None => {
-                let shape = match want {
-                    FieldShape::Vector => "Vector3<T>",
-                    FieldShape::Scalar => "T",
-                    FieldShape::SlidingFrame => "SlidingFrame<T>",
-                };
-                errors.at(field.ty.span(), format!("parameter `{name}` has the wrong type; expected `{shape}`"));
-                // Counted as given, so that one mistake gives one message.
-                add(&mut errors, name, span, Source::Const(vec![0.0; 3], span));
-                continue;
+        if want != FieldShape::Time {
+            match field_scalar(&field.ty, want) {
+                Some(s) => scalar_names.push((s, field.ty.span())),
+                None => {
+                    let t = &scalar_name;
+                    let shape = match want {
+                        FieldShape::Vector => format!("Vector3<{t}>"),
+                        FieldShape::Scalar => t.clone(),
+                        _ => format!("SlidingFrame<{t}>"),
+                    };
+                    errors.spanned(&field.ty, format!("parameter `{name}` has the wrong type; expected `{shape}`"));
+                    // Counted as given, so that one mistake gives one message.
+                    add(&mut errors, name, span, origin, None);
+                    continue;
+                }
             }
         }
-        if formulation.is_relative() && matches!(role_of(&name), Role::Point(_)) {
+        if want == FieldShape::Time {
+            time_fields.push(field.ty.clone());
+        }
+        if formulation.is_relative() && matches!(role, Role::Point(_)) {
             unused_fields.push(ident.clone());
         }
-        add(&mut errors, name, span, Source::Field { member: ident, shape: want, span: field.ty.span() });
+        add(&mut errors, name, span, origin, Some(Source::Field { member: ident, shape: want, span: field.ty.span() }));
     }
 
-    // The scalar type.
+    // The scalar: the type parameter the vector fields name (`struct S<T>`), a
+    // concrete float, or, with no such field, a fresh parameter of the impl. Other
+    // type parameters (a time function's type) pass through.
     let type_params: Vec<&syn::TypeParam> = input.generics.type_params().collect();
-    let scalar = match type_params.as_slice() {
-        [t] => {
+    let is_time_type =
+        |t: &syn::TypeParam| time_fields.iter().any(|ty| matches!(ty, syn::Type::Path(p) if p.path.is_ident(&t.ident)));
+    let named = type_params.iter().find(|t| scalar_names.iter().any(|(s, _)| t.ident == s));
+    let scalar = match (named, scalar_names.first()) {
+        (Some(t), _) => {
             for (s, span) in &scalar_names {
                 if t.ident != s {
                     errors.at(*span, format!("expected the struct's scalar `{}` here, found `{s}`", t.ident));
@@ -382,31 +493,30 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             }
             ScalarKind::Generic(t.ident.clone())
         }
-        [] => match scalar_names.first() {
-            None => ScalarKind::Any,
-            Some((s, span)) => {
-                if s != "f64" && s != "f32" {
-                    errors.at(
-                        *span,
-                        format!("unknown scalar `{s}`; make the struct generic (`struct S<T>`) or use `f64` or `f32`"),
-                    );
-                }
-                for (other, span) in &scalar_names[1..] {
-                    if other != s {
-                        errors.at(*span, format!("all fields must use one scalar; expected `{s}`, found `{other}`"));
-                    }
-                }
-                ScalarKind::Concrete(syn::Ident::new(s, *span))
-            }
+        (None, None) => match type_params.as_slice() {
+            [t] if !is_time_type(t) => ScalarKind::Generic(t.ident.clone()),
+            _ => ScalarKind::Any,
         },
-        [_, second, ..] => {
-            errors.at(second.ident.span(), "expected one type parameter, the scalar, as in `struct Cardan<T>`");
-            ScalarKind::Any
+        (None, Some((s, span))) => {
+            if s != "f64" && s != "f32" {
+                errors.at(
+                    *span,
+                    format!("unknown scalar `{s}`; make the struct generic (`struct S<T>`) or use `f64` or `f32`"),
+                );
+            }
+            for (other, span) in &scalar_names[1..] {
+                if other != s {
+                    errors.at(*span, format!("all fields must use one scalar; expected `{s}`, found `{other}`"));
+                }
+            }
+            ScalarKind::Concrete(syn::Ident::new(s, *span))
         }
     };
 
     // The sliding direction `d` of `universal_translational`.
-    let has = |params: &Vec<(String, Source)>, n: &str| params.iter().any(|(x, _)| x == n);
+    let mut sliding_reported = false;
+    let has =
+        |params: &Vec<(String, Source)>, n: &str| params.iter().any(|(x, _)| x == n) || invalid.iter().any(|x| x == n);
     if has(&params, "d") {
         let (b, c) = (has(&params, "b"), has(&params, "c"));
         let d_const = params.iter().find_map(|(n, s)| match s {
@@ -414,8 +524,16 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             _ => None,
         });
         if b != c {
+            // The other of `b`, `c` is then not reported missing as well.
+            sliding_reported = true;
             let span = params.iter().find(|(n, _)| n == "d").map(|(_, s)| source_span(s)).unwrap_or(kind_span);
-            errors.at(span, "give either the sliding direction `d` alone or `b` and `c` both");
+            let (given, other) = if b { ("b", "c") } else { ("c", "b") };
+            errors.at(
+                span,
+                format!(
+                    "`d` with `{given}` but not `{other}`; expected the sliding direction `d` alone, or `b` and `c` both"
+                ),
+            );
         } else if b && c {
             // `d` is then only a check: constant b, c must be perpendicular to constant d.
             if let Some((d, _)) = &d_const {
@@ -426,7 +544,10 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                             errors.at(
                                 *span,
                                 format!(
-                                    "`{axis}` must be perpendicular to the sliding direction `d` (cosine {cos:.3e})"
+                                    "`{axis} = {}` is not perpendicular to the sliding direction `d = {}` \
+                                     (cosine {cos:.3e}); expected `{axis}` ⟂ `d`, or `d` alone",
+                                    list(v),
+                                    list(d)
                                 ),
                             );
                         }
@@ -445,8 +566,11 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
 
     // Every parameter present, in the joint's order.
     let mut ordered = Vec::new();
-    for p in kind.params {
-        let pos = params.iter().position(|(n, _)| n == p.name);
+    let mut missing: Vec<&'static joints::Param> = Vec::new();
+    let d_given = invalid.iter().any(|n| n == "d");
+    for p in kind.params.iter() {
+        let p_name = p.name;
+        let pos = params.iter().position(|(n, _)| n == p_name);
         let from_frame = params.iter().find_map(|(n, s)| match s {
             Source::Field { member, span, shape: FieldShape::SlidingFrame } if n == "d" => {
                 Some((member.clone(), *span))
@@ -454,20 +578,47 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             _ => None,
         });
         match (pos, from_frame) {
-            (Some(i), _) => ordered.push((p.name, params.remove(i).1)),
-            (None, Some((member, span))) if p.name == "b" || p.name == "c" => {
-                ordered.push((p.name, Source::Field { member, shape: FieldShape::SlidingFrame, span }));
+            (Some(i), _) => ordered.push((p_name, params.remove(i).1)),
+            (None, Some((member, span))) if p_name == "b" || p_name == "c" => {
+                ordered.push((p_name, Source::Field { member, shape: FieldShape::SlidingFrame, span }));
             }
             (None, _) if formulation.is_relative() && matches!(p.role, Role::Point(_)) => {}
-            (None, _) => {
-                let hint = match p.role {
-                    Role::Scalar => format!("`{} = 1.0` in `#[joint(...)]` or a field `{}: T`", p.name, p.name),
-                    _ => format!("`{} = [x, y, z]` in `#[joint(...)]` or a field `{}: Vector3<T>`", p.name, p.name),
-                };
-                let also = if p.name == "b" || p.name == "c" { " (or give the sliding direction `d`)" } else { "" };
-                errors.at(kind_span, format!("missing parameter `{}` of `{}`: add {hint}{also}", p.name, kind.name));
-            }
+            // Given but rejected: already reported.
+            (None, _) if invalid.iter().any(|n| n == p_name) => {}
+            (None, _) if (d_given || sliding_reported) && (p_name == "b" || p_name == "c") => {}
+            (None, _) => missing.push(p),
         }
+    }
+
+    // Each unknown name stands for the missing parameter it most resembles (or
+    // the first one still missing), which is then not reported a second time.
+    for u in &unknown {
+        let candidates = || missing.iter().map(|p| p.name);
+        let close_missing = similar(&u.name, candidates());
+        let hint = match close_missing.or_else(|| candidates().next()) {
+            Some(m) => {
+                missing.retain(|p| p.name != m);
+                if close_missing.is_some() { format!(" (did you mean `{m}`?)") } else { format!(" (`{m}` is missing)") }
+            }
+            None => did_you_mean(&u.name, param_names()),
+        };
+        let skip = if u.field { "; mark fields that are not parameters `#[joint(skip)]`" } else { "" };
+        errors.at(
+            u.span,
+            format!("unknown parameter `{}` for `{}`{hint}; expected one of {}{skip}", u.name, kind.name, expected()),
+        );
+    }
+    for p in missing {
+        let t = &scalar_name;
+        let hint = if matches!(p.role, Role::Scalar) {
+            format!("`{} = 1.0` in `#[joint(...)]` or a field `{}: {t}`", p.name, p.name)
+        } else if matches!(p.role, Role::Axis(_) | Role::Point(_)) {
+            format!("`{} = [x, y, z]` in `#[joint(...)]` or a field `{}: Vector3<{t}>`", p.name, p.name)
+        } else {
+            format!("a field `{}: F` with `F: joint_runtime::TimeFunction`", p.name)
+        };
+        let also = if p.name == "b" || p.name == "c" { " (or give the sliding direction `d`)" } else { "" };
+        errors.at(kind_span, format!("missing parameter `{}` of `{}`; add {hint}{also}", p.name, kind.name));
     }
     errors.finish()?;
     Ok(Declaration {
@@ -479,7 +630,45 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         params: ordered,
         scalar,
         unused_fields,
+        time_fields,
     })
+}
+
+/// `[1, 0, 0.5]`.
+fn list(v: &[f64]) -> String {
+    format!("[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "))
+}
+
+/// The edit (Levenshtein) distance of `a` and `b`.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diag = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let next = (diag + usize::from(ca != cb)).min(row[j] + 1).min(row[j + 1] + 1);
+            diag = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+/// The candidate `name` is most likely a misspelling of, if any: at most a third
+/// of the letters differ, and not all of them.
+fn similar<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    candidates
+        .into_iter()
+        .map(|c| (edit_distance(name, c), c))
+        .filter(|&(d, c)| d < c.chars().count() && d <= (name.chars().count().max(c.chars().count()) / 3).max(1))
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, c)| c)
+}
+
+/// " (did you mean `x`?)" or nothing.
+fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> String {
+    similar(name, candidates).map(|c| format!(" (did you mean `{c}`?)")).unwrap_or_default()
 }
 
 fn value_span(v: &Value) -> Span {
@@ -502,6 +691,7 @@ fn field_scalar(ty: &syn::Type, want: FieldShape) -> Option<String> {
     let last = tp.path.segments.last()?;
     match want {
         FieldShape::Scalar => (tp.path.segments.len() == 1 && last.arguments.is_none()).then(|| last.ident.to_string()),
+        FieldShape::Time => None,
         FieldShape::Vector | FieldShape::SlidingFrame => {
             let expect = if want == FieldShape::Vector { "Vector3" } else { "SlidingFrame" };
             if last.ident != expect {

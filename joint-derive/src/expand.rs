@@ -1,6 +1,6 @@
 //! The pipeline: declaration → rows over the graph → Φ, Φ_t, J, γ → Rust.
 
-use proc_macro2::{Literal, Span, TokenStream};
+use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
 
 use crate::dsl::{self, Declaration, FieldShape, ScalarKind, Source};
@@ -32,6 +32,8 @@ pub struct Derived {
     pub gamma: Vec<Id>,
     /// Parameter nodes bound from fields: (member, shape, sub-field, nodes).
     pub bindings: Vec<(syn::Ident, FieldShape, &'static str, Vec<Id>)>,
+    /// The singularity measure, for joints that have one.
+    pub singularity: Option<Id>,
 }
 
 /// Builds Φ from the joint's primitives and derives the rest.
@@ -63,6 +65,7 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
         values.push((name, nodes));
     }
     let mut phi = Vec::new();
+    let singularity;
     {
         let mut lower = Lowering { k: &mut k, values: &values, kind: decl.kind };
         for row in &decl.kind.rows {
@@ -74,6 +77,7 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
                 Row::Scalar(e) => phi.push(lower.expr(e)),
             }
         }
+        singularity = decl.kind.singularity.as_ref().map(|s| lower.expr(&s.measure));
     }
     let mut jacobian = Vec::new();
     let mut gamma = Vec::new();
@@ -84,7 +88,7 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
         gamma.push(d.gamma);
         phi_t.push(d.phi_t);
     }
-    Ok(Derived { k, phi, phi_t, jacobian, gamma, bindings })
+    Ok(Derived { k, phi, phi_t, jacobian, gamma, bindings, singularity })
 }
 
 fn expand(decl: &Declaration) -> syn::Result<TokenStream> {
@@ -113,7 +117,7 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
 
     let function = |outputs: &[Id]| -> (TokenStream, Vec<TokenStream>, usize) {
         let e = emit::emit(&d.k.g, outputs, &sty);
-        let bind = bindings(d, &e.used_vars);
+        let bind = bindings(d, &e.used_vars, &sty);
         let body = e.body;
         (quote!(#bind #body), e.outputs, e.ops)
     };
@@ -145,27 +149,48 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let kind = decl.kind.name;
     let variant = format_ident!("{}", decl.formulation.variant());
     let ident = &decl.ident;
-    let (impl_generics, ty_generics, where_clause) = decl.generics.split_for_impl();
-    let impl_head = match &decl.scalar {
-        ScalarKind::Generic(t) => {
-            let mut generics = decl.generics.clone();
-            generics
-                .make_where_clause()
-                .predicates
-                .push(syn::parse_quote!(#t: #krate::__private::SimdRealField + ::core::marker::Copy));
-            let (ig, _, wc) = generics.split_for_impl();
-            quote!(impl #ig #krate::Joint<#t, #rows_lit, #cols_lit> for #ident #ty_generics #wc)
-        }
-        ScalarKind::Concrete(t) => {
-            quote!(impl #impl_generics #krate::Joint<#t, #rows_lit, #cols_lit> for #ident #ty_generics #where_clause)
-        }
-        ScalarKind::Any => quote!(
-            impl<__JointScalar: #krate::__private::SimdRealField + ::core::marker::Copy>
-                #krate::Joint<__JointScalar, #rows_lit, #cols_lit> for #ident
-        ),
-    };
+    let (_, ty_generics, _) = decl.generics.split_for_impl();
     let touch_unused = decl.unused_fields.iter().map(|f| quote!(let _ = &self.#f;));
     let touch = quote!(#(#touch_unused)*);
+    // The impl's generics: the struct's own, a fresh scalar parameter if the
+    // struct names none, the scalar bound, and a `TimeFunction` bound per driver field.
+    let mut generics = decl.generics.clone();
+    if let ScalarKind::Any = decl.scalar {
+        generics.params.push(syn::parse_quote!(__JointScalar));
+    }
+    {
+        let wc = generics.make_where_clause();
+        if !matches!(decl.scalar, ScalarKind::Concrete(_)) {
+            wc.predicates.push(syn::parse_quote!(#scalar: #krate::__private::SimdRealField + ::core::marker::Copy));
+        }
+        for ty in &decl.time_fields {
+            wc.predicates.push(syn::parse_quote!(#ty: #krate::TimeFunction));
+        }
+    }
+    let (impl_generics, _, where_clause) = generics.split_for_impl();
+    let impl_head =
+        quote!(impl #impl_generics #krate::Joint<#scalar, #rows_lit, #cols_lit> for #ident #ty_generics #where_clause);
+    let singularity_impl = match (d.singularity, &decl.kind.singularity) {
+        (Some(node), Some(s)) => {
+            let (body, out, ops) = function(&[node]);
+            let out = &out[0];
+            let zero_when = format!("Zero when {}.", s.zero_when);
+            let doc = format!(" {ops} operations. {zero_when}");
+            quote! {
+                #[doc = #doc]
+                #[allow(clippy::all, clippy::pedantic, unused_variables, non_snake_case)]
+                #[deny(clippy::panic, clippy::unwrap_used, clippy::indexing_slicing)]
+                impl #impl_generics #krate::Singularity<#scalar, #rows_lit, #cols_lit> for #ident #ty_generics #where_clause {
+                    const ZERO_WHEN: &'static str = #zero_when;
+                    #[inline]
+                    fn singularity(&self, state: &Self::State) -> #scalar {
+                        #touch #body #out
+                    }
+                }
+            }
+        }
+        _ => TokenStream::new(),
+    };
     let doc_ops = format!(
         " Operation counts (binary + − ×): phi {phi_ops}, phi_t {phi_t_ops}, jacobian {jac_ops}, gamma {gamma_ops}, evaluate {eval_ops}."
     );
@@ -202,11 +227,16 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
                 #krate::Evaluation { phi: #ep, jacobian: #ej, gamma: #eg }
             }
         }
+        #singularity_impl
     }
 }
 
 /// `let` statements that destructure exactly the inputs a function reads.
-fn bindings(d: &Derived, used: &std::collections::BTreeSet<crate::engine::graph::VarId>) -> TokenStream {
+fn bindings(
+    d: &Derived,
+    used: &std::collections::BTreeSet<crate::engine::graph::VarId>,
+    sty: &ScalarTy,
+) -> TokenStream {
     let g = &d.k.g;
     let pattern = |nodes: &[Id]| -> Option<TokenStream> {
         let mut any = false;
@@ -225,6 +255,28 @@ fn bindings(d: &Derived, used: &std::collections::BTreeSet<crate::engine::graph:
     };
     let mut out = TokenStream::new();
     for (member, shape, sub, nodes) in &d.bindings {
+        if *shape == FieldShape::Time {
+            // One call of the time function per evaluation, at the state's time.
+            let names: Vec<Option<Ident>> = nodes
+                .iter()
+                .map(|&n| {
+                    g.as_var(n).filter(|v| used.contains(v)).map(|v| format_ident!("{}", g.vars()[v.0 as usize].name))
+                })
+                .collect();
+            if names.iter().all(Option::is_none) {
+                continue;
+            }
+            let drive = format_ident!("{}_drive", member);
+            let (ty, krate) = (&sty.ty, &sty.krate);
+            out.extend(quote!(let #drive = #krate::TimeFunction::eval(&self.#member, state.t);));
+            for (name, field) in names.iter().zip(["value", "rate", "accel"]) {
+                if let Some(name) = name {
+                    let field = format_ident!("{}", field);
+                    out.extend(quote!(let #name: #ty = #krate::__private::convert::<f64, #ty>(#drive.#field);));
+                }
+            }
+            continue;
+        }
         if nodes.len() == 1 {
             if let Some(v) = g.as_var(nodes[0]).filter(|v| used.contains(v)) {
                 let id = format_ident!("{}", g.vars()[v.0 as usize].name);
@@ -308,13 +360,14 @@ impl Lowering<'_> {
                 let (u, w) = (self.vexpr(a), self.vexpr(b));
                 kinematics::dot(&mut self.k.g, u, w)
             }
-            Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) => {
+            Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) | Expr::Div(a, b) => {
                 let (x, y) = (self.expr(a), self.expr(b));
                 let g = &mut self.k.g;
                 match e {
                     Expr::Add(..) => g.add(x, y),
                     Expr::Sub(..) => g.sub(x, y),
-                    _ => g.mul(x, y),
+                    Expr::Mul(..) => g.mul(x, y),
+                    _ => g.div(x, y),
                 }
             }
             Expr::Neg(a) => {
@@ -341,6 +394,7 @@ impl Lowering<'_> {
                 self.k.point(body, p, [r1, r2], &format!("{n}_n"))
             }
             VExpr::Separation => self.separation(),
+            VExpr::Local(n) => self.v3(n),
             VExpr::Add(a, b) | VExpr::Sub(a, b) | VExpr::Cross(a, b) => {
                 let (x, y) = (self.vexpr(a), self.vexpr(b));
                 let g = &mut self.k.g;

@@ -49,6 +49,8 @@ pub enum Expr {
     Sub(Box<Expr>, Box<Expr>),
     /// `a · b`.
     Mul(Box<Expr>, Box<Expr>),
+    /// `a / b` (singularity measures only: rows stay polynomial).
+    Div(Box<Expr>, Box<Expr>),
     /// `−a`.
     Neg(Box<Expr>),
     /// `sin a`.
@@ -64,6 +66,8 @@ pub enum VExpr {
     Axis(String),
     /// A body-fixed point's position.
     Point(String),
+    /// A body-fixed vector in its own body's components (not rotated).
+    Local(String),
     /// The separation `d` of the joint points `rho1`, `rho2`.
     Separation,
     /// `u + v`.
@@ -96,6 +100,18 @@ pub struct JointKind {
     pub params: Vec<Param>,
     /// Its rows, in order.
     pub rows: Vec<Row>,
+    /// A measure of the distance from the configurations where the rows lose
+    /// rank: 1 at the nominal geometry, 0 at the singularity.
+    pub singularity: Option<Singularity>,
+}
+
+/// A generated measure of how far a joint is from losing rank.
+#[derive(Debug)]
+pub struct Singularity {
+    /// The measure.
+    pub measure: Expr,
+    /// The configurations where it is zero, for the docs.
+    pub zero_when: &'static str,
 }
 
 impl JointKind {
@@ -131,7 +147,73 @@ pub fn distance(length: &str) -> Expr {
 }
 
 fn kind(name: &'static str, params: Vec<Param>, rows: Vec<Row>) -> JointKind {
-    JointKind { name, params, rows }
+    JointKind { name, params, rows, singularity: None }
+}
+
+fn b<T>(x: T) -> Box<T> {
+    Box::new(x)
+}
+
+fn norm_sq(v: VExpr) -> Expr {
+    Expr::Dot(b(v.clone()), b(v))
+}
+
+fn cross(u: VExpr, v: VExpr) -> VExpr {
+    VExpr::Cross(b(u), b(v))
+}
+
+fn ax(n: &str) -> VExpr {
+    VExpr::Axis(n.into())
+}
+
+fn local(n: &str) -> VExpr {
+    VExpr::Local(n.into())
+}
+
+/// `|a × b|² / (|a|² |b|²)`: the squared sine of the angle between the axes
+/// (dot-1 rows lose rank when the axes become parallel).
+fn sine_sq(a: &str, c: &str) -> Singularity {
+    let num = norm_sq(cross(ax(a), ax(c)));
+    let den = Expr::Mul(b(norm_sq(local(a))), b(norm_sq(local(c))));
+    Singularity {
+        measure: Expr::Div(b(num), b(den)),
+        zero_when: "the two axes are parallel (for a universal joint: the shaft bend reaches 90°)",
+    }
+}
+
+/// `(h · (f × g))² / (|h|² |f × g|²)`: the squared cosine between `h` and the
+/// normal of `f, g` (the two dot-1 rows lose rank when `h` falls into their plane).
+fn axis_alignment() -> Singularity {
+    let fg = || cross(ax("f"), ax("g"));
+    let t = Expr::Dot(b(ax("h")), b(fg()));
+    let num = Expr::Mul(b(t.clone()), b(t));
+    let den = Expr::Mul(b(norm_sq(local("h"))), b(norm_sq(cross(local("f"), local("g")))));
+    Singularity {
+        measure: Expr::Div(b(num), b(den)),
+        zero_when: "`h` lies in the plane of `f` and `g` (the body-2 axis turned 90° away from the joint axis)",
+    }
+}
+
+/// `det[f × h, g × h, f × k]² / (|f|⁴ |g|² |h|⁴ |k|²)`: the rotational rows of a
+/// joint that locks all three rotations.
+fn rotation_lock() -> Singularity {
+    let (fh, gh, fk) = (cross(ax("f"), ax("h")), cross(ax("g"), ax("h")), cross(ax("f"), ax("k")));
+    let det = Expr::Dot(b(fh), b(cross(gh, fk)));
+    let num = Expr::Mul(b(det.clone()), b(det));
+    let (f2, g2, h2, k2) = (norm_sq(local("f")), norm_sq(local("g")), norm_sq(local("h")), norm_sq(local("k")));
+    let den = Expr::Mul(
+        b(Expr::Mul(b(Expr::Mul(b(f2.clone()), b(f2))), b(g2))),
+        b(Expr::Mul(b(Expr::Mul(b(h2.clone()), b(h2))), b(k2))),
+    );
+    Singularity {
+        measure: Expr::Div(b(num), b(den)),
+        zero_when: "the three rotational rows `f×h, g×h, f×k` become linearly dependent (a half-turn misalignment)",
+    }
+}
+
+fn with(mut k: JointKind, s: Singularity) -> JointKind {
+    k.singularity = Some(s);
+    k
 }
 
 fn with_points(mut params: Vec<Param>) -> Vec<Param> {
@@ -152,41 +234,69 @@ fn build() -> Vec<JointKind> {
     let translational = Expr::Sub(Box::new(dot2("h")), Box::new(Expr::Time("x".into())));
     vec![
         kind("spherical", points().to_vec(), vec![Spherical]),
-        kind("universal", with_points(vec![axis("s", 0), axis("h", 1)]), vec![Spherical, S(dot1("s", "h"))]),
-        kind(
-            "universal_translational",
-            with_points(vec![axis("s", 0), axis("h", 1), axis("b", 0), axis("c", 0)]),
-            vec![S(dot2("b")), S(dot2("c")), S(dot1("s", "h"))],
+        with(
+            kind("universal", with_points(vec![axis("s", 0), axis("h", 1)]), vec![Spherical, S(dot1("s", "h"))]),
+            sine_sq("s", "h"),
         ),
-        kind(
-            "revolute",
-            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1)]),
-            vec![Spherical, S(dot1("f", "h")), S(dot1("g", "h"))],
+        with(
+            kind(
+                "universal_translational",
+                with_points(vec![axis("s", 0), axis("h", 1), axis("b", 0), axis("c", 0)]),
+                vec![S(dot2("b")), S(dot2("c")), S(dot1("s", "h"))],
+            ),
+            sine_sq("s", "h"),
         ),
-        kind(
-            "cylindrical",
-            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1)]),
-            vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("f")), S(dot2("g"))],
+        with(
+            kind(
+                "revolute",
+                with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1)]),
+                vec![Spherical, S(dot1("f", "h")), S(dot1("g", "h"))],
+            ),
+            axis_alignment(),
         ),
-        kind(
-            "translational",
-            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1)]),
-            vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("f")), S(dot2("g")), S(dot1("f", "k"))],
+        with(
+            kind(
+                "cylindrical",
+                with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1)]),
+                vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("f")), S(dot2("g"))],
+            ),
+            axis_alignment(),
         ),
-        kind(
-            "fixed",
-            with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1)]),
-            vec![Spherical, S(dot1("f", "h")), S(dot1("g", "h")), S(dot1("f", "k"))],
+        with(
+            kind(
+                "translational",
+                with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1)]),
+                vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("f")), S(dot2("g")), S(dot1("f", "k"))],
+            ),
+            rotation_lock(),
         ),
-        kind(
-            "planar",
-            with_points(vec![axis("f", 0), axis("g", 0), axis("n", 0), axis("h", 1)]),
-            vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("n"))],
+        with(
+            kind(
+                "fixed",
+                with_points(vec![axis("f", 0), axis("g", 0), axis("h", 1), axis("k", 1)]),
+                vec![Spherical, S(dot1("f", "h")), S(dot1("g", "h")), S(dot1("f", "k"))],
+            ),
+            rotation_lock(),
+        ),
+        with(
+            kind(
+                "planar",
+                with_points(vec![axis("f", 0), axis("g", 0), axis("n", 0), axis("h", 1)]),
+                vec![S(dot1("f", "h")), S(dot1("g", "h")), S(dot2("n"))],
+            ),
+            axis_alignment(),
         ),
         kind("point_on_line", with_points(vec![axis("f", 0), axis("g", 0)]), vec![S(dot2("f")), S(dot2("g"))]),
         kind("point_in_plane", with_points(vec![axis("n", 0)]), vec![S(dot2("n"))]),
-        kind("parallel", vec![axis("f", 0), axis("g", 0), axis("h", 1)], vec![S(dot1("f", "h")), S(dot1("g", "h"))]),
-        kind("perpendicular", vec![axis("s", 0), axis("h", 1)], vec![S(dot1("s", "h"))]),
+        with(
+            kind(
+                "parallel",
+                vec![axis("f", 0), axis("g", 0), axis("h", 1)],
+                vec![S(dot1("f", "h")), S(dot1("g", "h"))],
+            ),
+            axis_alignment(),
+        ),
+        with(kind("perpendicular", vec![axis("s", 0), axis("h", 1)], vec![S(dot1("s", "h"))]), sine_sq("s", "h")),
         kind("distance", with_points(vec![Param { name: "length", role: Role::Scalar }]), vec![S(distance("length"))]),
         kind("rotational_driver", vec![axis("f", 0), axis("g", 0), axis("k", 1), time("theta")], vec![S(rotational)]),
         kind("translational_driver", with_points(vec![axis("h", 0), time("x")]), vec![S(translational)]),

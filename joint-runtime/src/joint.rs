@@ -86,3 +86,16 @@ pub trait Joint<T, const R: usize, const C: usize> {
     /// Φ, J and γ together, sharing every common subexpression.
     fn evaluate(&self, state: &Self::State) -> Evaluation<T, R, C>;
 }
+
+/// A joint whose rows can lose rank, with a generated measure of the distance
+/// from that configuration: 1 at the nominal geometry, 0 at the singularity.
+///
+/// Solvers can watch it and report the singularity instead of returning the
+/// garbage a rank-deficient Jacobian gives.
+pub trait Singularity<T, const R: usize, const C: usize>: Joint<T, R, C> {
+    /// The configurations at which [`Singularity::singularity`] is zero.
+    const ZERO_WHEN: &'static str;
+    /// The measure at `state` (for a universal joint, the squared sine of the
+    /// angle between the yoke axes).
+    fn singularity(&self, state: &Self::State) -> T;
+}

@@ -18,7 +18,7 @@ mod state;
 mod time;
 
 pub use geometry::{SlidingFrame, perpendicular_pair, rotation_matrix};
-pub use joint::{Evaluation, Formulation, Joint, Ops};
+pub use joint::{Evaluation, Formulation, Joint, Ops, Singularity};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};
 

@@ -63,6 +63,13 @@ impl FromJson for Vector4<f64> {
     }
 }
 
+impl FromJson for joint_runtime::Drive {
+    fn from_json(v: &Value) -> Result<Self, String> {
+        let number = |k: &str| field(v, k)?.as_f64().ok_or_else(|| format!("`{k}` is not a number"));
+        Ok(joint_runtime::Drive { value: number("value")?, rate: number("rate")?, accel: number("accel")? })
+    }
+}
+
 impl FromJson for f64 {
     fn from_json(v: &Value) -> Result<Self, String> {
         v.as_f64().ok_or_else(|| "expected a number".to_string())
@@ -136,7 +143,8 @@ where
             .iter()
             .map(|c| {
                 let id = c.get("id").and_then(Value::as_str).unwrap_or("?").to_string();
-                let joint = J::from_json(field(c, "params")?).map_err(|e| format!("{id}: params: {e}"))?;
+                // The whole case: parameters, and a driver's time-function values.
+                let joint = J::from_json(c).map_err(|e| format!("{id}: params: {e}"))?;
                 let state = J::State::from_json(field(c, "state")?).map_err(|e| format!("{id}: state: {e}"))?;
                 Ok((id, joint, state))
             })
@@ -210,14 +218,16 @@ pub fn case_error(case: &Value, got: &Output) -> Result<f64, String> {
             return Err(format!("{what}: {} entries, expected {}", got.len(), want.len()));
         }
         for i in 0..want.len() {
-            let s = scale[i].max(floor);
-            let err = (got[i] - want[i]).abs();
-            if s == 0.0 {
+            // An entry whose scale is 0 is zero for every input: the generated
+            // code must emit an exact zero there (the floor does not apply).
+            if scale[i] == 0.0 {
                 if got[i] != 0.0 || want[i] != 0.0 {
                     return Err(format!("{what}[{i}] should be exactly 0, got {:e}", got[i]));
                 }
                 continue;
             }
+            let s = scale[i].max(floor);
+            let err = (got[i] - want[i]).abs();
             // NaN compares false: count it as infinitely wrong.
             let units = if err.is_nan() { f64::INFINITY } else { err / (EPS * s) };
             worst = worst.max(units);

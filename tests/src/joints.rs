@@ -2,8 +2,8 @@
 
 #![allow(missing_docs)]
 
-use joint_runtime::Joint;
 use joint_runtime::nalgebra::Vector3;
+use joint_runtime::{Drive, Joint};
 use serde_json::Value;
 
 use crate::conformance::{FromJson, Group, Typed};
@@ -13,15 +13,21 @@ macro_rules! one {
         one!($kind, $form, $name, [$($p),*] []);
     };
     ($kind:ident, $form:ident, $name:ident, [$($p:ident),*] [$($sc:ident),*]) => {
+        one!($kind, $form, $name, [$($p),*] [$($sc),*] []);
+    };
+    ($kind:ident, $form:ident, $name:ident, [$($p:ident),*] [$($sc:ident),*] [$($time:ident),*]) => {
         #[derive(Joint, Clone, Debug)]
         #[joint($kind, formulation = $form)]
-        pub struct $name<T> { $(pub $p: Vector3<T>,)* $(pub $sc: T,)* }
+        pub struct $name<T> { $(pub $p: Vector3<T>,)* $(pub $sc: T,)* $(pub $time: Drive,)* }
 
+        /// Built from a whole case: `params`, and `state.drive` for a time function.
         impl FromJson for $name<f64> {
-            fn from_json(v: &Value) -> Result<Self, String> {
+            fn from_json(case: &Value) -> Result<Self, String> {
+                let v = case.get("params").ok_or("missing `params`")?;
                 Ok($name {
                     $($p: FromJson::from_json(v.get(stringify!($p)).ok_or(concat!("missing `", stringify!($p), "`"))?)?,)*
                     $($sc: FromJson::from_json(v.get(stringify!($sc)).ok_or(concat!("missing `", stringify!($sc), "`"))?)?,)*
+                    $($time: FromJson::from_json(case.get("state").and_then(|s| s.get("drive")).ok_or("missing `state.drive`")?)?,)*
                 })
             }
         }
@@ -31,6 +37,7 @@ macro_rules! one {
 macro_rules! declare {
     ($kind:ident $fields:tt => $($name:ident = $form:ident),*) => {$( one!($kind, $form, $name, $fields); )*};
     ($kind:ident $fields:tt $scalars:tt => $($name:ident = $form:ident),*) => {$( one!($kind, $form, $name, $fields $scalars); )*};
+    ($kind:ident $fields:tt $scalars:tt $time:tt => $($name:ident = $form:ident),*) => {$( one!($kind, $form, $name, $fields $scalars $time); )*};
 }
 
 declare!(spherical [rho1, rho2] =>
@@ -64,6 +71,11 @@ declare!(perpendicular [s, h] =>
     PerpendicularEuler = euler, PerpendicularOmegaInertial = omega_inertial, PerpendicularOmegaBody = omega_body, PerpendicularRelativeB1 = relative_b1, PerpendicularRelativeB2 = relative_b2);
 declare!(distance [rho1, rho2] [length] =>
     DistanceEuler = euler, DistanceOmegaInertial = omega_inertial, DistanceOmegaBody = omega_body, DistanceRelativeB1 = relative_b1, DistanceRelativeB2 = relative_b2);
+
+declare!(rotational_driver [f, g, k] [] [theta] =>
+    RotationalDriverEuler = euler, RotationalDriverOmegaInertial = omega_inertial, RotationalDriverOmegaBody = omega_body, RotationalDriverRelativeB1 = relative_b1, RotationalDriverRelativeB2 = relative_b2);
+declare!(translational_driver [h, rho1, rho2] [] [x] =>
+    TranslationalDriverEuler = euler, TranslationalDriverOmegaInertial = omega_inertial, TranslationalDriverOmegaBody = omega_body, TranslationalDriverRelativeB1 = relative_b1, TranslationalDriverRelativeB2 = relative_b2);
 
 fn boxed<G: Group + 'static>(g: Result<G, String>) -> Option<Result<Box<dyn Group>, String>> {
     Some(g.map(|g| Box::new(g) as Box<dyn Group>))
@@ -145,5 +157,15 @@ pub fn group(joint: &str, formulation: &str, cases: &[&Value]) -> Option<Result<
         ("distance", "omega_body") => DistanceOmegaBody,
         ("distance", "relative_b1") => DistanceRelativeB1,
         ("distance", "relative_b2") => DistanceRelativeB2,
+        ("rotational_driver", "euler") => RotationalDriverEuler,
+        ("rotational_driver", "omega_inertial") => RotationalDriverOmegaInertial,
+        ("rotational_driver", "omega_body") => RotationalDriverOmegaBody,
+        ("rotational_driver", "relative_b1") => RotationalDriverRelativeB1,
+        ("rotational_driver", "relative_b2") => RotationalDriverRelativeB2,
+        ("translational_driver", "euler") => TranslationalDriverEuler,
+        ("translational_driver", "omega_inertial") => TranslationalDriverOmegaInertial,
+        ("translational_driver", "omega_body") => TranslationalDriverOmegaBody,
+        ("translational_driver", "relative_b1") => TranslationalDriverRelativeB1,
+        ("translational_driver", "relative_b2") => TranslationalDriverRelativeB2,
     }
 }

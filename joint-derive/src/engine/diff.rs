@@ -77,6 +77,14 @@ impl TimeRules {
                     let r = g.mul(a, db);
                     g.add(l, r)
                 }
+                Node::Div(a, b) => {
+                    // (a/b)' = (a' − (a/b) b') / b
+                    let (da, db) = (self.dt(g, a), self.dt(g, b));
+                    let q = g.div(a, b);
+                    let m = g.mul(q, db);
+                    let n = g.sub(da, m);
+                    g.div(n, b)
+                }
                 Node::Neg(a) => {
                     let da = self.dt(g, a);
                     g.neg(da)
@@ -146,6 +154,18 @@ pub fn grad(g: &mut Graph, root: Id, wrt: &[Id]) -> Vec<Id> {
                 }
                 if g.mask(b) & wanted != 0 {
                     let c = g.mul(bar, a);
+                    push(g, b, c);
+                }
+            }
+            Node::Div(a, b) => {
+                let over = g.div(bar, b);
+                if g.mask(a) & wanted != 0 {
+                    push(g, a, over);
+                }
+                if g.mask(b) & wanted != 0 {
+                    let q = g.div(a, b);
+                    let m = g.mul(over, q);
+                    let c = g.neg(m);
                     push(g, b, c);
                 }
             }

@@ -47,7 +47,7 @@ pub fn reachable(g: &Graph, outputs: &[Id]) -> Vec<Id> {
             continue;
         }
         match g.node(Id(i as u32)) {
-            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
                 live[a.index()] = true;
                 live[b.index()] = true;
             }
@@ -86,7 +86,7 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     let mut uses: HashMap<Id, usize> = HashMap::new();
     for &id in &nodes {
         match g.node(id) {
-            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
                 *uses.entry(a).or_default() += 1;
                 *uses.entry(b).or_default() += 1;
             }
@@ -161,6 +161,12 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
                 // −(a · b) = (−a) · b
                 Ex { pos: (quote!(#l * #r), 2), neg: (quote!(#ln * #r), 2) }
             }
+            Node::Div(a, b) => {
+                ops += 1;
+                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (l, r, ln) = (paren(&ea.pos, 2), paren(&eb.pos, 3), paren(&ea.neg, 2));
+                Ex { pos: (quote!(#l / #r), 2), neg: (quote!(#ln / #r), 2) }
+            }
             Node::Neg(a) => {
                 let ea = &exprs[&a];
                 Ex { pos: ea.neg.clone(), neg: ea.pos.clone() }
@@ -172,8 +178,11 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
             }
         };
         let shared = uses.get(&id).copied().unwrap_or(0) > 1;
-        let bind =
-            shared && matches!(node, Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Sin(_) | Node::Cos(_));
+        let bind = shared
+            && matches!(
+                node,
+                Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..) | Node::Sin(_) | Node::Cos(_)
+            );
         if bind {
             let base = match g.hint_of(id) {
                 Some(h) => h.to_string(),

@@ -36,6 +36,8 @@ pub enum Node {
     Sub(Id, Id),
     /// `a * b`, with `a <= b`; a constant factor comes first.
     Mul(Id, Id),
+    /// `a / b`.
+    Div(Id, Id),
     /// `-a`: free in the operation count.
     Neg(Id),
     /// `sin a`.
@@ -86,7 +88,10 @@ impl Graph {
     /// Gives a node a readable name for emission; the first name given wins, and
     /// variables and constants keep their own.
     pub fn hint(&mut self, id: Id, name: impl Into<String>) {
-        if matches!(self.node(id), Node::Mul(..) | Node::Add(..) | Node::Sub(..) | Node::Sin(_) | Node::Cos(_)) {
+        if matches!(
+            self.node(id),
+            Node::Mul(..) | Node::Div(..) | Node::Add(..) | Node::Sub(..) | Node::Sin(_) | Node::Cos(_)
+        ) {
             self.hints.entry(id).or_insert_with(|| name.into());
         }
     }
@@ -166,7 +171,7 @@ impl Graph {
         let mask = match node {
             Node::Const(_) => 0,
             Node::Var(v) => self.var_mask(v),
-            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => self.mask(a) | self.mask(b),
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => self.mask(a) | self.mask(b),
             Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => self.mask(a),
         };
         let id = Id(self.nodes.len() as u32);
@@ -348,6 +353,24 @@ impl Graph {
         self.mul(k, x)
     }
 
+    /// `a / b` (only `b = 1` and constant operands are simplified: a division is
+    /// never turned into a multiplication by a rounded reciprocal).
+    pub fn div(&mut self, a: Id, b: Id) -> Id {
+        if let (Some(x), Some(y)) = (self.as_const(a), self.as_const(b)) {
+            return self.constant(x / y);
+        }
+        if self.is_const(b, 1.0) {
+            return a;
+        }
+        if self.is_const(a, 0.0) {
+            return a;
+        }
+        let (sa, ma) = self.unsign(a);
+        let (sb, mb) = self.unsign(b);
+        let q = self.intern(Node::Div(ma, mb));
+        if sa != sb { self.neg(q) } else { q }
+    }
+
     /// `sin a`.
     pub fn sin(&mut self, a: Id) -> Id {
         match self.as_const(a) {
@@ -385,6 +408,7 @@ impl Graph {
                 Node::Add(a, b) => values[a.index()] + values[b.index()],
                 Node::Sub(a, b) => values[a.index()] - values[b.index()],
                 Node::Mul(a, b) => values[a.index()] * values[b.index()],
+                Node::Div(a, b) => values[a.index()] / values[b.index()],
                 Node::Neg(a) => -values[a.index()],
                 Node::Sin(a) => values[a.index()].sin(),
                 Node::Cos(a) => values[a.index()].cos(),

@@ -1,3 +1,0 @@
-//! The main example.
-
-fn main() {}

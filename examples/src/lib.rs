@@ -1,0 +1,1 @@
+//! Examples of `joint-runtime`; run them with `cargo run --release --example NAME`.

@@ -1,0 +1,12 @@
+use joint_runtime::Joint;
+use joint_runtime::nalgebra::Vector3;
+
+#[derive(Joint)]
+#[joint(spherical, formulation = euler)]
+struct Ball<T> {
+    rho1: Vector3<T>,
+    #[joint(rho3)]
+    point: Vector3<T>,
+}
+
+fn main() {}
