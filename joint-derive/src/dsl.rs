@@ -23,6 +23,10 @@ pub enum Value {
     Number(f64, Span),
     /// `[x, y, z]`.
     List(Vec<f64>, Span),
+    /// `rows(e1, e2, ...)`: user-written rows.
+    Rows(Vec<syn::Expr>, Span),
+    /// `body1(s = [..], ...)`: constants tagged with a body.
+    Group(Vec<Arg>, Span),
 }
 
 /// One item of `#[joint(...)]`.
@@ -48,6 +52,18 @@ fn number(input: ParseStream) -> syn::Result<(f64, Span)> {
 impl Parse for Arg {
     fn parse(input: ParseStream) -> syn::Result<Self> {
         let key: syn::Ident = input.parse()?;
+        if input.peek(syn::token::Paren) {
+            let content;
+            let paren = syn::parenthesized!(content in input);
+            let value = if key == "rows" {
+                let rows = Punctuated::<syn::Expr, Token![,]>::parse_terminated(&content)?;
+                Value::Rows(rows.into_iter().collect(), paren.span.join())
+            } else {
+                let args = Punctuated::<Arg, Token![,]>::parse_terminated(&content)?;
+                Value::Group(args.into_iter().collect(), paren.span.join())
+            };
+            return Ok(Arg { key, value: Some(value) });
+        }
         if input.parse::<Option<Token![=]>>()?.is_none() {
             return Ok(Arg { key, value: None });
         }
@@ -95,8 +111,11 @@ pub enum FieldShape {
     Vector,
     /// `T`.
     Scalar,
-    /// `SlidingFrame<T>` (only for `d`).
-    SlidingFrame,
+    /// `AxisFrame<T>` (or its alias `SlidingFrame<T>`): an axis given instead of
+    /// the vectors derived from it (`axis1`, `axis2`, `d`).
+    Frame,
+    /// One part of an `AxisFrame` field, standing for a derived parameter.
+    FramePart(joints::Part),
     /// Any type implementing `joint_runtime::TimeFunction` (a driver's time function).
     Time,
 }
@@ -131,6 +150,10 @@ pub struct Declaration {
     pub unused_fields: Vec<syn::Ident>,
     /// Types of the time-function fields (each gets a `TimeFunction` bound).
     pub time_fields: Vec<syn::Type>,
+    /// The span of each row of a user-written joint (empty for catalogue joints).
+    pub row_spans: Vec<Span>,
+    /// The span of the joint kind (or of `rows`).
+    pub kind_span: Span,
 }
 
 /// Collects errors so that one run reports every mistake (after serde's `Ctxt`).
@@ -222,6 +245,9 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     let mut formulation_given = false;
     let mut ground = (Ground::None, Span::call_site(), String::new());
     let mut consts: Vec<(syn::Ident, Value)> = Vec::new();
+    let mut rows: Option<(Vec<syn::Expr>, Span)> = None;
+    let mut tagged: Vec<(String, Role)> = Vec::new();
+    let mut row_spans: Vec<Span> = Vec::new();
     let args = joint_args(&input.attrs, &mut errors);
     if args.is_empty() && errors.0.is_empty() {
         errors.at(
@@ -287,7 +313,44 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                 let example = if name == "ground" { "body1" } else { "omega_body" };
                 errors.at(value_span(&v), format!("expected a name, as in `{name} = {example}`"))
             }
+            ("rows", Some(Value::Rows(exprs, _))) => {
+                kind_given = true;
+                if rows.is_some() {
+                    errors.at(arg.key.span(), "`rows(...)` is given twice; expected one list of rows");
+                }
+                rows = Some((exprs, arg.key.span()));
+            }
+            (tag @ ("body1" | "body2" | "point1" | "point2"), Some(Value::Group(items, _))) => {
+                let role = tag_role(tag);
+                for item in items {
+                    match item.value {
+                        Some(v @ Value::List(..)) => {
+                            tagged.push((item.key.to_string(), role));
+                            consts.push((item.key, v));
+                        }
+                        _ => errors.at(item.key.span(), format!("expected a vector, as in `{tag}({} = [0, 0, 1])`", item.key)),
+                    }
+                }
+            }
+            (_, Some(v @ (Value::Rows(..) | Value::Group(..)))) => errors.at(
+                value_span(&v),
+                format!("unknown group `{name}(...)`; expected `rows(...)`, `body1(...)`, `body2(...)`, `point1(...)` or `point2(...)`"),
+            ),
             (_, Some(v)) => consts.push((arg.key, v)),
+        }
+    }
+    // User-written rows: the joint is described by the declaration itself.
+    if let Some((exprs, span)) = rows {
+        match kind {
+            Some((k, _)) => errors.at(
+                span,
+                format!("a joint is either a catalogue joint or `rows(...)`; remove `rows(...)` or `{}`", k.name),
+            ),
+            None => {
+                let (custom, spans) = custom_kind(&exprs, &tagged, &consts, fields, &mut errors);
+                kind = Some((custom, span));
+                row_spans = spans;
+            }
         }
     }
     let Some((kind, kind_span)) = kind else {
@@ -324,14 +387,18 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         );
     }
 
-    // Which parameters this joint takes; `d` stands in for `b, c` where allowed.
-    let accepts = |name: &str| kind.param(name).is_some() || (name == "d" && kind.param("b").is_some());
-    let role_of = |name: &str| kind.param(name).map(|p| p.role).unwrap_or(Role::Axis(0));
+    // Which parameters this joint takes; an axis (`axis1`, `axis2`, `d`) stands
+    // in for the vectors derived from it.
+    let accepts = |name: &str| kind.param(name).is_some() || kind.derivation(name).is_some();
+    let role_of = |name: &str| {
+        kind.param(name)
+            .map(|p| p.role)
+            .or_else(|| kind.derivation(name).map(|d| Role::Axis(d.body)))
+            .unwrap_or(Role::Axis(0))
+    };
     let param_names = || {
         let mut names: Vec<&'static str> = kind.params.iter().map(|p| p.name).collect();
-        if kind.param("b").is_some() {
-            names.push("d");
-        }
+        names.extend(kind.derivations.iter().map(|d| d.source));
         names
     };
     let expected = || param_names().iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
@@ -416,6 +483,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         for arg in joint_args(&field.attrs, &mut errors) {
             match arg.value {
                 None if arg.key == "skip" => skip = true,
+                // A role tag of a user-written joint, read by `custom_kind`.
+                None if kind.name == CUSTOM && TAGS.iter().any(|t| arg.key == t) => {}
                 None => {
                     name = arg.key.to_string();
                     span = arg.key.span();
@@ -442,8 +511,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             format!("by field `{ident}` (`#[joint({name})]`)")
         };
         let role = role_of(&name);
-        let want = if name == "d" {
-            FieldShape::SlidingFrame
+        let want = if kind.derivation(&name).is_some() {
+            FieldShape::Frame
         } else if matches!(role, Role::Scalar) {
             FieldShape::Scalar
         } else if matches!(role, Role::Axis(_) | Role::Point(_)) {
@@ -459,7 +528,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                     let shape = match want {
                         FieldShape::Vector => format!("Vector3<{t}>"),
                         FieldShape::Scalar => t.clone(),
-                        _ => format!("SlidingFrame<{t}>"),
+                        _ => format!("AxisFrame<{t}>"),
                     };
                     errors.spanned(&field.ty, format!("parameter `{name}` has the wrong type; expected `{shape}`"));
                     // Counted as given, so that one mistake gives one message.
@@ -513,80 +582,132 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         }
     };
 
-    // The sliding direction `d` of `universal_translational`.
-    let mut sliding_reported = false;
+    // Axes given instead of the vectors derived from them (`axis1 → f, g`,
+    // `d → b, c`, ...). A constant axis is resolved now, by the rule of
+    // `joint_runtime::perpendicular_pair`; a field is read through its parts.
     let has =
         |params: &Vec<(String, Source)>, n: &str| params.iter().any(|(x, _)| x == n) || invalid.iter().any(|x| x == n);
-    if has(&params, "d") {
-        let (b, c) = (has(&params, "b"), has(&params, "c"));
-        let d_const = params.iter().find_map(|(n, s)| match s {
-            Source::Const(v, span) if n == "d" => Some((v.clone(), *span)),
-            _ => None,
-        });
-        if b != c {
-            // The other of `b`, `c` is then not reported missing as well.
-            sliding_reported = true;
-            let span = params.iter().find(|(n, _)| n == "d").map(|(_, s)| source_span(s)).unwrap_or(kind_span);
-            let (given, other) = if b { ("b", "c") } else { ("c", "b") };
+    // Derived parameters whose absence is explained by an error already reported.
+    let mut excused: Vec<&'static str> = Vec::new();
+    for der in &kind.derivations {
+        if !has(&params, der.source) {
+            continue;
+        }
+        let source_span =
+            params.iter().find(|(n, _)| n == der.source).map(|(_, s)| source_span(s)).unwrap_or(kind_span);
+        let given: Vec<&'static str> = der.outputs.iter().map(|(o, _)| *o).filter(|o| has(&params, o)).collect();
+        let all: Vec<&'static str> = der.outputs.iter().map(|(o, _)| *o).collect();
+        if !given.is_empty() && given.len() < all.len() {
+            excused.extend(all.iter().copied());
+            let list = |v: &[&str]| v.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
             errors.at(
-                span,
+                source_span,
                 format!(
-                    "`d` with `{given}` but not `{other}`; expected the sliding direction `d` alone, or `b` and `c` both"
+                    "`{}` with {} but not {}; expected the axis `{}` alone, or {} all",
+                    der.source,
+                    list(&given),
+                    list(&all.iter().copied().filter(|o| !given.contains(o)).collect::<Vec<_>>()),
+                    der.source,
+                    list(&all)
                 ),
             );
-        } else if b && c {
-            // `d` is then only a check: constant b, c must be perpendicular to constant d.
-            if let Some((d, _)) = &d_const {
-                for axis in ["b", "c"] {
-                    if let Some((_, Source::Const(v, span))) = params.iter().find(|(n, _)| n == axis) {
-                        let cos = dot3(v, d) / (norm3(v) * norm3(d));
+            continue;
+        }
+        let source_const = params.iter().find_map(|(n, s)| match s {
+            Source::Const(v, span) if n == der.source => Some((v.clone(), *span)),
+            _ => None,
+        });
+        let source_field = params.iter().find_map(|(n, s)| match s {
+            Source::Field { member, span, shape: FieldShape::Frame } if n == der.source => {
+                Some((member.clone(), *span))
+            }
+            _ => None,
+        });
+        if !given.is_empty() {
+            // Every derived vector given as well: the axis is then only a check,
+            // constant perpendicular parts must be perpendicular to a constant axis.
+            if let Some((a, _)) = &source_const {
+                for (out, part) in &der.outputs {
+                    if *part == joints::Part::Axis {
+                        continue;
+                    }
+                    if let Some((_, Source::Const(v, span))) = params.iter().find(|(n, _)| n == out) {
+                        let cos = dot3(v, a) / (norm3(v) * norm3(a));
                         if cos.abs() > 1e-12 {
                             errors.at(
                                 *span,
                                 format!(
-                                    "`{axis} = {}` is not perpendicular to the sliding direction `d = {}` \
-                                     (cosine {cos:.3e}); expected `{axis}` ⟂ `d`, or `d` alone",
+                                    "`{out} = {}` is not perpendicular to `{} = {}` (cosine {cos:.3e}); \
+                                     expected `{out}` ⟂ `{}`, or `{}` alone",
                                     list(v),
-                                    list(d)
+                                    der.source,
+                                    list(a),
+                                    der.source,
+                                    der.source
                                 ),
                             );
                         }
                     }
                 }
             }
-            params.retain(|(n, _)| n != "d");
-        } else if let Some((d, span)) = d_const {
-            // Constant `d`: choose b, c now, by the rule of `joint_runtime::perpendicular_pair`.
-            params.retain(|(n, _)| n != "d");
-            let (b, c) = perpendicular_pair(&d);
-            params.push(("b".into(), Source::Const(b.to_vec(), span)));
-            params.push(("c".into(), Source::Const(c.to_vec(), span)));
+        } else if let Some((a, span)) = source_const {
+            let (b, c) = perpendicular_pair(&a);
+            for (out, part) in &der.outputs {
+                let v = match part {
+                    joints::Part::Axis => a.clone(),
+                    joints::Part::First => b.to_vec(),
+                    joints::Part::Second => c.to_vec(),
+                };
+                params.push(((*out).into(), Source::Const(v, span)));
+            }
+        } else if let Some((member, span)) = source_field {
+            for (out, part) in &der.outputs {
+                params.push((
+                    (*out).into(),
+                    Source::Field { member: member.clone(), shape: FieldShape::FramePart(*part), span },
+                ));
+            }
+        } else {
+            // Given but rejected (wrong type): already reported.
+            excused.extend(all.iter().copied());
+        }
+        params.retain(|(n, _)| n != der.source);
+    }
+
+    // Constant vectors of one body that must be perpendicular.
+    for (a, b) in &kind.perpendicular {
+        let constant = |n: &str| {
+            params.iter().find_map(|(x, s)| match s {
+                Source::Const(v, span) if x == n => Some((v.clone(), *span)),
+                _ => None,
+            })
+        };
+        if let (Some((va, _)), Some((vb, span))) = (constant(a), constant(b)) {
+            let cos = dot3(&va, &vb) / (norm3(&va) * norm3(&vb));
+            if cos.abs() > 1e-12 {
+                errors.at(
+                    span,
+                    format!(
+                        "`{b} = {}` must be perpendicular to `{a} = {}` (cosine {cos:.3e}); expected `{a}` ⟂ `{b}`",
+                        list(&vb),
+                        list(&va)
+                    ),
+                );
+            }
         }
     }
 
     // Every parameter present, in the joint's order.
     let mut ordered = Vec::new();
     let mut missing: Vec<&'static joints::Param> = Vec::new();
-    let d_given = invalid.iter().any(|n| n == "d");
     for p in kind.params.iter() {
         let p_name = p.name;
-        let pos = params.iter().position(|(n, _)| n == p_name);
-        let from_frame = params.iter().find_map(|(n, s)| match s {
-            Source::Field { member, span, shape: FieldShape::SlidingFrame } if n == "d" => {
-                Some((member.clone(), *span))
-            }
-            _ => None,
-        });
-        match (pos, from_frame) {
-            (Some(i), _) => ordered.push((p_name, params.remove(i).1)),
-            (None, Some((member, span))) if p_name == "b" || p_name == "c" => {
-                ordered.push((p_name, Source::Field { member, shape: FieldShape::SlidingFrame, span }));
-            }
-            (None, _) if formulation.is_relative() && matches!(p.role, Role::Point(_)) => {}
-            // Given but rejected: already reported.
-            (None, _) if invalid.iter().any(|n| n == p_name) => {}
-            (None, _) if (d_given || sliding_reported) && (p_name == "b" || p_name == "c") => {}
-            (None, _) => missing.push(p),
+        match params.iter().position(|(n, _)| n == p_name) {
+            Some(i) => ordered.push((p_name, params.remove(i).1)),
+            None if formulation.is_relative() && matches!(p.role, Role::Point(_)) => {}
+            // Given but rejected, or explained by an error about its axis: already reported.
+            None if invalid.iter().any(|n| n == p_name) || excused.contains(&p_name) => {}
+            None => missing.push(p),
         }
     }
 
@@ -617,7 +738,10 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         } else {
             format!("a field `{}: F` with `F: joint_runtime::TimeFunction`", p.name)
         };
-        let also = if p.name == "b" || p.name == "c" { " (or give the sliding direction `d`)" } else { "" };
+        let also = match kind.derived_from(p.name) {
+            Some(der) => format!(" (or give the axis `{}`)", der.source),
+            None => String::new(),
+        };
         errors.at(kind_span, format!("missing parameter `{}` of `{}`; add {hint}{also}", p.name, kind.name));
     }
     errors.finish()?;
@@ -631,6 +755,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         scalar,
         unused_fields,
         time_fields,
+        row_spans,
+        kind_span,
     })
 }
 
@@ -674,8 +800,127 @@ fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -
 fn value_span(v: &Value) -> Span {
     match v {
         Value::Ident(i) => i.span(),
-        Value::Number(_, s) | Value::List(_, s) => *s,
+        Value::Number(_, s) | Value::List(_, s) | Value::Rows(_, s) | Value::Group(_, s) => *s,
     }
+}
+
+/// The kind name of a joint declared by `rows(...)`.
+pub const CUSTOM: &str = "custom";
+
+/// Field tags of a user-written joint.
+const TAGS: [&str; 5] = ["body1", "body2", "point1", "point2", "time"];
+
+fn tag_role(tag: &str) -> Role {
+    match tag {
+        "body1" => Role::Axis(0),
+        "body2" => Role::Axis(1),
+        "point1" => Role::Point(0),
+        "point2" => Role::Point(1),
+        _ => Role::Time,
+    }
+}
+
+/// The joint a `rows(...)` declaration describes: its parameters (with roles from
+/// the tags, `rho1`/`rho2` as the joint points, untagged scalar fields and
+/// numbers as scalars) and its rows, checked. Leaked to `'static`: a few bytes
+/// per derive, and it keeps a user joint the same type as a catalogue one.
+fn custom_kind(
+    exprs: &[syn::Expr],
+    tagged: &[(String, Role)],
+    consts: &[(syn::Ident, Value)],
+    fields: Option<&Punctuated<syn::Field, Token![,]>>,
+    errors: &mut Errors,
+) -> (&'static JointKind, Vec<Span>) {
+    let mut params: Vec<joints::Param> = Vec::new();
+    let mut add = |name: &str, role: Role| {
+        if !params.iter().any(|p| p.name == name) {
+            params.push(joints::Param { name: Box::leak(name.to_string().into_boxed_str()), role });
+        }
+    };
+    let point = |name: &str| match name {
+        "rho1" => Some(Role::Point(0)),
+        "rho2" => Some(Role::Point(1)),
+        _ => None,
+    };
+    for (name, role) in tagged {
+        add(name, *role);
+    }
+    for (key, value) in consts {
+        let name = key.to_string();
+        if tagged.iter().any(|(n, _)| *n == name) {
+            continue;
+        }
+        match (point(&name), value) {
+            (Some(role), _) => add(&name, role),
+            (None, Value::Number(..)) => add(&name, Role::Scalar),
+            (None, Value::List(..)) => errors.at(
+                key.span(),
+                format!("tag the body of `{name}`: `body1({name} = [..])`, `body2(..)`, `point1(..)` or `point2(..)`"),
+            ),
+            _ => {}
+        }
+    }
+    for field in fields.into_iter().flatten() {
+        let Some(ident) = &field.ident else { continue };
+        let mut name = ident.to_string();
+        let mut role = None;
+        let mut skip = false;
+        for attr in field.attrs.iter().filter(|a| a.path().is_ident("joint")) {
+            let Ok(args) = attr.parse_args_with(Punctuated::<Arg, Token![,]>::parse_terminated) else { continue };
+            for arg in args {
+                let key = arg.key.to_string();
+                if key == "skip" {
+                    skip = true;
+                } else if TAGS.contains(&key.as_str()) {
+                    role = Some(tag_role(&key));
+                } else if arg.value.is_none() {
+                    name = key;
+                }
+            }
+        }
+        if skip {
+            continue;
+        }
+        let is_vector =
+            matches!(&field.ty, syn::Type::Path(p) if p.path.segments.last().is_some_and(|s| s.ident == "Vector3"));
+        match role.or_else(|| point(&name)) {
+            Some(r) => add(&name, r),
+            None if is_vector => errors.at(
+                ident.span(),
+                format!("tag the body of `{name}`: `#[joint(body1)]`, `#[joint(body2)]`, `#[joint(point1)]` or `#[joint(point2)]`"),
+            ),
+            None => add(&name, Role::Scalar),
+        }
+    }
+    let mut rows = Vec::new();
+    let mut spans = Vec::new();
+    let missing_points: Vec<&'static str> = {
+        let role = |n: &str| params.iter().find(|p| p.name == n).map(|p| p.role);
+        let names = crate::rows::Names { role: &role };
+        for e in exprs {
+            match crate::rows::row(e, &names) {
+                Ok(r) => {
+                    rows.push(r);
+                    spans.push(e.span());
+                }
+                Err(err) => errors.push(err),
+            }
+        }
+        let uses_d = rows.iter().any(crate::rows::uses_separation);
+        ["rho1", "rho2"].into_iter().filter(|p| uses_d && role(p).is_none()).collect()
+    };
+    // `d` (or `spherical`, `dot2`) needs the joint points; they are then required
+    // parameters, reported missing like any other.
+    for p in missing_points {
+        params.push(joints::Param { name: p, role: point(p).unwrap_or(Role::Point(0)) });
+    }
+    if exprs.is_empty() {
+        errors
+            .at(Span::call_site(), "`rows()` is empty; expected at least one row, as in `rows(spherical, dot1(s, h))`");
+    }
+    let kind =
+        JointKind { name: CUSTOM, params, rows, derivations: Vec::new(), perpendicular: Vec::new(), singularity: None };
+    (Box::leak(Box::new(kind)), spans)
 }
 
 fn source_span(s: &Source) -> Span {
@@ -692,9 +937,11 @@ fn field_scalar(ty: &syn::Type, want: FieldShape) -> Option<String> {
     match want {
         FieldShape::Scalar => (tp.path.segments.len() == 1 && last.arguments.is_none()).then(|| last.ident.to_string()),
         FieldShape::Time => None,
-        FieldShape::Vector | FieldShape::SlidingFrame => {
-            let expect = if want == FieldShape::Vector { "Vector3" } else { "SlidingFrame" };
-            if last.ident != expect {
+        FieldShape::FramePart(_) => None,
+        FieldShape::Vector | FieldShape::Frame => {
+            let expect: &[&str] =
+                if want == FieldShape::Vector { &["Vector3"] } else { &["AxisFrame", "SlidingFrame"] };
+            if !expect.iter().any(|e| last.ident == e) {
                 return None;
             }
             let syn::PathArguments::AngleBracketed(args) = &last.arguments else { return None };

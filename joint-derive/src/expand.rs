@@ -6,6 +6,7 @@ use quote::{format_ident, quote};
 use crate::dsl::{self, Declaration, FieldShape, ScalarKind, Source};
 use crate::engine::Id;
 use crate::engine::emit::{self, ScalarTy};
+use crate::engine::graph::Node;
 use crate::joints::{Expr, JointKind, Role, Row, VExpr};
 use crate::kinematics::{self, Formulation, Ground, Kinematics, V3};
 
@@ -56,7 +57,10 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
                     vec![n]
                 } else {
                     let n: Vec<Id> = ["x", "y", "z"].iter().map(|c| k.g.param(format!("{name}_{c}"))).collect();
-                    let sub = if *shape == FieldShape::SlidingFrame { name } else { "" };
+                    let sub = match shape {
+                        FieldShape::FramePart(part) => part.field(),
+                        _ => "",
+                    };
                     bindings.push((member.clone(), *shape, sub, n.clone()));
                     n
                 }
@@ -65,30 +69,72 @@ pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
         values.push((name, nodes));
     }
     let mut phi = Vec::new();
+    let mut spans: Vec<Span> = Vec::new();
     let singularity;
     {
         let mut lower = Lowering { k: &mut k, values: &values, kind: decl.kind };
-        for row in &decl.kind.rows {
+        for (i, row) in decl.kind.rows.iter().enumerate() {
+            let span = decl.row_spans.get(i).copied().unwrap_or(decl.kind_span);
+            let before = phi.len();
             match row {
                 Row::Spherical => {
                     let d = lower.separation();
                     phi.extend(d);
                 }
                 Row::Scalar(e) => phi.push(lower.expr(e)),
+                Row::Vector(v) => {
+                    let x = lower.vexpr(v);
+                    phi.extend(x);
+                }
             }
+            spans.extend(std::iter::repeat_n(span, phi.len() - before));
         }
         singularity = decl.kind.singularity.as_ref().map(|s| lower.expr(&s.measure));
     }
+    check_rows(&k, &phi, &spans)?;
     let mut jacobian = Vec::new();
     let mut gamma = Vec::new();
     let mut phi_t = Vec::new();
-    for &row in &phi {
-        let d = k.derive_row(row).map_err(|m| syn::Error::new(Span::call_site(), m))?;
+    for (&row, &span) in phi.iter().zip(&spans) {
+        let d = k.derive_row(row).map_err(|m| syn::Error::new(span, m))?;
         jacobian.push(d.jacobian);
         gamma.push(d.gamma);
         phi_t.push(d.phi_t);
     }
     Ok(Derived { k, phi, phi_t, jacobian, gamma, bindings, singularity })
+}
+
+/// Rows the engine can tell are wrong at compile time: a constant row, and a
+/// row that repeats another (or its negation), which would make J lose rank.
+fn check_rows(k: &Kinematics, phi: &[Id], spans: &[Span]) -> syn::Result<()> {
+    let mut errors = dsl::Errors::default();
+    for (j, &row) in phi.iter().enumerate() {
+        if let Some(c) = k.g.as_const(row) {
+            errors.at(
+                spans[j],
+                format!(
+                    "this row is the constant {c}: it constrains nothing; expected a row that depends on the bodies"
+                ),
+            );
+            continue;
+        }
+        let twin = (0..j).find(|&i| {
+            let a = phi[i];
+            a == row || k.g.node(row) == Node::Neg(a) || k.g.node(a) == Node::Neg(row)
+        });
+        if let Some(i) = twin {
+            errors.at(
+                spans[j],
+                format!(
+                    "row {} repeats row {} (the same constraint twice makes the Jacobian lose rank); remove one",
+                    j + 1,
+                    i + 1
+                ),
+            );
+            errors.at(spans[i], format!("row {} is here", i + 1));
+        }
+    }
+    errors.finish()
 }
 
 fn expand(decl: &Declaration) -> syn::Result<TokenStream> {
@@ -285,7 +331,7 @@ fn bindings(
             continue;
         }
         if let Some(p) = pattern(nodes) {
-            let source = if *shape == FieldShape::SlidingFrame {
+            let source = if matches!(shape, FieldShape::FramePart(_)) {
                 let s = format_ident!("{}", sub);
                 quote!(self.#member.#s)
             } else {

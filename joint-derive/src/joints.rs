@@ -89,6 +89,43 @@ pub enum Row {
     Spherical,
     /// One scalar row.
     Scalar(Expr),
+    /// A vector equal to zero: three rows (user-written rows only).
+    Vector(VExpr),
+}
+
+/// Which vector a derived parameter takes from its source axis `a`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// `a` itself.
+    Axis,
+    /// `b` of `perpendicular_pair(a)`.
+    First,
+    /// `c` of `perpendicular_pair(a)`.
+    Second,
+}
+
+impl Part {
+    /// The field of `joint_runtime::AxisFrame` that holds this part.
+    pub fn field(self) -> &'static str {
+        match self {
+            Part::Axis => "axis",
+            Part::First => "b",
+            Part::Second => "c",
+        }
+    }
+}
+
+/// Parameters a person would give instead of others: an axis from which
+/// perpendicular vectors are derived (at compile time for a constant, by
+/// `joint_runtime::AxisFrame::new` once for a field).
+#[derive(Debug)]
+pub struct Derivation {
+    /// The axis a person gives (`axis1`, `axis2`, `d`).
+    pub source: &'static str,
+    /// The body it is fixed in.
+    pub body: usize,
+    /// The joint's parameters it stands for.
+    pub outputs: Vec<(&'static str, Part)>,
 }
 
 /// A joint kind.
@@ -100,6 +137,10 @@ pub struct JointKind {
     pub params: Vec<Param>,
     /// Its rows, in order.
     pub rows: Vec<Row>,
+    /// Axes that may be given instead of some parameters.
+    pub derivations: Vec<Derivation>,
+    /// Pairs of same-body vectors that must be perpendicular (checked for constants).
+    pub perpendicular: Vec<(&'static str, &'static str)>,
     /// A measure of the distance from the configurations where the rows lose
     /// rank: 1 at the nominal geometry, 0 at the singularity.
     pub singularity: Option<Singularity>,
@@ -118,6 +159,16 @@ impl JointKind {
     /// The parameter called `name`.
     pub fn param(&self, name: &str) -> Option<&Param> {
         self.params.iter().find(|p| p.name == name)
+    }
+
+    /// The derivation whose source is `name`.
+    pub fn derivation(&self, name: &str) -> Option<&Derivation> {
+        self.derivations.iter().find(|d| d.source == name)
+    }
+
+    /// The derivation that can stand for parameter `name`.
+    pub fn derived_from(&self, name: &str) -> Option<&Derivation> {
+        self.derivations.iter().find(|d| d.outputs.iter().any(|(o, _)| *o == name))
     }
 }
 
@@ -147,7 +198,19 @@ pub fn distance(length: &str) -> Expr {
 }
 
 fn kind(name: &'static str, params: Vec<Param>, rows: Vec<Row>) -> JointKind {
-    JointKind { name, params, rows, singularity: None }
+    JointKind { name, params, rows, derivations: Vec::new(), perpendicular: Vec::new(), singularity: None }
+}
+
+/// `source` (fixed in `body`) stands for `outputs`.
+fn derive(source: &'static str, body: usize, outputs: &[(&'static str, Part)]) -> Derivation {
+    Derivation { source, body, outputs: outputs.to_vec() }
+}
+
+/// Adds the person-friendly axes and the perpendicularity checks of a joint.
+fn axes(mut k: JointKind, derivations: Vec<Derivation>, perpendicular: &[(&'static str, &'static str)]) -> JointKind {
+    k.derivations = derivations;
+    k.perpendicular = perpendicular.to_vec();
+    k
 }
 
 fn b<T>(x: T) -> Box<T> {
@@ -232,7 +295,14 @@ fn build() -> Vec<JointKind> {
         Box::new(Expr::Mul(Box::new(dot1("f", "k")), Box::new(Expr::Sin(theta())))),
     );
     let translational = Expr::Sub(Box::new(dot2("h")), Box::new(Expr::Time("x".into())));
-    vec![
+    use Part::{Axis, First, Second};
+    // The axis of a joint in B1 gives the perpendicular pair `f, g`; in B2 it is
+    // `h` itself, and `k` is the second of its pair, so that in the configuration
+    // where both bodies' frames coincide `f ⟂ k` (and a driver's angle is 0).
+    let pair1 = || derive("axis1", 0, &[("f", First), ("g", Second)]);
+    let axis2 = || derive("axis2", 1, &[("h", Axis)]);
+    let fg: &[(&'static str, &'static str)] = &[("f", "g")];
+    let joints = vec![
         kind("spherical", points().to_vec(), vec![Spherical]),
         with(
             kind("universal", with_points(vec![axis("s", 0), axis("h", 1)]), vec![Spherical, S(dot1("s", "h"))]),
@@ -300,7 +370,25 @@ fn build() -> Vec<JointKind> {
         kind("distance", with_points(vec![Param { name: "length", role: Role::Scalar }]), vec![S(distance("length"))]),
         kind("rotational_driver", vec![axis("f", 0), axis("g", 0), axis("k", 1), time("theta")], vec![S(rotational)]),
         kind("translational_driver", with_points(vec![axis("h", 0), time("x")]), vec![S(translational)]),
-    ]
+    ];
+    joints
+        .into_iter()
+        .map(|k| match k.name {
+            "universal_translational" => axes(k, vec![derive("d", 0, &[("b", First), ("c", Second)])], &[("b", "c")]),
+            "revolute" | "cylindrical" | "parallel" => axes(k, vec![pair1(), axis2()], fg),
+            "point_on_line" => axes(k, vec![pair1()], fg),
+            "translational" | "fixed" => {
+                axes(k, vec![pair1(), derive("axis2", 1, &[("h", Axis), ("k", Second)])], &[("f", "g"), ("h", "k")])
+            }
+            "planar" => axes(
+                k,
+                vec![derive("axis1", 0, &[("f", First), ("g", Second), ("n", Axis)]), axis2()],
+                &[("f", "g"), ("f", "n"), ("g", "n")],
+            ),
+            "rotational_driver" => axes(k, vec![pair1(), derive("axis2", 1, &[("k", First)])], fg),
+            _ => k,
+        })
+        .collect()
 }
 
 /// Every joint the derive knows.

@@ -12,6 +12,7 @@ mod expand;
 mod fallback;
 mod joints;
 mod kinematics;
+mod rows;
 
 #[cfg(test)]
 mod output_tests;

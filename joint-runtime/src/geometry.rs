@@ -1,6 +1,6 @@
 //! Geometric helpers run once, outside the hot path.
 
-use nalgebra::{Matrix3, RealField, Scalar, Vector3, Vector4};
+use nalgebra::{Matrix3, RealField, Vector3, Vector4};
 
 /// Two unit vectors `(b, c)` perpendicular to `d` and to each other, with
 /// `(d/|d|, b, c)` right-handed; `None` when `d` is zero or not finite.
@@ -35,25 +35,38 @@ pub fn perpendicular_pair<T: RealField + Copy>(d: &Vector3<T>) -> Option<(Vector
     Some((b, c))
 }
 
-/// The axes `b, c` of a two-angle joint with one translational degree of freedom,
-/// computed once from the sliding direction `d` (fixed in B1).
+/// An axis with its perpendicular pair, computed once, outside the hot path.
 ///
-/// Declare a field of this type named `d` (or tagged `#[joint(d)]`) instead of
-/// the fields `b` and `c`; the generated code reads `b` and `c` from it.
+/// Joints defined by an axis take one instead of their perpendicular vectors:
+/// `axis1` (in B1) stands for `f, g` (and a planar joint's normal `n`), `axis2`
+/// (in B2) for `h` (and `k`), and the sliding direction `d` of
+/// `universal_translational` for `b, c`. Declare a field of this type with that
+/// name (or tagged `#[joint(axis1)]`); the generated code reads the parts it needs.
+///
+/// ```
+/// use joint_runtime::{AxisFrame, nalgebra::Vector3};
+/// let frame = AxisFrame::new(Vector3::new(0.0, 0.0, 3.0)).unwrap();
+/// assert_eq!(frame.b.dot(&frame.axis), 0.0);
+/// assert_eq!(frame.c.dot(&frame.b), 0.0);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SlidingFrame<T: Scalar> {
-    /// The sliding direction as given.
-    pub d: Vector3<T>,
-    /// First axis perpendicular to `d`.
+pub struct AxisFrame<T> {
+    /// The axis as given.
+    pub axis: Vector3<T>,
+    /// First unit vector perpendicular to the axis.
     pub b: Vector3<T>,
-    /// Second axis perpendicular to `d` and `b`.
+    /// Second unit vector, perpendicular to the axis and to `b`.
     pub c: Vector3<T>,
 }
 
-impl<T: RealField + Copy> SlidingFrame<T> {
-    /// The frame of `d`, by [`perpendicular_pair`]; `None` for a zero or non-finite `d`.
-    pub fn new(d: Vector3<T>) -> Option<Self> {
-        perpendicular_pair(&d).map(|(b, c)| SlidingFrame { d, b, c })
+/// The frame of the sliding direction `d` of a two-angle joint with one
+/// translational degree of freedom: `b, c` are the notes' axes perpendicular to `d`.
+pub type SlidingFrame<T> = AxisFrame<T>;
+
+impl<T: RealField + Copy> AxisFrame<T> {
+    /// The frame of `axis`, by [`perpendicular_pair`]; `None` for a zero or non-finite axis.
+    pub fn new(axis: Vector3<T>) -> Option<Self> {
+        perpendicular_pair(&axis).map(|(b, c)| AxisFrame { axis, b, c })
     }
 }
 

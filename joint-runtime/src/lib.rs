@@ -17,7 +17,7 @@ mod joint;
 mod state;
 mod time;
 
-pub use geometry::{SlidingFrame, perpendicular_pair, rotation_matrix};
+pub use geometry::{AxisFrame, SlidingFrame, perpendicular_pair, rotation_matrix};
 pub use joint::{Evaluation, Formulation, Joint, Ops, Singularity};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};

@@ -4,7 +4,7 @@
 //! `CONVENTIONS.md` (nalgebra's `Quaternion` stores the scalar last; use
 //! [`EulerBody::from_rotation`] or [`OmegaBody::from_rotation`] to convert).
 
-use nalgebra::{RealField, Scalar, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{RealField, UnitQuaternion, Vector3, Vector4};
 
 fn euler_parameters<T: RealField>(q: &UnitQuaternion<T>) -> Vector4<T> {
     Vector4::new(q.w.clone(), q.i.clone(), q.j.clone(), q.k.clone())
@@ -12,7 +12,7 @@ fn euler_parameters<T: RealField>(q: &UnitQuaternion<T>) -> Vector4<T> {
 
 /// A body in the `euler` formulation: position, Euler parameters and their rates.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EulerBody<T: Scalar> {
+pub struct EulerBody<T> {
     /// Origin of the body frame, inertial components.
     pub r: Vector3<T>,
     /// Euler parameters `[e0, e1, e2, e3]`; need not be unit (Newton passes through such `p`).
@@ -25,7 +25,7 @@ pub struct EulerBody<T: Scalar> {
 
 /// A body in the `omega_inertial` and `omega_body` formulations.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct OmegaBody<T: Scalar> {
+pub struct OmegaBody<T> {
     /// Origin of the body frame, inertial components.
     pub r: Vector3<T>,
     /// Unit Euler parameters `[e0, e1, e2, e3]`.
@@ -74,7 +74,7 @@ pub struct OneBody<B> {
 
 /// The state of a relative formulation (`relative_b1`, `relative_b2`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RelativeState<T: Scalar> {
+pub struct RelativeState<T> {
     /// `δ`: the point `rho2` of B2 seen from the point `rho1` of B1, B1 components.
     pub delta: Vector3<T>,
     /// `p_rel` with `A(p_rel) = A1ᵀ A2`.
