@@ -603,7 +603,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
             errors.at(
                 source_span,
                 format!(
-                    "`{}` with {} but not {}; expected the axis `{}` alone, or {} all",
+                    "`{}` with {} but not {}; expected the axis `{}` alone, or all of {}",
                     der.source,
                     list(&given),
                     list(&all.iter().copied().filter(|o| !given.contains(o)).collect::<Vec<_>>()),

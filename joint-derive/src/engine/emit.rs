@@ -111,7 +111,10 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     let mut exprs: HashMap<Id, Ex> = HashMap::new();
     let mut body = TokenStream::new();
     let mut used_vars = BTreeSet::new();
-    let mut taken: HashMap<String, usize> = HashMap::new();
+    // Input names are taken: a `let` never shadows an input (a user's scalar
+    // parameter may well be called `two` or `t1`).
+    let mut taken: HashMap<String, usize> =
+        nodes.iter().filter_map(|&id| g.as_var(id)).map(|v| (g.vars()[v.0 as usize].name.clone(), 1)).collect();
     let mut counter = 0usize;
     let mut ops = 0usize;
     let mut consts: std::collections::BTreeMap<u64, Ident> = std::collections::BTreeMap::new();
@@ -128,7 +131,15 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
             Node::Const(bits) => {
                 // Bound once per magnitude in the prologue; the sign is free.
                 let v = f64::from_bits(bits);
-                let name = consts.entry(v.abs().to_bits()).or_insert_with(|| const_name(v.abs())).clone();
+                let name = consts
+                    .entry(v.abs().to_bits())
+                    .or_insert_with(|| {
+                        let base = const_name(v.abs()).to_string();
+                        let n = taken.entry(base.clone()).or_insert(0);
+                        *n += 1;
+                        if *n == 1 { format_ident!("{}", base) } else { format_ident!("{}_{}", base, *n) }
+                    })
+                    .clone();
                 let (plain, negated) = ((quote!(#name), ATOM), (quote!(-#name), 3));
                 if v < 0.0 { Ex { pos: negated, neg: plain } } else { Ex { pos: plain, neg: negated } }
             }
@@ -203,7 +214,16 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     }
     let mut prologue = TokenStream::new();
     for (bits, name) in &consts {
-        let lit = proc_macro2::Literal::f64_suffixed(f64::from_bits(*bits));
+        let v = f64::from_bits(*bits);
+        // A literal must be finite; a constant folded to ∞ or NaN is spelled out.
+        let lit = if v.is_finite() {
+            let l = proc_macro2::Literal::f64_suffixed(v);
+            quote!(#l)
+        } else if v.is_nan() {
+            quote!(::core::f64::NAN)
+        } else {
+            quote!(::core::f64::INFINITY)
+        };
         let value =
             if scalar.concrete_f64 { quote!(#lit) } else { quote!(#krate::__private::convert::<f64, #ty>(#lit)) };
         prologue.extend(quote!(let #name: #ty = #value;));
