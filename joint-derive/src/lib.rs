@@ -1,9 +1,9 @@
 //! `#[derive(Joint)]`: joint declarations in, constraint code out.
 //!
 //! Use it through `joint-runtime`, which re-exports it and holds the trait the
-//! generated code implements. The pipeline is thin: [`dsl`] parses the
-//! declaration (keeping spans for errors), [`kinematics`] and [`joints`] state Φ
-//! over the symbolic [`engine`], which differentiates, simplifies, shares common
+//! generated code implements. The pipeline is thin: `dsl` parses the
+//! declaration (keeping spans for errors), `kinematics` and `joints` state Φ
+//! over the symbolic `engine`, which differentiates, simplifies, shares common
 //! subexpressions and prints Rust.
 
 mod dsl;
