@@ -131,7 +131,8 @@ pub struct SmoothStep {
 impl TimeFunction for SmoothStep {
     fn eval(&self, t: f64) -> Drive {
         let span = self.t1 - self.t0;
-        if !(span > 0.0) || t <= self.t0 {
+        // A degenerate (or NaN) span is a jump at t0.
+        if span.is_nan() || span <= 0.0 || t <= self.t0 {
             return Drive { value: if t <= self.t0 { self.from } else { self.to }, rate: 0.0, accel: 0.0 };
         }
         if t >= self.t1 {
