@@ -75,6 +75,10 @@ pub trait Joint<T, const R: usize, const C: usize> {
     const FORMULATION: Formulation;
     /// Operation counts of the generated functions.
     const OPS: Ops;
+    /// Number of constraint rows (`R`).
+    const ROWS: usize = R;
+    /// Number of velocity columns (`C`).
+    const COLS: usize = C;
     /// The constraint Φ.
     fn phi(&self, state: &Self::State) -> SVector<T, R>;
     /// The explicit time derivative Φ_t (zero unless the joint is driven).
