@@ -7,6 +7,7 @@
 //! ```
 
 use proc_macro2::Span;
+use quote::ToTokens;
 use syn::parse::{Parse, ParseStream};
 use syn::punctuated::Punctuated;
 use syn::spanned::Spanned;
@@ -14,6 +15,7 @@ use syn::{Token, bracketed};
 
 use crate::joints::{self, JointKind, Role};
 use crate::kinematics::{Formulation, Ground};
+use crate::params::norm3;
 
 /// A value written in `#[joint(name = value)]`.
 pub enum Value {
@@ -328,13 +330,18 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                             tagged.push((item.key.to_string(), role));
                             consts.push((item.key, v));
                         }
-                        _ => errors.at(item.key.span(), format!("expected a vector, as in `{tag}({} = [0, 0, 1])`", item.key)),
+                        _ => errors
+                            .at(item.key.span(), format!("expected a vector, as in `{tag}({} = [0, 0, 1])`", item.key)),
                     }
                 }
             }
-            (_, Some(v @ (Value::Rows(..) | Value::Group(..)))) => errors.at(
-                value_span(&v),
-                format!("unknown group `{name}(...)`; expected `rows(...)`, `body1(...)`, `body2(...)`, `point1(...)` or `point2(...)`"),
+            (_, Some(Value::Rows(..) | Value::Group(..))) => errors.at(
+                arg.key.span(),
+                format!(
+                    "unknown group `{name}(...)`{}; expected `rows(...)`, `body1(...)`, `body2(...)`, `point1(...)` or \
+                     `point2(...)`",
+                    did_you_mean(&name, ["rows", "body1", "body2", "point1", "point2"])
+                ),
             ),
             (_, Some(v)) => consts.push((arg.key, v)),
         }
@@ -347,7 +354,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
                 format!("a joint is either a catalogue joint or `rows(...)`; remove `rows(...)` or `{}`", k.name),
             ),
             None => {
-                let (custom, spans) = custom_kind(&exprs, &tagged, &consts, fields, &mut errors);
+                let (custom, spans) = custom_kind(&exprs, span, &tagged, &consts, fields, &mut errors);
                 kind = Some((custom, span));
                 row_spans = spans;
             }
@@ -582,120 +589,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         }
     };
 
-    // Axes given instead of the vectors derived from them (`axis1 → f, g`,
-    // `d → b, c`, ...). A constant axis is resolved now, by the rule of
-    // `joint_runtime::perpendicular_pair`; a field is read through its parts.
-    let has =
-        |params: &Vec<(String, Source)>, n: &str| params.iter().any(|(x, _)| x == n) || invalid.iter().any(|x| x == n);
-    // Derived parameters whose absence is explained by an error already reported.
-    let mut excused: Vec<&'static str> = Vec::new();
-    for der in &kind.derivations {
-        if !has(&params, der.source) {
-            continue;
-        }
-        let source_span =
-            params.iter().find(|(n, _)| n == der.source).map(|(_, s)| source_span(s)).unwrap_or(kind_span);
-        let given: Vec<&'static str> = der.outputs.iter().map(|(o, _)| *o).filter(|o| has(&params, o)).collect();
-        let all: Vec<&'static str> = der.outputs.iter().map(|(o, _)| *o).collect();
-        if !given.is_empty() && given.len() < all.len() {
-            excused.extend(all.iter().copied());
-            let list = |v: &[&str]| v.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
-            errors.at(
-                source_span,
-                format!(
-                    "`{}` with {} but not {}; expected the axis `{}` alone, or all of {}",
-                    der.source,
-                    list(&given),
-                    list(&all.iter().copied().filter(|o| !given.contains(o)).collect::<Vec<_>>()),
-                    der.source,
-                    list(&all)
-                ),
-            );
-            continue;
-        }
-        let source_const = params.iter().find_map(|(n, s)| match s {
-            Source::Const(v, span) if n == der.source => Some((v.clone(), *span)),
-            _ => None,
-        });
-        let source_field = params.iter().find_map(|(n, s)| match s {
-            Source::Field { member, span, shape: FieldShape::Frame } if n == der.source => {
-                Some((member.clone(), *span))
-            }
-            _ => None,
-        });
-        if !given.is_empty() {
-            // Every derived vector given as well: the axis is then only a check,
-            // constant perpendicular parts must be perpendicular to a constant axis.
-            if let Some((a, _)) = &source_const {
-                for (out, part) in &der.outputs {
-                    if *part == joints::Part::Axis {
-                        continue;
-                    }
-                    if let Some((_, Source::Const(v, span))) = params.iter().find(|(n, _)| n == out) {
-                        let cos = dot3(v, a) / (norm3(v) * norm3(a));
-                        if cos.abs() > 1e-12 {
-                            errors.at(
-                                *span,
-                                format!(
-                                    "`{out} = {}` is not perpendicular to `{} = {}` (cosine {cos:.3e}); \
-                                     expected `{out}` ⟂ `{}`, or `{}` alone",
-                                    list(v),
-                                    der.source,
-                                    list(a),
-                                    der.source,
-                                    der.source
-                                ),
-                            );
-                        }
-                    }
-                }
-            }
-        } else if let Some((a, span)) = source_const {
-            let (b, c) = perpendicular_pair(&a);
-            for (out, part) in &der.outputs {
-                let v = match part {
-                    joints::Part::Axis => a.clone(),
-                    joints::Part::First => b.to_vec(),
-                    joints::Part::Second => c.to_vec(),
-                };
-                params.push(((*out).into(), Source::Const(v, span)));
-            }
-        } else if let Some((member, span)) = source_field {
-            for (out, part) in &der.outputs {
-                params.push((
-                    (*out).into(),
-                    Source::Field { member: member.clone(), shape: FieldShape::FramePart(*part), span },
-                ));
-            }
-        } else {
-            // Given but rejected (wrong type): already reported.
-            excused.extend(all.iter().copied());
-        }
-        params.retain(|(n, _)| n != der.source);
-    }
-
-    // Constant vectors of one body that must be perpendicular.
-    for (a, b) in &kind.perpendicular {
-        let constant = |n: &str| {
-            params.iter().find_map(|(x, s)| match s {
-                Source::Const(v, span) if x == n => Some((v.clone(), *span)),
-                _ => None,
-            })
-        };
-        if let (Some((va, _)), Some((vb, span))) = (constant(a), constant(b)) {
-            let cos = dot3(&va, &vb) / (norm3(&va) * norm3(&vb));
-            if cos.abs() > 1e-12 {
-                errors.at(
-                    span,
-                    format!(
-                        "`{b} = {}` must be perpendicular to `{a} = {}` (cosine {cos:.3e}); expected `{a}` ⟂ `{b}`",
-                        list(&vb),
-                        list(&va)
-                    ),
-                );
-            }
-        }
-    }
+    let excused = crate::params::expand_axes(kind, &mut params, &invalid, kind_span, &mut errors);
+    crate::params::check_perpendicular(kind, &params, &mut errors);
 
     // Every parameter present, in the joint's order.
     let mut ordered = Vec::new();
@@ -760,11 +655,6 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
     })
 }
 
-/// `[1, 0, 0.5]`.
-fn list(v: &[f64]) -> String {
-    format!("[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "))
-}
-
 /// The edit (Levenshtein) distance of `a` and `b`.
 fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
@@ -793,7 +683,7 @@ fn similar<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Opt
 }
 
 /// " (did you mean `x`?)" or nothing.
-fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> String {
+pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> String {
     similar(name, candidates).map(|c| format!(" (did you mean `{c}`?)")).unwrap_or_default()
 }
 
@@ -826,6 +716,7 @@ fn tag_role(tag: &str) -> Role {
 /// per derive, and it keeps a user joint the same type as a catalogue one.
 fn custom_kind(
     exprs: &[syn::Expr],
+    rows_span: Span,
     tagged: &[(String, Role)],
     consts: &[(syn::Ident, Value)],
     fields: Option<&Punctuated<syn::Field, Token![,]>>,
@@ -845,6 +736,9 @@ fn custom_kind(
     for (name, role) in tagged {
         add(name, *role);
     }
+    // Vectors whose body is not tagged: reported once, then taken as known (so
+    // that neither the rows reading them nor the parameter list report them again).
+    let mut untagged: Vec<String> = Vec::new();
     for (key, value) in consts {
         let name = key.to_string();
         if tagged.iter().any(|(n, _)| *n == name) {
@@ -853,10 +747,17 @@ fn custom_kind(
         match (point(&name), value) {
             (Some(role), _) => add(&name, role),
             (None, Value::Number(..)) => add(&name, Role::Scalar),
-            (None, Value::List(..)) => errors.at(
-                key.span(),
-                format!("tag the body of `{name}`: `body1({name} = [..])`, `body2(..)`, `point1(..)` or `point2(..)`"),
-            ),
+            (None, Value::List(..)) => {
+                errors.at(
+                    key.span(),
+                    format!(
+                        "the body of the vector `{name}` is not given; expected `body1({name} = [..])`, \
+                         `body2({name} = [..])`, `point1({name} = [..])` or `point2({name} = [..])`"
+                    ),
+                );
+                add(&name, Role::Axis(0));
+                untagged.push(name);
+            }
             _ => {}
         }
     }
@@ -885,10 +786,17 @@ fn custom_kind(
             matches!(&field.ty, syn::Type::Path(p) if p.path.segments.last().is_some_and(|s| s.ident == "Vector3"));
         match role.or_else(|| point(&name)) {
             Some(r) => add(&name, r),
-            None if is_vector => errors.at(
-                ident.span(),
-                format!("tag the body of `{name}`: `#[joint(body1)]`, `#[joint(body2)]`, `#[joint(point1)]` or `#[joint(point2)]`"),
-            ),
+            None if is_vector => {
+                errors.at(
+                    ident.span(),
+                    format!(
+                        "the body of the vector `{name}` is not given; expected a tag `#[joint(body1)]`, \
+                         `#[joint(body2)]`, `#[joint(point1)]` or `#[joint(point2)]` on the field"
+                    ),
+                );
+                add(&name, Role::Axis(0));
+                untagged.push(name);
+            }
             None => add(&name, Role::Scalar),
         }
     }
@@ -896,8 +804,13 @@ fn custom_kind(
     let mut spans = Vec::new();
     let missing_points: Vec<&'static str> = {
         let role = |n: &str| params.iter().find(|p| p.name == n).map(|p| p.role);
-        let names = crate::rows::Names { role: &role };
+        let all: Vec<&str> = params.iter().map(|p| p.name).collect();
+        let names = crate::rows::Names { role: &role, all: &all };
         for e in exprs {
+            // A row reading an untagged vector cannot be checked; its tag is reported.
+            if mentions(&e.to_token_stream(), &untagged) {
+                continue;
+            }
             match crate::rows::row(e, &names) {
                 Ok(r) => {
                     rows.push(r);
@@ -915,18 +828,20 @@ fn custom_kind(
         params.push(joints::Param { name: p, role: point(p).unwrap_or(Role::Point(0)) });
     }
     if exprs.is_empty() {
-        errors
-            .at(Span::call_site(), "`rows()` is empty; expected at least one row, as in `rows(spherical, dot1(s, h))`");
+        errors.at(rows_span, "`rows()` is empty; expected at least one row, as in `rows(spherical, dot1(s, h))`");
     }
     let kind =
         JointKind { name: CUSTOM, params, rows, derivations: Vec::new(), perpendicular: Vec::new(), singularity: None };
     (Box::leak(Box::new(kind)), spans)
 }
 
-fn source_span(s: &Source) -> Span {
-    match s {
-        Source::Const(_, span) | Source::Field { span, .. } => *span,
-    }
+/// Whether `tokens` contain one of the identifiers `names`.
+fn mentions(tokens: &proc_macro2::TokenStream, names: &[String]) -> bool {
+    tokens.clone().into_iter().any(|t| match t {
+        proc_macro2::TokenTree::Ident(i) => names.iter().any(|n| i == n),
+        proc_macro2::TokenTree::Group(g) => mentions(&g.stream(), names),
+        _ => false,
+    })
 }
 
 /// The scalar named by a field type of the wanted shape: `Vector3<T>` → `T`,
@@ -951,14 +866,6 @@ fn field_scalar(ty: &syn::Type, want: FieldShape) -> Option<String> {
             }
         }
     }
-}
-
-fn dot3(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn norm3(a: &[f64]) -> f64 {
-    dot3(a, a).sqrt()
 }
 
 /// The compile-time twin of `joint_runtime::perpendicular_pair` (same rule, f64).

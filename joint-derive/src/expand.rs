@@ -32,75 +32,128 @@ pub struct Derived {
     /// γ rows.
     pub gamma: Vec<Id>,
     /// Parameter nodes bound from fields: (member, shape, sub-field, nodes).
-    pub bindings: Vec<(syn::Ident, FieldShape, &'static str, Vec<Id>)>,
+    pub bindings: Vec<Binding>,
     /// The singularity measure, for joints that have one.
     pub singularity: Option<Id>,
+}
+
+/// A field bound as a parameter: (member, shape, sub-field, nodes).
+pub type Binding = (syn::Ident, FieldShape, &'static str, Vec<Id>);
+
+/// How parameter variables are named in generated code.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Naming {
+    /// By the joint's parameter name (`s_x`): one joint.
+    ByParam,
+    /// By the field read (`offset_x`): a scene, where joints share fields.
+    ByField,
+}
+
+/// Puts a joint's parameters on the graph: constants as constants, fields as
+/// parameter variables (recorded in `bindings`; a field bound before is reused).
+pub fn param_nodes(
+    k: &mut Kinematics,
+    kind: &JointKind,
+    params: &[(&'static str, Source)],
+    naming: Naming,
+    bindings: &mut Vec<Binding>,
+) -> Vec<(&'static str, Vec<Id>)> {
+    let mut values = Vec::new();
+    for (name, source) in params {
+        let nodes: Vec<Id> = match source {
+            Source::Const(v, _) => v.iter().map(|&x| k.g.constant(x)).collect(),
+            Source::Field { member, shape, .. } => {
+                let sub = match shape {
+                    FieldShape::FramePart(part) => part.field(),
+                    _ => "",
+                };
+                if let Some((.., nodes)) =
+                    bindings.iter().find(|(m, sh, sb, _)| m == member && sh == shape && *sb == sub)
+                {
+                    values.push((*name, nodes.clone()));
+                    continue;
+                }
+                let base = match naming {
+                    Naming::ByParam => name.to_string(),
+                    Naming::ByField if sub.is_empty() => member.to_string(),
+                    Naming::ByField => format!("{member}_{sub}"),
+                };
+                let n = match kind.param(name).map(|p| p.role) {
+                    Some(Role::Time) => k.time_function(&base).to_vec(),
+                    Some(Role::Scalar) => vec![k.g.param(base)],
+                    _ => ["x", "y", "z"].iter().map(|c| k.g.param(format!("{base}_{c}"))).collect(),
+                };
+                bindings.push((member.clone(), *shape, sub, n.clone()));
+                n
+            }
+        };
+        values.push((name, nodes));
+    }
+    values
+}
+
+/// Lowers a joint's rows (and its singularity measure) onto the current pair
+/// of frames of `k`; returns the rows and each row's span.
+pub fn lower_rows(
+    k: &mut Kinematics,
+    kind: &JointKind,
+    values: &[(&'static str, Vec<Id>)],
+    row_spans: &[Span],
+    kind_span: Span,
+) -> (Vec<Id>, Vec<Span>, Option<Id>) {
+    let mut phi = Vec::new();
+    let mut spans: Vec<Span> = Vec::new();
+    let mut lower = Lowering { k, values, kind };
+    for (i, row) in kind.rows.iter().enumerate() {
+        let span = row_spans.get(i).copied().unwrap_or(kind_span);
+        let before = phi.len();
+        match row {
+            Row::Spherical => {
+                let d = lower.separation();
+                phi.extend(d);
+            }
+            Row::Scalar(e) => phi.push(lower.expr(e)),
+            Row::Vector(v) => {
+                let x = lower.vexpr(v);
+                phi.extend(x);
+            }
+        }
+        spans.extend(std::iter::repeat_n(span, phi.len() - before));
+    }
+    let singularity = kind.singularity.as_ref().map(|s| lower.expr(&s.measure));
+    (phi, spans, singularity)
+}
+
+/// J (row-major), γ and Φ_t of a system's rows.
+pub struct SystemDerivatives {
+    /// J, row-major.
+    pub jacobian: Vec<Vec<Id>>,
+    /// γ rows.
+    pub gamma: Vec<Id>,
+    /// Φ_t rows.
+    pub phi_t: Vec<Id>,
+}
+
+/// J, γ and Φ_t of every row, after the compile-time checks of the rows.
+pub fn derive_all(k: &mut Kinematics, phi: &[Id], spans: &[Span]) -> syn::Result<SystemDerivatives> {
+    check_rows(k, phi, spans)?;
+    let mut out = SystemDerivatives { jacobian: Vec::new(), gamma: Vec::new(), phi_t: Vec::new() };
+    for (&row, &span) in phi.iter().zip(spans) {
+        let d = k.derive_row(row).map_err(|m| syn::Error::new(span, m))?;
+        out.jacobian.push(d.jacobian);
+        out.gamma.push(d.gamma);
+        out.phi_t.push(d.phi_t);
+    }
+    Ok(out)
 }
 
 /// Builds Φ from the joint's primitives and derives the rest.
 pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
     let mut k = Kinematics::new(decl.formulation, decl.ground);
     let mut bindings = Vec::new();
-    let mut values: Vec<(&'static str, Vec<Id>)> = Vec::new();
-    for (name, source) in &decl.params {
-        let nodes: Vec<Id> = match source {
-            Source::Const(v, _) => v.iter().map(|&x| k.g.constant(x)).collect(),
-            Source::Field { member, shape, .. } => {
-                let role = decl.kind.param(name).map(|p| p.role);
-                if role == Some(Role::Time) {
-                    let n = k.time_function(name).to_vec();
-                    bindings.push((member.clone(), *shape, "", n.clone()));
-                    n
-                } else if role == Some(Role::Scalar) {
-                    let n = k.g.param(name.to_string());
-                    bindings.push((member.clone(), *shape, "", vec![n]));
-                    vec![n]
-                } else {
-                    let n: Vec<Id> = ["x", "y", "z"].iter().map(|c| k.g.param(format!("{name}_{c}"))).collect();
-                    let sub = match shape {
-                        FieldShape::FramePart(part) => part.field(),
-                        _ => "",
-                    };
-                    bindings.push((member.clone(), *shape, sub, n.clone()));
-                    n
-                }
-            }
-        };
-        values.push((name, nodes));
-    }
-    let mut phi = Vec::new();
-    let mut spans: Vec<Span> = Vec::new();
-    let singularity;
-    {
-        let mut lower = Lowering { k: &mut k, values: &values, kind: decl.kind };
-        for (i, row) in decl.kind.rows.iter().enumerate() {
-            let span = decl.row_spans.get(i).copied().unwrap_or(decl.kind_span);
-            let before = phi.len();
-            match row {
-                Row::Spherical => {
-                    let d = lower.separation();
-                    phi.extend(d);
-                }
-                Row::Scalar(e) => phi.push(lower.expr(e)),
-                Row::Vector(v) => {
-                    let x = lower.vexpr(v);
-                    phi.extend(x);
-                }
-            }
-            spans.extend(std::iter::repeat_n(span, phi.len() - before));
-        }
-        singularity = decl.kind.singularity.as_ref().map(|s| lower.expr(&s.measure));
-    }
-    check_rows(&k, &phi, &spans)?;
-    let mut jacobian = Vec::new();
-    let mut gamma = Vec::new();
-    let mut phi_t = Vec::new();
-    for (&row, &span) in phi.iter().zip(&spans) {
-        let d = k.derive_row(row).map_err(|m| syn::Error::new(span, m))?;
-        jacobian.push(d.jacobian);
-        gamma.push(d.gamma);
-        phi_t.push(d.phi_t);
-    }
+    let values = param_nodes(&mut k, decl.kind, &decl.params, Naming::ByParam, &mut bindings);
+    let (phi, spans, singularity) = lower_rows(&mut k, decl.kind, &values, &decl.row_spans, decl.kind_span);
+    let SystemDerivatives { jacobian, gamma, phi_t } = derive_all(&mut k, &phi, &spans)?;
     Ok(Derived { k, phi, phi_t, jacobian, gamma, bindings, singularity })
 }
 
@@ -154,34 +207,15 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     };
     let sty = ScalarTy { ty: scalar.clone(), krate: krate.clone(), concrete_f64: concrete.as_deref() == Some("f64") };
 
-    let jac_flat: Vec<Id> = (0..cols).flat_map(|c| d.jacobian.iter().map(move |row| row[c])).collect();
-    let vector = |outs: &[TokenStream]| quote!(#krate::__private::SMatrix::from_data(#krate::__private::ArrayStorage([[#(#outs),*]])));
-    let matrix = |outs: &[TokenStream]| {
-        let columns = outs.chunks(rows.max(1)).map(|c| quote!([#(#c),*]));
-        quote!(#krate::__private::SMatrix::from_data(#krate::__private::ArrayStorage([#(#columns),*])))
-    };
-
-    let function = |outputs: &[Id]| -> (TokenStream, Vec<TokenStream>, usize) {
-        let e = emit::emit(&d.k.g, outputs, &sty);
-        let bind = bindings(d, &e.used_vars, &sty);
-        let body = e.body;
-        (quote!(#bind #body), e.outputs, e.ops)
-    };
-    let (phi_body, phi_out, phi_ops) = function(&d.phi);
-    let (phi_t_body, phi_t_out, phi_t_ops) = function(&d.phi_t);
-    let (jac_body, jac_out, jac_ops) = function(&jac_flat);
-    let (gamma_body, gamma_out, gamma_ops) = function(&d.gamma);
-    let all: Vec<Id> = d.phi.iter().chain(&jac_flat).chain(&d.gamma).copied().collect();
-    let (eval_body, eval_out, eval_ops) = function(&all);
-    let [phi_ops_lit, phi_t_ops_lit, jac_ops_lit, gamma_ops_lit, eval_ops_lit] =
-        [phi_ops, phi_t_ops, jac_ops, gamma_ops, eval_ops].map(Literal::usize_unsuffixed);
-    let phi_expr = vector(&phi_out);
-    let phi_t_expr = vector(&phi_t_out);
-    let jac_expr = matrix(&jac_out);
-    let gamma_expr = vector(&gamma_out);
-    let (ep, rest) = eval_out.split_at(rows);
-    let (ej, eg) = rest.split_at(rows * cols);
-    let (ep, ej, eg) = (vector(ep), matrix(ej), vector(eg));
+    let f = print_functions(d, &sty);
+    let [phi_ops, phi_t_ops, jac_ops, gamma_ops, eval_ops] = f.ops;
+    let [phi_ops_lit, phi_t_ops_lit, jac_ops_lit, gamma_ops_lit, eval_ops_lit] = f.ops.map(Literal::usize_unsuffixed);
+    let (phi_body, phi_expr) = f.phi.clone();
+    let (phi_t_body, phi_t_expr) = f.phi_t.clone();
+    let (jac_body, jac_expr) = f.jacobian.clone();
+    let (gamma_body, gamma_expr) = f.gamma.clone();
+    let (eval_body, eval_expr) = f.evaluate.clone();
+    let function = |outputs: &[Id]| f.emit(outputs);
 
     let body_ty = match decl.formulation {
         Formulation::Euler => quote!(#krate::EulerBody<#scalar>),
@@ -270,11 +304,84 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
             #[inline]
             fn evaluate(&self, state: &Self::State) -> #krate::Evaluation<#scalar, #rows_lit, #cols_lit> {
                 #touch #eval_body
-                #krate::Evaluation { phi: #ep, jacobian: #ej, gamma: #eg }
+                #eval_expr
             }
         }
         #singularity_impl
     }
+}
+
+/// The printed functions of a derivation: each one's statements and result
+/// expression, and the operation counts `[phi, phi_t, jacobian, gamma, evaluate]`.
+pub struct Functions<'a> {
+    d: &'a Derived,
+    sty: ScalarTy,
+    /// `phi`.
+    pub phi: (TokenStream, TokenStream),
+    /// `phi_t`.
+    pub phi_t: (TokenStream, TokenStream),
+    /// `jacobian`.
+    pub jacobian: (TokenStream, TokenStream),
+    /// `gamma`.
+    pub gamma: (TokenStream, TokenStream),
+    /// `evaluate` (an `Evaluation { .. }`).
+    pub evaluate: (TokenStream, TokenStream),
+    /// Operation counts.
+    pub ops: [usize; 5],
+}
+
+impl Functions<'_> {
+    /// Statements, output expressions and operation count for `outputs`.
+    pub fn emit(&self, outputs: &[Id]) -> (TokenStream, Vec<TokenStream>, usize) {
+        let e = emit::emit(&self.d.k.g, outputs, &self.sty);
+        let bind = bindings(self.d, &e.used_vars, &self.sty);
+        let body = e.body;
+        (quote!(#bind #body), e.outputs, e.ops)
+    }
+}
+
+/// `SVector` from its entries.
+pub fn vector_tokens(krate: &TokenStream, outs: &[TokenStream]) -> TokenStream {
+    quote!(#krate::__private::SMatrix::from_data(#krate::__private::ArrayStorage([[#(#outs),*]])))
+}
+
+/// `SMatrix` from its entries in column-major order.
+pub fn matrix_tokens(krate: &TokenStream, outs: &[TokenStream], rows: usize) -> TokenStream {
+    let columns = outs.chunks(rows.max(1)).map(|c| quote!([#(#c),*]));
+    quote!(#krate::__private::SMatrix::from_data(#krate::__private::ArrayStorage([#(#columns),*])))
+}
+
+/// Prints Φ, Φ_t, J, γ and the fused evaluation of a derivation.
+pub fn print_functions<'a>(d: &'a Derived, sty: &ScalarTy) -> Functions<'a> {
+    let krate = &sty.krate;
+    let (rows, cols) = (d.phi.len(), d.k.velocities.len());
+    let jac_flat: Vec<Id> = (0..cols).flat_map(|c| d.jacobian.iter().map(move |row| row[c])).collect();
+    let mut f = Functions {
+        d,
+        sty: sty.clone(),
+        phi: Default::default(),
+        phi_t: Default::default(),
+        jacobian: Default::default(),
+        gamma: Default::default(),
+        evaluate: Default::default(),
+        ops: [0; 5],
+    };
+    let (b, o, n0) = f.emit(&d.phi);
+    f.phi = (b, vector_tokens(krate, &o));
+    let (b, o, n1) = f.emit(&d.phi_t);
+    f.phi_t = (b, vector_tokens(krate, &o));
+    let (b, o, n2) = f.emit(&jac_flat);
+    f.jacobian = (b, matrix_tokens(krate, &o, rows));
+    let (b, o, n3) = f.emit(&d.gamma);
+    f.gamma = (b, vector_tokens(krate, &o));
+    let all: Vec<Id> = d.phi.iter().chain(&jac_flat).chain(&d.gamma).copied().collect();
+    let (b, o, n4) = f.emit(&all);
+    let (ep, rest) = o.split_at(rows);
+    let (ej, eg) = rest.split_at(rows * cols);
+    let (ep, ej, eg) = (vector_tokens(krate, ep), matrix_tokens(krate, ej, rows), vector_tokens(krate, eg));
+    f.evaluate = (b, quote!(#krate::Evaluation { phi: #ep, jacobian: #ej, gamma: #eg }));
+    f.ops = [n0, n1, n2, n3, n4];
+    f
 }
 
 /// `let` statements that destructure exactly the inputs a function reads.
@@ -342,8 +449,17 @@ fn bindings(
     }
     for input in &d.k.inputs {
         if let Some(p) = pattern(&input.vars) {
-            let path = input.path.iter().map(|s| format_ident!("{}", s));
-            out.extend(quote!(let #p = state #(.#path)*.data.0;));
+            let path = input.path.iter().map(|s| match s.parse::<usize>() {
+                Ok(i) => {
+                    let i = Literal::usize_unsuffixed(i);
+                    quote!([#i])
+                }
+                Err(_) => {
+                    let f = format_ident!("{}", s);
+                    quote!(.#f)
+                }
+            });
+            out.extend(quote!(let #p = state #(#path)*.data.0;));
         }
     }
     out

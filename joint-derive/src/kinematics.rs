@@ -82,8 +82,8 @@ pub enum Ground {
 
 /// A state vector the generated code destructures: `state.<path>` holds `vars`.
 pub struct Input {
-    /// Field path below `state`, e.g. `["body1", "r"]`.
-    pub path: Vec<&'static str>,
+    /// Field path below `state`, e.g. `["body1", "r"]`; a number is an array index.
+    pub path: Vec<String>,
     /// One variable node per component.
     pub vars: Vec<Id>,
 }
@@ -121,30 +121,22 @@ pub struct Kinematics {
     pub velocities: Vec<Id>,
     /// State vectors to bind, in order.
     pub inputs: Vec<Input>,
-    frames: [Frame; 2],
+    /// Frame 0 is the ground (identity); bodies follow.
+    frames: Vec<Frame>,
+    /// The frames of the current joint's body 1 and body 2.
+    pair: [usize; 2],
     delta: Option<V3>,
 }
 
 impl Kinematics {
     /// Sets up the inputs and rules of `formulation` with `ground`.
     pub fn new(formulation: Formulation, ground: Ground) -> Self {
-        let mut g = Graph::new();
-        let identity = identity_frame(&mut g);
-        let mut k = Kinematics {
-            g,
-            rules: TimeRules::new(),
-            time_rules: TimeRules::new(),
-            coords: Vec::new(),
-            velocities: Vec::new(),
-            inputs: Vec::new(),
-            frames: [identity_frame_copy(&identity), identity],
-            delta: None,
-        };
+        let mut k = Kinematics::empty();
         if formulation.is_relative() {
-            let delta = k.vector("delta", &["delta"], "delta", true);
-            let p = k.vector4("p", &["p"], "p");
-            let delta_dot = k.vector("delta_dot", &["delta_dot"], "delta_dot", false);
-            let w = k.vector("w", &["omega"], "omega", false);
+            let delta = k.vector("delta", vec!["delta".into()]);
+            let p = k.vector4("p", vec!["p".into()]);
+            let delta_dot = k.vector("delta_dot", vec!["delta_dot".into()]);
+            let w = k.vector("w", vec!["omega".into()]);
             for j in 0..3 {
                 k.rules.set_var(&k.g, delta[j], delta_dot[j]);
             }
@@ -155,7 +147,9 @@ impl Kinematics {
             let a = rotation_matrix(&mut k.g, p, "a");
             let body = formulation == Formulation::RelativeB2;
             let omega = k.angular_velocity(&a, w, body, "omega_rel");
-            k.frames[1] = Frame { a, r: k.zero3(), omega: Some(omega), euler: None };
+            let r = k.zero3();
+            k.frames.push(Frame { a, r, omega: Some(omega), euler: None });
+            k.pair = [0, 1];
             k.register_columns(1);
             k.delta = Some(delta);
             return k;
@@ -165,39 +159,84 @@ impl Kinematics {
             if grounded {
                 continue;
             }
-            let field: &'static str = match (ground, body) {
+            let field = match (ground, body) {
                 (Ground::None, 0) => "body1",
                 (Ground::None, _) => "body2",
                 _ => "body",
             };
-            let n = body + 1;
-            let r = k.vector(&format!("r{n}"), &[field, "r"], "", true);
-            let p = k.vector4(&format!("p{n}"), &[field, "p"], "");
-            let rdot = k.vector(&format!("rdot{n}"), &[field, "rdot"], "", false);
-            for j in 0..3 {
-                k.rules.set_var(&k.g, r[j], rdot[j]);
-            }
-            k.coords.extend(r);
-            k.coords.extend(p);
-            k.velocities.extend(rdot);
-            let a = rotation_matrix(&mut k.g, p, &format!("a{n}"));
-            let (omega, euler) = if formulation == Formulation::Euler {
-                let pdot = k.vector4(&format!("pdot{n}"), &[field, "pdot"], "");
-                for j in 0..4 {
-                    k.rules.set_var(&k.g, p[j], pdot[j]);
-                }
-                k.velocities.extend(pdot);
-                let a_of_pdot = rotation_matrix(&mut k.g, pdot, &format!("a{n}_pdot"));
-                (None, Some(EulerRates { p, pdot, a_of_pdot }))
-            } else {
-                let w = k.vector(&format!("w{n}"), &[field, "omega"], "", false);
-                k.velocities.extend(w);
-                (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody, &format!("omega{n}"))), None)
-            };
-            k.frames[body] = Frame { a, r, omega, euler };
-            k.register_columns(body);
+            k.pair[body] = k.add_body(&format!("{}", body + 1), vec![field.to_string()], formulation);
         }
         k
+    }
+
+    /// The inputs and rules of a mechanism of `bodies` (names used in generated
+    /// code); the state's bodies are `state.bodies[i]`. Joints are then lowered
+    /// one after the other with [`Kinematics::connect`].
+    pub fn scene(formulation: Formulation, bodies: &[String]) -> Self {
+        let mut k = Kinematics::empty();
+        for (i, name) in bodies.iter().enumerate() {
+            k.add_body(&format!("_{name}"), vec!["bodies".into(), i.to_string()], formulation);
+        }
+        k
+    }
+
+    /// The ground frame alone: no inputs, no rules.
+    fn empty() -> Self {
+        let mut g = Graph::new();
+        let identity = identity_frame(&mut g);
+        Kinematics {
+            g,
+            rules: TimeRules::new(),
+            time_rules: TimeRules::new(),
+            coords: Vec::new(),
+            velocities: Vec::new(),
+            inputs: Vec::new(),
+            frames: vec![identity],
+            pair: [0, 0],
+            delta: None,
+        }
+    }
+
+    /// Makes the next joint connect `body1` and `body2` (`None`: the ground).
+    pub fn connect(&mut self, body1: Option<usize>, body2: Option<usize>) {
+        self.pair = [body1.map_or(0, |b| b + 1), body2.map_or(0, |b| b + 1)];
+    }
+
+    /// Adds a moving body with its coordinates, velocities and rules; returns its frame.
+    fn add_body(&mut self, n: &str, path: Vec<String>, formulation: Formulation) -> usize {
+        let k = self;
+        let at = |leaf: &str| {
+            let mut p = path.clone();
+            p.push(leaf.to_string());
+            p
+        };
+        let r = k.vector(&format!("r{n}"), at("r"));
+        let p = k.vector4(&format!("p{n}"), at("p"));
+        let rdot = k.vector(&format!("rdot{n}"), at("rdot"));
+        for j in 0..3 {
+            k.rules.set_var(&k.g, r[j], rdot[j]);
+        }
+        k.coords.extend(r);
+        k.coords.extend(p);
+        k.velocities.extend(rdot);
+        let a = rotation_matrix(&mut k.g, p, &format!("a{n}"));
+        let (omega, euler) = if formulation == Formulation::Euler {
+            let pdot = k.vector4(&format!("pdot{n}"), at("pdot"));
+            for j in 0..4 {
+                k.rules.set_var(&k.g, p[j], pdot[j]);
+            }
+            k.velocities.extend(pdot);
+            let a_of_pdot = rotation_matrix(&mut k.g, pdot, &format!("a{n}_pdot"));
+            (None, Some(EulerRates { p, pdot, a_of_pdot }))
+        } else {
+            let w = k.vector(&format!("w{n}"), at("omega"));
+            k.velocities.extend(w);
+            (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody, &format!("omega{n}"))), None)
+        };
+        k.frames.push(Frame { a, r, omega, euler });
+        let index = k.frames.len() - 1;
+        k.register_columns(index);
+        index
     }
 
     fn zero3(&mut self) -> V3 {
@@ -205,17 +244,16 @@ impl Kinematics {
         [z; 3]
     }
 
-    /// Declares a 3-vector input; `coordinate` says whether it is a coordinate
-    /// (only for naming in errors; rules are set by the caller).
-    fn vector(&mut self, name: &str, path: &[&'static str], _doc: &str, _coordinate: bool) -> V3 {
+    /// Declares a 3-vector input read from `state.<path>` (rules are set by the caller).
+    fn vector(&mut self, name: &str, path: Vec<String>) -> V3 {
         let vars = ["x", "y", "z"].map(|c| self.g.state(format!("{name}_{c}")));
-        self.inputs.push(Input { path: path.to_vec(), vars: vars.to_vec() });
+        self.inputs.push(Input { path, vars: vars.to_vec() });
         vars
     }
 
-    fn vector4(&mut self, name: &str, path: &[&'static str], _doc: &str) -> [Id; 4] {
+    fn vector4(&mut self, name: &str, path: Vec<String>) -> [Id; 4] {
         let vars = [0, 1, 2, 3].map(|c| self.g.state(format!("{name}_{c}")));
-        self.inputs.push(Input { path: path.to_vec(), vars: vars.to_vec() });
+        self.inputs.push(Input { path, vars: vars.to_vec() });
         vars
     }
 
@@ -249,19 +287,20 @@ impl Kinematics {
 
     /// `A_body a'`: a vector fixed in `body` (0 or 1) in reference components.
     pub fn rotate(&mut self, body: usize, a: V3, hint: &str) -> V3 {
-        let m = self.frames[body].a;
+        let frame = self.pair[body];
+        let m = self.frames[frame].a;
         let start = self.g.len();
         let u = mat_vec(&mut self.g, &m, a);
         for (j, &c) in u.iter().enumerate() {
             self.g.hint_new(start, c, format!("{hint}_{}", XYZ[j]));
         }
-        if let Some(omega) = self.frames[body].omega {
+        if let Some(omega) = self.frames[frame].omega {
             let du = cross(&mut self.g, omega, u);
             for j in 0..3 {
                 self.rules.set_node(&self.g, u[j], du[j]);
             }
         }
-        if let Some(rates) = self.frames[body].euler {
+        if let Some(rates) = self.frames[frame].euler {
             self.euler_rule(rates, a, u, hint);
         }
         u
@@ -331,7 +370,7 @@ impl Kinematics {
             return [0, 1, 2].map(|j| self.g.add(delta[j], u[j]));
         }
         let u = self.rotate(body, q, hint);
-        let r = self.frames[body].r;
+        let r = self.frames[self.pair[body]].r;
         [0, 1, 2].map(|j| self.g.add(r[j], u[j]))
     }
 
@@ -342,7 +381,7 @@ impl Kinematics {
         }
         let w1 = self.rotate(0, rho1, "rho1_n");
         let w2 = self.rotate(1, rho2, "rho2_n");
-        let (r1, r2) = (self.frames[0].r, self.frames[1].r);
+        let (r1, r2) = (self.frames[self.pair[0]].r, self.frames[self.pair[1]].r);
         // (r2 − r1) + (w2 − w1): the large positions cancel first.
         let start = self.g.len();
         let d = [0, 1, 2].map(|j| {
@@ -390,10 +429,6 @@ pub struct RowDerivatives {
 fn identity_frame(g: &mut Graph) -> Frame {
     let (zero, one) = (g.zero(), g.constant(1.0));
     Frame { a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]], r: [zero; 3], omega: None, euler: None }
-}
-
-fn identity_frame_copy(f: &Frame) -> Frame {
-    Frame { a: f.a, r: f.r, omega: f.omega, euler: f.euler }
 }
 
 /// `A(p) = (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ`, homogeneous in `p` (no unit-norm

@@ -12,7 +12,9 @@ mod expand;
 mod fallback;
 mod joints;
 mod kinematics;
+mod params;
 mod rows;
+mod scene;
 
 #[cfg(test)]
 mod output_tests;
@@ -30,4 +32,20 @@ mod output_tests;
 pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
     let input = syn::parse_macro_input!(input as syn::DeriveInput);
     expand::derive(&input).into()
+}
+
+/// Derives `joint_runtime::Scene` (and `SparseJacobian`) for a mechanism: its
+/// bodies and joints in attributes, run-time data in fields.
+///
+/// ```ignore
+/// #[derive(Scene)]
+/// #[scene(gravity = [0, 0, -9.81])]
+/// #[body(link, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
+/// #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho2 = [0, 0, 0.5])]
+/// struct Pendulum;
+/// ```
+#[proc_macro_derive(Scene, attributes(scene, body, joint))]
+pub fn derive_scene(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
+    let input = syn::parse_macro_input!(input as syn::DeriveInput);
+    scene::derive(&input).into()
 }

@@ -26,14 +26,29 @@ fn describe(input: &syn::DeriveInput) -> String {
     let mut out = String::new();
     for attr in &input.attrs {
         let tokens = attr.meta.to_token_stream().to_string();
-        let tidy = tokens.replace(" ,", ",").replace("[ ", "[").replace(" ]", "]").replacen(" (", "(", 1);
-        out.push_str(&format!("#[{tidy}]\n"));
+        let tidy = tokens.replace(" ,", ",").replace("[ ", "[").replace(" ]", "]");
+        out.push_str(&format!("#[{}]\n", tidy_calls(&tidy)));
     }
     let mut item = input.clone();
     item.attrs.clear();
     match syn::parse2::<syn::File>(item.into_token_stream()) {
         Ok(file) => out.push_str(&prettyplease::unparse(&file)),
         Err(e) => panic!("the derive input does not parse as a Rust file: {e}"),
+    }
+    out
+}
+
+/// `rows (dot (s, h))` → `rows(dot(s, h))`: no space between a name and its
+/// parenthesis (token streams print one).
+fn tidy_calls(tokens: &str) -> String {
+    let mut out = String::with_capacity(tokens.len());
+    let mut chars = tokens.chars().peekable();
+    while let Some(c) = chars.next() {
+        let after_name = out.chars().last().is_some_and(|p: char| p.is_alphanumeric() || p == '_');
+        if c == ' ' && chars.peek() == Some(&'(') && after_name {
+            continue;
+        }
+        out.push(c);
     }
     out
 }
@@ -301,6 +316,172 @@ fn error_unknown_joint_kind() {
         parse_quote! {
             #[joint(hinge, formulation = omega_body)]
             struct Hinge<T> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+// --- the rest of the catalogue, one representative each ------------------------
+
+#[test]
+fn revolute_omega_body() {
+    check(
+        "revolute_omega_body",
+        parse_quote! {
+            #[joint(revolute, formulation = omega_body)]
+            struct Hinge<T> {
+                f: Vector3<T>,
+                g: Vector3<T>,
+                h: Vector3<T>,
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn revolute_const_axes_omega_body() {
+    check(
+        "revolute_const_axes_omega_body",
+        parse_quote! {
+            #[joint(revolute, formulation = omega_body, axis1 = [0, 0, 1], axis2 = [0, 0, 1])]
+            struct Hinge<T> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn translational_omega_body() {
+    check(
+        "translational_omega_body",
+        parse_quote! {
+            #[joint(translational, formulation = omega_body)]
+            struct Prism<T> {
+                f: Vector3<T>,
+                g: Vector3<T>,
+                h: Vector3<T>,
+                k: Vector3<T>,
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn distance_omega_body() {
+    check(
+        "distance_omega_body",
+        parse_quote! {
+            #[joint(distance, formulation = omega_body)]
+            struct Rod<T> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+                length: T,
+            }
+        },
+    );
+}
+
+#[test]
+fn point_in_plane_omega_body() {
+    check(
+        "point_in_plane_omega_body",
+        parse_quote! {
+            #[joint(point_in_plane, formulation = omega_body)]
+            struct Contact<T> {
+                n: Vector3<T>,
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}
+
+#[test]
+fn rotational_driver_omega_body() {
+    check(
+        "rotational_driver_omega_body",
+        parse_quote! {
+            #[joint(rotational_driver, formulation = omega_body)]
+            struct Motor<T, F> {
+                f: Vector3<T>,
+                g: Vector3<T>,
+                k: Vector3<T>,
+                theta: F,
+            }
+        },
+    );
+}
+
+#[test]
+fn translational_driver_euler() {
+    check(
+        "translational_driver_euler",
+        parse_quote! {
+            #[joint(translational_driver, formulation = euler)]
+            struct Actuator<T, F> {
+                h: Vector3<T>,
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+                x: F,
+            }
+        },
+    );
+}
+
+// --- user-written rows -------------------------------------------------------------
+
+#[test]
+fn rows_constant_angle_omega_body() {
+    check(
+        "rows_constant_angle_omega_body",
+        parse_quote! {
+            #[joint(rows(dot(s, h) - cos(alpha)), formulation = omega_body)]
+            struct ConstantAngle<T> {
+                #[joint(body1)]
+                s: Vector3<T>,
+                #[joint(body2)]
+                h: Vector3<T>,
+                alpha: T,
+            }
+        },
+    );
+}
+
+#[test]
+fn rows_cable_time_omega_body() {
+    check(
+        "rows_cable_time_omega_body",
+        parse_quote! {
+            #[joint(rows(norm2(d) - l * l), formulation = omega_body)]
+            struct Cable<T, F> {
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+                #[joint(time)]
+                l: F,
+            }
+        },
+    );
+}
+
+#[test]
+fn rows_spherical_dot1_omega_body() {
+    check(
+        "rows_spherical_dot1_omega_body",
+        parse_quote! {
+            #[joint(rows(spherical, dot1(s, h)), formulation = omega_body)]
+            struct Cardan<T> {
+                #[joint(body1)]
+                s: Vector3<T>,
+                #[joint(body2)]
+                h: Vector3<T>,
                 rho1: Vector3<T>,
                 rho2: Vector3<T>,
             }

@@ -27,6 +27,22 @@ enum Typed {
 pub struct Names<'a> {
     /// The role of a parameter, if `name` is one.
     pub role: &'a dyn Fn(&str) -> Option<Role>,
+    /// Every parameter name, for "did you mean" and the list of what is expected.
+    pub all: &'a [&'a str],
+}
+
+/// The functions of the row language.
+const FUNCTIONS: [&str; 8] = ["dot", "cross", "norm2", "sin", "cos", "dot1", "dot2", "distance"];
+
+/// What a parameter of `role` is, for messages: "an axis of body 2".
+fn describe(role: Option<Role>) -> String {
+    match role {
+        Some(Role::Axis(b)) => format!("an axis of body {}", b + 1),
+        Some(Role::Point(b)) => format!("a point of body {}", b + 1),
+        Some(Role::Scalar) => "a number".into(),
+        Some(Role::Time) => "a time function".into(),
+        None => "not a parameter of this joint".into(),
+    }
 }
 
 fn err<T>(span: Span, message: impl std::fmt::Display) -> syn::Result<T> {
@@ -45,33 +61,62 @@ pub fn row(e: &syn::Expr, names: &Names) -> syn::Result<Row> {
         return Ok(Row::Spherical);
     }
     Ok(match check(e, names)? {
+        // A row of numbers, scalars and time functions only: its Jacobian is zero.
+        Typed::S(s) if constant_in_space(&s) => {
+            return err(
+                e.span(),
+                "this row does not depend on the bodies: it constrains nothing; expected a row over their axes, \
+                 points or `d`, as in `dot(s, h) - cos(alpha)`",
+            );
+        }
         Typed::S(s) => Row::Scalar(s),
         Typed::V(v) => Row::Vector(v),
     })
 }
 
-fn scalar(e: &syn::Expr, names: &Names, what: &str) -> syn::Result<Expr> {
+/// An argument that must be a number; `form` is the call as it should be written.
+fn scalar(e: &syn::Expr, names: &Names, form: &str) -> syn::Result<Expr> {
     match check(e, names)? {
         Typed::S(s) => Ok(s),
-        Typed::V(_) => err(e.span(), format!("{what} takes a number here, found a vector; expected e.g. `dot(u, v)`")),
+        Typed::V(_) => {
+            err(e.span(), format!("`{}` takes a number here, found a vector; expected `{form}`", function(form)))
+        }
     }
 }
 
-fn vector(e: &syn::Expr, names: &Names, what: &str) -> syn::Result<VExpr> {
+/// An argument that must be a vector; `form` is the call as it should be written.
+fn vector(e: &syn::Expr, names: &Names, form: &str) -> syn::Result<VExpr> {
     match check(e, names)? {
         Typed::V(v) => Ok(v),
-        Typed::S(_) => err(e.span(), format!("{what} takes a vector here, found a number")),
+        Typed::S(_) => {
+            err(e.span(), format!("`{}` takes a vector here, found a number; expected `{form}`", function(form)))
+        }
     }
 }
 
-/// A name that must be an axis of `body` (for `dot1`, `dot2`).
-fn axis_of(e: &syn::Expr, names: &Names, body: usize, what: &str) -> syn::Result<String> {
-    let want = format!("an axis fixed in body {}, as in `{what}`", body + 1);
-    let syn::Expr::Path(p) = e else { return err(e.span(), format!("expected {want}")) };
-    let Some(id) = p.path.get_ident() else { return err(e.span(), format!("expected {want}")) };
+/// `dot` of `dot(u, v)`.
+fn function(form: &str) -> &str {
+    form.split('(').next().unwrap_or(form)
+}
+
+/// The name `e` is, if it is a single identifier.
+fn ident(e: &syn::Expr) -> Option<&syn::Ident> {
+    match e {
+        syn::Expr::Path(p) => p.path.get_ident(),
+        _ => None,
+    }
+}
+
+/// A name that must be an axis of `body` (for `dot1`, `dot2`); `form` is the call
+/// as it should be written.
+fn axis_of(e: &syn::Expr, names: &Names, body: usize, form: &str) -> syn::Result<String> {
+    let want = format!("an axis of body {}", body + 1);
+    let Some(id) = ident(e) else {
+        return err(e.span(), format!("expected the name of {want} here, as in `{form}`"));
+    };
     match (names.role)(&id.to_string()) {
         Some(Role::Axis(b)) if b == body => Ok(id.to_string()),
-        _ => err(id.span(), format!("`{id}` is not {want}")),
+        role => err(id.span(), format!("`{id}` is {}, expected {want} here, as in `{form}`", describe(role))),
     }
 }
 
@@ -91,7 +136,16 @@ fn constant_in_space(e: &Expr) -> bool {
 fn args(call: &syn::ExprCall, n: usize, form: &str) -> syn::Result<Vec<syn::Expr>> {
     let a: Vec<syn::Expr> = call.args.iter().cloned().collect();
     if a.len() != n {
-        return err(call.span(), format!("expected {n} argument{}, as in `{form}`", if n == 1 { "" } else { "s" }));
+        let span = call.paren_token.span.join();
+        return err(
+            span,
+            format!(
+                "`{}` takes {n} argument{}, found {}; expected `{form}`",
+                function(form),
+                if n == 1 { "" } else { "s" },
+                a.len()
+            ),
+        );
     }
     Ok(a)
 }
@@ -117,9 +171,20 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
                 Some(Role::Scalar) => Ok(Typed::S(Expr::Scalar(name))),
                 Some(Role::Time) => Ok(Typed::S(Expr::Time(name))),
                 None if name == "d" => Ok(Typed::V(VExpr::Separation)),
-                None if name == "spherical" => err(id.span(), "`spherical` is a whole row; write it on its own"),
+                None if name == "spherical" => err(
+                    id.span(),
+                    "`spherical` is a whole row (three rows); expected it on its own, as in `rows(spherical, dot1(s, h))`",
+                ),
                 None => {
-                    err(id.span(), format!("unknown name `{name}` in a row; expected a parameter of this joint or `d`"))
+                    let all: Vec<String> = names.all.iter().map(|n| format!("`{n}`")).collect();
+                    err(
+                        id.span(),
+                        format!(
+                            "unknown name `{name}` in a row{}; expected a parameter of this joint ({}) or `d`",
+                            crate::dsl::did_you_mean(&name, names.all.iter().copied().chain(["d"])),
+                            all.join(", ")
+                        ),
+                    )
                 }
             }
         }
@@ -141,42 +206,55 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
                 (BinOp::Mul(_), Typed::V(_), Typed::V(_)) => {
                     err(bin.op.span(), "cannot multiply two vectors; expected `dot(u, v)` or `cross(u, v)`")
                 }
-                (BinOp::Add(_) | BinOp::Sub(_), _, _) => {
-                    err(bin.op.span(), "cannot add a vector and a number; expected both sides vectors or both numbers")
+                (BinOp::Add(_) | BinOp::Sub(_), l, _) => {
+                    let (verb, side) =
+                        if matches!(bin.op, BinOp::Add(_)) { ("add", "to") } else { ("subtract", "from") };
+                    let (what, other) =
+                        if matches!(l, Typed::V(_)) { ("a number", "a vector") } else { ("a vector", "a number") };
+                    err(
+                        bin.op.span(),
+                        format!(
+                            "cannot {verb} {what} {side} {other}; expected both sides vectors or both numbers, as in `dot(s, h) - 1`"
+                        ),
+                    )
                 }
-                (BinOp::Div(_), ..) => {
-                    err(bin.op.span(), "rows take no division (Φ stays polynomial); multiply instead")
-                }
-                _ => err(bin.op.span(), "expected `+`, `-` or `*`"),
+                (BinOp::Div(_), ..) => err(
+                    bin.op.span(),
+                    "rows take no division (Φ stays polynomial); expected the row multiplied out, as in `a - b * c` for `a / b - c`",
+                ),
+                _ => err(bin.op.span(), "unknown operator in a row; expected `+`, `-` or `*`"),
             }
         }
         E::Call(call) => {
-            let E::Path(f) = &*call.func else { return err(call.func.span(), "expected a function name") };
-            let Some(fname) = f.path.get_ident() else { return err(f.span(), "expected a function name") };
+            let Some(fname) = ident(&call.func) else {
+                return err(call.func.span(), "expected a function name, as in `dot(s, h)`");
+            };
             match fname.to_string().as_str() {
                 "dot" => {
                     let a = args(call, 2, "dot(u, v)")?;
-                    let (u, v) = (vector(&a[0], names, "`dot`")?, vector(&a[1], names, "`dot`")?);
+                    let (u, v) = (vector(&a[0], names, "dot(u, v)")?, vector(&a[1], names, "dot(u, v)")?);
                     Ok(Typed::S(Expr::Dot(b(u), b(v))))
                 }
                 "cross" => {
                     let a = args(call, 2, "cross(u, v)")?;
-                    let (u, v) = (vector(&a[0], names, "`cross`")?, vector(&a[1], names, "`cross`")?);
+                    let (u, v) = (vector(&a[0], names, "cross(u, v)")?, vector(&a[1], names, "cross(u, v)")?);
                     Ok(Typed::V(VExpr::Cross(b(u), b(v))))
                 }
                 "norm2" => {
                     let a = args(call, 1, "norm2(u)")?;
-                    let u = vector(&a[0], names, "`norm2`")?;
+                    let u = vector(&a[0], names, "norm2(u)")?;
                     Ok(Typed::S(Expr::Dot(b(u.clone()), b(u))))
                 }
                 "sin" | "cos" => {
-                    let a = args(call, 1, "sin(alpha)")?;
-                    let x = scalar(&a[0], names, &format!("`{fname}`"))?;
+                    let form = format!("{fname}(alpha)");
+                    let a = args(call, 1, &form)?;
+                    let x = scalar(&a[0], names, &form)?;
                     if !constant_in_space(&x) {
                         return err(
                             a[0].span(),
                             format!(
-                                "`{fname}` takes parameters and time functions only (Φ stays polynomial in the coordinates)"
+                                "`{fname}` of the bodies' coordinates is not allowed (Φ stays polynomial in them); \
+                                 expected numbers, scalars and time functions only, as in `{form}`"
                             ),
                         );
                     }
@@ -184,6 +262,19 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
                 }
                 "dot1" => {
                     let a = args(call, 2, "dot1(s, h)")?;
+                    // Both arguments in the wrong order: one mistake, one message.
+                    if let (Some(x), Some(y)) = (ident(&a[0]), ident(&a[1]))
+                        && (names.role)(&x.to_string()) == Some(Role::Axis(1))
+                        && (names.role)(&y.to_string()) == Some(Role::Axis(0))
+                    {
+                        return err(
+                            call.paren_token.span.join(),
+                            format!(
+                                "the arguments of `dot1` are swapped: `{x}` is an axis of body 2 and `{y}` of body 1; \
+                                 expected `dot1({y}, {x})`"
+                            ),
+                        );
+                    }
                     let (x, y) = (axis_of(&a[0], names, 0, "dot1(s, h)")?, axis_of(&a[1], names, 1, "dot1(s, h)")?);
                     Ok(Typed::S(Expr::Dot1(x, y)))
                 }
@@ -193,14 +284,16 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
                 }
                 "distance" => {
                     let a = args(call, 1, "distance(length)")?;
-                    let l = scalar(&a[0], names, "`distance`")?;
+                    let l = scalar(&a[0], names, "distance(length)")?;
                     let d = || b(VExpr::Separation);
                     Ok(Typed::S(Expr::Sub(b(Expr::Dot(d(), d())), b(Expr::Mul(b(l.clone()), b(l))))))
                 }
                 other => err(
                     fname.span(),
                     format!(
-                        "unknown function `{other}`; expected one of `dot`, `cross`, `norm2`, `sin`, `cos`, `dot1`, `dot2`, `distance`"
+                        "unknown function `{other}`{}; expected one of {}",
+                        crate::dsl::did_you_mean(other, FUNCTIONS),
+                        FUNCTIONS.map(|f| format!("`{f}`")).join(", ")
                     ),
                 ),
             }

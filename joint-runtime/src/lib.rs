@@ -14,16 +14,18 @@
 
 mod geometry;
 mod joint;
+pub mod scene;
 mod state;
 mod time;
 
 pub use geometry::{AxisFrame, SlidingFrame, perpendicular_pair, rotation_matrix};
 pub use joint::{Evaluation, Formulation, Joint, Ops, Singularity};
+pub use scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};
 
 /// Re-exported so that users need one dependency.
-pub use joint_derive::Joint;
+pub use joint_derive::{Joint, Scene};
 pub use nalgebra;
 
 /// Paths used by generated code. Not public API: anything here may change.
