@@ -240,7 +240,9 @@ fn sine_sq(a: &str, c: &str) -> Singularity {
     let den = Expr::Mul(b(norm_sq(local(a))), b(norm_sq(local(c))));
     Singularity {
         measure: Expr::Div(b(num), b(den)),
-        zero_when: "the two axes are parallel (for a universal joint: the shaft bend reaches 90°)",
+        zero_when: "the two axes become parallel, where the dot-1 row's gradient vanishes; an assembled joint keeps \
+                    them perpendicular, so a Cardan shaft's 90° bend is a singularity of the mechanism (its system \
+                    Jacobian), which the scene analyses detect, not of these rows",
     }
 }
 
@@ -271,6 +273,15 @@ fn rotation_lock() -> Singularity {
     Singularity {
         measure: Expr::Div(b(num), b(den)),
         zero_when: "the three rotational rows `f×h, g×h, f×k` become linearly dependent (a half-turn misalignment)",
+    }
+}
+
+/// `|d|² / L²`: the distance row's gradient `2 dᵀ(…)` vanishes with `d`.
+fn separation_over_length(length: &str) -> Singularity {
+    let l = || b(Expr::Scalar(length.into()));
+    Singularity {
+        measure: Expr::Div(b(norm_sq(VExpr::Separation)), b(Expr::Mul(l(), l()))),
+        zero_when: "the two points coincide (`d = 0`: the row's gradient vanishes)",
     }
 }
 
@@ -367,7 +378,14 @@ fn build() -> Vec<JointKind> {
             axis_alignment(),
         ),
         with(kind("perpendicular", vec![axis("s", 0), axis("h", 1)], vec![S(dot1("s", "h"))]), sine_sq("s", "h")),
-        kind("distance", with_points(vec![Param { name: "length", role: Role::Scalar }]), vec![S(distance("length"))]),
+        with(
+            kind(
+                "distance",
+                with_points(vec![Param { name: "length", role: Role::Scalar }]),
+                vec![S(distance("length"))],
+            ),
+            separation_over_length("length"),
+        ),
         kind("rotational_driver", vec![axis("f", 0), axis("g", 0), axis("k", 1), time("theta")], vec![S(rotational)]),
         kind("translational_driver", with_points(vec![axis("h", 0), time("x")]), vec![S(translational)]),
     ];

@@ -3,8 +3,7 @@
 //! `#[derive(Scene)]` generates one straight-line computation of the system's
 //! Φ, Φ_t, J and γ over all bodies (coordinates `r, p` and velocities `ṙ, ω'` per
 //! body, the `omega_body` formulation), sharing each body's rotation across its
-//! joints. The analyses in [`crate::analysis`] and [`crate::dynamics`] work on any
-//! [`Scene`].
+//! joints. The analyses work on any [`Scene`].
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
