@@ -214,8 +214,24 @@ struct Unknown {
     field: bool,
 }
 
+/// A declaration that does not check: the errors, and as much of the
+/// declaration as was understood (enough for a stub impl when the joint kind
+/// and the formulation were).
+pub struct Failure {
+    /// Every error found.
+    pub error: syn::Error,
+    /// The declaration as far as it goes.
+    pub partial: Option<Declaration>,
+}
+
+impl From<syn::Error> for Failure {
+    fn from(error: syn::Error) -> Self {
+        Failure { error, partial: None }
+    }
+}
+
 /// Parses and checks a derive input.
-pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
+pub fn parse(input: &syn::DeriveInput) -> Result<Declaration, Failure> {
     let mut errors = Errors::default();
     const SHAPE: &str = "expected a struct with named fields, as in `struct Cardan<T> { h: Vector3<T>, .. }`";
     let fields = match &input.data {
@@ -223,15 +239,15 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         syn::Data::Struct(syn::DataStruct { fields: syn::Fields::Unit, .. }) => None,
         syn::Data::Struct(syn::DataStruct { fields: syn::Fields::Unnamed(unnamed), .. }) => {
             let message = format!("`Joint` cannot be derived for a tuple struct; {SHAPE}");
-            return Err(syn::Error::new(unnamed.paren_token.span.join(), message));
+            return Err(syn::Error::new(unnamed.paren_token.span.join(), message).into());
         }
         syn::Data::Enum(e) => {
             let message = format!("`Joint` cannot be derived for an enum; {SHAPE}");
-            return Err(syn::Error::new(e.enum_token.span, message));
+            return Err(syn::Error::new(e.enum_token.span, message).into());
         }
         syn::Data::Union(u) => {
             let message = format!("`Joint` cannot be derived for a union; {SHAPE}");
-            return Err(syn::Error::new(u.union_token.span, message));
+            return Err(syn::Error::new(u.union_token.span, message).into());
         }
     };
     // The scalar as the user wrote it, for messages: `T` in `struct S<T>`.
@@ -370,6 +386,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         errors.finish()?;
         unreachable!("finish fails when there are errors")
     };
+    let formulation_known = formulation.is_some();
     let formulation = match formulation {
         Some(f) => f,
         None => {
@@ -639,8 +656,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         };
         errors.at(kind_span, format!("missing parameter `{}` of `{}`; add {hint}{also}", p.name, kind.name));
     }
-    errors.finish()?;
-    Ok(Declaration {
+    let decl = Declaration {
         ident: input.ident.clone(),
         generics: input.generics.clone(),
         kind,
@@ -652,7 +668,18 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<Declaration> {
         time_fields,
         row_spans,
         kind_span,
-    })
+    };
+    match errors.finish() {
+        Ok(()) => Ok(decl),
+        Err(error) => {
+            // A stub needs the formulation and a scalar that exists.
+            let scalar_known = match &decl.scalar {
+                ScalarKind::Concrete(t) => t == "f64" || t == "f32",
+                _ => true,
+            };
+            Err(Failure { error, partial: (formulation_known && scalar_known).then_some(decl) })
+        }
+    }
 }
 
 /// The edit (Levenshtein) distance of `a` and `b`.

@@ -13,9 +13,12 @@ use crate::kinematics::{self, Formulation, Ground, Kinematics, V3};
 /// The derive's entry point: tokens in, tokens out; errors become
 /// `compile_error!` beside a stub impl.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
-    match dsl::parse(input).and_then(|decl| expand(&decl)) {
-        Ok(tokens) => tokens,
-        Err(e) => crate::fallback::expand(input, e),
+    match dsl::parse(input) {
+        Ok(decl) => match expand(&decl) {
+            Ok(tokens) => tokens,
+            Err(e) => crate::fallback::expand(input, e, Some(&decl)),
+        },
+        Err(failure) => crate::fallback::expand(input, failure.error, failure.partial.as_ref()),
     }
 }
 
@@ -205,6 +208,7 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
         ScalarKind::Concrete(t) => (quote!(#t), Some(t.to_string())),
         ScalarKind::Any => (quote!(__JointScalar), None),
     };
+    debug_assert_eq!(shape(decl), (rows, cols), "rows and columns from the declaration alone");
     let sty = ScalarTy { ty: scalar.clone(), krate: krate.clone(), concrete_f64: concrete.as_deref() == Some("f64") };
 
     let f = print_functions(d, &sty);
@@ -217,39 +221,15 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let (eval_body, eval_expr) = f.evaluate.clone();
     let function = |outputs: &[Id]| f.emit(outputs);
 
-    let body_ty = match decl.formulation {
-        Formulation::Euler => quote!(#krate::EulerBody<#scalar>),
-        _ => quote!(#krate::OmegaBody<#scalar>),
-    };
-    let state_ty = match (decl.formulation.is_relative(), decl.ground) {
-        (true, _) => quote!(#krate::RelativeState<#scalar>),
-        (false, Ground::None) => quote!(#krate::TwoBodies<#body_ty>),
-        (false, _) => quote!(#krate::OneBody<#body_ty>),
-    };
     let kind = decl.kind.name;
     let variant = format_ident!("{}", decl.formulation.variant());
     let ident = &decl.ident;
     let (_, ty_generics, _) = decl.generics.split_for_impl();
     let touch_unused = decl.unused_fields.iter().map(|f| quote!(let _ = &self.#f;));
     let touch = quote!(#(#touch_unused)*);
-    // The impl's generics: the struct's own, a fresh scalar parameter if the
-    // struct names none, the scalar bound, and a `TimeFunction` bound per driver field.
-    let mut generics = decl.generics.clone();
-    if let ScalarKind::Any = decl.scalar {
-        generics.params.push(syn::parse_quote!(__JointScalar));
-    }
-    {
-        let wc = generics.make_where_clause();
-        if !matches!(decl.scalar, ScalarKind::Concrete(_)) {
-            wc.predicates.push(syn::parse_quote!(#scalar: #krate::__private::SimdRealField + ::core::marker::Copy));
-        }
-        for ty in &decl.time_fields {
-            wc.predicates.push(syn::parse_quote!(#ty: #krate::TimeFunction));
-        }
-    }
-    let (impl_generics, _, where_clause) = generics.split_for_impl();
-    let impl_head =
-        quote!(impl #impl_generics #krate::Joint<#scalar, #rows_lit, #cols_lit> for #ident #ty_generics #where_clause);
+    let head = impl_header(decl, rows, cols);
+    let (impl_generics, _, where_clause) = head.generics.split_for_impl();
+    let (impl_head, state_ty) = (&head.impl_head, &head.state_ty);
     let singularity_impl = match (d.singularity, &decl.kind.singularity) {
         (Some(node), Some(s)) => {
             let (body, out, ops) = function(&[node]);
@@ -309,6 +289,71 @@ pub fn print(decl: &Declaration, d: &Derived) -> TokenStream {
         }
         #singularity_impl
     }
+}
+
+/// What every impl of `Joint` for a declaration starts with, real or stub.
+pub struct Header {
+    /// `impl<..> Joint<S, R, C> for Name<..> where ..`.
+    pub impl_head: TokenStream,
+    /// The state type.
+    pub state_ty: TokenStream,
+    /// The scalar as written in the impl.
+    pub scalar: TokenStream,
+    /// The impl's generics (the struct's, a fresh scalar if needed, and bounds).
+    pub generics: syn::Generics,
+}
+
+/// The header of the `Joint` impl of `decl` with `rows` rows and `cols` columns.
+pub fn impl_header(decl: &Declaration, rows: usize, cols: usize) -> Header {
+    let krate = quote!(::joint_runtime);
+    let (rows_lit, cols_lit) = (Literal::usize_unsuffixed(rows), Literal::usize_unsuffixed(cols));
+    let scalar = match &decl.scalar {
+        ScalarKind::Generic(t) | ScalarKind::Concrete(t) => quote!(#t),
+        ScalarKind::Any => quote!(__JointScalar),
+    };
+    let body_ty = match decl.formulation {
+        Formulation::Euler => quote!(#krate::EulerBody<#scalar>),
+        _ => quote!(#krate::OmegaBody<#scalar>),
+    };
+    let state_ty = match (decl.formulation.is_relative(), decl.ground) {
+        (true, _) => quote!(#krate::RelativeState<#scalar>),
+        (false, Ground::None) => quote!(#krate::TwoBodies<#body_ty>),
+        (false, _) => quote!(#krate::OneBody<#body_ty>),
+    };
+    // The impl's generics: the struct's own, a fresh scalar parameter if the
+    // struct names none, the scalar bound, and a `TimeFunction` bound per driver field.
+    let mut generics = decl.generics.clone();
+    if let ScalarKind::Any = decl.scalar {
+        generics.params.push(syn::parse_quote!(__JointScalar));
+    }
+    {
+        let wc = generics.make_where_clause();
+        if !matches!(decl.scalar, ScalarKind::Concrete(_)) {
+            wc.predicates.push(syn::parse_quote!(#scalar: #krate::__private::SimdRealField + ::core::marker::Copy));
+        }
+        for ty in &decl.time_fields {
+            wc.predicates.push(syn::parse_quote!(#ty: #krate::TimeFunction));
+        }
+    }
+    let ident = &decl.ident;
+    let (_, ty_generics, _) = decl.generics.split_for_impl();
+    let (impl_generics, _, where_clause) = generics.split_for_impl();
+    let impl_head =
+        quote!(impl #impl_generics #krate::Joint<#scalar, #rows_lit, #cols_lit> for #ident #ty_generics #where_clause);
+    Header { impl_head, state_ty, scalar, generics }
+}
+
+/// The number of rows and columns of a declaration, from its rows and
+/// formulation alone (no derivation): for a stub after an error.
+pub fn shape(decl: &Declaration) -> (usize, usize) {
+    let rows = decl.kind.rows.iter().map(|r| if matches!(r, Row::Scalar(_)) { 1 } else { 3 }).sum();
+    let per_body = if decl.formulation == Formulation::Euler { 7 } else { 6 };
+    let cols = match (decl.formulation.is_relative(), decl.ground) {
+        (true, _) => 6,
+        (false, Ground::None) => 2 * per_body,
+        (false, _) => per_body,
+    };
+    (rows, cols)
 }
 
 /// The printed functions of a derivation: each one's statements and result
