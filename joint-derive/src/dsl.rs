@@ -220,8 +220,9 @@ struct Unknown {
 pub struct Failure {
     /// Every error found.
     pub error: syn::Error,
-    /// The declaration as far as it goes.
-    pub partial: Option<Declaration>,
+    /// The declaration as far as it goes (boxed: it is large, and only the
+    /// error path carries it).
+    pub partial: Option<Box<Declaration>>,
 }
 
 impl From<syn::Error> for Failure {
@@ -677,7 +678,7 @@ pub fn parse(input: &syn::DeriveInput) -> Result<Declaration, Failure> {
                 ScalarKind::Concrete(t) => t == "f64" || t == "f32",
                 _ => true,
             };
-            Err(Failure { error, partial: (formulation_known && scalar_known).then_some(decl) })
+            Err(Failure { error, partial: (formulation_known && scalar_known).then(|| Box::new(decl)) })
         }
     }
 }

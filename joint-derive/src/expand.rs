@@ -18,7 +18,7 @@ pub fn derive(input: &syn::DeriveInput) -> TokenStream {
             Ok(tokens) => tokens,
             Err(e) => crate::fallback::expand(input, e, Some(&decl)),
         },
-        Err(failure) => crate::fallback::expand(input, failure.error, failure.partial.as_ref()),
+        Err(failure) => crate::fallback::expand(input, failure.error, failure.partial.as_deref()),
     }
 }
 

@@ -12,8 +12,11 @@
 #![doc = include_str!("../../README.md")]
 #![cfg_attr(not(feature = "std"), no_std)]
 
+pub mod analysis;
+pub mod dynamics;
 mod geometry;
 mod joint;
+pub mod linalg;
 pub mod scene;
 mod state;
 mod time;

@@ -1350,14 +1350,6 @@ mod singularity {
             Some(self.0.singularity(self.1))
         }
     }
-    trait NoMeasure {
-        fn measure_of(&self) -> Option<f64>;
-    }
-    impl<J, S, const R: usize, const C: usize> NoMeasure for &Probe<'_, J, S, R, C> {
-        fn measure_of(&self) -> Option<f64> {
-            None
-        }
-    }
 
     proptest! {
         #![proptest_config(config())]
@@ -1416,12 +1408,12 @@ mod singularity {
             let mut p = k.p;
             p.0[24] = 0.5 + p.0[24].abs();
             let (_, _, d) = frames(&k.c, &p, false);
-            let got = (&Probe::<_, _, 1, 12>(&distance::JointOb::new(&p), &OmegaBodyF::build(&k.c, k.t0))).measure_of();
+            let got = Probe::<_, _, 1, 12>(&distance::JointOb::new(&p), &OmegaBodyF::build(&k.c, k.t0)).measure_of();
             let want = d.norm_squared() / (p.sc() * p.sc());
             prop_assert!(got.is_some(), "distance (omega_body) has no `Singularity` impl; the README promises |d|²/L² = {want:e}");
             let got = got.unwrap_or(f64::NAN);
             prop_assert!((got - want).abs() <= 1e-12 * (1.0 + want), "distance: {got:e} vs {want:e}");
-            let got = (&Probe::<_, _, 1, 6>(&distance::JointR1::new(&p), &RelB1::build(&k.c, k.t0))).measure_of().unwrap_or(f64::NAN);
+            let got = Probe::<_, _, 1, 6>(&distance::JointR1::new(&p), &RelB1::build(&k.c, k.t0)).measure_of().unwrap_or(f64::NAN);
             let want = k.c.x(0).norm_squared() / (p.sc() * p.sc());
             prop_assert!((got - want).abs() <= 1e-12 * (1.0 + want), "distance relative_b1: {got:e} vs {want:e}");
         }
@@ -1447,7 +1439,7 @@ mod singularity {
         assert!(one(planar::JointOi::new(&p).singularity(&s)));
         assert!(one(perpendicular::JointOi::new(&p).singularity(&s)));
         assert!(
-            (&Probe::<_, _, 1, 12>(&distance::JointOi::new(&p), &s)).measure_of().is_none_or(one),
+            Probe::<_, _, 1, 12>(&distance::JointOi::new(&p), &s).measure_of().is_none_or(one),
             "distance at |d| = L"
         );
         let mut u = p;

@@ -1,0 +1,350 @@
+//! Small dense linear algebra on fixed-size matrices, generic over `const N`.
+//!
+//! nalgebra's decompositions are generic over dimensions, but its rank-revealing
+//! ones (`ColPivQR`, `SVD`) need `DimMin` bounds and allocator bounds on derived
+//! dimensions (`DimMinimum<R, C>`, `DimDiff<D, U1>`) that a function generic over
+//! `const N: usize` cannot name without carrying them through every caller, and
+//! its `Cholesky` is not rank revealing. The two factorisations here are written
+//! over indices instead: no bounds beyond `const N`, no allocation, no panic.
+//!
+//! - [`PivotedCholesky`]: `P A Pᵀ = L Lᵀ` with diagonal (symmetric) pivoting for a
+//!   symmetric positive semidefinite `A`, stopping when the largest remaining
+//!   pivot falls below a tolerance relative to the first (largest) pivot. It
+//!   reports the numerical rank and which indices were dropped as dependent, and
+//!   solves consistent systems `A x = b` with the basic solution (`x` zero at the
+//!   dropped indices).
+//! - [`Lu`]: LU with partial (row) pivoting of a general square matrix, for the
+//!   Newton iterations of the implicit integrator.
+
+use nalgebra::{SMatrix, SVector};
+
+/// Default relative pivot tolerance of [`PivotedCholesky`]: a pivot below
+/// `1e-10 ×` the largest one counts as zero. On a Gram matrix `J Jᵀ` this treats
+/// singular values of `J` below about `1e-5 σ_max` as zero.
+pub const DEFAULT_RANK_TOLERANCE: f64 = 1e-10;
+
+/// What can go wrong in a factorisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinalgError {
+    /// The matrix holds a NaN or an infinity.
+    NonFinite,
+    /// A zero (or negligible) pivot at this elimination step: the matrix is
+    /// singular to working precision.
+    Singular {
+        /// The elimination step.
+        step: usize,
+    },
+}
+
+impl core::fmt::Display for LinalgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            LinalgError::NonFinite => write!(f, "matrix has a non-finite entry"),
+            LinalgError::Singular { step } => write!(f, "matrix is singular (zero pivot at step {step})"),
+        }
+    }
+}
+
+impl core::error::Error for LinalgError {}
+
+fn all_finite<const R: usize, const C: usize>(a: &SMatrix<f64, R, C>) -> bool {
+    a.iter().all(|x| x.is_finite())
+}
+
+/// Rank-revealing Cholesky factorisation with diagonal pivoting of a symmetric
+/// positive semidefinite matrix: `P A Pᵀ = L Lᵀ` with `L` lower trapezoidal of
+/// `rank` columns.
+///
+/// At step `k` the largest remaining diagonal entry is moved to position `k`;
+/// the factorisation stops when that entry is at most `tolerance ×` the first
+/// (largest) pivot. The indices left over are linearly dependent on the others
+/// (to that tolerance): for `A = J Jᵀ` they are redundant constraint rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PivotedCholesky<const N: usize> {
+    /// `L` in the first `rank` columns of the lower triangle (pivoted order);
+    /// everything else is scratch.
+    factor: SMatrix<f64, N, N>,
+    /// `perm[k]` is the original index at pivoted position `k`.
+    perm: [usize; N],
+    rank: usize,
+    max_pivot: f64,
+}
+
+impl<const N: usize> PivotedCholesky<N> {
+    /// Factorises the symmetric part `(A + Aᵀ)/2` of `a`. `tolerance` is relative to
+    /// the largest pivot (see [`DEFAULT_RANK_TOLERANCE`]); a negative or NaN
+    /// tolerance is treated as zero.
+    ///
+    /// Errors only on a non-finite entry; a singular or zero matrix is not an
+    /// error, it has a smaller rank.
+    pub fn new(a: &SMatrix<f64, N, N>, tolerance: f64) -> Result<Self, LinalgError> {
+        if !all_finite(a) {
+            return Err(LinalgError::NonFinite);
+        }
+        let tolerance = if tolerance > 0.0 { tolerance } else { 0.0 };
+        let mut w = SMatrix::<f64, N, N>::from_fn(|i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+        let mut perm: [usize; N] = core::array::from_fn(|i| i);
+        let mut rank = 0;
+        let mut max_pivot = 0.0;
+        for k in 0..N {
+            let (mut best_at, mut best) = (k, w[(k, k)]);
+            for i in k + 1..N {
+                if w[(i, i)] > best {
+                    best_at = i;
+                    best = w[(i, i)];
+                }
+            }
+            if k == 0 {
+                max_pivot = if best > 0.0 { best } else { 0.0 };
+            }
+            if best.is_nan() || best <= tolerance * max_pivot || best <= 0.0 {
+                break;
+            }
+            if best_at != k {
+                w.swap_rows(k, best_at);
+                w.swap_columns(k, best_at);
+                perm.swap(k, best_at);
+            }
+            let l = libm::sqrt(best);
+            w[(k, k)] = l;
+            for i in k + 1..N {
+                w[(i, k)] /= l;
+            }
+            // The trailing block is kept whole (both triangles) so that the
+            // symmetric swaps of later steps stay valid.
+            for j in k + 1..N {
+                let ljk = w[(j, k)];
+                for i in k + 1..N {
+                    w[(i, j)] -= w[(i, k)] * ljk;
+                }
+            }
+            rank = k + 1;
+        }
+        Ok(PivotedCholesky { factor: w, perm, rank, max_pivot })
+    }
+
+    /// The numerical rank.
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+
+    /// Whether no index was dropped.
+    pub fn is_full_rank(&self) -> bool {
+        self.rank == N
+    }
+
+    /// The largest pivot (the largest diagonal entry of `A`).
+    pub fn max_pivot(&self) -> f64 {
+        self.max_pivot
+    }
+
+    /// The pivot order: `permutation()[k]` is the original index eliminated at step `k`.
+    pub fn permutation(&self) -> &[usize; N] {
+        &self.perm
+    }
+
+    /// The original indices dropped as dependent (unordered: in pivot order).
+    pub fn dropped(&self) -> &[usize] {
+        self.perm.get(self.rank..).unwrap_or(&[])
+    }
+
+    /// The factor `L` (pivoted order, `N × N`, zero beyond column `rank`): `P A Pᵀ ≈ L Lᵀ`.
+    pub fn l(&self) -> SMatrix<f64, N, N> {
+        SMatrix::from_fn(|i, j| if j < self.rank && i >= j { self.factor[(i, j)] } else { 0.0 })
+    }
+
+    /// The basic solution of `A x = b`: `x` is zero at the dropped indices and
+    /// solves the kept rows exactly. When `b` lies in the range of `A` (a
+    /// consistent system, e.g. `b = J c` for `A = J Jᵀ`) it solves every row.
+    pub fn solve(&self, b: &SVector<f64, N>) -> SVector<f64, N> {
+        let r = self.rank;
+        let mut z = SVector::<f64, N>::zeros();
+        // L11 z = P b (forward).
+        for k in 0..r {
+            let mut s = b[self.perm[k]];
+            for j in 0..k {
+                s -= self.factor[(k, j)] * z[j];
+            }
+            z[k] = s / self.factor[(k, k)];
+        }
+        // L11ᵀ y = z (backward), in place.
+        for k in (0..r).rev() {
+            let mut s = z[k];
+            for i in k + 1..r {
+                s -= self.factor[(i, k)] * z[i];
+            }
+            z[k] = s / self.factor[(k, k)];
+        }
+        let mut x = SVector::<f64, N>::zeros();
+        for k in 0..r {
+            x[self.perm[k]] = z[k];
+        }
+        x
+    }
+}
+
+/// LU factorisation with partial pivoting, `P A = L U`, of a general square matrix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lu<const N: usize> {
+    /// `L` (unit diagonal, strictly below) and `U` (on and above the diagonal).
+    lu: SMatrix<f64, N, N>,
+    /// `perm[k]` is the original row at position `k`.
+    perm: [usize; N],
+}
+
+impl<const N: usize> Lu<N> {
+    /// Factorises `a`. Errors on a non-finite entry, or when a pivot is at most
+    /// `1e-14 ×` the largest entry of `a` in magnitude (singular to working precision).
+    pub fn new(a: &SMatrix<f64, N, N>) -> Result<Self, LinalgError> {
+        if !all_finite(a) {
+            return Err(LinalgError::NonFinite);
+        }
+        let scale = a.iter().fold(0.0f64, |m, x| m.max(libm::fabs(*x)));
+        let mut w = *a;
+        let mut perm: [usize; N] = core::array::from_fn(|i| i);
+        for k in 0..N {
+            let (mut best_at, mut best) = (k, libm::fabs(w[(k, k)]));
+            for i in k + 1..N {
+                let v = libm::fabs(w[(i, k)]);
+                if v > best {
+                    best_at = i;
+                    best = v;
+                }
+            }
+            if best.is_nan() || best <= 1e-14 * scale {
+                return Err(LinalgError::Singular { step: k });
+            }
+            if best_at != k {
+                w.swap_rows(k, best_at);
+                perm.swap(k, best_at);
+            }
+            let pivot = w[(k, k)];
+            for i in k + 1..N {
+                let f = w[(i, k)] / pivot;
+                w[(i, k)] = f;
+                for j in k + 1..N {
+                    w[(i, j)] -= f * w[(k, j)];
+                }
+            }
+        }
+        Ok(Lu { lu: w, perm })
+    }
+
+    /// Solves `A x = b`.
+    pub fn solve(&self, b: &SVector<f64, N>) -> SVector<f64, N> {
+        let mut x = SVector::<f64, N>::from_fn(|i, _| b[self.perm[i]]);
+        for i in 0..N {
+            for j in 0..i {
+                x[i] -= self.lu[(i, j)] * x[j];
+            }
+        }
+        for i in (0..N).rev() {
+            for j in i + 1..N {
+                x[i] -= self.lu[(i, j)] * x[j];
+            }
+            x[i] /= self.lu[(i, i)];
+        }
+        x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// xorshift64*: reproducible uniform numbers in [-1, 1) without a dependency.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
+            bits as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    /// `B Bᵀ` with `B` an `N × 8` matrix whose last `8 − rank` columns are zero:
+    /// a PSD matrix of rank `rank` (almost surely).
+    fn psd<const N: usize>(rng: &mut Rng, rank: usize) -> SMatrix<f64, N, N> {
+        let b = SMatrix::<f64, N, 8>::from_fn(|_, j| if j < rank { rng.next() } else { 0.0 });
+        b * b.transpose()
+    }
+
+    fn check<const N: usize>(seed: u64) {
+        let mut rng = Rng(seed);
+        for rank in 0..=N.min(8) {
+            for _ in 0..20 {
+                let a = psd::<N>(&mut rng, rank);
+                let f = PivotedCholesky::new(&a, DEFAULT_RANK_TOLERANCE).unwrap();
+                assert_eq!(f.rank(), rank, "N = {N}");
+                assert_eq!(f.dropped().len(), N - rank);
+                // P A Pᵀ = L Lᵀ.
+                let l = f.l();
+                let pa = SMatrix::<f64, N, N>::from_fn(|i, j| a[(f.permutation()[i], f.permutation()[j])]);
+                assert!((pa - l * l.transpose()).norm() < 1e-12 * (1.0 + a.norm()));
+                // A consistent right-hand side is solved exactly, dropped entries zero.
+                let b = a * SVector::<f64, N>::from_fn(|_, _| rng.next());
+                let x = f.solve(&b);
+                assert!((a * x - b).norm() < 1e-9 * (1.0 + b.norm()), "residual {}", (a * x - b).norm());
+                for &d in f.dropped() {
+                    assert_eq!(x[d], 0.0);
+                }
+                // The kept indices are independent: their principal submatrix is full rank.
+                let kept = &f.permutation()[..f.rank()];
+                let sub = SMatrix::<f64, N, N>::from_fn(|i, j| {
+                    if i < kept.len() && j < kept.len() { a[(kept[i], kept[j])] } else { f64::from(u8::from(i == j)) }
+                });
+                assert!(PivotedCholesky::new(&sub, DEFAULT_RANK_TOLERANCE).unwrap().is_full_rank());
+            }
+        }
+    }
+
+    #[test]
+    fn random_psd_matrices_of_known_rank() {
+        check::<1>(1);
+        check::<3>(2);
+        check::<6>(3);
+        check::<9>(4);
+        check::<12>(5);
+    }
+
+    #[test]
+    fn duplicated_rows_are_dropped() {
+        // J with row 3 = row 0 and row 4 = row 1 + row 2: rank 3 of 5.
+        let mut rng = Rng(7);
+        let mut j = SMatrix::<f64, 5, 6>::from_fn(|_, _| rng.next());
+        let (r0, r1, r2) = (j.row(0).into_owned(), j.row(1).into_owned(), j.row(2).into_owned());
+        j.set_row(3, &r0);
+        j.set_row(4, &(r1 + r2));
+        let f = PivotedCholesky::new(&(j * j.transpose()), DEFAULT_RANK_TOLERANCE).unwrap();
+        assert_eq!(f.rank(), 3);
+        assert_eq!(f.dropped().len(), 2);
+    }
+
+    #[test]
+    fn degenerate_inputs() {
+        let z = SMatrix::<f64, 4, 4>::zeros();
+        let f = PivotedCholesky::new(&z, DEFAULT_RANK_TOLERANCE).unwrap();
+        assert_eq!(f.rank(), 0);
+        assert_eq!(f.solve(&SVector::<f64, 4>::repeat(1.0)), SVector::<f64, 4>::zeros());
+        let mut n = SMatrix::<f64, 4, 4>::identity();
+        n[(2, 1)] = f64::NAN;
+        assert_eq!(PivotedCholesky::new(&n, DEFAULT_RANK_TOLERANCE), Err(LinalgError::NonFinite));
+        assert_eq!(Lu::new(&n).unwrap_err(), LinalgError::NonFinite);
+        assert!(matches!(Lu::new(&z), Err(LinalgError::Singular { step: 0 })));
+        let e = PivotedCholesky::<0>::new(&SMatrix::<f64, 0, 0>::zeros(), 1e-10).unwrap();
+        assert_eq!(e.rank(), 0);
+    }
+
+    #[test]
+    fn lu_solves_random_systems() {
+        let mut rng = Rng(11);
+        for _ in 0..50 {
+            let a = SMatrix::<f64, 7, 7>::from_fn(|_, _| rng.next());
+            let x = SVector::<f64, 7>::from_fn(|_, _| rng.next());
+            let lu = Lu::new(&a).unwrap();
+            assert!((lu.solve(&(a * x)) - x).norm() < 1e-9);
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! Generated code and a fixed-size scene step allocate nothing: counted by a
+//! global allocator around the calls.
+//!
+//! The counter is thread-local (tests run in parallel threads) and this file
+//! holds a single test. `unsafe` is allowed here only, for `GlobalAlloc`; the
+//! package denies it everywhere else.
+
+#![allow(unsafe_code, missing_docs)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use joint_runtime::analysis::{AssemblyOptions, assemble};
+use joint_runtime::dynamics::{Integrator, Loads, Simulation, SimulationOptions};
+use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+struct Counting;
+
+// SAFETY: forwards every call to the system allocator unchanged; counting
+// touches only a const-initialised thread-local, which does not allocate.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations(f: impl FnOnce()) -> usize {
+    let before = COUNT.with(Cell::get);
+    f();
+    COUNT.with(Cell::get) - before
+}
+
+#[derive(Joint)]
+#[joint(universal, formulation = omega_body)]
+struct Cardan<T> {
+    s: Vector3<T>,
+    h: Vector3<T>,
+    rho1: Vector3<T>,
+    rho2: Vector3<T>,
+}
+
+#[derive(Joint)]
+#[joint(rotational_driver, formulation = euler, axis1 = [0, 0, 1], axis2 = [0, 0, 1])]
+struct Motor<F> {
+    theta: F,
+}
+
+/// A double pendulum with a driven first hinge and a spring-free second one.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81])]
+#[body(upper, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
+#[body(lower, mass = 0.5, inertia = [0.05, 0.05, 0.005])]
+#[joint(top = revolute(ground, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
+#[joint(elbow = revolute(upper, lower), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])]
+struct DoublePendulum;
+
+#[test]
+fn generated_functions_and_scene_steps_allocate_nothing() {
+    // Joints.
+    let cardan = Cardan {
+        s: Vector3::new(0.0, 1.0, 0.0),
+        h: Vector3::new(0.0, 0.0, 1.0),
+        rho1: Vector3::new(0.5, 0.0, 0.0),
+        rho2: Vector3::new(-0.5, 0.0, 0.0),
+    };
+    let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.3);
+    let body = |r| OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::new(1.0, 0.2, 0.0));
+    let pair = TwoBodies::new(body(Vector3::zeros()), body(Vector3::x()));
+    let n = allocations(|| {
+        let e = std::hint::black_box(cardan.evaluate(&pair));
+        let (p, j, g, t) = (cardan.phi(&pair), cardan.jacobian(&pair), cardan.gamma(&pair), cardan.phi_t(&pair));
+        std::hint::black_box((e, p, j, g, t));
+    });
+    assert_eq!(n, 0, "a joint's generated functions allocated");
+    let motor = Motor { theta: Ramp { start: 0.1, rate: 2.0 } };
+    let euler = TwoBodies::new(
+        joint_runtime::EulerBody {
+            r: Vector3::zeros(),
+            p: joint_runtime::nalgebra::Vector4::new(1.0, 0.0, 0.0, 0.0),
+            rdot: Vector3::zeros(),
+            pdot: joint_runtime::nalgebra::Vector4::zeros(),
+        },
+        joint_runtime::EulerBody {
+            r: Vector3::x(),
+            p: joint_runtime::nalgebra::Vector4::new(0.9, 0.1, 0.0, 0.3),
+            rdot: Vector3::zeros(),
+            pdot: joint_runtime::nalgebra::Vector4::new(0.0, 0.1, 0.2, 0.0),
+        },
+    );
+    assert_eq!(
+        allocations(|| {
+            std::hint::black_box(motor.evaluate(&euler));
+        }),
+        0,
+        "a driver allocated"
+    );
+
+    // A scene: system functions, assembly, one step of each integrator.
+    let scene = DoublePendulum;
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.4);
+    let mut state = SystemState {
+        bodies: [
+            OmegaBody::from_rotation(Vector3::new(0.2, 0.0, -0.45), &tilt, Vector3::zeros(), Vector3::zeros()),
+            OmegaBody::from_rotation(Vector3::new(0.5, 0.0, -1.3), &tilt, Vector3::zeros(), Vector3::zeros()),
+        ],
+        t: 0.0,
+    };
+    let options = AssemblyOptions::default();
+    let push = |_: &SystemState<2>, l: &mut Loads<2>| l.torque[0].y += 0.1;
+    let mut sim = Simulation::new(&scene, push, &[], SimulationOptions::default()).expect("valid options");
+    let mut reports = None;
+    let n = allocations(|| {
+        let e = std::hint::black_box(scene.evaluate(&state));
+        let sparse = std::hint::black_box(scene.jacobian_values(&state));
+        let a = assemble(&scene, &mut state, &options);
+        let rk4 = sim.step(&mut state, 1e-3);
+        sim.options.integrator = Integrator::ImplicitMidpoint;
+        let midpoint = sim.step(&mut state, 1e-3);
+        reports = Some((e.phi.len(), sparse.len(), a.map(|a| a.iterations), rk4.is_ok(), midpoint.is_ok()));
+    });
+    assert_eq!(n, 0, "a scene evaluation, assembly or step allocated");
+    let (rows, nnz, iterations, rk4, midpoint) = reports.expect("ran");
+    assert_eq!(rows, 10);
+    assert!(nnz > 0 && iterations.expect("assembled") > 0 && rk4 && midpoint);
+    // The counter counts: a vector allocates.
+    assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
+}

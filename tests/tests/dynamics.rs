@@ -1,0 +1,410 @@
+//! Forward dynamics (`joint_runtime::dynamics`) on hand-stacked scenes: a simple
+//! pendulum's period and energy, a double pendulum with both integrators and
+//! projection, a stiff spring, reactions.
+
+#![allow(missing_docs)]
+
+use std::marker::PhantomData;
+
+use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
+use joint_runtime::{BodyInertia, Evaluation, Joint, OmegaBody, OneBody, Ops, RowBlock, Scene, SystemState, TwoBodies};
+
+// --- A hand-written `Scene`: joints stacked by hand into the system matrices. ---
+
+#[derive(Joint)]
+#[joint(spherical, formulation = omega_body, ground = body1)]
+struct GroundBall<T> {
+    rho1: Vector3<T>,
+    rho2: Vector3<T>,
+}
+
+#[derive(Joint)]
+#[joint(spherical, formulation = omega_body)]
+struct Ball<T> {
+    rho1: Vector3<T>,
+    rho2: Vector3<T>,
+}
+
+type Eval<const M: usize, const NV: usize> = Evaluation<f64, M, NV>;
+
+trait Part<const NB: usize, const NV: usize, const M: usize> {
+    fn add(&self, s: &SystemState<NB>, start: usize, out: &mut Eval<M, NV>, phi_t: &mut SVector<f64, M>);
+}
+
+/// A joint with `ground = body1` on body `body`.
+struct Grounded<J, const R: usize>(J, usize);
+/// A joint between bodies `.1` and `.2`.
+struct Between<J, const R: usize>(J, usize, usize);
+
+impl<J, const R: usize, const NB: usize, const NV: usize, const M: usize> Part<NB, NV, M> for Grounded<J, R>
+where
+    J: Joint<f64, R, 6, State = OneBody<OmegaBody<f64>>>,
+{
+    fn add(&self, s: &SystemState<NB>, start: usize, out: &mut Eval<M, NV>, phi_t: &mut SVector<f64, M>) {
+        let st = OneBody { body: s.bodies[self.1], t: s.t };
+        let e = self.0.evaluate(&st);
+        let pt = self.0.phi_t(&st);
+        for r in 0..R {
+            out.phi[start + r] = e.phi[r];
+            out.gamma[start + r] = e.gamma[r];
+            phi_t[start + r] = pt[r];
+            for c in 0..6 {
+                out.jacobian[(start + r, 6 * self.1 + c)] = e.jacobian[(r, c)];
+            }
+        }
+    }
+}
+
+impl<J, const R: usize, const NB: usize, const NV: usize, const M: usize> Part<NB, NV, M> for Between<J, R>
+where
+    J: Joint<f64, R, 12, State = TwoBodies<OmegaBody<f64>>>,
+{
+    fn add(&self, s: &SystemState<NB>, start: usize, out: &mut Eval<M, NV>, phi_t: &mut SVector<f64, M>) {
+        let st = TwoBodies { body1: s.bodies[self.1], body2: s.bodies[self.2], t: s.t };
+        let e = self.0.evaluate(&st);
+        let pt = self.0.phi_t(&st);
+        for r in 0..R {
+            out.phi[start + r] = e.phi[r];
+            out.gamma[start + r] = e.gamma[r];
+            phi_t[start + r] = pt[r];
+            for c in 0..6 {
+                out.jacobian[(start + r, 6 * self.1 + c)] = e.jacobian[(r, c)];
+                out.jacobian[(start + r, 6 * self.2 + c)] = e.jacobian[(r, 6 + c)];
+            }
+        }
+    }
+}
+
+/// Names of a hand-written scene.
+trait Layout<const NB: usize> {
+    const BODIES: [&'static str; NB];
+    const BLOCKS: &'static [RowBlock];
+}
+
+struct Hand<L, const NB: usize, const NV: usize, const M: usize> {
+    parts: Vec<Box<dyn Part<NB, NV, M>>>,
+    inertias: [BodyInertia; NB],
+    gravity: Vector3<f64>,
+    layout: PhantomData<L>,
+}
+
+impl<L: Layout<NB>, const NB: usize, const NV: usize, const M: usize> Hand<L, NB, NV, M> {
+    fn all(&self, s: &SystemState<NB>) -> (Eval<M, NV>, SVector<f64, M>) {
+        let mut out = Evaluation {
+            phi: SVector::zeros(),
+            jacobian: joint_runtime::nalgebra::SMatrix::zeros(),
+            gamma: SVector::zeros(),
+        };
+        let mut phi_t = SVector::zeros();
+        for (part, block) in self.parts.iter().zip(L::BLOCKS) {
+            part.add(s, block.start, &mut out, &mut phi_t);
+        }
+        (out, phi_t)
+    }
+}
+
+impl<L: Layout<NB>, const NB: usize, const NV: usize, const M: usize> Scene<NB, NV, M> for Hand<L, NB, NV, M> {
+    const BODIES: [&'static str; NB] = L::BODIES;
+    const BLOCKS: &'static [RowBlock] = L::BLOCKS;
+    const OPS: Ops = Ops { phi: 0, phi_t: 0, jacobian: 0, gamma: 0, evaluate: 0 };
+    fn phi(&self, s: &SystemState<NB>) -> SVector<f64, M> {
+        self.all(s).0.phi
+    }
+    fn phi_t(&self, s: &SystemState<NB>) -> SVector<f64, M> {
+        self.all(s).1
+    }
+    fn jacobian(&self, s: &SystemState<NB>) -> joint_runtime::nalgebra::SMatrix<f64, M, NV> {
+        self.all(s).0.jacobian
+    }
+    fn gamma(&self, s: &SystemState<NB>) -> SVector<f64, M> {
+        self.all(s).0.gamma
+    }
+    fn evaluate(&self, s: &SystemState<NB>) -> Eval<M, NV> {
+        self.all(s).0
+    }
+    fn inertias(&self) -> [BodyInertia; NB] {
+        self.inertias
+    }
+    fn gravity(&self) -> Vector3<f64> {
+        self.gravity
+    }
+}
+
+const fn block(name: &'static str, start: usize, rows: usize) -> RowBlock {
+    RowBlock { name, start, rows }
+}
+
+// --- Scenes and tests. ---
+
+use joint_runtime::dynamics::{
+    Attachment, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
+};
+
+const G: f64 = 9.81;
+
+fn up() -> Vector3<f64> {
+    Vector3::new(0.0, 0.0, 0.5)
+}
+
+fn rod() -> BodyInertia {
+    BodyInertia::principal(1.0, Vector3::new(1.0 / 12.0, 1.0 / 12.0, 1e-3))
+}
+
+/// A bob (m = 1, I = 0.01) 1 m below a ball joint at the origin.
+struct PendulumLayout;
+impl Layout<1> for PendulumLayout {
+    const BODIES: [&'static str; 1] = ["bob"];
+    const BLOCKS: &'static [RowBlock] = &[block("pivot", 0, 3)];
+}
+
+fn pendulum() -> Hand<PendulumLayout, 1, 6, 3> {
+    Hand {
+        parts: vec![Box::new(Grounded::<_, 3>(
+            GroundBall { rho1: Vector3::zeros(), rho2: Vector3::new(0.0, 0.0, 1.0) },
+            0,
+        ))],
+        inertias: [BodyInertia::principal(1.0, Vector3::new(0.01, 0.01, 0.01))],
+        gravity: Vector3::new(0.0, 0.0, -G),
+        layout: PhantomData,
+    }
+}
+
+/// The bob turned by `angle` about x, at rest.
+fn swung(angle: f64) -> SystemState<1> {
+    let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), angle);
+    let r = -(q * Vector3::new(0.0, 0.0, 1.0));
+    SystemState { bodies: [OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::zeros())], t: 0.0 }
+}
+
+/// Two rods of length 1 hanging from the origin, ball joints.
+struct DoubleLayout;
+impl Layout<2> for DoubleLayout {
+    const BODIES: [&'static str; 2] = ["upper", "lower"];
+    const BLOCKS: &'static [RowBlock] = &[block("shoulder", 0, 3), block("elbow", 3, 3)];
+}
+
+fn double_pendulum() -> Hand<DoubleLayout, 2, 12, 6> {
+    Hand {
+        parts: vec![
+            Box::new(Grounded::<_, 3>(GroundBall { rho1: Vector3::zeros(), rho2: up() }, 0)),
+            Box::new(Between::<_, 3>(Ball { rho1: -up(), rho2: up() }, 0, 1)),
+        ],
+        inertias: [rod(); 2],
+        gravity: Vector3::new(0.0, 0.0, -G),
+        layout: PhantomData,
+    }
+}
+
+/// Upper rod horizontal along +y, lower rod at 45°, lower rod spinning about its axis.
+fn double_start() -> SystemState<2> {
+    let mut joint = Vector3::zeros();
+    let mut bodies = [90f64.to_radians(), 135f64.to_radians()].map(|a| {
+        let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a);
+        let r = joint - q * up();
+        joint = r - q * up();
+        OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::zeros())
+    });
+    // Spin of the lower rod about its own axis (consistent with the ball joints).
+    bodies[1].omega = Vector3::new(0.0, 0.0, 3.0);
+    SystemState { bodies, t: 0.0 }
+}
+
+fn options(integrator: Integrator, project: bool) -> SimulationOptions {
+    let mut o = SimulationOptions { integrator, ..SimulationOptions::default() };
+    if !project {
+        o.projection = None;
+    }
+    o
+}
+
+#[test]
+fn pendulum_period_matches_small_angle_closed_form() {
+    let scene = pendulum();
+    let mut sim = Simulation::new(&scene, NoLoads, &[], options(Integrator::Rk4, true)).unwrap();
+    let theta0 = 2f64.to_radians();
+    let mut s = swung(theta0);
+    let h = 1e-3;
+    let mut crossings = Vec::new();
+    let mut y_prev = s.bodies[0].r.y;
+    while crossings.len() < 6 {
+        sim.step(&mut s, h).unwrap();
+        let y = s.bodies[0].r.y;
+        if y_prev > 0.0 && y <= 0.0 {
+            crossings.push(s.t - h * y / (y - y_prev));
+        }
+        y_prev = y;
+    }
+    let period = (crossings[5] - crossings[0]) / 5.0;
+    let t0 = 2.0 * std::f64::consts::PI * (1.01 / G).sqrt();
+    let t1 = t0 * (1.0 + theta0 * theta0 / 16.0);
+    println!(
+        "pendulum period {period:.9} s; small-angle {t0:.9} s (rel. {:.2e}); with θ0²/16 correction {t1:.9} s (rel. {:.2e})",
+        period / t0 - 1.0,
+        period / t1 - 1.0
+    );
+    assert!((period / t0 - 1.0).abs() < 2e-4);
+    assert!((period / t1 - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn pendulum_energy_rk4_over_many_periods() {
+    let scene = pendulum();
+    let h = 5e-3;
+    let period = 2.0 * std::f64::consts::PI * (1.01 / G).sqrt();
+    let steps = (50.0 * period / h) as usize;
+    for project in [false, true] {
+        let mut sim = Simulation::new(&scene, NoLoads, &[], options(Integrator::Rk4, project)).unwrap();
+        let mut s = swung(60f64.to_radians());
+        let e0 = sim.energy(&s).total();
+        let mut worst: f64 = 0.0;
+        let mut drift: f64 = 0.0;
+        for _ in 0..steps {
+            sim.step(&mut s, h).unwrap();
+            worst = worst.max((sim.energy(&s).total() - e0).abs());
+            drift = drift.max(scene.phi(&s).norm());
+        }
+        let end = sim.energy(&s).total() - e0;
+        println!(
+            "pendulum RK4 h = {h}, 50 periods ({steps} steps), projection {project}: energy drift {end:.2e} J \
+             (max {worst:.2e}, E scale m g L = {G}), max |Φ| {drift:.2e}"
+        );
+        assert!(worst < if project { 1e-6 } else { 1e-5 } * G);
+        if project {
+            assert!(drift < 1e-10);
+        }
+    }
+}
+
+fn run_double(integrator: Integrator, project: bool, h: f64, time: f64) -> (f64, f64, f64) {
+    let scene = double_pendulum();
+    let mut sim = Simulation::new(&scene, NoLoads, &[], options(integrator, project)).unwrap();
+    let mut s = double_start();
+    let e0 = sim.energy(&s).total();
+    let (mut worst_e, mut worst_phi, mut worst_v): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    let steps = (time / h).round() as usize;
+    let mut newton = 0;
+    for _ in 0..steps {
+        let r = sim.step(&mut s, h).unwrap();
+        newton += r.newton_iterations;
+        worst_e = worst_e.max((sim.energy(&s).total() - e0).abs());
+        worst_phi = worst_phi.max(scene.phi(&s).norm());
+        worst_v = worst_v.max((scene.jacobian(&s) * velocity(&s)).norm());
+    }
+    println!(
+        "double pendulum {integrator:?} h = {h}, {time} s, projection {project}: max |ΔE| {worst_e:.2e} J, \
+         final ΔE {:.2e} J, max |Φ| {worst_phi:.2e}, max |J v| {worst_v:.2e}, Newton its/step {:.2}",
+        sim.energy(&s).total() - e0,
+        newton as f64 / steps as f64
+    );
+    (worst_e, worst_phi, worst_v)
+}
+
+fn velocity<const NB: usize, const NV: usize>(s: &SystemState<NB>) -> SVector<f64, NV> {
+    let mut v = SVector::<f64, NV>::zeros();
+    for (i, b) in s.bodies.iter().enumerate() {
+        v.fixed_rows_mut::<3>(6 * i).copy_from(&b.rdot);
+        v.fixed_rows_mut::<3>(6 * i + 3).copy_from(&b.omega);
+    }
+    v
+}
+
+#[test]
+fn double_pendulum_rk4_with_projection() {
+    let (e, phi, v) = run_double(Integrator::Rk4, true, 1e-3, 5.0);
+    assert!(e < 1e-6, "energy drift {e}");
+    assert!(phi < 1e-10 && v < 1e-10, "constraint drift {phi}, {v}");
+    let (e, phi, _) = run_double(Integrator::Rk4, false, 1e-3, 5.0);
+    assert!(e < 1e-5 && phi < 1e-6, "{e} {phi}");
+}
+
+#[test]
+fn double_pendulum_implicit_midpoint_with_projection() {
+    let (e, phi, v) = run_double(Integrator::ImplicitMidpoint, true, 2e-3, 5.0);
+    assert!(e < 2e-2, "energy drift {e}");
+    assert!(phi < 1e-10 && v < 1e-10, "constraint drift {phi}, {v}");
+}
+
+#[test]
+fn baumgarte_keeps_drift_bounded() {
+    let scene = double_pendulum();
+    let mut o = options(Integrator::Rk4, false);
+    o.stabilisation = Stabilisation::Baumgarte { alpha: 20.0, beta: 20.0 };
+    let mut sim = Simulation::new(&scene, NoLoads, &[], o).unwrap();
+    let mut s = double_start();
+    s.bodies[1].r.y += 1e-3; // start off the constraint
+    for _ in 0..2000 {
+        sim.step(&mut s, 1e-3).unwrap();
+    }
+    println!("Baumgarte α = β = 20: |Φ| after 2 s from 1e-3: {:.2e}", scene.phi(&s).norm());
+    assert!(scene.phi(&s).norm() < 1e-6);
+}
+
+#[test]
+fn stiff_spring_implicit_midpoint_stays_bounded_where_rk4_fails() {
+    // A horizontal spring (k = 1e5, rest 0.5) from the bob's bottom point to a
+    // ground point: a rotational mode of ω ≈ 630 rad/s; h ω ≈ 6.3.
+    let scene = pendulum();
+    let springs = [SpringDamper {
+        a: Attachment::Body { body: 0, point: Vector3::new(0.0, 0.0, -1.0) },
+        b: Attachment::Ground(Vector3::new(0.5, 0.0, -2.0)),
+        stiffness: 1e5,
+        damping: 0.0,
+        rest_length: 0.5,
+    }];
+    let start = || {
+        let mut s = swung(0.0);
+        s.bodies[0].omega = Vector3::new(0.0, 0.1, 0.0);
+        s.bodies[0].rdot = Vector3::new(-0.1, 0.0, 0.0); // consistent: ω × (r − pivot)
+        s
+    };
+    let h = 1e-2;
+    let mut sim = Simulation::new(&scene, NoLoads, &springs, options(Integrator::ImplicitMidpoint, true)).unwrap();
+    let mut s = start();
+    let e0 = sim.energy(&s).total();
+    let mut worst: f64 = 0.0;
+    for _ in 0..100 {
+        sim.step(&mut s, h).unwrap();
+        worst = worst.max((sim.energy(&s).total() - e0).abs());
+    }
+    println!("stiff spring, implicit midpoint h = {h}: max |ΔE| / E0 = {:.2e}", worst / e0.abs());
+    assert!(worst < 1e-2 * e0.abs());
+
+    let mut sim = Simulation::new(&scene, NoLoads, &springs, options(Integrator::Rk4, false)).unwrap();
+    let mut s = start();
+    let mut blew_up = false;
+    for _ in 0..100 {
+        match sim.step(&mut s, h) {
+            Ok(_) if (sim.energy(&s).total() - e0).abs() < 1e3 * e0.abs() => {}
+            _ => {
+                blew_up = true;
+                break;
+            }
+        }
+    }
+    println!("stiff spring, RK4 h = {h}: unstable = {blew_up}");
+    assert!(blew_up);
+}
+
+#[test]
+fn reactions_and_multipliers_of_a_hanging_pendulum() {
+    let scene = pendulum();
+    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let s = swung(0.0);
+    let d = sim.dynamics(&s).unwrap();
+    assert!(d.vdot.norm() < 1e-12);
+    let r = sim.reactions(&s, &d.lambda, &PendulumLayout::BLOCKS[0]);
+    println!("hanging pendulum: λ = {:?}, reaction {:?}", d.lambda.as_slice(), r[0]);
+    assert!((r[0].force - Vector3::new(0.0, 0.0, G)).norm() < 1e-12);
+    assert!(r[0].torque.norm() < 1e-12);
+    // User loads through a closure: a horizontal push of 1 N at the centre of mass.
+    let push = |_: &SystemState<1>, l: &mut joint_runtime::dynamics::Loads<1>| l.force[0].y += 1.0;
+    let mut sim = Simulation::new(&scene, push, &[], SimulationOptions::default()).unwrap();
+    let d = sim.dynamics(&s).unwrap();
+    // Angular acceleration about x of a physical pendulum pushed at distance 1: 1 / 1.01.
+    assert!((d.vdot[3] - 1.0 / 1.01).abs() < 1e-12, "{}", d.vdot);
+    // Bad step and bad inertia are errors.
+    assert!(sim.step(&mut swung(0.1), f64::NAN).is_err());
+    let mut bad = pendulum();
+    bad.inertias[0].mass = 0.0;
+    assert!(Simulation::new(&bad, NoLoads, &[], SimulationOptions::default()).is_err());
+}
