@@ -169,12 +169,13 @@ pub fn check_perpendicular(kind: &JointKind, params: &[(String, Source)], errors
 }
 
 /// Every parameter of `kind` in its order, from what was `given` (names as
-/// written, with spans). Reports unknown, repeated, missing and geometrically
+/// written, with spans; `invalid` names were given but rejected already). Reports unknown, repeated, missing and geometrically
 /// wrong parameters into `errors`.
 pub fn resolve(
     kind: &'static JointKind,
     formulation: Formulation,
     given: Vec<(String, Span, Source)>,
+    invalid: &[String],
     kind_span: Span,
     errors: &mut Errors,
 ) -> Vec<(&'static str, Source)> {
@@ -223,14 +224,14 @@ pub fn resolve(
         }
         params.push((name, source));
     }
-    let excused = expand_axes(kind, &mut params, &[], kind_span, errors);
+    let excused = expand_axes(kind, &mut params, invalid, kind_span, errors);
     check_perpendicular(kind, &params, errors);
     let mut ordered = Vec::new();
     for p in &kind.params {
         match params.iter().position(|(n, _)| n == p.name) {
             Some(i) => ordered.push((p.name, params.remove(i).1)),
             None if formulation.is_relative() && matches!(p.role, Role::Point(_)) => {}
-            None if excused.contains(&p.name) => {}
+            None if excused.contains(&p.name) || invalid.iter().any(|n| n == p.name) => {}
             None => {
                 let also =
                     kind.derived_from(p.name).map(|d| format!(" (or its axis `{}`)", d.source)).unwrap_or_default();

@@ -184,8 +184,16 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         }
     }
     if bodies.is_empty() {
+        // Every joint would be ground to ground: say the one thing that is wrong.
         errors
             .at(input.ident.span(), "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`");
+        return match errors.finish() {
+            Err(e) => Err(e),
+            Ok(()) => unreachable!("an error was recorded"),
+        };
+    }
+    if joint_attrs.is_empty() {
+        errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
     for b in &bodies {
         if let Quantity::Const(v) = &b.inertia
@@ -240,6 +248,7 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
             errors.at(j.kind.span(), "a joint between the ground and itself constrains nothing");
         }
         let mut given = Vec::new();
+        let mut invalid = Vec::new();
         for a in j.args {
             let name = a.key.to_string();
             let shape = crate::params::shape_of(kind, &name);
@@ -255,21 +264,20 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
                     }
                     None => {
                         errors.at(f.span(), format!("no field `{f}` in this struct; expected a constant or a field"));
+                        invalid.push(name);
                         continue;
                     }
                 },
                 _ => {
                     errors.at(a.key.span(), format!("expected `{name} = [x, y, z]`, a number or a field"));
+                    invalid.push(name);
                     continue;
                 }
             };
             given.push((name, a.key.span(), source));
         }
-        let params = crate::params::resolve(kind, Formulation::OmegaBody, given, j.kind.span(), &mut errors);
+        let params = crate::params::resolve(kind, Formulation::OmegaBody, given, &invalid, j.kind.span(), &mut errors);
         joints.push(JointDecl { name: j.name, kind, kind_span: j.kind.span(), bodies: pair, params });
-    }
-    if joints.is_empty() {
-        errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
     errors.finish()?;
     Ok(SceneDecl { bodies, joints, gravity, time_types })
