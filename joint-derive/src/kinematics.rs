@@ -134,9 +134,9 @@ impl Kinematics {
         let mut k = Kinematics::empty();
         if formulation.is_relative() {
             let delta = k.vector("delta", vec!["delta".into()]);
-            let p = k.vector4("p", vec!["p".into()]);
-            let delta_dot = k.vector("delta_dot", vec!["delta_dot".into()]);
-            let w = k.vector("w", vec!["omega".into()]);
+            let p = k.vector4("p", vec!["p".into()], false);
+            let delta_dot = k.velocity3("delta_dot", vec!["delta_dot".into()]);
+            let w = k.velocity3("w", vec!["omega".into()]);
             for j in 0..3 {
                 k.rules.set_var(&k.g, delta[j], delta_dot[j]);
             }
@@ -211,8 +211,8 @@ impl Kinematics {
             p
         };
         let r = k.vector(&format!("r{n}"), at("r"));
-        let p = k.vector4(&format!("p{n}"), at("p"));
-        let rdot = k.vector(&format!("rdot{n}"), at("rdot"));
+        let p = k.vector4(&format!("p{n}"), at("p"), false);
+        let rdot = k.velocity3(&format!("rdot{n}"), at("rdot"));
         for j in 0..3 {
             k.rules.set_var(&k.g, r[j], rdot[j]);
         }
@@ -221,7 +221,7 @@ impl Kinematics {
         k.velocities.extend(rdot);
         let a = rotation_matrix(&mut k.g, p, &format!("a{n}"));
         let (omega, euler) = if formulation == Formulation::Euler {
-            let pdot = k.vector4(&format!("pdot{n}"), at("pdot"));
+            let pdot = k.vector4(&format!("pdot{n}"), at("pdot"), true);
             for j in 0..4 {
                 k.rules.set_var(&k.g, p[j], pdot[j]);
             }
@@ -229,7 +229,7 @@ impl Kinematics {
             let a_of_pdot = rotation_matrix(&mut k.g, pdot, &format!("a{n}_pdot"));
             (None, Some(EulerRates { p, pdot, a_of_pdot }))
         } else {
-            let w = k.vector(&format!("w{n}"), at("omega"));
+            let w = k.velocity3(&format!("w{n}"), at("omega"));
             k.velocities.extend(w);
             (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody, &format!("omega{n}"))), None)
         };
@@ -251,8 +251,18 @@ impl Kinematics {
         vars
     }
 
-    fn vector4(&mut self, name: &str, path: Vec<String>) -> [Id; 4] {
-        let vars = [0, 1, 2, 3].map(|c| self.g.state(format!("{name}_{c}")));
+    /// Declares a 3-vector velocity input read from `state.<path>`.
+    fn velocity3(&mut self, name: &str, path: Vec<String>) -> V3 {
+        let vars = ["x", "y", "z"].map(|c| self.g.velocity(format!("{name}_{c}")));
+        self.inputs.push(Input { path, vars: vars.to_vec() });
+        vars
+    }
+
+    fn vector4(&mut self, name: &str, path: Vec<String>, velocity: bool) -> [Id; 4] {
+        let vars = [0, 1, 2, 3].map(|c| {
+            let n = format!("{name}_{c}");
+            if velocity { self.g.velocity(n) } else { self.g.state(n) }
+        });
         self.inputs.push(Input { path, vars: vars.to_vec() });
         vars
     }
@@ -402,11 +412,7 @@ impl Kinematics {
         // J is the coefficient of the velocities in Φ̇ (in `euler` that is ∂Φ/∂q).
         let velocities = self.velocities.clone();
         let jacobian = grad(&mut self.g, phi_dot, &velocities);
-        let vmask = self
-            .velocities
-            .iter()
-            .fold(0u64, |m, &v| m | self.g.var_mask(self.g.as_var(v).unwrap_or(crate::engine::graph::VarId(0))));
-        if jacobian.iter().any(|&j| self.g.mask(j) & vmask != 0) {
+        if jacobian.iter().any(|&j| self.g.mask(j) & crate::engine::graph::VELOCITY != 0) {
             return Err("the derivative of this row is not linear in the velocities");
         }
         let phi_ddot = self.rules.dt(&mut self.g, phi_dot);

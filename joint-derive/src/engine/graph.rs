@@ -51,10 +51,13 @@ pub enum Node {
 pub struct Var {
     /// The name used in generated code.
     pub name: String,
-    /// Bit in the dependency mask (`None` for parameters, which are constant in
+    /// Its bits in the dependency mask (0 for parameters, which are constant in
     /// time and never differentiated).
-    pub bit: Option<u32>,
+    pub mask: u64,
 }
+
+/// The mask bit every velocity sets, exactly: J must not depend on it.
+pub const VELOCITY: u64 = 1 << 63;
 
 /// The arena.
 #[derive(Default)]
@@ -115,32 +118,42 @@ impl Graph {
         &self.vars
     }
 
-    /// Dependency mask of a node (see [`Graph::var_mask`]).
+    /// Dependency mask of a node: the union of its inputs' masks. Each
+    /// differentiable input has one of 63 bits (its index modulo 63), so a clear
+    /// bit proves independence while a set bit may be shared — enough to skip
+    /// work in the gradient, with any number of inputs. Bit 63 ([`VELOCITY`]) is
+    /// exact: set only by velocities.
     pub fn mask(&self, id: Id) -> u64 {
         self.masks[id.index()]
     }
 
-    /// The mask bit of a differentiable variable (0 for a parameter).
+    /// The mask of a variable (0 for a parameter).
     pub fn var_mask(&self, v: VarId) -> u64 {
-        self.vars[v.0 as usize].bit.map_or(0, |b| 1u64 << b)
+        self.vars[v.0 as usize].mask
     }
 
     /// A parameter: an input that is constant in time (a joint's axes and points).
     pub fn param(&mut self, name: impl Into<String>) -> Id {
-        self.new_var(name.into(), None)
+        self.new_var(name.into(), 0)
     }
 
-    /// A differentiable input: a coordinate, a velocity or a time-function value.
+    /// A differentiable input: a coordinate or a time-function value.
     pub fn state(&mut self, name: impl Into<String>) -> Id {
-        let bit = self.next_bit;
-        assert!(bit < 64, "more than 64 differentiable inputs");
+        let bit = 1u64 << (self.next_bit % 63);
         self.next_bit += 1;
-        self.new_var(name.into(), Some(bit))
+        self.new_var(name.into(), bit)
     }
 
-    fn new_var(&mut self, name: String, bit: Option<u32>) -> Id {
+    /// A velocity: differentiable, and marked so that J can be checked free of it.
+    pub fn velocity(&mut self, name: impl Into<String>) -> Id {
+        let bit = 1u64 << (self.next_bit % 63);
+        self.next_bit += 1;
+        self.new_var(name.into(), bit | VELOCITY)
+    }
+
+    fn new_var(&mut self, name: String, mask: u64) -> Id {
         let v = VarId(self.vars.len() as u32);
-        self.vars.push(Var { name, bit });
+        self.vars.push(Var { name, mask });
         self.intern(Node::Var(v))
     }
 
