@@ -53,7 +53,6 @@
 //! shaft has the same redundancy; it is why one bearing is made a floating one.)
 
 // `AnalysisError` is returned by value, as in `joint_runtime` (it carries the worst rows).
-#![allow(clippy::result_large_err)]
 
 use joint_runtime::analysis::{AnalysisError, AssemblyOptions, RowInfo, assemble, velocities};
 use joint_runtime::nalgebra::{Quaternion, UnitQuaternion, Vector3};

@@ -56,7 +56,6 @@
 //! single shaft: the intermediate shaft has no bearing of its own.
 
 // `AnalysisError` is returned by value, as in `joint_runtime` (it carries the worst rows).
-#![allow(clippy::result_large_err)]
 
 use joint_runtime::analysis::{AnalysisError, AssemblyOptions, RowInfo, assemble, velocities};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};

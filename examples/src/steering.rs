@@ -477,7 +477,6 @@ impl Sweep {
 /// An analysis failed (it should not: the bends stay far from 90°).
 // The runtime's error type, returned as the runtime's analyses return it (it
 // carries the worst rows by value).
-#[allow(clippy::result_large_err)]
 pub fn sweep(reach: f64, rate: f64, steps: usize) -> Result<Sweep, AnalysisError> {
     let column = SteeringColumn::new(Ramp { start: 0.0, rate }, reach);
     let options = AssemblyOptions { tolerance: 1e-14, ..AssemblyOptions::default() };
@@ -552,7 +551,6 @@ pub struct SplitComparison {
 ///
 /// # Errors
 /// An analysis of either model failed.
-#[allow(clippy::result_large_err)]
 pub fn compare_split(reach: f64, rate: f64, steps: usize) -> Result<SplitComparison, AnalysisError> {
     let column = SteeringColumn::new(Ramp { start: 0.0, rate }, reach);
     let split = column.split();

@@ -21,7 +21,6 @@
 
 // The error type is returned by value: without an allocator it cannot be boxed,
 // and it carries the three worst rows by design.
-#![allow(clippy::result_large_err)]
 
 use core::fmt;
 
@@ -34,11 +33,11 @@ use crate::scene::{Scene, SystemState};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RowInfo {
     /// The row in the system.
-    pub row: usize,
+    pub row: u32,
+    /// The row within its joint.
+    pub joint_row: u32,
     /// The joint that owns it (`""` if no [`RowBlock`](crate::RowBlock) covers it).
     pub joint: &'static str,
-    /// The row within its joint.
-    pub joint_row: usize,
 }
 
 impl RowInfo {
@@ -48,9 +47,11 @@ impl RowInfo {
     where
         S: Scene<NB, NV, M>,
     {
+        // Row counts are fixed-size matrix dimensions: far below u32::MAX.
+        let narrow = |x: usize| u32::try_from(x).unwrap_or(u32::MAX);
         match S::block_of(row) {
-            Some(b) => RowInfo { row, joint: b.name, joint_row: row - b.start },
-            None => RowInfo { row, joint: "", joint_row: 0 },
+            Some(b) => RowInfo { row: narrow(row), joint: b.name, joint_row: narrow(row - b.start) },
+            None => RowInfo { row: narrow(row), joint: "", joint_row: 0 },
         }
     }
 }
@@ -84,7 +85,7 @@ impl<const M: usize> RowList<M> {
         for &r in rows.iter().take(M) {
             // Insertion in increasing row order.
             let mut at = list.len;
-            while at > 0 && list.rows[at - 1].row > r {
+            while at > 0 && list.rows[at - 1].row as usize > r {
                 list.rows[at] = list.rows[at - 1];
                 at -= 1;
             }
@@ -238,8 +239,8 @@ pub enum AnalysisError {
     /// A linear analysis (velocity, acceleration, λ) has no solution: redundant
     /// rows contradict the others.
     Inconsistent {
-        /// What was solved: `"velocity"`, `"acceleration"` or `"dynamics"`.
-        analysis: &'static str,
+        /// What was solved.
+        analysis: Analysis,
         /// ‖J x − b‖₂.
         residual: f64,
         /// The rows whose residual is largest.
@@ -587,9 +588,30 @@ pub(crate) fn min_norm<const NB: usize, const NV: usize, const M: usize>(
     Ok((x, y, chol))
 }
 
+/// Which linear problem an [`AnalysisError::Inconsistent`] comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Analysis {
+    /// Velocity analysis, `J v = −Φ_t`.
+    Velocity,
+    /// Acceleration analysis, `J v̇ = γ`.
+    Acceleration,
+    /// Forward dynamics.
+    Dynamics,
+}
+
+impl core::fmt::Display for Analysis {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Analysis::Velocity => "velocity",
+            Analysis::Acceleration => "acceleration",
+            Analysis::Dynamics => "dynamics",
+        })
+    }
+}
+
 /// Solves `J x = b` (minimum norm), checks consistency, lists redundant rows.
 pub(crate) fn solve_linear<S, const NB: usize, const NV: usize, const M: usize>(
-    analysis: &'static str,
+    analysis: Analysis,
     j: &SMatrix<f64, M, NV>,
     b: &SVector<f64, M>,
     metric: Metric<'_, NB>,
@@ -741,7 +763,8 @@ where
     check_output::<S, NB, NV, M, NV>("J", &j)?;
     let phi_t = scene.phi_t(state);
     check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
-    let (v, residual, redundant) = solve_linear::<S, NB, NV, M>("velocity", &j, &(-phi_t), None, rank_tolerance)?;
+    let (v, residual, redundant) =
+        solve_linear::<S, NB, NV, M>(Analysis::Velocity, &j, &(-phi_t), None, rank_tolerance)?;
     set_velocities(state, &v);
     Ok(VelocityAnalysis { residual, redundant })
 }
@@ -774,7 +797,7 @@ where
     check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
     check_output::<S, NB, NV, M, 1>("γ", &e.gamma)?;
     let (vdot, residual, redundant) =
-        solve_linear::<S, NB, NV, M>("acceleration", &e.jacobian, &e.gamma, None, rank_tolerance)?;
+        solve_linear::<S, NB, NV, M>(Analysis::Acceleration, &e.jacobian, &e.gamma, None, rank_tolerance)?;
     Ok(AccelerationAnalysis { vdot, residual, redundant })
 }
 
