@@ -49,13 +49,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     );
 
     println!("10 s of free motion from rest under gravity (projection after every step, tolerance 1e-13):");
-    match bricard::simulate(&scene, Integrator::Rk4, 1e-3, 10.0, 10) {
-        Ok(_) => println!("  RK4, h = 1e-3, joints as given: ran"),
-        Err(f) => println!("  RK4, h = 1e-3, joints as given: fails {f}"),
-    }
     let timer = std::time::Instant::now();
     let run = bricard::simulate(&scene, Integrator::Rk4, 1e-4, 10.0, 100)?;
-    report("RK4, h = 1e-4, joints as given", &run, timer.elapsed().as_secs_f64());
+    report("RK4, h = 1e-4", &run, timer.elapsed().as_secs_f64());
     let timer = std::time::Instant::now();
     let rk4 = bricard::simulate(&scene, Integrator::Rk4, 1e-3, 10.0, 10)?;
     report("RK4, h = 1e-3", &rk4, timer.elapsed().as_secs_f64());
