@@ -7,4 +7,5 @@ pub mod cardan;
 pub mod double_cardan;
 pub mod four_bar;
 pub mod pendulum_chain;
+pub mod report;
 pub mod steering;
