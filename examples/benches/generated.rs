@@ -1,1 +1,3 @@
+//! Criterion benchmarks of the generated code (being written).
+
 fn main() {}

@@ -54,7 +54,7 @@
 
 // `AnalysisError` is returned by value, as in `joint_runtime` (it carries the worst rows).
 
-use joint_runtime::analysis::{AnalysisError, AssemblyOptions, RowInfo, assemble, velocities};
+use joint_runtime::analysis::{AnalysisError, Assembly, AssemblyOptions, RowInfo, assemble, velocities};
 use joint_runtime::nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState, rotation_matrix};
 
@@ -164,6 +164,38 @@ pub fn predict<const NB: usize>(state: &mut SystemState<NB>, dt: f64) {
     }
 }
 
+/// Step `k` of a sweep at constant input speed: the state moved on by `dt`
+/// ([`predict`], after the first step), set to `t = k dt`, assembled and given
+/// the velocities of the driven motion. Records the redundant rows of the first
+/// velocity analysis in `first` and every distinct list of redundant rows of
+/// either analysis in `variants`.
+///
+/// # Errors
+/// Those of [`assemble`] and [`velocities`].
+pub fn sweep_step<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &mut SystemState<NB>,
+    (k, dt): (usize, f64),
+    first: &mut Vec<RowInfo>,
+    variants: &mut Vec<Vec<RowInfo>>,
+) -> Result<Assembly<M>, AnalysisError> {
+    if k > 0 {
+        predict(state, dt);
+    }
+    state.t = k as f64 * dt;
+    let a = assemble(scene, state, &AssemblyOptions::default())?;
+    let v = velocities(scene, state)?;
+    if k == 0 {
+        *first = v.redundant.as_slice().to_vec();
+    }
+    for rows in [a.redundant.as_slice(), v.redundant.as_slice()] {
+        if !variants.iter().any(|x| x.as_slice() == rows) {
+            variants.push(rows.to_vec());
+        }
+    }
+    Ok(a)
+}
+
 /// One configuration of the sweep.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -237,7 +269,6 @@ pub fn sweep(bend: f64, input_speed: f64, steps: usize) -> Result<Sweep, Analysi
     let output_ref = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), bend);
     let period = 2.0 * core::f64::consts::PI / input_speed.abs();
     let dt = period / steps as f64;
-    let options = AssemblyOptions::default();
     let mut state = scene.reference_state();
     let mut out = Sweep {
         bend,
@@ -254,21 +285,8 @@ pub fn sweep(bend: f64, input_speed: f64, steps: usize) -> Result<Sweep, Analysi
     };
     let (mut last_in, mut last_out) = (0.0, 0.0);
     for k in 0..steps {
-        let t = k as f64 * dt;
-        if k > 0 {
-            predict(&mut state, dt);
-        }
-        state.t = t;
-        let a = assemble(&scene, &mut state, &options)?;
-        let v = velocities(&scene, &mut state)?;
-        if k == 0 {
-            out.redundant = v.redundant.as_slice().to_vec();
-        }
-        for rows in [a.redundant.as_slice(), v.redundant.as_slice()] {
-            if !out.redundant_variants.iter().any(|x| x.as_slice() == rows) {
-                out.redundant_variants.push(rows.to_vec());
-            }
-        }
+        let a = sweep_step(&scene, &mut state, (k, dt), &mut out.redundant, &mut out.redundant_variants)?;
+        let t = state.t;
         out.max_residual = out.max_residual.max(a.residual);
         // Unwrap: each step moves an angle by less than π.
         let phi1 = last_in + wrap(shaft_angle(&state.bodies[0], &input_ref) - last_in);

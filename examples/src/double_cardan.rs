@@ -57,11 +57,11 @@
 
 // `AnalysisError` is returned by value, as in `joint_runtime` (it carries the worst rows).
 
-use joint_runtime::analysis::{AnalysisError, AssemblyOptions, RowInfo, assemble, velocities};
+use joint_runtime::analysis::{AnalysisError, RowInfo, velocities};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState};
 
-use crate::cardan::{output_angle, predict, shaft_angle, speed_ratio, wrap};
+use crate::cardan::{output_angle, shaft_angle, speed_ratio, sweep_step, wrap};
 
 /// How the output shaft sits relative to the input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -326,7 +326,7 @@ pub struct Sweep {
 }
 
 /// Kinematic analysis over one input turn in `steps` steps: set the time,
-/// predict, [`assemble`], [`velocities`]; compare both shafts' angles and
+/// predict, [`assemble`](joint_runtime::analysis::assemble), [`velocities`]; compare both shafts' angles and
 /// speeds with the closed forms.
 ///
 /// # Errors
@@ -349,7 +349,6 @@ pub fn sweep(
     let scene = DoubleCardan::new(geometry, input_speed);
     let [_, qm, qo] = geometry.references();
     let dt = 2.0 * core::f64::consts::PI / input_speed.abs() / steps as f64;
-    let options = AssemblyOptions::default();
     let mut state = geometry.reference_state();
     let mut out = Sweep {
         geometry,
@@ -366,21 +365,8 @@ pub fn sweep(
     };
     let (mut last_m, mut last_o) = (0.0, 0.0);
     for k in 0..steps {
-        let t = k as f64 * dt;
-        if k > 0 {
-            predict(&mut state, dt);
-        }
-        state.t = t;
-        let a = assemble(&scene, &mut state, &options)?;
-        let v = velocities(&scene, &mut state)?;
-        if k == 0 {
-            out.redundant = v.redundant.as_slice().to_vec();
-        }
-        for rows in [a.redundant.as_slice(), v.redundant.as_slice()] {
-            if !out.redundant_variants.iter().any(|x| x.as_slice() == rows) {
-                out.redundant_variants.push(rows.to_vec());
-            }
-        }
+        sweep_step(&scene, &mut state, (k, dt), &mut out.redundant, &mut out.redundant_variants)?;
+        let t = state.t;
         let phi_m = last_m + wrap(shaft_angle(&state.bodies[1], &qm) - last_m);
         let phi_o = last_o + wrap(shaft_angle(&state.bodies[2], &qo) - last_o);
         (last_m, last_o) = (phi_m, phi_o);

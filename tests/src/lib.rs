@@ -2,7 +2,11 @@
 //!
 //! [`conformance`] evaluates the cases of `shared/conformance/*.json` through
 //! derive-generated code with run-time parameters and applies the accuracy test
-//! of the conformance README.
+//! of the conformance README. [`trajectory`] holds the exact trajectories and
+//! comparisons of the derivative tests, [`scenes`] the mechanisms of the analysis
+//! and dynamics tests.
 
 pub mod conformance;
 pub mod joints;
+pub mod scenes;
+pub mod trajectory;

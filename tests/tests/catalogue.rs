@@ -32,11 +32,16 @@
 
 use core::f64::consts::FRAC_PI_2;
 
-use joint_runtime::nalgebra::{Matrix3, SMatrix, SVector, SimdRealField, UnitQuaternion, Vector3, Vector4, convert};
+use joint_runtime::nalgebra::{Matrix3, SVector, SimdRealField, UnitQuaternion, Vector3, Vector4};
 use joint_runtime::{
-    AxisFrame, Drive, EulerBody, Formulation, Joint, OmegaBody, Polynomial, RelativeState, Singularity, Sinusoid,
-    TimeFunction, TwoBodies, perpendicular_pair, rotation_matrix,
+    AxisFrame, Drive, Formulation, Joint, OmegaBody, Polynomial, Singularity, Sinusoid, TimeFunction, TwoBodies,
+    perpendicular_pair, rotation_matrix,
 };
+use joint_tests::trajectory::{
+    BODY, Coords, Euler, Flat, Form, OmegaBodyF, OmegaInertial, RelB1, RelB2, along, at_rest, coords_from, lift,
+    matvec, max_abs, quat_mul,
+};
+use joint_tests::vector_views;
 use num_dual::{Dual2_64, Dual64};
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
@@ -44,240 +49,12 @@ use proptest::test_runner::TestCaseError;
 
 type Res = Result<(), TestCaseError>;
 
-// ---------------------------------------------------------------------------
-// Flat storage of coordinates and parameters, generic over the scalar.
-// ---------------------------------------------------------------------------
-
-/// A fixed array of numbers with named views.
-#[derive(Clone, Copy, Debug)]
-struct Flat<T, const N: usize>([T; N]);
-
-/// Per body (17 numbers): `x` (r or δ) 0..3, `p` 3..7, `xd` 7..10, `w` (ω) 10..13, `pd` (ṗ) 13..17.
-/// Relative formulations read body 0 only (`δ, p_rel, δ̇, ω_rel`).
-type Coords<T> = Flat<T, 34>;
-const BODY: usize = 17;
 /// `f, g, h, k, n, s, rho1, rho2` (three each) and one scalar (a length, an angle).
 type Params<T> = Flat<T, 25>;
 
-impl<T: Copy, const N: usize> Flat<T, N> {
-    fn map<U>(&self, f: impl FnMut(T) -> U) -> Flat<U, N> {
-        Flat(self.0.map(f))
-    }
-    fn v3(&self, o: usize) -> Vector3<T>
-    where
-        T: SimdRealField,
-    {
-        Vector3::new(self.0[o], self.0[o + 1], self.0[o + 2])
-    }
-    fn v4(&self, o: usize) -> Vector4<T>
-    where
-        T: SimdRealField,
-    {
-        Vector4::new(self.0[o], self.0[o + 1], self.0[o + 2], self.0[o + 3])
-    }
-    fn set(&mut self, o: usize, values: &[T]) {
-        self.0[o..o + values.len()].copy_from_slice(values);
-    }
-}
-
-impl<T: SimdRealField + Copy> Coords<T> {
-    fn x(&self, b: usize) -> Vector3<T> {
-        self.v3(BODY * b)
-    }
-    fn p(&self, b: usize) -> Vector4<T> {
-        self.v4(BODY * b + 3)
-    }
-    fn xd(&self, b: usize) -> Vector3<T> {
-        self.v3(BODY * b + 7)
-    }
-    fn w(&self, b: usize) -> Vector3<T> {
-        self.v3(BODY * b + 10)
-    }
-    fn pd(&self, b: usize) -> Vector4<T> {
-        self.v4(BODY * b + 13)
-    }
-}
-
-impl<T: SimdRealField + Copy> Params<T> {
-    fn f(&self) -> Vector3<T> {
-        self.v3(0)
-    }
-    fn g(&self) -> Vector3<T> {
-        self.v3(3)
-    }
-    fn h(&self) -> Vector3<T> {
-        self.v3(6)
-    }
-    fn k(&self) -> Vector3<T> {
-        self.v3(9)
-    }
-    fn n(&self) -> Vector3<T> {
-        self.v3(12)
-    }
-    fn s(&self) -> Vector3<T> {
-        self.v3(15)
-    }
-    fn rho1(&self) -> Vector3<T> {
-        self.v3(18)
-    }
-    fn rho2(&self) -> Vector3<T> {
-        self.v3(21)
-    }
-    fn sc(&self) -> T {
-        self.0[24]
-    }
-}
-
-fn lift<T: SimdRealField>(x: f64) -> T {
-    convert(x)
-}
-
-/// The coordinates with every velocity set to zero (the trajectory stands still).
-fn at_rest(c: &Coords<f64>) -> Coords<f64> {
-    let mut c = *c;
-    for b in 0..2 {
-        c.set(BODY * b + 7, &[0.0; 10]);
-    }
-    c
-}
-
-// ---------------------------------------------------------------------------
-// Exact trajectories with constant velocities.
-// ---------------------------------------------------------------------------
-
-/// How the Euler parameters move along the trajectory.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum Rot {
-    /// `p(t) = p0 + ṗ t` (euler; p need not be unit).
-    Line,
-    /// `p(t) = q(ω t) ⊗ p0` (ω in the reference frame: omega_inertial, relative_b1).
-    Left,
-    /// `p(t) = p0 ⊗ q(ω t)` (ω in the moving body: omega_body, relative_b2).
-    Right,
-}
-
-/// Hamilton product, scalar first.
-fn quat_mul<T: SimdRealField + Copy>(a: &Vector4<T>, b: &Vector4<T>) -> Vector4<T> {
-    Vector4::new(
-        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-        a[0] * b[2] + a[2] * b[0] + a[3] * b[1] - a[1] * b[3],
-        a[0] * b[3] + a[3] * b[0] + a[1] * b[2] - a[2] * b[1],
-    )
-}
-
-/// The unit quaternion of the rotation vector `w t` (`w` constant, `t` the variable).
-fn exp_rot<T: SimdRealField + Copy>(w: &Vector3<f64>, t: T) -> Vector4<T> {
-    let n = w.norm();
-    if n == 0.0 {
-        return Vector4::new(lift(1.0), lift(0.0), lift(0.0), lift(0.0));
-    }
-    let half = lift::<T>(0.5 * n) * t;
-    let (s, c) = (half.simd_sin(), half.simd_cos());
-    Vector4::new(c, s * lift(w.x / n), s * lift(w.y / n), s * lift(w.z / n))
-}
-
-/// The coordinates at `t` along the trajectory through `c0` with its (constant) velocities.
-fn along<T: SimdRealField + Copy>(c0: &Coords<f64>, rot: Rot, t: T) -> Coords<T> {
-    let mut c = c0.map(lift::<T>);
-    for b in 0..2 {
-        let (x, xd, p0, pd) = (c.x(b), c.xd(b), c.p(b), c.pd(b));
-        let x = [x[0] + xd[0] * t, x[1] + xd[1] * t, x[2] + xd[2] * t];
-        let p = match rot {
-            Rot::Line => Vector4::new(p0[0] + pd[0] * t, p0[1] + pd[1] * t, p0[2] + pd[2] * t, p0[3] + pd[3] * t),
-            Rot::Left => quat_mul(&exp_rot(&c0.w(b), t), &p0),
-            Rot::Right => quat_mul(&p0, &exp_rot(&c0.w(b), t)),
-        };
-        c.set(BODY * b, &x);
-        c.set(BODY * b + 3, p.as_slice());
-    }
-    c
-}
-
-// ---------------------------------------------------------------------------
-// Formulations: state types, trajectories, velocity vectors.
-// ---------------------------------------------------------------------------
-
-trait Form<const C: usize> {
-    const ROT: Rot;
-    type State<T: SimdRealField + Copy>;
-    fn build<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> Self::State<T>;
-    fn velocity(c: &Coords<f64>) -> SVector<f64, C>;
-}
-
-struct Euler;
-struct OmegaInertial;
-struct OmegaBodyF;
-struct RelB1;
-struct RelB2;
-
-fn euler_body<T: SimdRealField + Copy>(c: &Coords<T>, b: usize) -> EulerBody<T> {
-    EulerBody { r: c.x(b), p: c.p(b), rdot: c.xd(b), pdot: c.pd(b) }
-}
-fn omega_body<T: SimdRealField + Copy>(c: &Coords<T>, b: usize) -> OmegaBody<T> {
-    OmegaBody { r: c.x(b), p: c.p(b), rdot: c.xd(b), omega: c.w(b) }
-}
-fn relative<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> RelativeState<T> {
-    RelativeState { delta: c.x(0), p: c.p(0), delta_dot: c.xd(0), omega: c.w(0), t }
-}
-fn omega_velocity(c: &Coords<f64>) -> SVector<f64, 12> {
-    SVector::from_column_slice(&[c.xd(0).as_slice(), c.w(0).as_slice(), c.xd(1).as_slice(), c.w(1).as_slice()].concat())
-}
-fn relative_velocity(c: &Coords<f64>) -> SVector<f64, 6> {
-    SVector::from_column_slice(&[c.xd(0).as_slice(), c.w(0).as_slice()].concat())
-}
-
-impl Form<14> for Euler {
-    const ROT: Rot = Rot::Line;
-    type State<T: SimdRealField + Copy> = TwoBodies<EulerBody<T>>;
-    fn build<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> Self::State<T> {
-        TwoBodies { body1: euler_body(c, 0), body2: euler_body(c, 1), t }
-    }
-    fn velocity(c: &Coords<f64>) -> SVector<f64, 14> {
-        SVector::from_column_slice(
-            &[c.xd(0).as_slice(), c.pd(0).as_slice(), c.xd(1).as_slice(), c.pd(1).as_slice()].concat(),
-        )
-    }
-}
-impl Form<12> for OmegaInertial {
-    const ROT: Rot = Rot::Left;
-    type State<T: SimdRealField + Copy> = TwoBodies<OmegaBody<T>>;
-    fn build<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> Self::State<T> {
-        TwoBodies { body1: omega_body(c, 0), body2: omega_body(c, 1), t }
-    }
-    fn velocity(c: &Coords<f64>) -> SVector<f64, 12> {
-        omega_velocity(c)
-    }
-}
-impl Form<12> for OmegaBodyF {
-    const ROT: Rot = Rot::Right;
-    type State<T: SimdRealField + Copy> = TwoBodies<OmegaBody<T>>;
-    fn build<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> Self::State<T> {
-        TwoBodies { body1: omega_body(c, 0), body2: omega_body(c, 1), t }
-    }
-    fn velocity(c: &Coords<f64>) -> SVector<f64, 12> {
-        omega_velocity(c)
-    }
-}
-impl Form<6> for RelB1 {
-    const ROT: Rot = Rot::Left;
-    type State<T: SimdRealField + Copy> = RelativeState<T>;
-    fn build<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> Self::State<T> {
-        relative(c, t)
-    }
-    fn velocity(c: &Coords<f64>) -> SVector<f64, 6> {
-        relative_velocity(c)
-    }
-}
-impl Form<6> for RelB2 {
-    const ROT: Rot = Rot::Right;
-    type State<T: SimdRealField + Copy> = RelativeState<T>;
-    fn build<T: SimdRealField + Copy>(c: &Coords<T>, t: f64) -> Self::State<T> {
-        relative(c, t)
-    }
-    fn velocity(c: &Coords<f64>) -> SVector<f64, 6> {
-        relative_velocity(c)
-    }
+vector_views! {
+    /// Named views of [`Params`].
+    trait ParamViews for 25 { f = 0, g = 3, h = 6, k = 9, n = 12, s = 15, rho1 = 18, rho2 = 21 }; scalar sc = 24
 }
 
 // ---------------------------------------------------------------------------
@@ -465,18 +242,7 @@ impl Case {
 
 /// Random coordinates and velocities in [-2, 2]; Euler parameters made unit when `unit`.
 fn coords(unit: bool) -> impl Strategy<Value = Coords<f64>> {
-    prop::collection::vec(-2.0f64..2.0, 34).prop_map(move |v| {
-        let mut c = Flat(core::array::from_fn(|i| v[i]));
-        if unit {
-            for b in 0..2 {
-                let p = c.p(b);
-                let n = p.norm();
-                let p = if n > 1e-3 { p / n } else { Vector4::new(1.0, 0.0, 0.0, 0.0) };
-                c.set(BODY * b + 3, p.as_slice());
-            }
-        }
-        c
-    })
+    prop::collection::vec(-2.0f64..2.0, 34).prop_map(move |v| coords_from(&v, unit))
 }
 
 fn case(unit: bool) -> impl Strategy<Value = Case> {
@@ -503,62 +269,19 @@ fn samples(unit: bool) -> Vec<Case> {
     (0..4).map(|_| strategy.new_tree(&mut runner).expect("strategy").current()).collect()
 }
 
-fn max_abs(xs: &[f64]) -> f64 {
-    xs.iter().fold(0.0, |m, x| m.max(x.abs()))
-}
-
-/// The magnitude of each output of `f`: the largest `|f|` over the case and 16
-/// fixed patterns of flipped signs of coordinates and parameters (unit Euler
-/// parameters stay unit). A lower bound of the monomial scale of `CONVENTIONS.md`
-/// that one cancellation at one point does not fool.
+/// [`joint_tests::trajectory::magnitude`] over the case's coordinates and parameters.
 fn magnitude(k: &Case, f: impl Fn(&Case) -> Vec<f64>) -> Vec<f64> {
-    let mut m: Vec<f64> = f(k).iter().map(|x| x.abs()).collect();
-    let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
-    let mut flip = |x: f64| {
-        seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        if seed >> 63 == 1 { -x } else { x }
-    };
-    for _ in 0..16 {
-        let flipped = Case { c: k.c.map(&mut flip), p: k.p.map(&mut flip), ..*k };
-        for (mi, y) in m.iter_mut().zip(f(&flipped)) {
-            *mi = mi.max(y.abs());
-        }
-    }
-    m
+    joint_tests::trajectory::magnitude(k, |k, flip| Case { c: k.c.map(&mut *flip), p: k.p.map(flip), ..*k }, f)
 }
 
-/// Every entry of `got` within `tol · (1 + max(max |got|, max |want|, mag[i]))` of `want`.
+/// [`joint_tests::trajectory::close`] of a vector (or one column).
 fn close(what: &str, got: &[f64], want: &[f64], tol: f64, mag: &[f64]) -> Res {
-    prop_assert_eq!(got.len(), want.len(), "{}: lengths differ", what);
-    let common = max_abs(want).max(max_abs(got));
-    for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        let scale = 1.0 + common.max(mag.get(i).copied().unwrap_or(0.0));
-        prop_assert!(
-            g.is_finite() && w.is_finite() && (g - w).abs() <= tol * scale,
-            "{} row {}: got {:e}, expected {:e}, |diff| = {:e} > {:e} · {:e}",
-            what,
-            i,
-            g,
-            w,
-            (g - w).abs(),
-            tol,
-            scale
-        );
-    }
-    Ok(())
+    Ok(joint_tests::trajectory::close(what, got, want, got.len().max(1), tol, mag)?)
 }
 
-/// Bitwise equality (`+0.0` and `−0.0` count as different).
+/// [`joint_tests::trajectory::bitwise`] of flattened outputs.
 fn bitwise(what: &str, got: &[f64], want: &[f64]) -> Res {
-    prop_assert_eq!(got.len(), want.len(), "{}: lengths differ", what);
-    for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        prop_assert!(g.to_bits() == w.to_bits(), "{} entry {}: {:e} and {:e} differ bitwise", what, i, g, w);
-    }
-    Ok(())
-}
-
-fn matvec<const R: usize, const C: usize>(j: &SMatrix<f64, R, C>, v: &SVector<f64, C>) -> SVector<f64, R> {
-    SVector::from_fn(|i, _| (0..C).map(|k| j[(i, k)] * v[k]).sum())
+    Ok(joint_tests::trajectory::bitwise(what, got, want, got.len().max(1))?)
 }
 
 fn state<Fa: Family<R, C>, const R: usize, const C: usize, T: SimdRealField + Copy>(

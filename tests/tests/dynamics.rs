@@ -1,172 +1,31 @@
-//! Forward dynamics (`joint_runtime::dynamics`) on hand-stacked scenes: a simple
-//! pendulum's period and energy, a double pendulum with both integrators and
+//! Forward dynamics (`joint_runtime::dynamics`) on `#[derive(Scene)]` mechanisms: a
+//! simple pendulum's period and energy, a double pendulum with both integrators and
 //! projection, a stiff spring, reactions.
 
 #![allow(missing_docs)]
 
-use std::marker::PhantomData;
-
-use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
-use joint_runtime::{BodyInertia, Evaluation, Joint, OmegaBody, OneBody, Ops, RowBlock, Scene, SystemState, TwoBodies};
-
-// --- A hand-written `Scene`: joints stacked by hand into the system matrices. ---
-
-#[derive(Joint)]
-#[joint(spherical, formulation = omega_body, ground = body1)]
-struct GroundBall<T> {
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-#[derive(Joint)]
-#[joint(spherical, formulation = omega_body)]
-struct Ball<T> {
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-type Eval<const M: usize, const NV: usize> = Evaluation<f64, M, NV>;
-
-trait Part<const NB: usize, const NV: usize, const M: usize> {
-    fn add(&self, s: &SystemState<NB>, start: usize, out: &mut Eval<M, NV>, phi_t: &mut SVector<f64, M>);
-}
-
-/// A joint with `ground = body1` on body `body`.
-struct Grounded<J, const R: usize>(J, usize);
-/// A joint between bodies `.1` and `.2`.
-struct Between<J, const R: usize>(J, usize, usize);
-
-impl<J, const R: usize, const NB: usize, const NV: usize, const M: usize> Part<NB, NV, M> for Grounded<J, R>
-where
-    J: Joint<f64, R, 6, State = OneBody<OmegaBody<f64>>>,
-{
-    fn add(&self, s: &SystemState<NB>, start: usize, out: &mut Eval<M, NV>, phi_t: &mut SVector<f64, M>) {
-        let st = OneBody { body: s.bodies[self.1], t: s.t };
-        let e = self.0.evaluate(&st);
-        let pt = self.0.phi_t(&st);
-        for r in 0..R {
-            out.phi[start + r] = e.phi[r];
-            out.gamma[start + r] = e.gamma[r];
-            phi_t[start + r] = pt[r];
-            for c in 0..6 {
-                out.jacobian[(start + r, 6 * self.1 + c)] = e.jacobian[(r, c)];
-            }
-        }
-    }
-}
-
-impl<J, const R: usize, const NB: usize, const NV: usize, const M: usize> Part<NB, NV, M> for Between<J, R>
-where
-    J: Joint<f64, R, 12, State = TwoBodies<OmegaBody<f64>>>,
-{
-    fn add(&self, s: &SystemState<NB>, start: usize, out: &mut Eval<M, NV>, phi_t: &mut SVector<f64, M>) {
-        let st = TwoBodies { body1: s.bodies[self.1], body2: s.bodies[self.2], t: s.t };
-        let e = self.0.evaluate(&st);
-        let pt = self.0.phi_t(&st);
-        for r in 0..R {
-            out.phi[start + r] = e.phi[r];
-            out.gamma[start + r] = e.gamma[r];
-            phi_t[start + r] = pt[r];
-            for c in 0..6 {
-                out.jacobian[(start + r, 6 * self.1 + c)] = e.jacobian[(r, c)];
-                out.jacobian[(start + r, 6 * self.2 + c)] = e.jacobian[(r, 6 + c)];
-            }
-        }
-    }
-}
-
-/// Names of a hand-written scene.
-trait Layout<const NB: usize> {
-    const BODIES: [&'static str; NB];
-    const BLOCKS: &'static [RowBlock];
-}
-
-struct Hand<L, const NB: usize, const NV: usize, const M: usize> {
-    parts: Vec<Box<dyn Part<NB, NV, M>>>,
-    inertias: [BodyInertia; NB],
-    gravity: Vector3<f64>,
-    layout: PhantomData<L>,
-}
-
-impl<L: Layout<NB>, const NB: usize, const NV: usize, const M: usize> Hand<L, NB, NV, M> {
-    fn all(&self, s: &SystemState<NB>) -> (Eval<M, NV>, SVector<f64, M>) {
-        let mut out = Evaluation {
-            phi: SVector::zeros(),
-            jacobian: joint_runtime::nalgebra::SMatrix::zeros(),
-            gamma: SVector::zeros(),
-        };
-        let mut phi_t = SVector::zeros();
-        for (part, block) in self.parts.iter().zip(L::BLOCKS) {
-            part.add(s, block.start, &mut out, &mut phi_t);
-        }
-        (out, phi_t)
-    }
-}
-
-impl<L: Layout<NB>, const NB: usize, const NV: usize, const M: usize> Scene<NB, NV, M> for Hand<L, NB, NV, M> {
-    const BODIES: [&'static str; NB] = L::BODIES;
-    const BLOCKS: &'static [RowBlock] = L::BLOCKS;
-    const OPS: Ops = Ops { phi: 0, phi_t: 0, jacobian: 0, gamma: 0, evaluate: 0 };
-    fn phi(&self, s: &SystemState<NB>) -> SVector<f64, M> {
-        self.all(s).0.phi
-    }
-    fn phi_t(&self, s: &SystemState<NB>) -> SVector<f64, M> {
-        self.all(s).1
-    }
-    fn jacobian(&self, s: &SystemState<NB>) -> joint_runtime::nalgebra::SMatrix<f64, M, NV> {
-        self.all(s).0.jacobian
-    }
-    fn gamma(&self, s: &SystemState<NB>) -> SVector<f64, M> {
-        self.all(s).0.gamma
-    }
-    fn evaluate(&self, s: &SystemState<NB>) -> Eval<M, NV> {
-        self.all(s).0
-    }
-    fn inertias(&self) -> [BodyInertia; NB] {
-        self.inertias
-    }
-    fn gravity(&self) -> Vector3<f64> {
-        self.gravity
-    }
-}
-
-const fn block(name: &'static str, start: usize, rows: usize) -> RowBlock {
-    RowBlock { name, start, rows }
-}
-
-// --- Scenes and tests. ---
-
 use joint_runtime::dynamics::{
     Attachment, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
 };
+use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
+use joint_runtime::{OmegaBody, Scene, SystemState};
+use joint_tests::scenes::hanging_rods;
+
+// --- Scenes and tests. ---
 
 const G: f64 = 9.81;
 
-fn up() -> Vector3<f64> {
-    Vector3::new(0.0, 0.0, 0.5)
+/// A bob (mass `mass`, I = 0.01) 1 m below a ball joint at the origin.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81])]
+#[body(bob, mass = mass, inertia = [0.01, 0.01, 0.01])]
+#[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
+struct Pendulum {
+    mass: f64,
 }
 
-fn rod() -> BodyInertia {
-    BodyInertia::principal(1.0, Vector3::new(1.0 / 12.0, 1.0 / 12.0, 1e-3))
-}
-
-/// A bob (m = 1, I = 0.01) 1 m below a ball joint at the origin.
-struct PendulumLayout;
-impl Layout<1> for PendulumLayout {
-    const BODIES: [&'static str; 1] = ["bob"];
-    const BLOCKS: &'static [RowBlock] = &[block("pivot", 0, 3)];
-}
-
-fn pendulum() -> Hand<PendulumLayout, 1, 6, 3> {
-    Hand {
-        parts: vec![Box::new(Grounded::<_, 3>(
-            GroundBall { rho1: Vector3::zeros(), rho2: Vector3::new(0.0, 0.0, 1.0) },
-            0,
-        ))],
-        inertias: [BodyInertia::principal(1.0, Vector3::new(0.01, 0.01, 0.01))],
-        gravity: Vector3::new(0.0, 0.0, -G),
-        layout: PhantomData,
-    }
+fn pendulum() -> Pendulum {
+    Pendulum { mass: 1.0 }
 }
 
 /// The bob turned by `angle` about x, at rest.
@@ -176,37 +35,22 @@ fn swung(angle: f64) -> SystemState<1> {
     SystemState { bodies: [OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::zeros())], t: 0.0 }
 }
 
-/// Two rods of length 1 hanging from the origin, ball joints.
-struct DoubleLayout;
-impl Layout<2> for DoubleLayout {
-    const BODIES: [&'static str; 2] = ["upper", "lower"];
-    const BLOCKS: &'static [RowBlock] = &[block("shoulder", 0, 3), block("elbow", 3, 3)];
-}
-
-fn double_pendulum() -> Hand<DoubleLayout, 2, 12, 6> {
-    Hand {
-        parts: vec![
-            Box::new(Grounded::<_, 3>(GroundBall { rho1: Vector3::zeros(), rho2: up() }, 0)),
-            Box::new(Between::<_, 3>(Ball { rho1: -up(), rho2: up() }, 0, 1)),
-        ],
-        inertias: [rod(); 2],
-        gravity: Vector3::new(0.0, 0.0, -G),
-        layout: PhantomData,
-    }
-}
+/// Two rods of length 1 (m = 1, I = diag(1/12, 1/12, 1e-3)) hanging from the
+/// origin, ball joints.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81])]
+#[body(upper, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
+#[body(lower, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
+#[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
+#[joint(elbow = spherical(upper, lower), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])]
+struct DoublePendulum;
 
 /// Upper rod horizontal along +y, lower rod at 45°, lower rod spinning about its axis.
 fn double_start() -> SystemState<2> {
-    let mut joint = Vector3::zeros();
-    let mut bodies = [90f64.to_radians(), 135f64.to_radians()].map(|a| {
-        let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a);
-        let r = joint - q * up();
-        joint = r - q * up();
-        OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::zeros())
-    });
+    let mut s = hanging_rods([90f64.to_radians(), 135f64.to_radians()]);
     // Spin of the lower rod about its own axis (consistent with the ball joints).
-    bodies[1].omega = Vector3::new(0.0, 0.0, 3.0);
-    SystemState { bodies, t: 0.0 }
+    s.bodies[1].omega = Vector3::new(0.0, 0.0, 3.0);
+    s
 }
 
 fn options(integrator: Integrator, project: bool) -> SimulationOptions {
@@ -276,7 +120,7 @@ fn pendulum_energy_rk4_over_many_periods() {
 }
 
 fn run_double(integrator: Integrator, project: bool, h: f64, time: f64) -> (f64, f64, f64) {
-    let scene = double_pendulum();
+    let scene = DoublePendulum;
     let mut sim = Simulation::new(&scene, NoLoads, &[], options(integrator, project)).unwrap();
     let mut s = double_start();
     let e0 = sim.energy(&s).total();
@@ -326,7 +170,7 @@ fn double_pendulum_implicit_midpoint_with_projection() {
 
 #[test]
 fn baumgarte_keeps_drift_bounded() {
-    let scene = double_pendulum();
+    let scene = DoublePendulum;
     let mut o = options(Integrator::Rk4, false);
     o.stabilisation = Stabilisation::Baumgarte { alpha: 20.0, beta: 20.0 };
     let mut sim = Simulation::new(&scene, NoLoads, &[], o).unwrap();
@@ -392,7 +236,7 @@ fn reactions_and_multipliers_of_a_hanging_pendulum() {
     let s = swung(0.0);
     let d = sim.dynamics(&s).unwrap();
     assert!(d.vdot.norm() < 1e-12);
-    let r = sim.reactions(&s, &d.lambda, &PendulumLayout::BLOCKS[0]);
+    let r = sim.reactions(&s, &d.lambda, &<Pendulum as Scene<1, 6, 3>>::BLOCKS[0]);
     println!("hanging pendulum: λ = {:?}, reaction {:?}", d.lambda.as_slice(), r[0]);
     assert!((r[0].force - Vector3::new(0.0, 0.0, G)).norm() < 1e-12);
     assert!(r[0].torque.norm() < 1e-12);
@@ -404,7 +248,6 @@ fn reactions_and_multipliers_of_a_hanging_pendulum() {
     assert!((d.vdot[3] - 1.0 / 1.01).abs() < 1e-12, "{}", d.vdot);
     // Bad step and bad inertia are errors.
     assert!(sim.step(&mut swung(0.1), f64::NAN).is_err());
-    let mut bad = pendulum();
-    bad.inertias[0].mass = 0.0;
+    let bad = Pendulum { mass: 0.0 };
     assert!(Simulation::new(&bad, NoLoads, &[], SimulationOptions::default()).is_err());
 }

@@ -1,1 +1,3 @@
+//! The speed-against-error report (being written).
+
 fn main() {}
