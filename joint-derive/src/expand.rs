@@ -555,8 +555,8 @@ impl Lowering<'_> {
                 None => self.k.g.zero(),
             },
             Expr::Dot1(a, b) => {
-                let (u, w) = (self.axis(a), self.axis(b));
-                kinematics::dot(&mut self.k.g, u, w)
+                let (va, vb) = (self.v3(a), self.v3(b));
+                self.k.dot1(va, vb, [&format!("{a}_n"), &format!("{b}_n")])
             }
             Expr::Dot2(a) => {
                 let u = self.axis(a);

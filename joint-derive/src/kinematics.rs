@@ -97,6 +97,9 @@ struct Frame {
     omega: Option<V3>,
     /// `p`, `ṗ` and `A(ṗ)`, when the Euler-parameter rule applies.
     euler: Option<EulerRates>,
+    /// The angular velocity in the frame's own components, when it is an input
+    /// (`omega_body`, `relative_b2`).
+    body_rate: Option<V3>,
 }
 
 #[derive(Clone, Copy)]
@@ -148,7 +151,7 @@ impl Kinematics {
             let body = formulation == Formulation::RelativeB2;
             let omega = k.angular_velocity(&a, w, body, "omega_rel");
             let r = k.zero3();
-            k.frames.push(Frame { a, r, omega: Some(omega), euler: None });
+            k.frames.push(Frame { a, r, omega: Some(omega), euler: None, body_rate: body.then_some(w) });
             k.pair = [0, 1];
             k.register_columns(1);
             k.delta = Some(delta);
@@ -220,6 +223,7 @@ impl Kinematics {
         k.coords.extend(p);
         k.velocities.extend(rdot);
         let a = rotation_matrix(&mut k.g, p, &format!("a{n}"));
+        let mut w_body = k.zero3();
         let (omega, euler) = if formulation == Formulation::Euler {
             let pdot = k.vector4(&format!("pdot{n}"), at("pdot"), true);
             for j in 0..4 {
@@ -231,9 +235,11 @@ impl Kinematics {
         } else {
             let w = k.velocity3(&format!("w{n}"), at("omega"));
             k.velocities.extend(w);
+            w_body = w;
             (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody, &format!("omega{n}"))), None)
         };
-        k.frames.push(Frame { a, r, omega, euler });
+        let body_rate = (formulation == Formulation::OmegaBody).then_some(w_body);
+        k.frames.push(Frame { a, r, omega, euler, body_rate });
         let index = k.frames.len() - 1;
         k.register_columns(index);
         index
@@ -384,6 +390,36 @@ impl Kinematics {
         [0, 1, 2].map(|j| self.g.add(r[j], u[j]))
     }
 
+    /// The dot-1 primitive `a'ᵀ A1ᵀ A2 b'` of a vector of body 1 and one of body 2.
+    ///
+    /// When body 1 is the reference frame (relative formulations) and body 2's
+    /// angular velocity is given in its own components (`relative_b2`), the
+    /// product is taken in B2 components, `(A_relᵀ a')·b'`, with
+    /// `d/dt (A_relᵀ a') = −ω' × (A_relᵀ a')`: no conversion of ω' into B1 and
+    /// none of J's columns back, about a quarter fewer operations than the
+    /// general form.
+    pub fn dot1(&mut self, a: V3, b: V3, hints: [&str; 2]) -> Id {
+        let (f1, f2) = (self.pair[0], self.pair[1]);
+        let reference = self.frames[f1].omega.is_none() && self.frames[f1].euler.is_none();
+        if let (true, Some(w)) = (reference && self.delta.is_some(), self.frames[f2].body_rate) {
+            let m = self.frames[f2].a;
+            let transposed = [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[j][i]));
+            let start = self.g.len();
+            let u = mat_vec(&mut self.g, &transposed, a);
+            for (j, &c) in u.iter().enumerate() {
+                self.g.hint_new(start, c, format!("{}_b2_{}", hints[0], XYZ[j]));
+            }
+            let du = cross(&mut self.g, u, w);
+            for j in 0..3 {
+                self.rules.set_node(&self.g, u[j], du[j]);
+            }
+            return dot(&mut self.g, u, b);
+        }
+        let u = self.rotate(0, a, hints[0]);
+        let v = self.rotate(1, b, hints[1]);
+        dot(&mut self.g, u, v)
+    }
+
     /// `d = r2 + A2 ρ2' − r1 − A1 ρ1'` (absolute) or `δ` (relative).
     pub fn separation(&mut self, rho1: V3, rho2: V3) -> V3 {
         if let Some(delta) = self.delta {
@@ -434,7 +470,13 @@ pub struct RowDerivatives {
 
 fn identity_frame(g: &mut Graph) -> Frame {
     let (zero, one) = (g.zero(), g.constant(1.0));
-    Frame { a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]], r: [zero; 3], omega: None, euler: None }
+    Frame {
+        a: [[one, zero, zero], [zero, one, zero], [zero, zero, one]],
+        r: [zero; 3],
+        omega: None,
+        euler: None,
+        body_rate: None,
+    }
 }
 
 /// `A(p) = (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ`, homogeneous in `p` (no unit-norm
