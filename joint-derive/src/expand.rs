@@ -152,7 +152,23 @@ pub fn derive_all(k: &mut Kinematics, phi: &[Id], spans: &[Span]) -> syn::Result
 
 /// Builds Φ from the joint's primitives and derives the rest.
 pub fn derive_rows(decl: &Declaration) -> syn::Result<Derived> {
+    let first = derive_with(decl, true)?;
+    if decl.formulation != Formulation::RelativeB2 {
+        return Ok(first);
+    }
+    // Two ways to take dot-1 rows in `relative_b2` (B1 or B2 components): keep
+    // the one whose fused evaluation needs fewer operations.
+    let second = derive_with(decl, false)?;
+    let cost = |d: &Derived| {
+        let all: Vec<Id> = d.phi.iter().chain(d.jacobian.iter().flatten()).chain(&d.gamma).copied().collect();
+        emit::count_ops(&d.k.g, &all)
+    };
+    Ok(if cost(&second) < cost(&first) { second } else { first })
+}
+
+fn derive_with(decl: &Declaration, dot1_in_b2: bool) -> syn::Result<Derived> {
     let mut k = Kinematics::new(decl.formulation, decl.ground);
+    k.dot1_in_b2 = dot1_in_b2;
     let mut bindings = Vec::new();
     let values = param_nodes(&mut k, decl.kind, &decl.params, Naming::ByParam, &mut bindings);
     let (phi, spans, singularity) = lower_rows(&mut k, decl.kind, &values, &decl.row_spans, decl.kind_span);

@@ -58,6 +58,14 @@ pub fn reachable(g: &Graph, outputs: &[Id]) -> Vec<Id> {
     (0..g.len()).filter(|&i| live[i]).map(|i| Id(i as u32)).collect()
 }
 
+/// Binary operations needed by `outputs` (shared nodes counted once).
+pub fn count_ops(g: &Graph, outputs: &[Id]) -> usize {
+    reachable(g, outputs)
+        .into_iter()
+        .filter(|&id| matches!(g.node(id), Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..)))
+        .count()
+}
+
 const ATOM: u8 = 4;
 
 /// A node as printed: the expression and its precedence (1 `+ −`, 2 `×`, 3 unary
