@@ -123,6 +123,54 @@ impl<const N: usize> PivotedCholesky<N> {
         Ok(PivotedCholesky { factor: w, perm, rank, max_pivot })
     }
 
+    /// Factorises `a` eliminating in a prescribed order — `order[..rank]` are the
+    /// indices kept, the rest are dropped — for a sequence of nearby matrices
+    /// that must drop the same indices (the stages of one integrator step: a
+    /// redundant row switching between stages breaks the method's order). Falls
+    /// back to [`PivotedCholesky::new`] if a prescribed pivot is not positive
+    /// (the order no longer fits the matrix), or if `order` is not a permutation.
+    pub fn with_order(
+        a: &SMatrix<f64, N, N>,
+        order: &[usize; N],
+        rank: usize,
+        tolerance: f64,
+    ) -> Result<Self, LinalgError> {
+        if !all_finite(a) {
+            return Err(LinalgError::NonFinite);
+        }
+        let mut seen = [false; N];
+        for &i in order {
+            match seen.get_mut(i) {
+                Some(s) if !*s => *s = true,
+                _ => return Self::new(a, tolerance),
+            }
+        }
+        let rank = rank.min(N);
+        let mut w = SMatrix::<f64, N, N>::from_fn(|i, j| {
+            let (oi, oj) = (order[i], order[j]);
+            0.5 * (a[(oi, oj)] + a[(oj, oi)])
+        });
+        let max_pivot = (0..N).map(|i| w[(i, i)]).fold(0.0, f64::max);
+        for k in 0..rank {
+            let pivot = w[(k, k)];
+            if pivot.is_nan() || pivot <= 0.0 {
+                return Self::new(a, tolerance);
+            }
+            let l = libm::sqrt(pivot);
+            w[(k, k)] = l;
+            for i in k + 1..N {
+                w[(i, k)] /= l;
+            }
+            for j in k + 1..N {
+                let ljk = w[(j, k)];
+                for i in k + 1..N {
+                    w[(i, j)] -= w[(i, k)] * ljk;
+                }
+            }
+        }
+        Ok(PivotedCholesky { factor: w, perm: *order, rank, max_pivot })
+    }
+
     /// The numerical rank.
     pub fn rank(&self) -> usize {
         self.rank
