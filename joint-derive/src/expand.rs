@@ -575,9 +575,8 @@ impl Lowering<'_> {
                 self.k.dot1(va, vb, [&format!("{a}_n"), &format!("{b}_n")])
             }
             Expr::Dot2(a) => {
-                let u = self.axis(a);
-                let d = self.separation();
-                kinematics::dot(&mut self.k.g, u, d)
+                let (va, r1, r2) = (self.v3(a), self.v3("rho1"), self.v3("rho2"));
+                self.k.dot2(va, r1, r2, &format!("{a}_n"))
             }
             Expr::Dot(a, b) => {
                 let (u, w) = (self.vexpr(a), self.vexpr(b));

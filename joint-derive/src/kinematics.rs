@@ -425,6 +425,39 @@ impl Kinematics {
         dot(&mut self.g, u, v)
     }
 
+    /// The dot-2 primitive `a'ᵀ A1ᵀ d` of a vector `a'` fixed in body 1.
+    ///
+    /// In the absolute formulations `d` holds `−A1 ρ1'`, and `(A1 a')·(A1 ρ1')` is
+    /// a product within one body: `a'·ρ1'` for a rotation (ω formulations, the
+    /// ground), exactly `|p|⁴ a'·ρ1'` for the homogeneous `A(p)` of `euler`. So
+    /// the row is `(A1 a')·(r2 − r1 + A2 ρ2') − (that)`: `A1 ρ1'` is never formed
+    /// and the row's Jacobian and γ lose its terms.
+    pub fn dot2(&mut self, a: V3, rho1: V3, rho2: V3, hint: &str) -> Id {
+        let u = self.rotate(0, a, hint);
+        if self.delta.is_some() {
+            let d = self.separation(rho1, rho2);
+            return dot(&mut self.g, u, d);
+        }
+        let local = dot(&mut self.g, a, rho1);
+        let same_body = match self.frames[self.pair[0]].euler {
+            Some(rates) => {
+                let sq = rates.p.map(|e| self.g.mul(e, e));
+                let norm2 = self.g.sum(&sq);
+                let norm4 = self.g.mul(norm2, norm2);
+                self.g.mul(norm4, local)
+            }
+            None => local,
+        };
+        let w2 = self.rotate(1, rho2, "rho2_n");
+        let (r1, r2) = (self.frames[self.pair[0]].r, self.frames[self.pair[1]].r);
+        let rest = [0, 1, 2].map(|j| {
+            let dr = self.g.sub(r2[j], r1[j]);
+            self.g.add(dr, w2[j])
+        });
+        let along = dot(&mut self.g, u, rest);
+        self.g.sub(along, same_body)
+    }
+
     /// `d = r2 + A2 ρ2' − r1 − A1 ρ1'` (absolute) or `δ` (relative).
     pub fn separation(&mut self, rho1: V3, rho2: V3) -> V3 {
         if let Some(delta) = self.delta {
