@@ -694,8 +694,7 @@ where
     /// # Errors
     /// [`AnalysisError::BadOption`] for a step that is not positive and finite;
     /// non-finite inputs; failures of the dynamics, of the implicit iteration or
-    /// of the projection. On error `state` is unchanged (unless the projection
-    /// failed, which leaves the integrated state).
+    /// of the projection. On error `state` is unchanged.
     pub fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
@@ -718,8 +717,10 @@ where
         let newton_iterations = stepped?;
         let mut report = StepReport { newton_iterations, ..StepReport::default() };
         if let Some(options) = self.options.projection {
+            // Projected on the copy: a failed projection (a NaN parameter seen
+            // only by Φ, say) leaves the caller's state as it was.
+            let (it, c, v) = self.project(&mut y, &options)?;
             *state = y;
-            let (it, c, v) = self.project(state, &options)?;
             report.projection_iterations = it;
             report.constraint_residual = c;
             report.velocity_residual = v;

@@ -117,10 +117,83 @@ impl FromJson for RelativeState<f64> {
     }
 }
 
+/// States whose inputs can be overwritten one component at a time, to feed the
+/// generated code NaN and infinities (JSON cannot hold them).
+pub trait Poison {
+    /// The state's input fields, as `body1.r`, `body2.omega`, `delta`, ...
+    /// (`euler` has `pdot` where the ω formulations have `omega`).
+    fn fields(&self) -> &'static [&'static str];
+    /// Sets component `i` of `field` to `x`; `false` if there is no such input.
+    fn poison(&mut self, field: &str, i: usize, x: f64) -> bool;
+}
+
+fn set<const N: usize>(v: &mut joint_runtime::nalgebra::SVector<f64, N>, i: usize, x: f64) -> bool {
+    v.get_mut(i).map(|c| *c = x).is_some()
+}
+
+impl Poison for TwoBodies<EulerBody<f64>> {
+    fn fields(&self) -> &'static [&'static str] {
+        &["body1.r", "body1.p", "body1.rdot", "body1.pdot", "body2.r", "body2.p", "body2.rdot", "body2.pdot"]
+    }
+    fn poison(&mut self, field: &str, i: usize, x: f64) -> bool {
+        let (b, f) = match field.split_once('.') {
+            Some(("body1", f)) => (&mut self.body1, f),
+            Some(("body2", f)) => (&mut self.body2, f),
+            _ => return false,
+        };
+        match f {
+            "r" => set(&mut b.r, i, x),
+            "p" => set(&mut b.p, i, x),
+            "rdot" => set(&mut b.rdot, i, x),
+            "pdot" => set(&mut b.pdot, i, x),
+            _ => false,
+        }
+    }
+}
+
+impl Poison for TwoBodies<OmegaBody<f64>> {
+    fn fields(&self) -> &'static [&'static str] {
+        &["body1.r", "body1.p", "body1.rdot", "body1.omega", "body2.r", "body2.p", "body2.rdot", "body2.omega"]
+    }
+    fn poison(&mut self, field: &str, i: usize, x: f64) -> bool {
+        let (b, f) = match field.split_once('.') {
+            Some(("body1", f)) => (&mut self.body1, f),
+            Some(("body2", f)) => (&mut self.body2, f),
+            _ => return false,
+        };
+        match f {
+            "r" => set(&mut b.r, i, x),
+            "p" => set(&mut b.p, i, x),
+            "rdot" => set(&mut b.rdot, i, x),
+            "omega" => set(&mut b.omega, i, x),
+            _ => false,
+        }
+    }
+}
+
+impl Poison for RelativeState<f64> {
+    fn fields(&self) -> &'static [&'static str] {
+        &["delta", "p", "delta_dot", "omega"]
+    }
+    fn poison(&mut self, field: &str, i: usize, x: f64) -> bool {
+        match field {
+            "delta" => set(&mut self.delta, i, x),
+            "p" => set(&mut self.p, i, x),
+            "delta_dot" => set(&mut self.delta_dot, i, x),
+            "omega" => set(&mut self.omega, i, x),
+            _ => false,
+        }
+    }
+}
+
 /// A group of cases of one joint and formulation, ready to evaluate.
 pub trait Group {
     /// Evaluates every case.
     fn run(&self) -> Vec<Output>;
+    /// The state's input fields (see [`Poison::fields`]).
+    fn fields(&self) -> &'static [&'static str];
+    /// Evaluates every case with component `i` of input `field` set to `x`.
+    fn run_poisoned(&self, field: &str, i: usize, x: f64) -> Vec<Output>;
     /// Median ns per fused evaluation over the group's states.
     fn time(&self) -> f64;
     /// Operations in the fused evaluation.
@@ -153,18 +226,34 @@ where
     }
 }
 
-impl<J: Joint<f64, R, C>, const R: usize, const C: usize> Group for Typed<J, R, C> {
+fn output<J: Joint<f64, R, C>, const R: usize, const C: usize>(id: &str, j: &J, s: &J::State) -> Output {
+    let e = j.evaluate(s);
+    Output {
+        id: id.to_string(),
+        phi: e.phi.iter().copied().collect(),
+        jacobian: (0..R).map(|r| (0..C).map(|c| e.jacobian[(r, c)]).collect()).collect(),
+        gamma: e.gamma.iter().copied().collect(),
+    }
+}
+
+impl<J: Joint<f64, R, C>, const R: usize, const C: usize> Group for Typed<J, R, C>
+where
+    J::State: Poison + Clone,
+{
     fn run(&self) -> Vec<Output> {
+        self.cases.iter().map(|(id, j, s)| output(id, j, s)).collect()
+    }
+
+    fn fields(&self) -> &'static [&'static str] {
+        self.cases.first().map_or(&[], |(_, _, s)| s.fields())
+    }
+
+    fn run_poisoned(&self, field: &str, i: usize, x: f64) -> Vec<Output> {
         self.cases
             .iter()
-            .map(|(id, j, s)| {
-                let e = j.evaluate(s);
-                Output {
-                    id: id.clone(),
-                    phi: e.phi.iter().copied().collect(),
-                    jacobian: (0..R).map(|r| (0..C).map(|c| e.jacobian[(r, c)]).collect()).collect(),
-                    gamma: e.gamma.iter().copied().collect(),
-                }
+            .filter_map(|(id, j, s)| {
+                let mut s = s.clone();
+                s.poison(field, i, x).then(|| output(id, j, &s))
             })
             .collect()
     }
