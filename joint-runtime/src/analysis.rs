@@ -83,14 +83,21 @@ impl<const M: usize> RowList<M> {
     {
         let mut list = RowList::default();
         for &r in rows.iter().take(M) {
-            // Insertion in increasing row order.
-            let mut at = list.len;
-            while at > 0 && list.rows[at - 1].row as usize > r {
-                list.rows[at] = list.rows[at - 1];
-                at -= 1;
+            // Insertion in increasing row order (after equal rows): the new row
+            // goes into the first slot holding a larger row, and every later
+            // entry moves up one slot, the last into the free slot `len`
+            // (`len < M`: at most `M` rows are taken). Written as one pass over
+            // the slots so that no index can be out of range.
+            let len = list.len;
+            let mut carried = RowInfo::of::<S, NB, NV, M>(r);
+            let mut shifting = false;
+            for (k, slot) in list.rows.iter_mut().enumerate().take(len + 1) {
+                shifting = shifting || k == len || slot.row as usize > r;
+                if shifting {
+                    core::mem::swap(slot, &mut carried);
+                }
             }
-            list.rows[at] = RowInfo::of::<S, NB, NV, M>(r);
-            list.len += 1;
+            list.len = (len + 1).min(M);
         }
         list
     }

@@ -13,6 +13,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 
 pub mod analysis;
+pub mod batch;
 pub mod conditioning;
 pub mod dynamics;
 mod geometry;

@@ -146,9 +146,11 @@ impl<const N: usize> PivotedCholesky<N> {
             }
         }
         let rank = rank.min(N);
+        // `order` is a permutation of `0..N` (checked above): `get` never misses.
+        let entry = |i: usize, j: usize| a.get((i, j)).copied().unwrap_or(0.0);
         let mut w = SMatrix::<f64, N, N>::from_fn(|i, j| {
             let (oi, oj) = (order[i], order[j]);
-            0.5 * (a[(oi, oj)] + a[(oj, oi)])
+            0.5 * (entry(oi, oj) + entry(oj, oi))
         });
         let max_pivot = (0..N).map(|i| w[(i, i)]).fold(0.0, f64::max);
         for k in 0..rank {
@@ -205,11 +207,14 @@ impl<const N: usize> PivotedCholesky<N> {
     /// solves the kept rows exactly. When `b` lies in the range of `A` (a
     /// consistent system, e.g. `b = J c` for `A = J Jᵀ`) it solves every row.
     pub fn solve(&self, b: &SVector<f64, N>) -> SVector<f64, N> {
-        let r = self.rank;
+        // `rank ≤ N` and `perm` is a permutation of `0..N` by construction; the
+        // `min` and the `get`s below only let the optimiser see it (no bounds
+        // check, no panic path), they change nothing.
+        let r = self.rank.min(N);
         let mut z = SVector::<f64, N>::zeros();
         // L11 z = P b (forward).
         for k in 0..r {
-            let mut s = b[self.perm[k]];
+            let mut s = b.get(self.perm[k]).copied().unwrap_or(0.0);
             for j in 0..k {
                 s -= self.factor[(k, j)] * z[j];
             }
@@ -225,7 +230,9 @@ impl<const N: usize> PivotedCholesky<N> {
         }
         let mut x = SVector::<f64, N>::zeros();
         for k in 0..r {
-            x[self.perm[k]] = z[k];
+            if let Some(xk) = x.get_mut(self.perm[k]) {
+                *xk = z[k];
+            }
         }
         x
     }
@@ -280,7 +287,8 @@ impl<const N: usize> Lu<N> {
 
     /// Solves `A x = b`.
     pub fn solve(&self, b: &SVector<f64, N>) -> SVector<f64, N> {
-        let mut x = SVector::<f64, N>::from_fn(|i, _| b[self.perm[i]]);
+        // `perm` is a permutation of `0..N`: `get` never misses.
+        let mut x = SVector::<f64, N>::from_fn(|i, _| b.get(self.perm[i]).copied().unwrap_or(0.0));
         for i in 0..N {
             for j in 0..i {
                 x[i] -= self.lu[(i, j)] * x[j];

@@ -1,0 +1,140 @@
+//! The double Cardan shaft of `joint_examples::double_cardan` (three bodies): the
+//! derived system functions, the kinematic analyses and the dynamics, at their
+//! fixed sizes.
+//!
+//! - [`driven`]: `DoubleCardan`, four joints and a motor, 19 rows of which one is
+//!   redundant (`Scene<3, 18, 19>`).
+//! - [`free`]: `FreeDoubleCardan`, no motor, 18 rows, one degree of freedom
+//!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`.
+//!
+//! Every branch the options select at run time (integrator, stabilisation,
+//! projection, springs) is part of the checked code: the options are arguments.
+
+use joint_runtime::analysis::{
+    AccelerationAnalysis, AnalysisError, Assembly, AssemblyOptions, VelocityAnalysis, accelerations,
+    accelerations_with, assemble, velocities, velocities_with,
+};
+use joint_runtime::dynamics::{AppliedLoads, Dynamics, Energy, Loads, Reaction, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{SpringDamper, StepReport};
+use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
+use joint_runtime::{Evaluation, RowBlock, Scene, SparseJacobian, SystemState};
+
+/// Applied loads of the checked simulations: a torque on the input shaft and a
+/// force at a point of the output shaft (through `Loads::add_force_at`).
+pub struct Push;
+
+impl AppliedLoads<3> for Push {
+    fn apply(&mut self, state: &SystemState<3>, loads: &mut Loads<3>) {
+        loads.torque[0].x += 0.5;
+        loads.add_force_at(state, 2, &Vector3::new(0.0, 0.0, -1.0), &Vector3::new(0.5, 0.0, 0.0));
+    }
+}
+
+/// The driven shaft, `Scene<3, 18, 19>`.
+pub mod driven {
+    use super::*;
+    use joint_examples::double_cardan::DoubleCardan;
+
+    type Sim<'a> = Simulation<'a, DoubleCardan, Push, 3, 18, 19>;
+
+    checked! {
+        fn phi(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.phi(state) }
+        fn phi_t(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.phi_t(state) }
+        fn jacobian(scene: &DoubleCardan, state: &SystemState<3>) -> SMatrix<f64, 19, 18> { scene.jacobian(state) }
+        fn gamma(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.gamma(state) }
+        fn evaluate(scene: &DoubleCardan, state: &SystemState<3>) -> Evaluation<f64, 19, 18> { scene.evaluate(state) }
+        fn jacobian_values(scene: &DoubleCardan, state: &SystemState<3>) -> [f64; 79] { scene.jacobian_values(state) }
+        fn assemble_(
+            scene: &DoubleCardan,
+            state: &mut SystemState<3>,
+            options: &AssemblyOptions,
+        ) -> Result<Assembly<19>, AnalysisError> {
+            assemble(scene, state, options)
+        }
+        fn velocities_(scene: &DoubleCardan, state: &mut SystemState<3>) -> Result<VelocityAnalysis<19>, AnalysisError> {
+            velocities(scene, state)
+        }
+        fn velocities_with_(
+            scene: &DoubleCardan,
+            state: &mut SystemState<3>,
+            tolerance: f64,
+        ) -> Result<VelocityAnalysis<19>, AnalysisError> {
+            velocities_with(scene, state, tolerance)
+        }
+        fn accelerations_(
+            scene: &DoubleCardan,
+            state: &SystemState<3>,
+        ) -> Result<AccelerationAnalysis<18, 19>, AnalysisError> {
+            accelerations(scene, state)
+        }
+        fn accelerations_with_(
+            scene: &DoubleCardan,
+            state: &SystemState<3>,
+            tolerance: f64,
+        ) -> Result<AccelerationAnalysis<18, 19>, AnalysisError> {
+            accelerations_with(scene, state, tolerance)
+        }
+        fn simulation_new<'a>(
+            scene: &'a DoubleCardan,
+            springs: &'a [SpringDamper],
+            options: SimulationOptions,
+        ) -> Result<Sim<'a>, AnalysisError> {
+            Simulation::new(scene, Push, springs, options)
+        }
+        fn step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
+            sim.step(state, h)
+        }
+        fn dynamics(sim: &mut Sim<'_>, state: &SystemState<3>) -> Result<Dynamics<18, 19>, AnalysisError> {
+            sim.dynamics(state)
+        }
+        fn project(
+            sim: &Sim<'_>,
+            state: &mut SystemState<3>,
+            options: &AssemblyOptions,
+        ) -> Result<(usize, f64, f64), AnalysisError> {
+            sim.project(state, options)
+        }
+        fn reactions(
+            sim: &Sim<'_>,
+            state: &SystemState<3>,
+            lambda: &SVector<f64, 19>,
+            block: &RowBlock,
+        ) -> [Reaction; 3] {
+            sim.reactions(state, lambda, block)
+        }
+        fn energy(sim: &Sim<'_>, state: &SystemState<3>) -> Energy { sim.energy(state) }
+    }
+}
+
+/// The free shaft, `Scene<3, 18, 18>`.
+pub mod free {
+    use super::*;
+    use joint_examples::double_cardan::FreeDoubleCardan;
+
+    type Sim<'a> = Simulation<'a, FreeDoubleCardan, Push, 3, 18, 18>;
+
+    checked! {
+        fn phi(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SVector<f64, 18> { scene.phi(state) }
+        fn jacobian(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SMatrix<f64, 18, 18> { scene.jacobian(state) }
+        fn gamma(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SVector<f64, 18> { scene.gamma(state) }
+        fn evaluate(scene: &FreeDoubleCardan, state: &SystemState<3>) -> Evaluation<f64, 18, 18> {
+            scene.evaluate(state)
+        }
+        fn assemble_(
+            scene: &FreeDoubleCardan,
+            state: &mut SystemState<3>,
+            options: &AssemblyOptions,
+        ) -> Result<Assembly<18>, AnalysisError> {
+            assemble(scene, state, options)
+        }
+        fn accelerations_(
+            scene: &FreeDoubleCardan,
+            state: &SystemState<3>,
+        ) -> Result<AccelerationAnalysis<18, 18>, AnalysisError> {
+            accelerations(scene, state)
+        }
+        fn step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
+            sim.step(state, h)
+        }
+    }
+}
