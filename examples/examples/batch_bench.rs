@@ -26,8 +26,9 @@ use joint_runtime::batch::{
     LaneScalar, Lanes, WideF32x8, WideF64x4, evaluate_batch, evaluate_batch_par, evaluate_batch_simd,
     evaluate_batch_simd_par, splat,
 };
-use joint_runtime::nalgebra::{SMatrix, SVector, SimdRealField, Vector3, Vector4};
+use joint_runtime::nalgebra::{SMatrix, SVector, SimdRealField, Vector3};
 use joint_runtime::{EulerBody, Evaluation, OmegaBody, RelativeState, TwoBodies};
+use joint_tests::random::Rng;
 
 const SMALL: usize = 1024;
 const ROUNDS: usize = 20;
@@ -65,40 +66,6 @@ struct CardanRelB2<T> {
 /// The joint's parameters: `s ⟂ h`, offsets of half a metre.
 fn params() -> [Vector3<f64>; 4] {
     [Vector3::y(), Vector3::z(), Vector3::new(0.5, 0.02, -0.01), Vector3::new(-0.5, 0.01, 0.03)]
-}
-
-/// splitmix64, uniform in [−1, 1).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn v3(&mut self, scale: f64) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next()) * scale
-    }
-    fn unit(&mut self) -> Vector4<f64> {
-        loop {
-            let p = Vector4::new(self.next(), self.next(), self.next(), self.next());
-            if p.norm() > 0.1 {
-                return p.normalize();
-            }
-        }
-    }
-    fn omega_body(&mut self) -> OmegaBody<f64> {
-        OmegaBody { r: self.v3(2.0), p: self.unit(), rdot: self.v3(3.0), omega: self.v3(10.0) }
-    }
-    fn euler_body(&mut self) -> EulerBody<f64> {
-        EulerBody { r: self.v3(2.0), p: self.unit(), rdot: self.v3(3.0), pdot: self.unit() * 5.0 }
-    }
-    fn relative(&mut self) -> RelativeState<f64> {
-        RelativeState { delta: self.v3(0.1), p: self.unit(), delta_dot: self.v3(3.0), omega: self.v3(10.0), t: 0.0 }
-    }
 }
 
 fn zeros<E: SimdRealField + Copy, const R: usize, const C: usize>(n: usize) -> Vec<Evaluation<E, R, C>> {
@@ -271,7 +238,7 @@ fn main() {
     let euler32 = |s: &TwoBodies<EulerBody<f64>>| TwoBodies::new(f32_euler(&s.body1), f32_euler(&s.body2));
     bench("euler", joints!(CardanEuler), states, euler32, None);
     println!();
-    let states: Vec<_> = (0..SMALL).map(|_| rng.relative()).collect();
+    let states: Vec<_> = (0..SMALL).map(|_| rng.relative(0.0)).collect();
     let relative32 = |s: &RelativeState<f64>| RelativeState {
         delta: s.delta.cast(),
         p: s.p.cast(),

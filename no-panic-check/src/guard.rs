@@ -50,10 +50,10 @@ macro_rules! guard_type {
                     #[allow(unsafe_code)]
                     unsafe extern "C" {
                         #[link_name = concat!(
-                                    "\n\nERROR[no-panic-check]: a panic path survives in ",
-                                    $what,
-                                    " (release build; see no-panic-check/src/main.rs)\n\n"
-                                )]
+                                                            "\n\nERROR[no-panic-check]: a panic path survives in ",
+                                                            $what,
+                                                            " (release build; see no-panic-check/src/main.rs)\n\n"
+                                                        )]
                         safe fn panic_path_survives() -> !;
                     }
                     panic_path_survives();

@@ -4,9 +4,11 @@
 //! derive-generated code with run-time parameters and applies the accuracy test
 //! of the conformance README. [`trajectory`] holds the exact trajectories and
 //! comparisons of the derivative tests, [`scenes`] the mechanisms of the analysis
-//! and dynamics tests.
+//! and dynamics tests, [`random`] the deterministic random states of the batch
+//! tests and benchmark.
 
 pub mod conformance;
 pub mod joints;
+pub mod random;
 pub mod scenes;
 pub mod trajectory;

@@ -17,10 +17,11 @@ use joint_runtime::batch::{
     BatchError, LaneReport, LaneScalar, Lanes, MixedTimes, WideF32x8, WideF64x4, evaluate_batch, evaluate_batch_par,
     evaluate_batch_simd, evaluate_batch_simd_par, splat,
 };
-use joint_runtime::nalgebra::{RealField, SMatrix, SVector, Vector3, Vector4};
+use joint_runtime::nalgebra::{RealField, SMatrix, SVector, Vector3};
 use joint_runtime::{
     AxisFrame, EulerBody, Evaluation, Joint, OmegaBody, OneBody, Ramp, RelativeState, Sinusoid, TimeFunction, TwoBodies,
 };
+use joint_tests::random::Rng;
 
 // ---------------------------------------------------------------------------
 // Joints.
@@ -101,48 +102,6 @@ struct Motor<T> {
 // ---------------------------------------------------------------------------
 // Deterministic random states.
 // ---------------------------------------------------------------------------
-
-/// splitmix64.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn v3(&mut self, scale: f64) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next()) * scale
-    }
-    fn v4(&mut self) -> Vector4<f64> {
-        Vector4::new(self.next(), self.next(), self.next(), self.next())
-    }
-    /// Unit Euler parameters.
-    fn unit(&mut self) -> Vector4<f64> {
-        loop {
-            let p = self.v4();
-            if p.norm() > 0.1 {
-                return p.normalize();
-            }
-        }
-    }
-    fn omega_body(&mut self) -> OmegaBody<f64> {
-        OmegaBody { r: self.v3(2.0), p: self.unit(), rdot: self.v3(3.0), omega: self.v3(10.0) }
-    }
-    /// Euler parameters off the unit sphere and rates off its tangent: the code takes any.
-    fn euler_body(&mut self) -> EulerBody<f64> {
-        EulerBody { r: self.v3(2.0), p: self.unit() * (1.0 + 0.2 * self.next()), rdot: self.v3(3.0), pdot: self.v4() }
-    }
-    fn relative(&mut self, t: f64) -> RelativeState<f64> {
-        RelativeState { delta: self.v3(1.0), p: self.unit(), delta_dot: self.v3(3.0), omega: self.v3(10.0), t }
-    }
-    fn states<S>(&mut self, n: usize, mut f: impl FnMut(&mut Rng) -> S) -> Vec<S> {
-        (0..n).map(|_| f(self)).collect()
-    }
-}
 
 fn cardan_params(rng: &mut Rng) -> [Vector3<f64>; 4] {
     [rng.v3(1.0).normalize(), rng.v3(1.0).normalize(), rng.v3(0.5), rng.v3(0.5)]
