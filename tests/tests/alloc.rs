@@ -1,4 +1,4 @@
-//! Generated code and a fixed-size scene step allocate nothing: counted by a
+//! Generated code, batches and a fixed-size scene step allocate nothing: counted by a
 //! global allocator around the calls.
 //!
 //! The counter is thread-local (tests run in parallel threads) and this file
@@ -11,6 +11,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
+use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{Integrator, Loads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
@@ -110,6 +111,23 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
         0,
         "a driver allocated"
     );
+
+    // Batches into a caller's slice: scalar and SIMD lanes (a padded tail of 3).
+    let wide = Cardan::<WideF64x4> {
+        s: splat(&cardan.s),
+        h: splat(&cardan.h),
+        rho1: splat(&cardan.rho1),
+        rho2: splat(&cardan.rho2),
+    };
+    let states = [pair; 7];
+    let mut out = [cardan.evaluate(&pair); 7];
+    let n = allocations(|| {
+        let scalar = evaluate_batch(&cardan, &states, &mut out);
+        let lanes = evaluate_batch_simd(&wide, &states, &mut out);
+        std::hint::black_box((scalar, lanes)).1.expect("lengths agree");
+    });
+    assert_eq!(n, 0, "a batch allocated");
+    assert_eq!(out[6], cardan.evaluate(&pair));
 
     // A scene: system functions, assembly, one step of each integrator.
     let scene = DoublePendulum;
