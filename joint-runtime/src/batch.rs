@@ -666,7 +666,7 @@ mod simd {
     ///
     /// Consecutive states form a lane pack; the last pack is padded with copies of
     /// one of its states. A pack whose states have different times is evaluated
-    /// one state at a time (see [the module docs](self)); the [`LaneReport`] says
+    /// one state at a time (see [the module docs](crate::batch)); the [`LaneReport`] says
     /// how often. Build the lane joint with [`splat`] (or [`Lanes::splat`]) of the
     /// scalar joint's parameters, or with different parameters per lane via
     /// [`Lanes::pack`].

@@ -10,7 +10,7 @@
 //! with debug assertions (the dev profile: unoptimised code keeps every landing
 //! pad), the guard does nothing.
 
-/// A guard type made by [`guard_type!`]: its `Drop` refers to an undefined symbol
+/// A guard type made by `guard_type!`: its `Drop` refers to an undefined symbol
 /// that names the checked function.
 pub trait Guard {
     /// The armed guard.
