@@ -28,6 +28,7 @@ use joint_runtime::batch::{
 };
 use joint_runtime::nalgebra::{SMatrix, SVector, SimdRealField, Vector3};
 use joint_runtime::{EulerBody, Evaluation, OmegaBody, RelativeState, TwoBodies};
+use joint_tests::joints::{UniversalEuler, UniversalOmegaBody, UniversalRelativeB2};
 use joint_tests::random::Rng;
 
 const SMALL: usize = 1024;
@@ -35,33 +36,6 @@ const ROUNDS: usize = 20;
 const REPS: usize = 15;
 const LARGE: usize = 1_000_000;
 const REPS_LARGE: usize = 7;
-
-#[derive(joint_runtime::Joint)]
-#[joint(universal, formulation = omega_body)]
-struct CardanOmegaB<T> {
-    s: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-#[derive(joint_runtime::Joint)]
-#[joint(universal, formulation = euler)]
-struct CardanEuler<T> {
-    s: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-#[derive(joint_runtime::Joint)]
-#[joint(universal, formulation = relative_b2)]
-struct CardanRelB2<T> {
-    s: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
 
 /// The joint's parameters: `s ⟂ h`, offsets of half a metre.
 fn params() -> [Vector3<f64>; 4] {
@@ -232,11 +206,11 @@ fn main() {
     let states: Vec<_> = (0..SMALL).map(|_| two_omega(&mut rng)).collect();
     let big: Vec<_> = (0..LARGE).map(|_| two_omega(&mut rng)).collect();
     let omega32 = |s: &TwoBodies<OmegaBody<f64>>| TwoBodies::new(f32_omega(&s.body1), f32_omega(&s.body2));
-    bench("omega_body", joints!(CardanOmegaB), states, omega32, Some(big));
+    bench("omega_body", joints!(UniversalOmegaBody), states, omega32, Some(big));
     println!();
     let states: Vec<_> = (0..SMALL).map(|_| TwoBodies::new(rng.euler_body(), rng.euler_body())).collect();
     let euler32 = |s: &TwoBodies<EulerBody<f64>>| TwoBodies::new(f32_euler(&s.body1), f32_euler(&s.body2));
-    bench("euler", joints!(CardanEuler), states, euler32, None);
+    bench("euler", joints!(UniversalEuler), states, euler32, None);
     println!();
     let states: Vec<_> = (0..SMALL).map(|_| rng.relative(0.0)).collect();
     let relative32 = |s: &RelativeState<f64>| RelativeState {
@@ -246,7 +220,7 @@ fn main() {
         omega: s.omega.cast(),
         t: s.t,
     };
-    bench("relative_b2", joints!(CardanRelB2), states, relative32, None);
+    bench("relative_b2", joints!(UniversalRelativeB2), states, relative32, None);
     println!(
         "\nratio: against the f64 scalar row of the same block. AoS: scalar states in and scalar Evaluations out, \
          packed/unpacked per call (evaluate_batch_simd); SoA: states and outputs kept in lanes (evaluate_batch \

@@ -618,25 +618,34 @@ mod simd {
     {
         match S::pack(lanes) {
             Ok(packed) => {
-                let e = joint.evaluate(&packed);
-                // Scattered straight into `out`: through a buffer on the stack
-                // was 20 % slower for a cache-resident batch (1.5× faster for one
-                // far larger than the cache), lane by lane 70 % slower.
-                unpack_into::<E, _, N, R, 1>(&e.phi, out, |x| &mut x.phi);
-                unpack_into::<E, _, N, R, C>(&e.jacobian, out, |x| &mut x.jacobian);
-                unpack_into::<E, _, N, R, 1>(&e.gamma, out, |x| &mut x.gamma);
+                unpack_evaluation(&joint.evaluate(&packed), out);
                 report.packed += 1;
             }
             Err(_) => {
+                // Each state alone, splatted over all lanes: lane 0 is its result.
                 for (slot, state) in out.iter_mut().zip(lanes) {
-                    let results = <Evaluation<E, R, C> as Lanes<N>>::unpack(&joint.evaluate(&state.splat()));
-                    if let Some(first) = results.first() {
-                        *slot = *first;
-                    }
+                    unpack_evaluation(&joint.evaluate(&state.splat()), core::slice::from_mut(slot));
                 }
                 report.split += 1;
             }
         }
+    }
+
+    /// Lane `l` of `e` into `out[l]`, for the lanes `out` has slots for.
+    ///
+    /// Scattered straight into `out`: through a buffer on the stack was 20 %
+    /// slower for a cache-resident batch (1.5× faster for one far larger than
+    /// the cache), lane by lane 70 % slower.
+    #[inline(always)]
+    fn unpack_evaluation<E, const N: usize, const R: usize, const C: usize>(
+        e: &Evaluation<E::Wide, R, C>,
+        out: &mut [Evaluation<E, R, C>],
+    ) where
+        E: LaneScalar<N>,
+    {
+        unpack_into::<E, _, N, R, 1>(&e.phi, out, |x| &mut x.phi);
+        unpack_into::<E, _, N, R, C>(&e.jacobian, out, |x| &mut x.jacobian);
+        unpack_into::<E, _, N, R, 1>(&e.gamma, out, |x| &mut x.gamma);
     }
 
     fn evaluate_lanes<J, E, S, const N: usize, const R: usize, const C: usize>(

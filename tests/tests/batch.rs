@@ -5,7 +5,7 @@
 //! * `evaluate_batch_simd` with `WideF64x4` (4 lanes) and `WideF32x8` (8 lanes)
 //!   equals the scalar batch lane by lane, bitwise, for a universal joint in
 //!   `omega_body`, `euler` and `relative_b2`, a grounded joint, a revolute joint
-//!   in `relative_b2` and a translational driver; a rotational driver within a few
+//!   in `relative_b1` and a translational driver; a rotational driver within a few
 //!   ulps (`wide`'s `sin`/`cos` is its own polynomial).
 //! * Tails: 0, 1, 3, 5, 9 and 1000 states; the report counts packs and padding.
 //! * Mixed times in a pack: `Lanes::pack` refuses, the batch splits the pack and
@@ -21,52 +21,12 @@ use joint_runtime::nalgebra::{RealField, SMatrix, SVector, Vector3};
 use joint_runtime::{
     AxisFrame, EulerBody, Evaluation, Joint, OmegaBody, OneBody, Ramp, RelativeState, Sinusoid, TimeFunction, TwoBodies,
 };
+use joint_tests::joints::{RevoluteRelativeB1, UniversalEuler, UniversalOmegaBody, UniversalRelativeB2};
 use joint_tests::random::Rng;
 
 // ---------------------------------------------------------------------------
 // Joints.
 // ---------------------------------------------------------------------------
-
-/// Universal joint, `omega_body`: the benchmark's joint.
-#[derive(Joint, Clone, Copy, Debug)]
-#[joint(universal, formulation = omega_body)]
-struct CardanOmegaB<T> {
-    s: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-/// Universal joint, `euler`.
-#[derive(Joint, Clone, Copy, Debug)]
-#[joint(universal, formulation = euler)]
-struct CardanEuler<T> {
-    s: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-/// Universal joint, `relative_b2`.
-#[derive(Joint, Clone, Copy, Debug)]
-#[joint(universal, formulation = relative_b2)]
-struct CardanRelB2<T> {
-    s: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
-
-/// Revolute joint, `relative_b1`.
-#[derive(Joint, Clone, Copy, Debug)]
-#[joint(revolute, formulation = relative_b1)]
-struct HingeRelB1<T> {
-    f: Vector3<T>,
-    g: Vector3<T>,
-    h: Vector3<T>,
-    rho1: Vector3<T>,
-    rho2: Vector3<T>,
-}
 
 /// Cylindrical joint with body 1 grounded, `omega_inertial`: a `OneBody` state.
 #[derive(Joint, Clone, Copy, Debug)]
@@ -107,17 +67,17 @@ fn cardan_params(rng: &mut Rng) -> [Vector3<f64>; 4] {
     [rng.v3(1.0).normalize(), rng.v3(1.0).normalize(), rng.v3(0.5), rng.v3(0.5)]
 }
 
-fn cardan_omega_b(rng: &mut Rng) -> CardanOmegaB<f64> {
+fn cardan_omega_b(rng: &mut Rng) -> UniversalOmegaBody<f64> {
     let [s, h, rho1, rho2] = cardan_params(rng);
-    CardanOmegaB { s, h, rho1, rho2 }
+    UniversalOmegaBody { s, h, rho1, rho2 }
 }
 
-fn wide_omega_b<E: LaneScalar<N>, const N: usize>(j: &CardanOmegaB<E>) -> CardanOmegaB<E::Wide> {
-    CardanOmegaB { s: splat(&j.s), h: splat(&j.h), rho1: splat(&j.rho1), rho2: splat(&j.rho2) }
+fn wide_omega_b<E: LaneScalar<N>, const N: usize>(j: &UniversalOmegaBody<E>) -> UniversalOmegaBody<E::Wide> {
+    UniversalOmegaBody { s: splat(&j.s), h: splat(&j.h), rho1: splat(&j.rho1), rho2: splat(&j.rho2) }
 }
 
-fn f32_omega_b(j: &CardanOmegaB<f64>) -> CardanOmegaB<f32> {
-    CardanOmegaB { s: j.s.cast(), h: j.h.cast(), rho1: j.rho1.cast(), rho2: j.rho2.cast() }
+fn f32_omega_b(j: &UniversalOmegaBody<f64>) -> UniversalOmegaBody<f32> {
+    UniversalOmegaBody { s: j.s.cast(), h: j.h.cast(), rho1: j.rho1.cast(), rho2: j.rho2.cast() }
 }
 
 fn f32_body(b: &OmegaBody<f64>) -> OmegaBody<f32> {
@@ -238,7 +198,7 @@ fn scalar_batch_is_evaluate_per_state() {
 fn rayon_batch_of_many_chunks_is_scalar() {
     let mut rng = Rng(2);
     let [s, h, rho1, rho2] = cardan_params(&mut rng);
-    let joint = CardanEuler { s, h, rho1, rho2 };
+    let joint = UniversalEuler { s, h, rho1, rho2 };
     let states = rng.states(10_007, |r| two_euler(r, 0.0));
     let mut out = zeros(states.len());
     evaluate_batch_par(&joint, &states, &mut out).expect("lengths agree");
@@ -260,10 +220,10 @@ fn wide_f64x4_universal_omega_body() {
 fn wide_f64x4_universal_euler_and_relative() {
     let mut rng = Rng(4);
     let [s, h, rho1, rho2] = cardan_params(&mut rng);
-    let euler = CardanEuler { s, h, rho1, rho2 };
-    let euler_w = CardanEuler { s: splat(&s), h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
-    let rel = CardanRelB2 { s, h, rho1, rho2 };
-    let rel_w = CardanRelB2 { s: splat(&s), h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
+    let euler = UniversalEuler { s, h, rho1, rho2 };
+    let euler_w = UniversalEuler { s: splat(&s), h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
+    let rel = UniversalRelativeB2 { s, h, rho1, rho2 };
+    let rel_w = UniversalRelativeB2 { s: splat(&s), h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
     for n in TAILS {
         let states = rng.states(n, |r| two_euler(r, 0.0));
         check_simd("universal euler f64x4", &euler, &euler_w, &states);
@@ -277,10 +237,11 @@ fn wide_f64x4_revolute_relative_b1_and_grounded() {
     let mut rng = Rng(5);
     let frame = AxisFrame::new(rng.v3(1.0)).expect("a non-zero axis");
     let (h, rho1, rho2) = (rng.v3(1.0).normalize(), rng.v3(0.5), rng.v3(0.5));
-    let hinge = HingeRelB1 { f: frame.b, g: frame.c, h, rho1, rho2 };
+    let hinge = RevoluteRelativeB1 { f: frame.b, g: frame.c, h, rho1, rho2 };
     // The parameters through `Lanes::splat` of a whole `AxisFrame`.
     let wide_frame: AxisFrame<WideF64x4> = Lanes::splat(&frame);
-    let hinge_w = HingeRelB1 { f: wide_frame.b, g: wide_frame.c, h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
+    let hinge_w =
+        RevoluteRelativeB1 { f: wide_frame.b, g: wide_frame.c, h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
     let sleeve = SleeveGrounded { f: frame.b, g: frame.c, h, rho1, rho2 };
     let sleeve_w =
         SleeveGrounded { f: wide_frame.b, g: wide_frame.c, h: splat(&h), rho1: splat(&rho1), rho2: splat(&rho2) };
@@ -351,7 +312,7 @@ fn wide_f64x4_rotational_driver_within_ulps() {
 fn wide_f32x8_universal_omega_body() {
     let mut rng = Rng(8);
     let joint = f32_omega_b(&cardan_omega_b(&mut rng));
-    let wide: CardanOmegaB<WideF32x8> = wide_omega_b(&joint);
+    let wide: UniversalOmegaBody<WideF32x8> = wide_omega_b(&joint);
     for n in TAILS {
         let states = rng.states(n, |r| {
             let s = two_omega(r, 0.0);
