@@ -405,11 +405,9 @@ mod simd {
     where
         E: LaneScalar<N>,
     {
-        let lanes: [[[E; N]; R]; C] = m.data.0.map(|column| column.map(E::unpack));
-        core::array::from_fn(|l| {
-            let columns: [[E; R]; C] = core::array::from_fn(|c| core::array::from_fn(|r| lanes[c][r][l]));
-            SMatrix::from_data(ArrayStorage(columns))
-        })
+        let mut lanes = [SMatrix::zeros(); N];
+        unpack_into::<E, _, N, R, C>(m, &mut lanes, |x| x);
+        lanes
     }
 
     fn common_time<S, const N: usize>(lanes: &[S; N], time: impl Fn(&S) -> f64) -> Result<f64, MixedTimes> {
@@ -574,10 +572,10 @@ mod simd {
         }
         #[inline]
         fn unpack(packed: &Self::Packed) -> [Self; N] {
-            let phi = unpack_matrix::<E, N, _, _>(&packed.phi);
-            let jacobian = unpack_matrix::<E, N, _, _>(&packed.jacobian);
-            let gamma = unpack_matrix::<E, N, _, _>(&packed.gamma);
-            core::array::from_fn(|l| Evaluation { phi: phi[l], jacobian: jacobian[l], gamma: gamma[l] })
+            let zero = Evaluation { phi: SMatrix::zeros(), jacobian: SMatrix::zeros(), gamma: SMatrix::zeros() };
+            let mut lanes = [zero; N];
+            unpack_evaluation::<E, N, R, C>(packed, &mut lanes);
+            lanes
         }
     }
 
