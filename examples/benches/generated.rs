@@ -96,7 +96,7 @@ fn scenes(c: &mut Criterion) {
     for (name, integrator) in
         [("double cardan step rk4", Integrator::Rk4), ("double cardan step midpoint", Integrator::ImplicitMidpoint)]
     {
-        let options = SimulationOptions { integrator, ..SimulationOptions::default() };
+        let options = SimulationOptions::default().with_integrator(integrator);
         let mut sim = Simulation::new(&free, NoLoads, &[], options).expect("valid options");
         // Every iteration steps from the same start, so the work does not drift.
         c.bench_function(name, |b| {

@@ -37,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut times = Vec::with_capacity(STEPS * REPS);
     for integrator in [Integrator::Rk4, Integrator::ImplicitMidpoint] {
         for projection in [true, false] {
-            let mut options = SimulationOptions { integrator, ..SimulationOptions::default() };
+            let mut options = SimulationOptions::default().with_integrator(integrator);
             if !projection {
                 options.projection = None;
             }

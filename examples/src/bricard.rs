@@ -219,11 +219,9 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
     sample_every: usize,
 ) -> Result<Run, Failure> {
     let at = |t: f64| move |error| Failure { t, error };
-    let options = SimulationOptions {
-        integrator,
-        projection: Some(AssemblyOptions { tolerance: 1e-13, max_iterations: 8, ..AssemblyOptions::default() }),
-        ..SimulationOptions::default()
-    };
+    let options = SimulationOptions::default()
+        .with_integrator(integrator)
+        .with_projection(Some(AssemblyOptions::default().with_tolerance(1e-13).with_max_iterations(8)));
     let mut sim = Simulation::new(scene, NoLoads, &[], options).map_err(at(0.0))?;
     let mut state = initial_state();
     let redundant = sim.dynamics(&state).map_err(at(0.0))?.redundant;

@@ -226,7 +226,7 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
     sample_every: usize,
 ) -> Result<Run, AnalysisError> {
     let plain = self::scene();
-    let options = SimulationOptions { integrator, ..SimulationOptions::default() };
+    let options = SimulationOptions::default().with_integrator(integrator);
     let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
     let mut state = *start;
     let e0 = sim.energy(&state).total();

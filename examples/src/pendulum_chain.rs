@@ -145,7 +145,7 @@ pub fn simulate(
     let scene = scene();
     let defaults = SimulationOptions::default();
     let options =
-        SimulationOptions { integrator, projection: if projection { defaults.projection } else { None }, ..defaults };
+        defaults.with_integrator(integrator).with_projection(if projection { defaults.projection } else { None });
     let mut sim = Simulation::new(&scene, NoLoads, &[], options)?;
     let mut state = initial_state();
     let e = sim.energy(&state);

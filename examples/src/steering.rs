@@ -479,7 +479,7 @@ impl Sweep {
 // carries the worst rows by value).
 pub fn sweep(reach: f64, rate: f64, steps: usize) -> Result<Sweep, AnalysisError> {
     let column = SteeringColumn::new(Ramp { start: 0.0, rate }, reach);
-    let options = AssemblyOptions { tolerance: 1e-14, ..AssemblyOptions::default() };
+    let options = AssemblyOptions::default().with_tolerance(1e-14);
     let geometry = column.closed_form(column.steer.eval(0.0));
     let mut state = column.rough_state(0.0);
     let mut samples = Vec::with_capacity(steps + 1);
@@ -554,7 +554,7 @@ pub struct SplitComparison {
 pub fn compare_split(reach: f64, rate: f64, steps: usize) -> Result<SplitComparison, AnalysisError> {
     let column = SteeringColumn::new(Ramp { start: 0.0, rate }, reach);
     let split = column.split();
-    let options = AssemblyOptions { tolerance: 1e-14, ..AssemblyOptions::default() };
+    let options = AssemblyOptions::default().with_tolerance(1e-14);
     let (mut a, mut b) = (column.rough_state(0.0), split.rough_state(0.0));
     let mut out = SplitComparison { angle: 0.0, rate: 0.0, accel: 0.0, length: 0.0, redundant: RowList::default() };
     for k in 0..=steps {

@@ -363,6 +363,7 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[(String
         quote!(#krate::BodyInertia { mass: #mass, inertia: #inertia })
     });
     let gravity = vec3(&s.gravity);
+    let points = joint_points(s, &krate);
     let ident = &input.ident;
     let mut generics = input.generics.clone();
     {
@@ -402,6 +403,7 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[(String
             fn evaluate(&self, state: &#state) -> #krate::Evaluation<f64, #m_l, #nv_l> { #eval_b #eval_e }
             fn inertias(&self) -> [#krate::BodyInertia; #nb_l] { [#(#inertias),*] }
             fn gravity(&self) -> #krate::nalgebra::Vector3<f64> { #gravity }
+            fn joint_points(&self, visit: &mut dyn FnMut(#krate::JointPoint)) { #(#points)* }
         }
 
         #[allow(clippy::all, clippy::pedantic, unused_variables, non_snake_case)]
@@ -413,4 +415,32 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[(String
             fn jacobian_values(&self, state: &#state) -> [f64; #nnz] { #sparse_b [#(#sparse_o),*] }
         }
     }
+}
+
+/// One `visit(JointPoint { .. })` per joint point (`rho1`, `rho2`) in declaration
+/// order: what a trajectory recorder draws. A point on the ground is inertial.
+fn joint_points(s: &SceneDecl, krate: &TokenStream) -> Vec<TokenStream> {
+    let mut calls = Vec::new();
+    for j in &s.joints {
+        let name = j.name.to_string();
+        for (param, body) in [("rho1", j.bodies[0]), ("rho2", j.bodies[1])] {
+            let Some((_, source)) = j.params.iter().find(|(p, _)| *p == param) else { continue };
+            let point = match source {
+                Source::Const(v, _) => {
+                    let [x, y, z] = [0, 1, 2].map(|i| Literal::f64_suffixed(v.get(i).copied().unwrap_or(0.0)));
+                    quote!(#krate::nalgebra::Vector3::new(#x, #y, #z))
+                }
+                Source::Field { member, .. } => quote!(self.#member),
+            };
+            let body = match body {
+                Some(i) => {
+                    let i = Literal::usize_unsuffixed(i);
+                    quote!(::core::option::Option::Some(#i))
+                }
+                None => quote!(::core::option::Option::None),
+            };
+            calls.push(quote!(visit(#krate::JointPoint { joint: #name, body: #body, point: #point });));
+        }
+    }
+    calls
 }

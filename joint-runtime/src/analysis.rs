@@ -31,6 +31,7 @@ use crate::scene::{Scene, SystemState};
 
 /// One constraint row, located in its joint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct RowInfo {
     /// The row in the system.
     pub row: u32,
@@ -123,6 +124,14 @@ impl<const M: usize> RowList<M> {
     }
 }
 
+/// A sequence of its rows (only those in the list).
+#[cfg(feature = "serde")]
+impl<const M: usize> serde::Serialize for RowList<M> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.as_slice())
+    }
+}
+
 impl<const M: usize> fmt::Display for RowList<M> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for (i, r) in self.as_slice().iter().enumerate() {
@@ -137,6 +146,7 @@ impl<const M: usize> fmt::Display for RowList<M> {
 
 /// A row and its residual value.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct RowResidual {
     /// Where the row is.
     pub row: RowInfo,
@@ -146,6 +156,7 @@ pub struct RowResidual {
 
 /// The (up to) three rows with the largest residuals, largest first.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct WorstRows(pub [Option<RowResidual>; 3]);
 
 impl WorstRows {
@@ -203,6 +214,7 @@ impl fmt::Display for WorstRows {
 /// Why an analysis (or a dynamics step) failed. The state is left at the last
 /// accepted iterate.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum AnalysisError {
     /// An input is NaN or infinite.
     NonFinite {
@@ -320,12 +332,23 @@ impl fmt::Display for AnalysisError {
                 f,
                 "implicit integrator: Newton did not converge in {iterations} iterations (last correction {correction:.3e})"
             ),
-            AnalysisError::Linalg(e) => write!(f, "linear algebra: {e}"),
+            // The factorisation's own message is `source()`'s (the API guidelines:
+            // a wrapped error is either shown or returned, not both).
+            AnalysisError::Linalg(_) => {
+                f.write_str("a factorisation failed (a singular or non-finite iteration matrix)")
+            }
         }
     }
 }
 
-impl core::error::Error for AnalysisError {}
+impl core::error::Error for AnalysisError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AnalysisError::Linalg(e) => Some(e),
+            _ => None,
+        }
+    }
+}
 
 impl From<LinalgError> for AnalysisError {
     fn from(e: LinalgError) -> Self {
@@ -335,6 +358,8 @@ impl From<LinalgError> for AnalysisError {
 
 /// Options of [`assemble`] (and of the projection step of [`crate::dynamics`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
 pub struct AssemblyOptions {
     /// Converged when ‖Φ‖₂ ≤ `tolerance`.
     pub tolerance: f64,
@@ -353,8 +378,35 @@ impl Default for AssemblyOptions {
     }
 }
 
+/// Options are `#[non_exhaustive]` (more will come); set them from the defaults:
+/// `AssemblyOptions::default().with_tolerance(1e-10)`.
+impl AssemblyOptions {
+    /// Sets [`tolerance`](Self::tolerance).
+    pub const fn with_tolerance(mut self, tolerance: f64) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+    /// Sets [`max_iterations`](Self::max_iterations).
+    pub const fn with_max_iterations(mut self, max_iterations: usize) -> Self {
+        self.max_iterations = max_iterations;
+        self
+    }
+    /// Sets [`rank_tolerance`](Self::rank_tolerance).
+    pub const fn with_rank_tolerance(mut self, rank_tolerance: f64) -> Self {
+        self.rank_tolerance = rank_tolerance;
+        self
+    }
+    /// Sets [`min_step`](Self::min_step).
+    pub const fn with_min_step(mut self, min_step: f64) -> Self {
+        self.min_step = min_step;
+        self
+    }
+}
+
 /// The result of [`assemble`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
 pub struct Assembly<const M: usize> {
     /// Newton iterations taken (0 if the configuration was already assembled).
     pub iterations: usize,
@@ -366,6 +418,8 @@ pub struct Assembly<const M: usize> {
 
 /// The result of [`velocities`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
 pub struct VelocityAnalysis<const M: usize> {
     /// ‖J v + Φ_t‖₂ after the solve.
     pub residual: f64,
@@ -375,6 +429,8 @@ pub struct VelocityAnalysis<const M: usize> {
 
 /// The result of [`accelerations`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
 pub struct AccelerationAnalysis<const NV: usize, const M: usize> {
     /// `v̇ = [r̈_0, ω̇'_0, r̈_1, ...]`: the minimum-norm solution of `J v̇ = γ`.
     pub vdot: SVector<f64, NV>,
@@ -597,6 +653,9 @@ pub(crate) fn min_norm<const NB: usize, const NV: usize, const M: usize>(
 
 /// Which linear problem an [`AnalysisError::Inconsistent`] comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+#[non_exhaustive]
 pub enum Analysis {
     /// Velocity analysis, `J v = −Φ_t`.
     Velocity,

@@ -581,6 +581,8 @@ mod simd {
 
     /// How a SIMD batch was evaluated (feature `simd`).
     #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+    #[non_exhaustive]
     pub struct LaneReport {
         /// Lane packs evaluated at full width (one generated call each), the padded
         /// last one included.

@@ -91,6 +91,8 @@ pub fn singular_values<const M: usize, const N: usize>(a: &SMatrix<f64, M, N>) -
 
 /// The result of [`conditioning`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
 pub struct Conditioning<const NV: usize> {
     /// `σ_k / σ_1` with `k = NV − dof` (0 if `dof ≥ NV` leaves nothing to
     /// measure, or if `J` is zero): 1 well conditioned, 0 singular.

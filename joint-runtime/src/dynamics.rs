@@ -79,10 +79,13 @@ use crate::scene::{BodyInertia, RowBlock, Scene, SystemState};
 /// Loads applied by user code to each body: a force in inertial components at
 /// the centre of mass, and a torque in the body's components.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Loads<const NB: usize> {
     /// Force on each body (inertial components, through its centre of mass).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_array"))]
     pub force: [Vector3<f64>; NB],
     /// Torque on each body (body components).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_array"))]
     pub torque: [Vector3<f64>; NB],
 }
 
@@ -130,6 +133,8 @@ impl<const NB: usize> AppliedLoads<NB> for NoLoads {
 
 /// One end of a [`SpringDamper`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum Attachment {
     /// A point fixed in the inertial frame (inertial components).
     Ground(Vector3<f64>),
@@ -146,6 +151,7 @@ pub enum Attachment {
 /// joining them: tension `k (L − L₀) + c L̇`. When the points coincide (`L` below
 /// `1e-12`) the direction is undefined and the element exerts no force.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SpringDamper {
     /// First end.
     pub a: Attachment,
@@ -161,6 +167,9 @@ pub struct SpringDamper {
 
 /// Constraint stabilisation at the acceleration level.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+#[non_exhaustive]
 pub enum Stabilisation {
     /// Plain `J v̇ = γ`.
     None,
@@ -175,6 +184,9 @@ pub enum Stabilisation {
 
 /// The time integrator of [`Simulation::step`] (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+#[non_exhaustive]
 pub enum Integrator {
     /// Explicit fourth-order Runge–Kutta on the Lie group.
     Rk4,
@@ -192,6 +204,8 @@ pub const REDUNDANT_TOLERANCE: f64 = 1e-4;
 
 /// Options of a [`Simulation`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
 pub struct SimulationOptions {
     /// The integrator.
     pub integrator: Integrator,
@@ -222,8 +236,45 @@ impl Default for SimulationOptions {
     }
 }
 
+/// Options are `#[non_exhaustive]` (more will come); set them from the defaults:
+/// `SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint)`.
+impl SimulationOptions {
+    /// Sets [`integrator`](Self::integrator).
+    pub const fn with_integrator(mut self, integrator: Integrator) -> Self {
+        self.integrator = integrator;
+        self
+    }
+    /// Sets [`stabilisation`](Self::stabilisation).
+    pub const fn with_stabilisation(mut self, stabilisation: Stabilisation) -> Self {
+        self.stabilisation = stabilisation;
+        self
+    }
+    /// Sets [`projection`](Self::projection) (`None`: no projection).
+    pub const fn with_projection(mut self, projection: Option<AssemblyOptions>) -> Self {
+        self.projection = projection;
+        self
+    }
+    /// Sets [`rank_tolerance`](Self::rank_tolerance).
+    pub const fn with_rank_tolerance(mut self, rank_tolerance: f64) -> Self {
+        self.rank_tolerance = rank_tolerance;
+        self
+    }
+    /// Sets [`newton_tolerance`](Self::newton_tolerance).
+    pub const fn with_newton_tolerance(mut self, newton_tolerance: f64) -> Self {
+        self.newton_tolerance = newton_tolerance;
+        self
+    }
+    /// Sets [`newton_max_iterations`](Self::newton_max_iterations).
+    pub const fn with_newton_max_iterations(mut self, newton_max_iterations: usize) -> Self {
+        self.newton_max_iterations = newton_max_iterations;
+        self
+    }
+}
+
 /// Constrained accelerations at one state.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
 pub struct Dynamics<const NV: usize, const M: usize> {
     /// `v̇ = [r̈_0, ω̇'_0, ...]`.
     pub vdot: SVector<f64, NV>,
@@ -237,6 +288,7 @@ pub struct Dynamics<const NV: usize, const M: usize> {
 
 /// A joint's reaction on one body: the share of `−Jᵀ λ` in the body's columns.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Reaction {
     /// Force, inertial components, through the centre of mass.
     pub force: Vector3<f64>,
@@ -246,6 +298,8 @@ pub struct Reaction {
 
 /// Energy of the mechanism.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
 pub struct Energy {
     /// `½ Σ (m |ṙ|² + ω'ᵀ J' ω')`.
     pub kinetic: f64,
@@ -264,6 +318,8 @@ impl Energy {
 
 /// What one [`Simulation::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
 pub struct StepReport {
     /// Newton iterations of the implicit integrator (0 for RK4).
     pub newton_iterations: usize,
@@ -302,6 +358,21 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
     pivots: Option<([usize; M], usize)>,
     /// Whether this step's redundant rows were checked (at its first stage).
     redundant_checked: bool,
+}
+
+/// Shows the options and the mechanical data; the scene and the loads are shown
+/// by type (neither needs to be `Debug`).
+impl<S, L, const NB: usize, const NV: usize, const M: usize> core::fmt::Debug for Simulation<'_, S, L, NB, NV, M> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Simulation")
+            .field("scene", &core::any::type_name::<S>())
+            .field("loads", &core::any::type_name::<L>())
+            .field("springs", &self.springs)
+            .field("inertias", &self.inertias)
+            .field("gravity", &self.gravity)
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
 }
 
 impl<'a, S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'a, S, L, NB, NV, M>

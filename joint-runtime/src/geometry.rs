@@ -50,6 +50,14 @@ pub fn perpendicular_pair<T: RealField + Copy>(d: &Vector3<T>) -> Option<(Vector
 /// assert_eq!(frame.c.dot(&frame.b), 0.0);
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: nalgebra::Scalar + serde::Serialize",
+        deserialize = "T: nalgebra::Scalar + serde::Deserialize<'de>"
+    ))
+)]
 pub struct AxisFrame<T> {
     /// The axis as given.
     pub axis: Vector3<T>,

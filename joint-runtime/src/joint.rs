@@ -5,6 +5,8 @@ use nalgebra::{SMatrix, SVector};
 /// The five sets of coordinates a joint's constraint can be written against
 /// (`CONVENTIONS.md`, "Formulations").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum Formulation {
     /// `r, p` with velocities `ṙ, ṗ`: 7 columns per body, J = ∂Φ/∂q.
     Euler,
@@ -19,6 +21,15 @@ pub enum Formulation {
 }
 
 impl Formulation {
+    /// All five, in the order of `CONVENTIONS.md`.
+    pub const ALL: [Formulation; 5] = [
+        Formulation::Euler,
+        Formulation::OmegaInertial,
+        Formulation::OmegaBody,
+        Formulation::RelativeB1,
+        Formulation::RelativeB2,
+    ];
+
     /// The name used in `#[joint(formulation = ...)]` and in the conformance vectors.
     pub const fn name(self) -> &'static str {
         match self {
@@ -31,9 +42,46 @@ impl Formulation {
     }
 }
 
+impl core::fmt::Display for Formulation {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The error of `"…".parse::<Formulation>()`: the name is not one of the five.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ParseFormulationError;
+
+impl core::fmt::Display for ParseFormulationError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(
+            "unknown formulation; expected `euler`, `omega_inertial`, `omega_body`, `relative_b1` or `relative_b2`",
+        )
+    }
+}
+
+impl core::error::Error for ParseFormulationError {}
+
+/// Parses the names of [`Formulation::name`], as in `#[joint(formulation = ...)]`.
+///
+/// ```
+/// use joint_runtime::Formulation;
+/// assert_eq!("omega_body".parse(), Ok(Formulation::OmegaBody));
+/// assert_eq!(Formulation::RelativeB2.to_string(), "relative_b2");
+/// assert!("omega".parse::<Formulation>().is_err());
+/// ```
+impl core::str::FromStr for Formulation {
+    type Err = ParseFormulationError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Formulation::ALL.into_iter().find(|f| f.name() == s).ok_or(ParseFormulationError)
+    }
+}
+
 /// Arithmetic operations in each generated function: every binary `+`, `−`, `×`,
 /// `÷` counts one, a negation counts nothing (it folds into the next operation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Ops {
     /// Operations in `phi`.
     pub phi: usize,
@@ -49,6 +97,14 @@ pub struct Ops {
 
 /// Φ, J and γ at one state, from [`Joint::evaluate`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: nalgebra::Scalar + serde::Serialize",
+        deserialize = "T: nalgebra::Scalar + serde::Deserialize<'de>"
+    ))
+)]
 pub struct Evaluation<T, const R: usize, const C: usize> {
     /// The constraint Φ (R rows, in the joint's row order).
     pub phi: SVector<T, R>,

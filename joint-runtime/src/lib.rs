@@ -1,31 +1,33 @@
 //! Constraint code for multibody joints, derived at compile time.
 //!
-//! `#[derive(Joint)]` turns a joint declaration (the body-fixed axes `s, h, b, c, d`
-//! and joint points `rho1, rho2` of the lecture notes) into fully unrolled,
-//! allocation-free functions for the constraint Φ, its Jacobian and the
-//! acceleration right-hand side γ, in one of five formulations. This crate holds
-//! what the generated code implements and reads: the [`Joint`] trait, the state
-//! types of each formulation, and small geometric helpers.
-//!
-//! The mathematical contract (frames, Euler parameters, rows, columns, γ) is the
-//! project's `CONVENTIONS.md`; the README below is compiled as a doctest.
-#![doc = include_str!("../../README.md")]
+//! The crate's README follows; every example in it is compiled and run as a
+//! doctest.
+#![doc = include_str!("../README.md")]
+#![cfg_attr(docsrs, feature(doc_cfg))]
+#![warn(missing_debug_implementations)]
 #![cfg_attr(not(feature = "std"), no_std)]
 
 pub mod analysis;
+pub mod conventions {
+    #![doc = include_str!("../CONVENTIONS.md")]
+}
 pub mod batch;
 pub mod conditioning;
 pub mod dynamics;
 mod geometry;
 mod joint;
 pub mod linalg;
+#[cfg(feature = "record")]
+pub mod record;
 pub mod scene;
+#[cfg(feature = "serde")]
+mod serde_array;
 mod state;
 mod time;
 
 pub use geometry::{AxisFrame, SlidingFrame, perpendicular_pair, rotation_matrix};
-pub use joint::{Evaluation, Formulation, Joint, Ops, Singularity};
-pub use scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
+pub use joint::{Evaluation, Formulation, Joint, Ops, ParseFormulationError, Singularity};
+pub use scene::{BodyInertia, JointPoint, RowBlock, Scene, SparseJacobian, SystemState};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};
 

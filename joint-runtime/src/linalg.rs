@@ -25,6 +25,7 @@ pub const DEFAULT_RANK_TOLERANCE: f64 = 1e-10;
 
 /// What can go wrong in a factorisation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum LinalgError {
     /// The matrix holds a NaN or an infinity.
     NonFinite,

@@ -12,8 +12,10 @@ use crate::{Evaluation, OmegaBody, Ops};
 /// The state of a mechanism of `NB` bodies: each body's `r, p, ṙ, ω'` (ω' in the
 /// body's own components) and the time.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SystemState<const NB: usize> {
     /// The bodies, in the scene's declaration order.
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_array"))]
     pub bodies: [OmegaBody<f64>; NB],
     /// Time.
     pub t: f64,
@@ -21,6 +23,7 @@ pub struct SystemState<const NB: usize> {
 
 /// Mass properties of a body, whose frame has its origin at the centre of mass.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct BodyInertia {
     /// Mass.
     pub mass: f64,
@@ -33,6 +36,20 @@ impl BodyInertia {
     pub fn principal(mass: f64, moments: Vector3<f64>) -> Self {
         BodyInertia { mass, inertia: Matrix3::from_diagonal(&moments) }
     }
+}
+
+/// A joint point of a scene (`rho1` or `rho2` of one of its joints), from
+/// [`Scene::joint_points`]: what a trajectory recorder draws a body from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct JointPoint {
+    /// The joint's name in the scene.
+    pub joint: &'static str,
+    /// The body the point is fixed in (its index in the state), `None` for the ground.
+    pub body: Option<usize>,
+    /// The point: body components from the body's centre of mass, or inertial
+    /// components for a point on the ground.
+    pub point: Vector3<f64>,
 }
 
 /// Where one joint's rows sit in the system.
@@ -71,6 +88,12 @@ pub trait Scene<const NB: usize, const NV: usize, const M: usize> {
     fn inertias(&self) -> [BodyInertia; NB];
     /// Gravity, inertial components.
     fn gravity(&self) -> Vector3<f64>;
+
+    /// Visits the joint points (`rho1`, `rho2` of every joint that has them) in
+    /// declaration order. The derive generates it; the default visits none.
+    fn joint_points(&self, visit: &mut dyn FnMut(JointPoint)) {
+        let _ = visit;
+    }
 
     /// The block that holds row `row`.
     fn block_of(row: usize) -> Option<RowBlock> {

@@ -12,6 +12,14 @@ fn euler_parameters<T: RealField>(q: &UnitQuaternion<T>) -> Vector4<T> {
 
 /// A body in the `euler` formulation: position, Euler parameters and their rates.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: nalgebra::Scalar + serde::Serialize",
+        deserialize = "T: nalgebra::Scalar + serde::Deserialize<'de>"
+    ))
+)]
 pub struct EulerBody<T> {
     /// Origin of the body frame, inertial components.
     pub r: Vector3<T>,
@@ -25,6 +33,14 @@ pub struct EulerBody<T> {
 
 /// A body in the `omega_inertial` and `omega_body` formulations.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: nalgebra::Scalar + serde::Serialize",
+        deserialize = "T: nalgebra::Scalar + serde::Deserialize<'de>"
+    ))
+)]
 pub struct OmegaBody<T> {
     /// Origin of the body frame, inertial components.
     pub r: Vector3<T>,
@@ -51,8 +67,23 @@ impl<T: RealField> OmegaBody<T> {
     }
 }
 
+/// At the origin, unrotated (`p = [1, 0, 0, 0]`), at rest.
+impl<T: RealField> Default for EulerBody<T> {
+    fn default() -> Self {
+        EulerBody { r: Vector3::zeros(), p: Vector4::x(), rdot: Vector3::zeros(), pdot: Vector4::zeros() }
+    }
+}
+
+/// At the origin, unrotated (`p = [1, 0, 0, 0]`), at rest.
+impl<T: RealField> Default for OmegaBody<T> {
+    fn default() -> Self {
+        OmegaBody { r: Vector3::zeros(), p: Vector4::x(), rdot: Vector3::zeros(), omega: Vector3::zeros() }
+    }
+}
+
 /// The state of an absolute formulation: both bodies and the time.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct TwoBodies<B> {
     /// Body 1 (`B1`).
     pub body1: B,
@@ -65,6 +96,7 @@ pub struct TwoBodies<B> {
 /// The state of an absolute formulation with one body grounded (`ground = body1`
 /// or `ground = body2`): only the free body remains.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct OneBody<B> {
     /// The body that is not the ground.
     pub body: B,
@@ -74,6 +106,14 @@ pub struct OneBody<B> {
 
 /// The state of a relative formulation (`relative_b1`, `relative_b2`).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: nalgebra::Scalar + serde::Serialize",
+        deserialize = "T: nalgebra::Scalar + serde::Deserialize<'de>"
+    ))
+)]
 pub struct RelativeState<T> {
     /// `δ`: the point `rho2` of B2 seen from the point `rho1` of B1, B1 components.
     pub delta: Vector3<T>,

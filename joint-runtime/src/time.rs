@@ -10,6 +10,7 @@ use core::f64::consts::PI;
 /// A time function's value, rate and acceleration at one instant. It is itself a
 /// time function (frozen at that instant), which is how tests feed given values.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Drive {
     /// θ(t) (an angle in radians, or a length).
     pub value: f64,
@@ -39,6 +40,7 @@ impl<F: Fn(f64) -> Drive> TimeFunction for F {
 
 /// θ(t) = value.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Constant(pub f64);
 
 impl TimeFunction for Constant {
@@ -49,6 +51,7 @@ impl TimeFunction for Constant {
 
 /// θ(t) = start + rate · t: a motor at constant speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Ramp {
     /// θ(0).
     pub start: f64,
@@ -64,7 +67,8 @@ impl TimeFunction for Ramp {
 
 /// θ(t) = Σ c_i tⁱ (coefficients from the constant term up), by Horner's rule.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Polynomial<const N: usize>(pub [f64; N]);
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Polynomial<const N: usize>(#[cfg_attr(feature = "serde", serde(with = "crate::serde_array"))] pub [f64; N]);
 
 impl<const N: usize> TimeFunction for Polynomial<N> {
     fn eval(&self, t: f64) -> Drive {
@@ -80,6 +84,7 @@ impl<const N: usize> TimeFunction for Polynomial<N> {
 
 /// θ(t) = offset + amplitude · sin(frequency · t + phase), frequency in rad/s.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Sinusoid {
     /// Mean value.
     pub offset: f64,
@@ -106,6 +111,8 @@ impl TimeFunction for Sinusoid {
 
 /// The shape of a [`SmoothStep`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum Profile {
     /// `u − sin(2πu)/2π`: zero rate and acceleration at both ends.
     Cycloidal,
@@ -115,6 +122,7 @@ pub enum Profile {
 
 /// A rest-to-rest move from `from` at `t0` to `to` at `t1`, constant outside.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SmoothStep {
     /// Value before `t0`.
     pub from: f64,

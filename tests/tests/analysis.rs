@@ -176,7 +176,7 @@ fn impossible_configuration_is_a_clear_error() {
     let scene = Chain;
     let mut s = hanging_rods([0.3, -0.2, 0.5]);
     perturb(&mut s);
-    let e = assemble(&scene, &mut s, &AssemblyOptions { max_iterations: 1, ..AssemblyOptions::default() }).unwrap_err();
+    let e = assemble(&scene, &mut s, &AssemblyOptions::default().with_max_iterations(1)).unwrap_err();
     println!("{e}");
     assert!(matches!(e, AnalysisError::NotConverged { iterations: 1, .. }));
 }

@@ -54,7 +54,7 @@ fn double_start() -> SystemState<2> {
 }
 
 fn options(integrator: Integrator, project: bool) -> SimulationOptions {
-    let mut o = SimulationOptions { integrator, ..SimulationOptions::default() };
+    let mut o = SimulationOptions::default().with_integrator(integrator);
     if !project {
         o.projection = None;
     }

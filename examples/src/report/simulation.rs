@@ -121,18 +121,17 @@ fn integrator_name(integrator: Integrator) -> &'static str {
     match integrator {
         Integrator::Rk4 => "RK4",
         Integrator::ImplicitMidpoint => "implicit midpoint",
+        _ => "another integrator",
     }
 }
 
 /// The simulation options of one variant.
 fn options(integrator: Integrator, method: Method) -> SimulationOptions {
     let defaults = SimulationOptions::default();
-    SimulationOptions {
-        integrator,
-        stabilisation: if method == Method::Baumgarte { BAUMGARTE } else { Stabilisation::None },
-        projection: if method == Method::Projection { defaults.projection } else { None },
-        ..defaults
-    }
+    defaults
+        .with_integrator(integrator)
+        .with_stabilisation(if method == Method::Baumgarte { BAUMGARTE } else { Stabilisation::None })
+        .with_projection(if method == Method::Projection { defaults.projection } else { None })
 }
 
 /// The ranges of one computation of the diagrams.
