@@ -9,6 +9,9 @@
 //! ```
 
 use joint_examples::cardan::{self, Curve, Sweep, plot_speed_ratios};
+use joint_examples::write_animation;
+use joint_runtime::nalgebra::Vector3;
+use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;
 
@@ -74,7 +77,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect();
     plot_speed_ratios(&path, "Cardan shaft: output speed over one input turn", &curves)?;
-    println!("\nplot: {}", path.canonicalize().unwrap_or(path).display());
+    println!("\nplot: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
+    // The 60° shaft turning, its yokes marked (points on the axes alone would not show the spin).
+    let mut run = sweeps[2].trajectory.clone();
+    for y in [-0.15, 0.15] {
+        run.add_point(0, Vector3::new(0.5, y, 0.0));
+        run.add_point(1, Vector3::new(-0.5, 0.0, y));
+    }
+    let path = path.with_file_name("cardan.svg");
+    let options = SvgOptions::default().with_title("Cardan shaft bent by 60°, one input turn per second");
+    write_animation(&path, &run, &options)?;
+    println!("animation: {}", path.display());
     Ok(())
 }
 

@@ -11,6 +11,9 @@
 
 use joint_examples::cardan::{Curve, plot_speed_ratios};
 use joint_examples::double_cardan::{self, Arrangement, Phasing, Sweep};
+use joint_examples::write_animation;
+use joint_runtime::nalgebra::Vector3;
+use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;
 
@@ -106,6 +109,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots/double-cardan-speed.svg");
     plot_speed_ratios(&path, "Double Cardan shaft: output speed over one input turn", &curves)?;
-    println!("\nplot: {}", path.canonicalize().unwrap_or(path).display());
+    println!("\nplot: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
+    // The Z arrangement bent by 30°, yokes in phase, its yokes marked.
+    let mut run = sweeps[1].trajectory.clone();
+    for y in [-0.15, 0.15] {
+        run.add_point(0, Vector3::new(0.5, y, 0.0));
+        run.add_point(1, Vector3::new(-0.5, 0.0, y));
+        run.add_point(2, Vector3::new(-0.5, 0.0, y));
+    }
+    let path = path.with_file_name("double-cardan.svg");
+    let options = SvgOptions::default().with_title("Double Cardan shaft (Z, in phase, 30°), one input turn per second");
+    write_animation(&path, &run, &options)?;
+    println!("animation: {}", path.display());
     Ok(())
 }

@@ -14,7 +14,9 @@ use std::path::Path;
 
 use joint_examples::bricard::plot_lines;
 use joint_examples::four_bar::{self, ROWS};
+use joint_examples::write_animation;
 use joint_runtime::dynamics::Integrator;
+use joint_runtime::record::{SvgOptions, View};
 
 fn main() -> Result<(), Box<dyn Error>> {
     let scene = four_bar::scene();
@@ -67,6 +69,9 @@ fn main() -> Result<(), Box<dyn Error>> {
             );
             plot_lines(&dir.join("four_bar_energy.svg"), "N-four-bar: energy error", ("t (s)", "relative"), &[e])?;
             println!("  plots: {}", dir.join("four_bar_{b0,energy}.svg").display());
+            let options = SvgOptions::default().with_view(View::xy()).with_title("N-four-bar (N = 4), RK4 h = 1e-3");
+            write_animation(&dir.join("four_bar.svg"), &run.trajectory, &options)?;
+            println!("  animation: {}", dir.join("four_bar.svg").display());
         }
     }
     // A step that starts exactly on the singular position (16 rows dropped there).

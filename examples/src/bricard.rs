@@ -26,6 +26,7 @@ use joint_runtime::analysis::{AnalysisError, Assembly, AssemblyOptions, RowList,
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::record::Trajectory;
 use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState, rotation_matrix};
 
 /// Number of moving bars.
@@ -183,6 +184,8 @@ pub struct Run {
     pub end: SystemState<BODIES>,
     /// Samples every `sample_every` steps (and the last).
     pub samples: Vec<Sample>,
+    /// The states at the samples, to write as CSV or an animated SVG.
+    pub trajectory: Trajectory<BODIES>,
 }
 
 /// A run that stopped: the time of the state the failing step started from.
@@ -236,7 +239,9 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
         redundant,
         end: state,
         samples: vec![Sample { t: 0.0, energy_error: 0.0, constraint: scene.phi(&state).norm(), p3: p3(&state) }],
+        trajectory: Trajectory::new(scene),
     };
+    run.trajectory.record(&state);
     for n in 1..=steps {
         let report = sim.step(&mut state, h).map_err(at(state.t))?;
         let de = sim.energy(&state).total() - e0;
@@ -247,6 +252,7 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
         run.max_projection_iterations = run.max_projection_iterations.max(report.projection_iterations);
         if n % sample_every.max(1) == 0 || n == steps {
             run.samples.push(Sample { t: state.t, energy_error: de, constraint: phi, p3: p3(&state) });
+            run.trajectory.record(&state);
         }
     }
     run.end = state;

@@ -56,6 +56,7 @@
 
 use joint_runtime::analysis::{AnalysisError, Assembly, AssemblyOptions, RowInfo, assemble, velocities};
 use joint_runtime::nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use joint_runtime::record::Trajectory;
 use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState, rotation_matrix};
 
 /// The Cardan shaft (see the module documentation): bodies `input`, `output`;
@@ -247,6 +248,8 @@ pub struct Sweep {
     pub max_ratio: f64,
     /// Largest ‖Φ‖ after assembly.
     pub max_residual: f64,
+    /// The assembled states, to write as CSV or an animated SVG.
+    pub trajectory: Trajectory<2>,
 }
 
 /// Kinematic analysis of the Cardan shaft bent by `bend` over one turn of the
@@ -282,6 +285,7 @@ pub fn sweep(bend: f64, input_speed: f64, steps: usize) -> Result<Sweep, Analysi
         min_ratio: f64::INFINITY,
         max_ratio: f64::NEG_INFINITY,
         max_residual: 0.0,
+        trajectory: Trajectory::new(&scene),
     };
     let (mut last_in, mut last_out) = (0.0, 0.0);
     for k in 0..steps {
@@ -311,6 +315,7 @@ pub fn sweep(bend: f64, input_speed: f64, steps: usize) -> Result<Sweep, Analysi
         out.min_ratio = out.min_ratio.min(ratio);
         out.max_ratio = out.max_ratio.max(ratio);
         out.samples.push(sample);
+        out.trajectory.record(&state);
     }
     Ok(out)
 }

@@ -59,6 +59,7 @@
 
 use joint_runtime::analysis::{AnalysisError, RowInfo, velocities};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::record::Trajectory;
 use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState};
 
 use crate::cardan::{output_angle, shaft_angle, speed_ratio, sweep_step, wrap};
@@ -323,6 +324,8 @@ pub struct Sweep {
     pub max_ratio: f64,
     /// max |product of single-joint ratios − direct formula| (the derivation's check).
     pub max_formula_difference: f64,
+    /// The assembled states, to write as CSV or an animated SVG.
+    pub trajectory: Trajectory<3>,
 }
 
 /// Kinematic analysis over one input turn in `steps` steps: set the time,
@@ -362,6 +365,7 @@ pub fn sweep(
         min_ratio: f64::INFINITY,
         max_ratio: f64::NEG_INFINITY,
         max_formula_difference: 0.0,
+        trajectory: Trajectory::new(&scene),
     };
     let (mut last_m, mut last_o) = (0.0, 0.0);
     for k in 0..steps {
@@ -399,6 +403,7 @@ pub fn sweep(
             .max_formula_difference
             .max((speed_ratio(theta, bend) * speed_ratio(cm, bend) - quarter_ratio_direct(theta, bend)).abs());
         out.samples.push(s);
+        out.trajectory.record(&state);
     }
     Ok(out)
 }

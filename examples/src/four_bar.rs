@@ -26,6 +26,7 @@ use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{DMatrix, UnitQuaternion, Vector3};
+use joint_runtime::record::Trajectory;
 use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState, rotation_matrix};
 
 /// Number of four-bar loops.
@@ -209,6 +210,8 @@ pub struct Run {
     pub end: SystemState<BODIES>,
     /// Samples every `sample_every` steps (and the last).
     pub samples: Vec<Sample>,
+    /// The states at the samples, to write as CSV or an animated SVG.
+    pub trajectory: Trajectory<BODIES>,
 }
 
 /// Runs `t_end` seconds from `start` (e.g. [`initial_state`]) with step `h` and projection
@@ -244,7 +247,9 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
         max_projection_iterations: 0,
         end: state,
         samples: vec![Sample { t: 0.0, b0: b0(&state), energy_error: 0.0, constraint: plain.phi(&state).norm() }],
+        trajectory: Trajectory::new(scene),
     };
+    run.trajectory.record(&state);
     let mut last_sin = crank_angle(&state, 0).sin();
     for n in 1..=steps {
         let report = sim.step(&mut state, h)?;
@@ -270,6 +275,7 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
         }
         if n % sample_every.max(1) == 0 || n == steps {
             run.samples.push(Sample { t: state.t, b0: b0(&state), energy_error: de, constraint: phi });
+            run.trajectory.record(&state);
         }
     }
     run.end = state;

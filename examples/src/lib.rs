@@ -9,3 +9,22 @@ pub mod four_bar;
 pub mod pendulum_chain;
 pub mod report;
 pub mod steering;
+
+use std::path::Path;
+
+use joint_runtime::record::{SvgOptions, Trajectory};
+
+/// Writes `trajectory` as an animated SVG at `path`, creating its directory.
+///
+/// # Errors
+/// The I/O error, as text.
+pub fn write_animation<const NB: usize>(
+    path: &Path,
+    trajectory: &Trajectory<NB>,
+    options: &SvgOptions,
+) -> Result<(), String> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    }
+    std::fs::write(path, trajectory.svg(options)).map_err(|e| format!("writing {}: {e}", path.display()))
+}

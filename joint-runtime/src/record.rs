@@ -46,7 +46,7 @@ use crate::scene::{JointPoint, Scene, SystemState};
 
 /// The states of a run, with what is needed to draw them: the scene's body
 /// names and joint points, read once by [`Trajectory::new`].
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Trajectory<const NB: usize> {
     bodies: [&'static str; NB],
     points: Vec<JointPoint>,
@@ -191,6 +191,16 @@ impl<const NB: usize> Trajectory<NB> {
         Trajectory { bodies: S::BODIES, points, samples: Vec::new() }
     }
 
+    /// Adds a point fixed in body `body` (body components, from its centre of
+    /// mass) to draw it by, beside its joint points: a mark off a shaft's axis
+    /// shows its spin, which points on the axis do not. An out-of-range `body`
+    /// is ignored.
+    pub fn add_point(&mut self, body: usize, point: Vector3<f64>) {
+        if body < NB {
+            self.points.push(JointPoint { joint: "", body: Some(body), point });
+        }
+    }
+
     /// Appends a sample.
     pub fn record(&mut self, state: &SystemState<NB>) {
         self.samples.push(*state);
@@ -201,7 +211,7 @@ impl<const NB: usize> Trajectory<NB> {
         &self.samples
     }
 
-    /// The scene's joint points, as drawn.
+    /// The scene's joint points and the added ones, as drawn.
     pub fn joint_points(&self) -> &[JointPoint] {
         &self.points
     }
