@@ -7,8 +7,9 @@
 //! diagrams ([`joint_examples::report::simulation`]), prints the summary tables
 //! and writes `report/README.md` with the SVG figures.
 //!
-//! Options: `--vectors DIR` (default `../shared/conformance`), `--out DIR`
-//! (default `report`), `--no-simulation` (the evaluation level only).
+//! Options: `--vectors DIR` (default: the repository's `conformance/`, found
+//! from any directory), `--out DIR` (default `report`), `--no-simulation` (the
+//! evaluation level only).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -17,6 +18,7 @@ use std::time::Instant;
 
 use joint_examples::report::simulation::{self, Series};
 use joint_examples::report::variants::{self, GroupResult};
+use joint_tests::conformance::{self, VectorFile};
 
 /// The command the README gives to reproduce the report.
 const COMMAND: &str = "cargo run --release -p joint-examples --bin speed-vs-error";
@@ -29,7 +31,7 @@ struct Options {
 }
 
 fn options() -> Result<Options, String> {
-    let mut o = Options { vectors: "../shared/conformance".into(), out: "report".into(), simulation: true };
+    let mut o = Options { vectors: conformance::vectors_dir(), out: "report".into(), simulation: true };
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -57,15 +59,19 @@ fn machine() -> String {
     format!("{model}, {cores} logical cores ({} {})", std::env::consts::OS, std::env::consts::ARCH)
 }
 
-fn read_vectors(dir: &Path) -> Result<Vec<serde_json::Value>, String> {
-    ["vectors.json", "hard.json"]
-        .iter()
-        .map(|f| {
-            let path = dir.join(f);
-            let text = std::fs::read_to_string(&path).map_err(|e| format!("reading {}: {e}", path.display()))?;
-            serde_json::from_str(&text).map_err(|e| format!("parsing {}: {e}", path.display()))
-        })
-        .collect()
+fn read_vectors(dir: &Path) -> Result<Vec<VectorFile>, String> {
+    ["vectors.json", "hard.json"].iter().map(|f| conformance::load(&dir.join(f))).collect()
+}
+
+/// The vectors folder as the README names it: relative to the repository when
+/// inside it, so that the committed report names no machine's path.
+fn shown(vectors: &Path) -> String {
+    let ours = conformance::vectors_dir();
+    let repository = ours.parent().unwrap_or(&ours);
+    match vectors.strip_prefix(repository) {
+        Ok(inside) => format!("`{}/` in the repository", inside.display()),
+        Err(_) => format!("`{}`", vectors.display()),
+    }
 }
 
 /// The figures of the evaluation level: file name, formulations, caption.
@@ -212,11 +218,11 @@ fn run() -> Result<(), String> {
     let mut readme = format!(
         "# Speed against error: generated code and the alternatives\n\n\
          Written by `{COMMAND}` (from the repository root; the conformance vectors are read from \
-         `{}`).\n\n\
+         {}).\n\n\
          - Machine: {}, one thread.\n\
          - Build: release (`[profile.release]` of the workspace).\n\
          - Run time: {total:.0} s ({evaluation_time:.0} s for the evaluation level).\n\n",
-        o.vectors.display(),
+        shown(&o.vectors),
         machine(),
     );
     readme += &evaluation;

@@ -1,22 +1,25 @@
-//! The conformance runner (see `shared/conformance/README.md`).
+//! The conformance runner (see the conformance README, `conformance/` in the
+//! repository).
 //!
 //! ```text
 //! cargo run --release -p joint-tests --bin conformance -- [FILE] [--joints a,b] [--emit OUT] [--time]
 //! ```
-//! FILE defaults to `../shared/conformance/vectors.json` (run from the repository root).
+//! FILE defaults to the repository's `conformance/vectors.json`, found from the
+//! package's manifest directory, so the runner works from any directory.
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use joint_tests::conformance::{self, TOLERANCE};
 
 fn main() -> ExitCode {
-    let mut file = "../shared/conformance/vectors.json".to_string();
+    let mut file = conformance::vectors_dir().join("vectors.json");
     let (mut joints, mut emit, mut time) = (None, None, false);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--joints" => joints = args.next().map(|s| s.split(',').map(str::to_string).collect::<Vec<_>>()),
-            "--emit" => emit = args.next(),
+            "--emit" => emit = args.next().map(PathBuf::from),
             "--time" => time = true,
             "-h" | "--help" => {
                 println!("usage: conformance [FILE] [--joints a,b,c] [--emit OUT.json] [--time]");
@@ -26,16 +29,13 @@ fn main() -> ExitCode {
                 eprintln!("conformance: unknown option `{a}` (try --help)");
                 return ExitCode::from(2);
             }
-            _ => file = a,
+            _ => file = a.into(),
         }
     }
-    let doc = match std::fs::read_to_string(&file)
-        .map_err(|e| e.to_string())
-        .and_then(|s| serde_json::from_str(&s).map_err(|e| e.to_string()))
-    {
+    let doc = match conformance::load(&file) {
         Ok(d) => d,
         Err(e) => {
-            eprintln!("conformance: cannot read `{file}`: {e}");
+            eprintln!("conformance: {e}");
             return ExitCode::from(2);
         }
     };
@@ -46,7 +46,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    println!("{file}: worst error per joint and formulation, in units of eps*scale (pass: <= {TOLERANCE})");
+    println!("{}: worst error per joint and formulation, in units of eps*scale (pass: <= {TOLERANCE})", file.display());
     for ((joint, form), (worst, n)) in &summary.worst {
         println!("{joint:<26} {form:<15} {worst:>8.3}  ({n} cases)");
     }
@@ -57,7 +57,7 @@ fn main() -> ExitCode {
     if let Some(path) = emit {
         let text = serde_json::to_string_pretty(&conformance::emit_json(&summary.outputs)).unwrap_or_default();
         if let Err(e) = std::fs::write(&path, text) {
-            eprintln!("conformance: cannot write `{path}`: {e}");
+            eprintln!("conformance: cannot write `{}`: {e}", path.display());
             return ExitCode::from(2);
         }
     }
