@@ -1,6 +1,7 @@
 //! The conformance vectors of the repository's `conformance/`, through
 //! derive-generated code with run-time parameters, under the accuracy test of
-//! the conformance README.
+//! the conformance README; and the check that those copies are still the
+//! originals they were taken from.
 
 use joint_tests::conformance::{self, TOLERANCE, VectorFile};
 
@@ -40,4 +41,33 @@ fn a_wrong_value_fails() {
     doc.cases[1].expected.jacobian[0][1] = 1e-300;
     let summary = conformance::run(&doc, None, false).expect("well-formed cases");
     assert_eq!(summary.failures.len(), 2, "{:?}", summary.failures);
+}
+
+/// The repository's vectors are copies: where the originals sit beside the
+/// repository (the `shared` folder next to it, as on the developers' machines
+/// and in CI), they must be the same bytes, so that the references are never
+/// edited here by mistake nor left behind when the originals change. A bare
+/// clone has no originals and skips the check.
+#[test]
+fn in_repo_copies_match_the_originals() {
+    let ours = conformance::vectors_dir();
+    let repository = ours.parent().expect("the vectors folder is inside the repository");
+    // Its `conformance` folder inside the `shared` folder beside the repository.
+    let originals = repository.join("..").join("shared").join("conformance");
+    if !originals.is_dir() {
+        println!("skipped: no originals at {}", originals.display());
+        return;
+    }
+    for file in ["vectors.json", "hard.json"] {
+        let read = |dir: &std::path::Path| {
+            let path = dir.join(file);
+            std::fs::read(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
+        };
+        assert!(
+            read(&ours) == read(&originals),
+            "{} differs from {}: copy the original again",
+            ours.join(file).display(),
+            originals.join(file).display()
+        );
+    }
 }
