@@ -7,15 +7,16 @@
 //! diagrams ([`joint_examples::report::simulation`]), prints the summary tables
 //! and writes `report/README.md` with the SVG figures.
 //!
-//! Options: `--vectors DIR` (default: the repository's `conformance/`, found
-//! from any directory), `--out DIR` (default `report`), `--no-simulation` (the
-//! evaluation level only).
+//! Options (`--help`): `--vectors DIR` (default: the repository's
+//! `conformance/`, found from any directory), `--out DIR` (default `report`),
+//! `--no-simulation` (the evaluation level only).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
+use clap::Parser;
 use joint_examples::report::simulation::{self, Series};
 use joint_examples::report::variants::{self, GroupResult};
 use joint_tests::conformance::{self, VectorFile};
@@ -23,28 +24,21 @@ use joint_tests::conformance::{self, VectorFile};
 /// The command the README gives to reproduce the report.
 const COMMAND: &str = "cargo run --release -p joint-examples --bin speed-vs-error";
 
-/// Command-line options.
+/// Times the generated Φ, J and γ against a hand-written implementation,
+/// num-dual and central differences on the conformance vectors, runs the
+/// simulations' work–precision diagrams, and writes the report with its figures.
+#[derive(Parser)]
+#[command(name = "speed-vs-error")]
 struct Options {
+    /// Folder holding vectors.json and hard.json; the default is the repository's copy, found from any working directory
+    #[arg(long, value_name = "DIR", default_value_os_t = conformance::vectors_dir())]
     vectors: PathBuf,
+    /// Folder to write README.md and the SVG figures into
+    #[arg(long, value_name = "DIR", default_value = "report")]
     out: PathBuf,
-    simulation: bool,
-}
-
-fn options() -> Result<Options, String> {
-    let mut o = Options { vectors: conformance::vectors_dir(), out: "report".into(), simulation: true };
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--vectors" => o.vectors = args.next().ok_or("--vectors needs a directory")?.into(),
-            "--out" => o.out = args.next().ok_or("--out needs a directory")?.into(),
-            "--no-simulation" => o.simulation = false,
-            "-h" | "--help" => {
-                return Err(format!("usage: {COMMAND} -- [--vectors DIR] [--out DIR] [--no-simulation]"));
-            }
-            other => return Err(format!("unknown argument `{other}` (try --help)")),
-        }
-    }
-    Ok(o)
+    /// Measure the evaluation level only, skipping the simulations' work–precision diagrams
+    #[arg(long)]
+    no_simulation: bool,
 }
 
 /// The CPU model and the number of logical cores, from `/proc/cpuinfo`.
@@ -190,8 +184,7 @@ fn simulation_section(series: &[Series], out: &Path) -> Result<String, String> {
     Ok(s)
 }
 
-fn run() -> Result<(), String> {
-    let o = options()?;
+fn run(o: &Options) -> Result<(), String> {
     let start = Instant::now();
     let mut progress = |what: &str| eprintln!("[{:6.1} s] {what}", start.elapsed().as_secs_f64());
     progress(&format!("reading {}", o.vectors.display()));
@@ -206,7 +199,7 @@ fn run() -> Result<(), String> {
     let evaluation = evaluation_section(&results, cases);
     let evaluation_time = start.elapsed().as_secs_f64();
 
-    let simulation = if o.simulation {
+    let simulation = if !o.no_simulation {
         progress("simulation level: work–precision diagrams");
         let series = simulation::work_precision(&mut progress);
         Some(simulation_section(&series, &o.out)?)
@@ -249,7 +242,9 @@ fn run() -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match run() {
+    // clap exits by itself: 0 for --help, 2 for a bad command line.
+    let options = Options::parse();
+    match run(&options) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("speed-vs-error: {e}");
