@@ -1,48 +1,38 @@
 //! The hand-written nalgebra joints of `report::handwritten` under the project's
-//! conformance test (`shared/conformance/vectors.json` and `hard.json`, the
-//! runner's `case_error` at 256 ε·scale), and their operation counts with
-//! `report::counting::Counted`.
-
-use std::path::PathBuf;
+//! conformance test (the repository's `conformance/vectors.json` and
+//! `hard.json`, the runner's `case_error` at 256 ε·scale), and their operation
+//! counts with `report::counting::Counted`.
 
 use joint_examples::report::counting::{Counted, ToCounted, count};
 use joint_examples::report::handwritten::*;
 use joint_runtime::Joint;
-use joint_tests::conformance::{FromJson, Output, TOLERANCE, case_error};
-use serde_json::Value;
+use joint_tests::conformance::{self, Case, FromCase, Output, TOLERANCE, VectorFile, case_error};
 
-fn shared(file: &str) -> Value {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/conformance").join(file);
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    serde_json::from_str(&text).expect("valid JSON")
+fn vectors(file: &str) -> VectorFile {
+    conformance::load(&conformance::vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn cases<'a>(doc: &'a Value, joint: &str, formulation: &str) -> Vec<&'a Value> {
-    doc["cases"]
-        .as_array()
-        .expect("`cases` is an array")
-        .iter()
-        .filter(|c| c["joint"] == joint && c["formulation"] == formulation)
-        .collect()
+fn cases<'a>(doc: &'a VectorFile, joint: &str, formulation: &str) -> Vec<&'a Case> {
+    doc.cases.iter().filter(|c| c.joint == joint && c.formulation == formulation).collect()
 }
 
 /// Each case's id and its error in ε·scale (`Err` for an exact-zero miss or a
 /// wrong shape), evaluating `J` on the cases of `joint`/`formulation` in `doc`.
 fn errors<J, const R: usize, const C: usize>(
-    doc: &Value,
+    doc: &VectorFile,
     joint: &str,
     formulation: &str,
 ) -> Vec<(String, Result<f64, String>)>
 where
-    J: Joint<f64, R, C> + FromJson,
-    J::State: FromJson,
+    J: Joint<f64, R, C> + FromCase,
+    J::State: FromCase,
 {
     cases(doc, joint, formulation)
         .into_iter()
         .map(|case| {
-            let id = case["id"].as_str().unwrap_or("?").to_string();
-            let j = J::from_json(case).unwrap_or_else(|e| panic!("{id}: params: {e}"));
-            let state = J::State::from_json(&case["state"]).unwrap_or_else(|e| panic!("{id}: state: {e}"));
+            let id = case.id.clone();
+            let j = J::from_case(case).unwrap_or_else(|e| panic!("{id}: params: {e}"));
+            let state = J::State::from_case(case).unwrap_or_else(|e| panic!("{id}: state: {e}"));
             let e = j.evaluate(&state);
             // The separate functions give the fused evaluation's numbers.
             assert_eq!((j.phi(&state), j.jacobian(&state), j.gamma(&state)), (e.phi, e.jacobian, e.gamma), "{id}");
@@ -59,10 +49,10 @@ where
 
 /// The worst error in ε·scale over the cases of `joint`/`formulation` in `doc`,
 /// its case, and how many cases there were; panics on an exact-zero miss.
-fn worst<J, const R: usize, const C: usize>(doc: &Value, joint: &str, formulation: &str) -> (f64, String, usize)
+fn worst<J, const R: usize, const C: usize>(doc: &VectorFile, joint: &str, formulation: &str) -> (f64, String, usize)
 where
-    J: Joint<f64, R, C> + FromJson,
-    J::State: FromJson,
+    J: Joint<f64, R, C> + FromCase,
+    J::State: FromCase,
 {
     let errors = errors::<J, R, C>(doc, joint, formulation);
     let mut worst = (0.0, String::new());
@@ -80,7 +70,7 @@ where
 /// land far outside the tolerance.
 #[test]
 fn a_wrong_convention_fails() {
-    let doc = shared("vectors.json");
+    let doc = vectors("vectors.json");
     let failed = |errors: Vec<(String, Result<f64, String>)>| {
         assert!(!errors.is_empty());
         errors.iter().filter(|(_, e)| e.as_ref().map_or(true, |e| *e > TOLERANCE)).count() * 2 > errors.len()
@@ -98,10 +88,10 @@ fn a_wrong_convention_fails() {
 #[test]
 fn runs_at_f32() {
     use joint_runtime::{EulerBody, TwoBodies};
-    let doc = shared("vectors.json");
+    let doc = vectors("vectors.json");
     let case = cases(&doc, "universal", "euler")[0];
-    let j = UniversalEuler::<f64>::from_json(case).expect("params");
-    let state = TwoBodies::<EulerBody<f64>>::from_json(&case["state"]).expect("state");
+    let j = UniversalEuler::<f64>::from_case(case).expect("params");
+    let state = TwoBodies::<EulerBody<f64>>::from_case(case).expect("state");
     let body = |b: &EulerBody<f64>| EulerBody {
         r: b.r.map(|x| x as f32),
         p: b.p.map(|x| x as f32),
@@ -122,7 +112,7 @@ macro_rules! conformance {
         #[test]
         fn $test() {
             for (file, min_cases) in [("vectors.json", 4), ("hard.json", 4)] {
-                let doc = shared(file);
+                let doc = vectors(file);
                 let (err, id, n) = worst::<$ty<f64>, $r, $c>(&doc, $joint, $form);
                 println!("{file}: {}/{}: worst {err:.2} ε·scale over {n} cases ({id})", $joint, $form);
                 assert!(n >= min_cases, "{file}: only {n} cases of {}/{}", $joint, $form);
@@ -155,12 +145,12 @@ conformance! {
 /// `vectors.json`, counted with `Counted`; the counted values must be the `f64` ones.
 macro_rules! op_counts {
     ($($ty:ident, $gen:ident, $joint:literal, $form:literal, $r:literal, $c:literal;)*) => {{
-        let doc = shared("vectors.json");
+        let doc = vectors("vectors.json");
         let mut rows = Vec::new();
         $({
             let case = cases(&doc, $joint, $form)[0];
-            let j = <$ty<f64> as FromJson>::from_json(case).expect("params");
-            let state = <<$ty<f64> as Joint<f64, $r, $c>>::State as FromJson>::from_json(&case["state"]).expect("state");
+            let j = <$ty<f64> as FromCase>::from_case(case).expect("params");
+            let state = <<$ty<f64> as Joint<f64, $r, $c>>::State as FromCase>::from_case(case).expect("state");
             let (jc, sc) = (j.map(Counted::new), state.to_counted());
             let (e, evaluate) = count(|| jc.evaluate(&sc));
             let (_, phi) = count(|| jc.phi(&sc));

@@ -1,18 +1,241 @@
 //! The conformance runner's logic: read cases, evaluate them through generated
-//! code, apply the accuracy test of `shared/conformance/README.md`.
+//! code, apply the accuracy test of the conformance README. The vectors live in
+//! `conformance/` at the repository's root ([`vectors_dir`]).
+//!
+//! The case format is defined once here ([`VectorFile`], [`Case`]) and read by
+//! serde: fixed-size inputs are arrays, so a malformed file is rejected with
+//! the offending line and column rather than deep inside a case.
 
 use std::collections::BTreeMap;
 use std::hint::black_box;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use joint_runtime::nalgebra::{Vector3, Vector4};
-use joint_runtime::{EulerBody, Joint, OmegaBody, RelativeState, TwoBodies};
+use joint_runtime::{Drive, EulerBody, Joint, OmegaBody, RelativeState, TwoBodies};
+use serde::Deserialize;
 use serde_json::Value;
 
 /// `ε = 2⁻⁵²`.
 pub const EPS: f64 = f64::EPSILON;
 /// The test's tolerance in units of `ε · max(scale, floor)`.
 pub const TOLERANCE: f64 = 256.0;
+
+/// The repository's copy of the conformance vectors, `<repository>/conformance`.
+///
+/// Found from this package's manifest directory, so that programs and tests
+/// read it from any working directory.
+pub fn vectors_dir() -> PathBuf {
+    // `CARGO_MANIFEST_DIR` is `<repository>/tests`, always absolute.
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap_or(Path::new("..")).join("conformance")
+}
+
+/// Reads a vectors file.
+///
+/// # Errors
+/// The file cannot be read, or does not hold cases of the expected shape
+/// (serde's message, with line and column).
+pub fn load(path: &Path) -> Result<VectorFile, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("parsing {}: {e}", path.display()))
+}
+
+// ---------------------------------------------------------------------------
+// The case format.
+// ---------------------------------------------------------------------------
+
+/// A vectors file (`vectors.json`, `hard.json`); other top-level keys
+/// (`format`) are ignored.
+#[derive(Clone, Debug, Deserialize)]
+pub struct VectorFile {
+    /// The cases, in file order.
+    pub cases: Vec<Case>,
+}
+
+/// One case: a joint in a formulation at one state, with its reference values.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Case {
+    /// `joint/formulation/regime/NNN`.
+    pub id: String,
+    /// The joint kind, as in `CONVENTIONS.md`.
+    pub joint: String,
+    /// The formulation (`euler`, `omega_inertial`, ..., `relative_b2`).
+    pub formulation: String,
+    /// The joint's parameters.
+    pub params: Params,
+    /// The state the functions are evaluated at.
+    pub state: State,
+    /// Φ, J and γ at 60 digits, rounded to f64.
+    pub expected: Expected,
+    /// Each entry's scale: the sum of the absolute values of its monomials.
+    pub scale: Expected,
+}
+
+/// A joint's parameters by their names in `CONVENTIONS.md` (each joint has
+/// some of them); 3-vectors are in their own body's components.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+pub struct Params {
+    /// `s` (B1).
+    pub s: Option<[f64; 3]>,
+    /// `h` (B2; B1 for `translational_driver`).
+    pub h: Option<[f64; 3]>,
+    /// `b` (B1).
+    pub b: Option<[f64; 3]>,
+    /// `c` (B1).
+    pub c: Option<[f64; 3]>,
+    /// `f` (B1).
+    pub f: Option<[f64; 3]>,
+    /// `g` (B1).
+    pub g: Option<[f64; 3]>,
+    /// `k` (B2).
+    pub k: Option<[f64; 3]>,
+    /// `n` (B1).
+    pub n: Option<[f64; 3]>,
+    /// `rho1` (B1).
+    pub rho1: Option<[f64; 3]>,
+    /// `rho2` (B2).
+    pub rho2: Option<[f64; 3]>,
+    /// `length` (`distance`).
+    pub length: Option<f64>,
+}
+
+impl Params {
+    /// The 3-vector parameters present, with their names.
+    pub fn vectors(&self) -> impl Iterator<Item = (&'static str, [f64; 3])> {
+        let Params { s, h, b, c, f, g, k, n, rho1, rho2, length: _ } = *self;
+        let all = [("s", s), ("h", h), ("b", b), ("c", c), ("f", f), ("g", g), ("k", k), ("n", n)];
+        all.into_iter().chain([("rho1", rho1), ("rho2", rho2)]).filter_map(|(name, v)| Some((name, v?)))
+    }
+}
+
+/// A case's state: `body1` and `body2` (absolute formulations) or `relative`,
+/// and `drive` for the two drivers.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct State {
+    /// Body 1 (absolute formulations).
+    pub body1: Option<Body>,
+    /// Body 2 (absolute formulations).
+    pub body2: Option<Body>,
+    /// The relative state (`relative_b1`, `relative_b2`).
+    pub relative: Option<Relative>,
+    /// The time function at the evaluation time (drivers).
+    pub drive: Option<DriveValues>,
+}
+
+/// One body's state: `pdot` for `euler`, `omega` (in the formulation's
+/// components) for the others.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct Body {
+    /// Position.
+    pub r: [f64; 3],
+    /// Euler parameters `[e0, e1, e2, e3]`.
+    pub p: [f64; 4],
+    /// Velocity.
+    pub rdot: [f64; 3],
+    /// Angular velocity (ω formulations).
+    pub omega: Option<[f64; 3]>,
+    /// Euler-parameter rates (`euler`).
+    pub pdot: Option<[f64; 4]>,
+}
+
+/// The relative state of body 2 in body 1's frame.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct Relative {
+    /// `δ`.
+    pub delta: [f64; 3],
+    /// The relative Euler parameters.
+    pub p: [f64; 4],
+    /// `δ̇`.
+    pub delta_dot: [f64; 3],
+    /// The relative angular velocity.
+    pub omega: [f64; 3],
+}
+
+/// A driver's time function at the evaluation time.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct DriveValues {
+    /// θ.
+    pub value: f64,
+    /// θ̇.
+    pub rate: f64,
+    /// θ̈.
+    pub accel: f64,
+}
+
+impl From<DriveValues> for Drive {
+    fn from(d: DriveValues) -> Drive {
+        Drive { value: d.value, rate: d.rate, accel: d.accel }
+    }
+}
+
+/// Φ, J (row-major, rows in the joint's order) and γ of a case: the expected
+/// values, or their scales. The lengths depend on the joint and formulation.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Expected {
+    /// Φ.
+    pub phi: Vec<f64>,
+    /// J, one vector per row.
+    pub jacobian: Vec<Vec<f64>>,
+    /// γ.
+    pub gamma: Vec<f64>,
+}
+
+/// `x`, or an error naming the missing input.
+///
+/// # Errors
+/// `x` is `None`.
+pub fn required<T>(x: Option<T>, name: &str) -> Result<T, String> {
+    x.ok_or_else(|| format!("missing `{name}`"))
+}
+
+/// A joint or a state built from a whole case: a joint from `params` (and a
+/// driver's `state.drive`), a state from `state`.
+pub trait FromCase: Sized {
+    /// Builds `Self` from `case`.
+    ///
+    /// # Errors
+    /// An input the type needs is missing from the case.
+    fn from_case(case: &Case) -> Result<Self, String>;
+}
+
+fn two_bodies<B>(state: &State, body: impl Fn(&Body) -> Result<B, String>) -> Result<TwoBodies<B>, String> {
+    let body1 = body(required(state.body1.as_ref(), "body1")?)?;
+    Ok(TwoBodies::new(body1, body(required(state.body2.as_ref(), "body2")?)?))
+}
+
+impl FromCase for TwoBodies<EulerBody<f64>> {
+    fn from_case(case: &Case) -> Result<Self, String> {
+        two_bodies(&case.state, |b| {
+            let pdot = required(b.pdot, "pdot")?.into();
+            Ok(EulerBody { r: b.r.into(), p: b.p.into(), rdot: b.rdot.into(), pdot })
+        })
+    }
+}
+
+impl FromCase for TwoBodies<OmegaBody<f64>> {
+    fn from_case(case: &Case) -> Result<Self, String> {
+        two_bodies(&case.state, |b| {
+            let omega = required(b.omega, "omega")?.into();
+            Ok(OmegaBody { r: b.r.into(), p: b.p.into(), rdot: b.rdot.into(), omega })
+        })
+    }
+}
+
+impl FromCase for RelativeState<f64> {
+    fn from_case(case: &Case) -> Result<Self, String> {
+        let v = required(case.state.relative.as_ref(), "relative")?;
+        Ok(RelativeState {
+            delta: v.delta.into(),
+            p: v.p.into(),
+            delta_dot: v.delta_dot.into(),
+            omega: v.omega.into(),
+            t: 0.0,
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Evaluating cases.
+// ---------------------------------------------------------------------------
 
 /// What the generated code computed for one case.
 #[derive(Clone, Debug)]
@@ -25,96 +248,6 @@ pub struct Output {
     pub jacobian: Vec<Vec<f64>>,
     /// γ.
     pub gamma: Vec<f64>,
-}
-
-/// Reads a case's inputs into a value.
-pub trait FromJson: Sized {
-    /// Parses `v`.
-    fn from_json(v: &Value) -> Result<Self, String>;
-}
-
-fn numbers(v: &Value, what: &str) -> Result<Vec<f64>, String> {
-    v.as_array()
-        .ok_or_else(|| format!("`{what}` is not an array"))?
-        .iter()
-        .map(|x| x.as_f64().ok_or_else(|| format!("`{what}` holds a non-number")))
-        .collect()
-}
-
-fn field<'a>(v: &'a Value, key: &str) -> Result<&'a Value, String> {
-    v.get(key).ok_or_else(|| format!("missing `{key}`"))
-}
-
-impl FromJson for Vector3<f64> {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        match numbers(v, "vector")?.as_slice() {
-            [x, y, z] => Ok(Vector3::new(*x, *y, *z)),
-            other => Err(format!("expected 3 numbers, found {}", other.len())),
-        }
-    }
-}
-
-impl FromJson for Vector4<f64> {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        match numbers(v, "vector")?.as_slice() {
-            [a, b, c, d] => Ok(Vector4::new(*a, *b, *c, *d)),
-            other => Err(format!("expected 4 numbers, found {}", other.len())),
-        }
-    }
-}
-
-impl FromJson for joint_runtime::Drive {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        let number = |k: &str| field(v, k)?.as_f64().ok_or_else(|| format!("`{k}` is not a number"));
-        Ok(joint_runtime::Drive { value: number("value")?, rate: number("rate")?, accel: number("accel")? })
-    }
-}
-
-impl FromJson for f64 {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        v.as_f64().ok_or_else(|| "expected a number".to_string())
-    }
-}
-
-impl FromJson for EulerBody<f64> {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        Ok(EulerBody {
-            r: FromJson::from_json(field(v, "r")?)?,
-            p: FromJson::from_json(field(v, "p")?)?,
-            rdot: FromJson::from_json(field(v, "rdot")?)?,
-            pdot: FromJson::from_json(field(v, "pdot")?)?,
-        })
-    }
-}
-
-impl FromJson for OmegaBody<f64> {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        Ok(OmegaBody {
-            r: FromJson::from_json(field(v, "r")?)?,
-            p: FromJson::from_json(field(v, "p")?)?,
-            rdot: FromJson::from_json(field(v, "rdot")?)?,
-            omega: FromJson::from_json(field(v, "omega")?)?,
-        })
-    }
-}
-
-impl<B: FromJson> FromJson for TwoBodies<B> {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        Ok(TwoBodies::new(B::from_json(field(v, "body1")?)?, B::from_json(field(v, "body2")?)?))
-    }
-}
-
-impl FromJson for RelativeState<f64> {
-    fn from_json(v: &Value) -> Result<Self, String> {
-        let v = field(v, "relative")?;
-        Ok(RelativeState {
-            delta: FromJson::from_json(field(v, "delta")?)?,
-            p: FromJson::from_json(field(v, "p")?)?,
-            delta_dot: FromJson::from_json(field(v, "delta_dot")?)?,
-            omega: FromJson::from_json(field(v, "omega")?)?,
-            t: 0.0,
-        })
-    }
 }
 
 /// States whose inputs can be overwritten one component at a time, to feed the
@@ -207,19 +340,20 @@ pub struct Typed<J: Joint<f64, R, C>, const R: usize, const C: usize> {
 
 impl<J: Joint<f64, R, C>, const R: usize, const C: usize> Typed<J, R, C>
 where
-    J: FromJson,
-    J::State: FromJson,
+    J: FromCase,
+    J::State: FromCase,
 {
-    /// Parses the cases.
-    pub fn new(cases: &[&Value]) -> Result<Self, String> {
+    /// Builds each case's joint and state.
+    ///
+    /// # Errors
+    /// A case lacks an input of this joint or formulation.
+    pub fn new(cases: &[&Case]) -> Result<Self, String> {
         let cases = cases
             .iter()
             .map(|c| {
-                let id = c.get("id").and_then(Value::as_str).unwrap_or("?").to_string();
-                // The whole case: parameters, and a driver's time-function values.
-                let joint = J::from_json(c).map_err(|e| format!("{id}: params: {e}"))?;
-                let state = J::State::from_json(field(c, "state")?).map_err(|e| format!("{id}: state: {e}"))?;
-                Ok((id, joint, state))
+                let joint = J::from_case(c).map_err(|e| format!("{}: params: {e}", c.id))?;
+                let state = J::State::from_case(c).map_err(|e| format!("{}: state: {e}", c.id))?;
+                Ok((c.id.clone(), joint, state))
             })
             .collect::<Result<_, String>>()?;
         Ok(Typed { cases })
@@ -297,12 +431,10 @@ where
 
 /// The worst error of one case in units of `ε · max(scale, floor)`, or `None`
 /// when an entry whose scale is 0 is not exactly zero, or a shape is wrong.
-pub fn case_error(case: &Value, got: &Output) -> Result<f64, String> {
-    let expected = field(case, "expected")?;
-    let scale = field(case, "scale")?;
+pub fn case_error(case: &Case, got: &Output) -> Result<f64, String> {
+    let (expected, scale) = (&case.expected, &case.scale);
     let mut worst: f64 = 0.0;
-    let mut check = |what: &str, got: &[f64], want: &Value, scale: &Value, floor: f64| -> Result<(), String> {
-        let (want, scale) = (numbers(want, what)?, numbers(scale, what)?);
+    let mut check = |what: &str, got: &[f64], want: &[f64], scale: &[f64], floor: f64| -> Result<(), String> {
         if got.len() != want.len() || scale.len() != want.len() {
             return Err(format!("{what}: {} entries, expected {}", got.len(), want.len()));
         }
@@ -323,19 +455,18 @@ pub fn case_error(case: &Value, got: &Output) -> Result<f64, String> {
         }
         Ok(())
     };
-    check("phi", &got.phi, field(expected, "phi")?, field(scale, "phi")?, 0.0)?;
-    check("gamma", &got.gamma, field(expected, "gamma")?, field(scale, "gamma")?, 0.0)?;
-    let (jw, js) = (
-        field(expected, "jacobian")?.as_array().ok_or("jacobian is not an array")?,
-        field(scale, "jacobian")?.as_array().ok_or("jacobian scale is not an array")?,
-    );
+    check("phi", &got.phi, &expected.phi, &scale.phi, 0.0)?;
+    check("gamma", &got.gamma, &expected.gamma, &scale.gamma, 0.0)?;
+    let (jw, js) = (&expected.jacobian, &scale.jacobian);
     if jw.len() != got.jacobian.len() {
         return Err(format!("jacobian: {} rows, expected {}", got.jacobian.len(), jw.len()));
     }
-    for (r, row) in got.jacobian.iter().enumerate() {
-        let srow = numbers(&js[r], "jacobian scale")?;
+    if js.len() != jw.len() {
+        return Err(format!("jacobian scale: {} rows, expected {}", js.len(), jw.len()));
+    }
+    for (r, ((row, want), srow)) in got.jacobian.iter().zip(jw).zip(js).enumerate() {
         let floor = srow.iter().copied().fold(0.0, f64::max) / 64.0;
-        check(&format!("jacobian[{r}]"), row, &jw[r], &js[r], floor)?;
+        check(&format!("jacobian[{r}]"), row, want, srow, floor)?;
     }
     Ok(worst)
 }
@@ -355,20 +486,23 @@ pub struct Summary {
     pub timings: Vec<(String, String, f64, usize)>,
 }
 
-/// Runs every case of a vectors file (optionally only some joints).
-pub fn run(doc: &Value, joints: Option<&[String]>, time: bool) -> Result<Summary, String> {
-    let cases = field(doc, "cases")?.as_array().ok_or("`cases` is not an array")?;
-    let mut groups: BTreeMap<(String, String), Vec<&Value>> = BTreeMap::new();
-    for c in cases {
-        let joint = field(c, "joint")?.as_str().ok_or("`joint` is not a string")?.to_string();
-        if joints.is_some_and(|js| !js.contains(&joint)) {
-            continue;
-        }
-        let form = field(c, "formulation")?.as_str().ok_or("`formulation` is not a string")?.to_string();
-        groups.entry((joint, form)).or_default().push(c);
+/// The cases by `(joint, formulation)`, in file order within a group;
+/// with `joints`, only those joints.
+pub fn groups<'a>(cases: &'a [Case], joints: Option<&[String]>) -> BTreeMap<(String, String), Vec<&'a Case>> {
+    let mut groups: BTreeMap<(String, String), Vec<&Case>> = BTreeMap::new();
+    for c in cases.iter().filter(|c| joints.is_none_or(|js| js.contains(&c.joint))) {
+        groups.entry((c.joint.clone(), c.formulation.clone())).or_default().push(c);
     }
+    groups
+}
+
+/// Runs every case of a vectors file (optionally only some joints).
+///
+/// # Errors
+/// A case lacks an input its joint or formulation needs.
+pub fn run(doc: &VectorFile, joints: Option<&[String]>, time: bool) -> Result<Summary, String> {
     let mut summary = Summary::default();
-    for ((joint, form), cases) in groups {
+    for ((joint, form), cases) in groups(&doc.cases, joints) {
         let group = match crate::joints::group(&joint, &form, &cases) {
             None => {
                 summary.missing.push(format!("{joint}/{form}"));

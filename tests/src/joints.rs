@@ -4,9 +4,8 @@
 
 use joint_runtime::nalgebra::Vector3;
 use joint_runtime::{Drive, Joint};
-use serde_json::Value;
 
-use crate::conformance::{FromJson, Group, Typed};
+use crate::conformance::{Case, FromCase, Group, Typed, required};
 
 macro_rules! one {
     ($kind:ident, $form:ident, $name:ident, [$($p:ident),*]) => {
@@ -21,13 +20,13 @@ macro_rules! one {
         pub struct $name<T> { $(pub $p: Vector3<T>,)* $(pub $sc: T,)* $(pub $time: Drive,)* }
 
         /// Built from a whole case: `params`, and `state.drive` for a time function.
-        impl FromJson for $name<f64> {
-            fn from_json(case: &Value) -> Result<Self, String> {
-                let v = case.get("params").ok_or("missing `params`")?;
+        impl FromCase for $name<f64> {
+            fn from_case(case: &Case) -> Result<Self, String> {
+                let p = &case.params;
                 Ok($name {
-                    $($p: FromJson::from_json(v.get(stringify!($p)).ok_or(concat!("missing `", stringify!($p), "`"))?)?,)*
-                    $($sc: FromJson::from_json(v.get(stringify!($sc)).ok_or(concat!("missing `", stringify!($sc), "`"))?)?,)*
-                    $($time: FromJson::from_json(case.get("state").and_then(|s| s.get("drive")).ok_or("missing `state.drive`")?)?,)*
+                    $($p: required(p.$p, stringify!($p))?.into(),)*
+                    $($sc: required(p.$sc, stringify!($sc))?,)*
+                    $($time: required(case.state.drive, "state.drive")?.into(),)*
                 })
             }
         }
@@ -82,7 +81,7 @@ fn boxed<G: Group + 'static>(g: Result<G, String>) -> Option<Result<Box<dyn Grou
 }
 
 /// The generated code for `joint` in `formulation`, over `cases`; `None` if there is none.
-pub fn group(joint: &str, formulation: &str, cases: &[&Value]) -> Option<Result<Box<dyn Group>, String>> {
+pub fn group(joint: &str, formulation: &str, cases: &[&Case]) -> Option<Result<Box<dyn Group>, String>> {
     macro_rules! table {
         ($(($j:literal, $f:literal) => $t:ident),* $(,)?) => {
             match (joint, formulation) {

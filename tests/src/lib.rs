@@ -1,8 +1,8 @@
 //! Tests of the generated code, and the conformance runner they share.
 //!
-//! [`conformance`] evaluates the cases of `shared/conformance/*.json` through
-//! derive-generated code with run-time parameters and applies the accuracy test
-//! of the conformance README. [`trajectory`] holds the exact trajectories and
+//! [`conformance`] evaluates the cases of the repository's `conformance/*.json`
+//! through derive-generated code with run-time parameters and applies the
+//! accuracy test of the conformance README. [`trajectory`] holds the exact trajectories and
 //! comparisons of the derivative tests, [`scenes`] the mechanisms of the analysis
 //! and dynamics tests, [`random`] the deterministic random states of the batch
 //! tests and benchmark.

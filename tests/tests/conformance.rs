@@ -1,18 +1,16 @@
-//! The conformance vectors of `shared/conformance/`, through derive-generated code
-//! with run-time parameters, under the accuracy test of the conformance README.
+//! The conformance vectors of the repository's `conformance/`, through
+//! derive-generated code with run-time parameters, under the accuracy test of
+//! the conformance README; and the check that those copies are still the
+//! originals they were taken from.
 
-use std::path::PathBuf;
+use joint_tests::conformance::{self, TOLERANCE, VectorFile};
 
-use joint_tests::conformance::{self, TOLERANCE};
-
-fn shared(file: &str) -> serde_json::Value {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/conformance").join(file);
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    serde_json::from_str(&text).expect("valid JSON")
+fn vectors(file: &str) -> VectorFile {
+    conformance::load(&conformance::vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn check(file: &str, min_cases: usize) {
-    let summary = conformance::run(&shared(file), None, false).expect("well-formed cases");
+    let summary = conformance::run(&vectors(file), None, false).expect("well-formed cases");
     for ((joint, form), (worst, n)) in &summary.worst {
         println!("{file}: {joint}/{form}: worst {worst:.3} eps*scale over {n} cases");
     }
@@ -37,13 +35,39 @@ fn hard_json() {
 /// nonzero value where the scale says the entry is identically zero.
 #[test]
 fn a_wrong_value_fails() {
-    let mut doc = shared("vectors.json");
-    let cases = doc["cases"].as_array_mut().expect("cases");
-    cases.retain(|c| c["joint"] == "universal" && c["formulation"] == "omega_body");
-    let gamma = &mut cases[0]["expected"]["gamma"][3];
-    let v = gamma.as_f64().expect("number");
-    *gamma = serde_json::json!(v * (1.0 + 1e-9));
-    cases[1]["expected"]["jacobian"][0][1] = serde_json::json!(1e-300);
+    let mut doc = vectors("vectors.json");
+    doc.cases.retain(|c| c.joint == "universal" && c.formulation == "omega_body");
+    doc.cases[0].expected.gamma[3] *= 1.0 + 1e-9;
+    doc.cases[1].expected.jacobian[0][1] = 1e-300;
     let summary = conformance::run(&doc, None, false).expect("well-formed cases");
     assert_eq!(summary.failures.len(), 2, "{:?}", summary.failures);
+}
+
+/// The repository's vectors are copies: where the originals sit beside the
+/// repository (the `shared` folder next to it, as on the developers' machines
+/// and in CI), they must be the same bytes, so that the references are never
+/// edited here by mistake nor left behind when the originals change. A bare
+/// clone has no originals and skips the check.
+#[test]
+fn in_repo_copies_match_the_originals() {
+    let ours = conformance::vectors_dir();
+    let repository = ours.parent().expect("the vectors folder is inside the repository");
+    // Its `conformance` folder inside the `shared` folder beside the repository.
+    let originals = repository.join("..").join("shared").join("conformance");
+    if !originals.is_dir() {
+        println!("skipped: no originals at {}", originals.display());
+        return;
+    }
+    for file in ["vectors.json", "hard.json"] {
+        let read = |dir: &std::path::Path| {
+            let path = dir.join(file);
+            std::fs::read(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
+        };
+        assert!(
+            read(&ours) == read(&originals),
+            "{} differs from {}: copy the original again",
+            ours.join(file).display(),
+            originals.join(file).display()
+        );
+    }
 }

@@ -1,7 +1,7 @@
 //! Hard cases: where the numbers are hard, where the geometry is singular, and
 //! where the inputs are not numbers at all.
 //!
-//! * The regimes of `shared/conformance/hard.json` one by one — bodies 1e6 m from
+//! * The regimes of `conformance/hard.json` one by one — bodies 1e6 m from
 //!   the origin, spin up to 3e3 rad/s, rotations near a half turn (`e0 ≈ 0`, both
 //!   signs), Euler parameters off the unit sphere (`euler`), offsets of 1e-6 m and
 //!   axes of length 1e-3 — against the 60-digit references under the
@@ -24,51 +24,48 @@
 //! against differences of `J v` for every joint and formulation
 //! (`tests/derivatives.rs`, `tests/catalogue.rs`).
 
-use std::path::PathBuf;
-
 use joint_runtime::analysis::{AnalysisError, AssemblyOptions, accelerations, assemble, velocities};
 use joint_runtime::conditioning::conditioning;
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, UnitQuaternion, Vector3};
 use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, Singularity, SystemState, TwoBodies};
-use joint_tests::conformance::{self, TOLERANCE};
+use joint_tests::conformance::{self, TOLERANCE, VectorFile};
 use joint_tests::joints::UniversalOmegaBody;
-use serde_json::Value;
 
-fn shared(file: &str) -> Value {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/conformance").join(file);
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    serde_json::from_str(&text).expect("valid JSON")
+fn vectors(file: &str) -> VectorFile {
+    conformance::load(&conformance::vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 // ---------------------------------------------------------------------------
 // hard.json, one regime at a time.
 
 /// The cases of `hard.json` whose id names `regime` (`joint/formulation/regime/NNN`).
-fn regime(name: &str) -> Value {
-    let mut doc = shared("hard.json");
-    let cases = doc["cases"].as_array_mut().expect("cases");
-    cases.retain(|c| c["id"].as_str().and_then(|id| id.split('/').nth(2)) == Some(name));
+fn regime(name: &str) -> VectorFile {
+    let mut doc = vectors("hard.json");
+    doc.cases.retain(|c| c.id.split('/').nth(2) == Some(name));
     doc
 }
 
+/// What the regime checks look at in a body, or in a relative state (which has
+/// no position).
+struct Pose {
+    r: Option<[f64; 3]>,
+    p: [f64; 4],
+    omega: Option<[f64; 3]>,
+}
+
 /// Every input state's bodies (or the relative state) of a document.
-fn bodies(doc: &Value) -> Vec<&Value> {
-    let cases = doc["cases"].as_array().expect("cases");
-    cases
+fn bodies(doc: &VectorFile) -> Vec<Pose> {
+    doc.cases
         .iter()
-        .flat_map(|c| {
-            let s = &c["state"];
-            match s.get("relative") {
-                Some(r) => vec![r],
-                None => vec![&s["body1"], &s["body2"]],
+        .flat_map(|c| match &c.state.relative {
+            Some(rel) => vec![Pose { r: None, p: rel.p, omega: Some(rel.omega) }],
+            None => {
+                let bodies = [&c.state.body1, &c.state.body2].into_iter().flatten();
+                bodies.map(|b| Pose { r: Some(b.r), p: b.p, omega: b.omega }).collect()
             }
         })
         .collect()
-}
-
-fn vector(v: &Value) -> Vec<f64> {
-    v.as_array().expect("array").iter().map(|x| x.as_f64().expect("number")).collect()
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -76,7 +73,7 @@ fn norm(v: &[f64]) -> f64 {
 }
 
 /// Runs a regime through the conformance test; returns the worst error (ε·scale).
-fn check_regime(name: &str, doc: &Value, min_cases: usize, formulations: usize) -> f64 {
+fn check_regime(name: &str, doc: &VectorFile, min_cases: usize, formulations: usize) -> f64 {
     let summary = conformance::run(doc, None, false).expect("well-formed cases");
     let mut worst = 0.0f64;
     for ((joint, form), (w, n)) in &summary.worst {
@@ -96,7 +93,7 @@ fn check_regime(name: &str, doc: &Value, min_cases: usize, formulations: usize) 
 #[test]
 fn far_from_the_origin() {
     let doc = regime("far");
-    let far = bodies(&doc).iter().filter_map(|b| b.get("r")).map(|r| norm(&vector(r))).fold(0.0, f64::max);
+    let far = bodies(&doc).iter().filter_map(|b| b.r).map(|r| norm(&r)).fold(0.0, f64::max);
     assert!(far >= 1e5, "the regime's bodies are only {far} m out");
     check_regime("far", &doc, 150, 5);
 }
@@ -104,7 +101,7 @@ fn far_from_the_origin() {
 #[test]
 fn fast_rotation() {
     let doc = regime("fast");
-    let spin = bodies(&doc).iter().filter_map(|b| b.get("omega")).map(|w| norm(&vector(w))).fold(0.0, f64::max);
+    let spin = bodies(&doc).iter().filter_map(|b| b.omega).map(|w| norm(&w)).fold(0.0, f64::max);
     assert!(spin >= 1e3, "the regime spins at only {spin} rad/s");
     check_regime("fast", &doc, 150, 5);
 }
@@ -112,7 +109,7 @@ fn fast_rotation() {
 #[test]
 fn near_a_half_turn_both_signs() {
     let doc = regime("half_turn");
-    let e0: Vec<f64> = bodies(&doc).iter().map(|b| vector(&b["p"])[0]).filter(|e| e.abs() < 1e-2).collect();
+    let e0: Vec<f64> = bodies(&doc).iter().map(|b| b.p[0]).filter(|e| e.abs() < 1e-2).collect();
     assert!(e0.iter().any(|&e| e > 0.0 || (e == 0.0 && e.is_sign_positive())), "no e0 ≈ +0");
     assert!(e0.iter().any(|&e| e < 0.0 || (e == 0.0 && e.is_sign_negative())), "no e0 ≈ −0");
     check_regime("half_turn", &doc, 150, 5);
@@ -121,7 +118,7 @@ fn near_a_half_turn_both_signs() {
 #[test]
 fn euler_parameters_off_the_unit_sphere() {
     let doc = regime("nonunit");
-    let off = bodies(&doc).iter().map(|b| (norm(&vector(&b["p"])) - 1.0).abs()).fold(0.0, f64::max);
+    let off = bodies(&doc).iter().map(|b| (norm(&b.p) - 1.0).abs()).fold(0.0, f64::max);
     assert!(off >= 0.1, "|p| − 1 is at most {off}");
     check_regime("nonunit", &doc, 30, 1);
 }
@@ -130,12 +127,10 @@ fn euler_parameters_off_the_unit_sphere() {
 fn tiny_offsets_and_short_axes() {
     let doc = regime("tiny");
     let (mut offset, mut axis) = (f64::INFINITY, f64::INFINITY);
-    for c in doc["cases"].as_array().expect("cases") {
-        for (k, v) in c["params"].as_object().expect("params") {
-            if let Some(a) = v.as_array().filter(|a| a.len() == 3) {
-                let n = norm(&a.iter().map(|x| x.as_f64().expect("number")).collect::<Vec<_>>());
-                if k.starts_with("rho") { offset = offset.min(n) } else { axis = axis.min(n) }
-            }
+    for c in &doc.cases {
+        for (k, v) in c.params.vectors() {
+            let n = norm(&v);
+            if k.starts_with("rho") { offset = offset.min(n) } else { axis = axis.min(n) }
         }
     }
     assert!(offset <= 1e-5 && axis <= 1e-2, "offsets down to {offset}, axes down to {axis}");
@@ -307,13 +302,8 @@ fn propagated(base: &[f64], moved: &[f64], poisoned: &[f64], nan: bool) -> Resul
 
 #[test]
 fn generated_functions_propagate_nan_and_infinity() {
-    let doc = shared("vectors.json");
-    let cases = doc["cases"].as_array().expect("cases");
-    let mut groups: std::collections::BTreeMap<(String, String), Vec<&Value>> = Default::default();
-    for c in cases {
-        let key = (c["joint"].as_str().expect("joint").to_string(), c["formulation"].as_str().expect("f").to_string());
-        groups.entry(key).or_default().push(c);
-    }
+    let doc = vectors("vectors.json");
+    let groups = conformance::groups(&doc.cases, None);
     let (mut checked, mut dependent) = (0usize, 0usize);
     for ((joint, form), cs) in &groups {
         let group = joint_tests::joints::group(joint, form, cs).expect("generated").expect("parsed");

@@ -7,42 +7,38 @@
 //! diagrams ([`joint_examples::report::simulation`]), prints the summary tables
 //! and writes `report/README.md` with the SVG figures.
 //!
-//! Options: `--vectors DIR` (default `../shared/conformance`), `--out DIR`
-//! (default `report`), `--no-simulation` (the evaluation level only).
+//! Options (`--help`): `--vectors DIR` (default: the repository's
+//! `conformance/`, found from any directory), `--out DIR` (default `report`),
+//! `--no-simulation` (the evaluation level only).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
+use clap::Parser;
 use joint_examples::report::simulation::{self, Series};
 use joint_examples::report::variants::{self, GroupResult};
+use joint_tests::conformance::{self, VectorFile};
 
 /// The command the README gives to reproduce the report.
 const COMMAND: &str = "cargo run --release -p joint-examples --bin speed-vs-error";
 
-/// Command-line options.
+/// Times the generated Φ, J and γ against a hand-written implementation,
+/// num-dual and central differences on the conformance vectors, runs the
+/// simulations' work–precision diagrams, and writes the report with its figures.
+#[derive(Parser)]
+#[command(name = "speed-vs-error")]
 struct Options {
+    /// Folder holding vectors.json and hard.json; the default is the repository's copy, found from any working directory
+    #[arg(long, value_name = "DIR", default_value_os_t = conformance::vectors_dir())]
     vectors: PathBuf,
+    /// Folder to write README.md and the SVG figures into
+    #[arg(long, value_name = "DIR", default_value = "report")]
     out: PathBuf,
-    simulation: bool,
-}
-
-fn options() -> Result<Options, String> {
-    let mut o = Options { vectors: "../shared/conformance".into(), out: "report".into(), simulation: true };
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--vectors" => o.vectors = args.next().ok_or("--vectors needs a directory")?.into(),
-            "--out" => o.out = args.next().ok_or("--out needs a directory")?.into(),
-            "--no-simulation" => o.simulation = false,
-            "-h" | "--help" => {
-                return Err(format!("usage: {COMMAND} -- [--vectors DIR] [--out DIR] [--no-simulation]"));
-            }
-            other => return Err(format!("unknown argument `{other}` (try --help)")),
-        }
-    }
-    Ok(o)
+    /// Measure the evaluation level only, skipping the simulations' work–precision diagrams
+    #[arg(long)]
+    no_simulation: bool,
 }
 
 /// The CPU model and the number of logical cores, from `/proc/cpuinfo`.
@@ -57,15 +53,19 @@ fn machine() -> String {
     format!("{model}, {cores} logical cores ({} {})", std::env::consts::OS, std::env::consts::ARCH)
 }
 
-fn read_vectors(dir: &Path) -> Result<Vec<serde_json::Value>, String> {
-    ["vectors.json", "hard.json"]
-        .iter()
-        .map(|f| {
-            let path = dir.join(f);
-            let text = std::fs::read_to_string(&path).map_err(|e| format!("reading {}: {e}", path.display()))?;
-            serde_json::from_str(&text).map_err(|e| format!("parsing {}: {e}", path.display()))
-        })
-        .collect()
+fn read_vectors(dir: &Path) -> Result<Vec<VectorFile>, String> {
+    ["vectors.json", "hard.json"].iter().map(|f| conformance::load(&dir.join(f))).collect()
+}
+
+/// The vectors folder as the README names it: relative to the repository when
+/// inside it, so that the committed report names no machine's path.
+fn shown(vectors: &Path) -> String {
+    let ours = conformance::vectors_dir();
+    let repository = ours.parent().unwrap_or(&ours);
+    match vectors.strip_prefix(repository) {
+        Ok(inside) => format!("`{}/` in the repository", inside.display()),
+        Err(_) => format!("`{}`", vectors.display()),
+    }
 }
 
 /// The figures of the evaluation level: file name, formulations, caption.
@@ -184,8 +184,7 @@ fn simulation_section(series: &[Series], out: &Path) -> Result<String, String> {
     Ok(s)
 }
 
-fn run() -> Result<(), String> {
-    let o = options()?;
+fn run(o: &Options) -> Result<(), String> {
     let start = Instant::now();
     let mut progress = |what: &str| eprintln!("[{:6.1} s] {what}", start.elapsed().as_secs_f64());
     progress(&format!("reading {}", o.vectors.display()));
@@ -200,7 +199,7 @@ fn run() -> Result<(), String> {
     let evaluation = evaluation_section(&results, cases);
     let evaluation_time = start.elapsed().as_secs_f64();
 
-    let simulation = if o.simulation {
+    let simulation = if !o.no_simulation {
         progress("simulation level: work–precision diagrams");
         let series = simulation::work_precision(&mut progress);
         Some(simulation_section(&series, &o.out)?)
@@ -212,11 +211,11 @@ fn run() -> Result<(), String> {
     let mut readme = format!(
         "# Speed against error: generated code and the alternatives\n\n\
          Written by `{COMMAND}` (from the repository root; the conformance vectors are read from \
-         `{}`).\n\n\
+         {}).\n\n\
          - Machine: {}, one thread.\n\
          - Build: release (`[profile.release]` of the workspace).\n\
          - Run time: {total:.0} s ({evaluation_time:.0} s for the evaluation level).\n\n",
-        o.vectors.display(),
+        shown(&o.vectors),
         machine(),
     );
     readme += &evaluation;
@@ -243,7 +242,9 @@ fn run() -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match run() {
+    // clap exits by itself: 0 for --help, 2 for a bad command line.
+    let options = Options::parse();
+    match run(&options) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("speed-vs-error: {e}");

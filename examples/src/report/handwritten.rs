@@ -53,8 +53,7 @@
 
 use joint_runtime::nalgebra::{Matrix3, Matrix3x4, SMatrix, SVector, Scalar, Vector3, Vector4};
 use joint_runtime::{EulerBody, Evaluation, Formulation, Joint, OmegaBody, Ops, RelativeState, TwoBodies};
-use joint_tests::conformance::FromJson;
-use serde_json::Value;
+use joint_tests::conformance::{Case, FromCase, required};
 
 use super::counting::HandScalar;
 
@@ -577,14 +576,9 @@ macro_rules! hand_joint {
         }
 
         /// Built from a whole conformance case: its `params`.
-        impl FromJson for $name<f64> {
-            fn from_json(case: &Value) -> Result<Self, String> {
-                let v = case.get("params").ok_or("missing `params`")?;
-                Ok($name {
-                    $($p: FromJson::from_json(
-                        v.get(stringify!($p)).ok_or(concat!("missing `", stringify!($p), "`"))?,
-                    )?,)*
-                })
+        impl FromCase for $name<f64> {
+            fn from_case(case: &Case) -> Result<Self, String> {
+                Ok($name { $($p: required(case.params.$p, stringify!($p))?.into(),)* })
             }
         }
     };

@@ -32,12 +32,11 @@ use std::time::Instant;
 
 use joint_runtime::Joint;
 use joint_runtime::nalgebra::{Const, SMatrix, SVector, SimdRealField, U1, Vector3, Vector4};
-use joint_tests::conformance::{EPS, Output, case_error};
+use joint_tests::conformance::{self, EPS, Output, VectorFile, case_error};
 use joint_tests::joints;
 use joint_tests::trajectory::{BODY, Coords, Euler, Flat, Form, OmegaBodyF, OmegaInertial, RelB1, RelB2, Rot, along};
 use joint_tests::trajectory::{lift, quat_mul};
 use num_dual::{Derivative, Dual2_64, DualSVec64};
-use serde_json::Value;
 
 use super::counting::{Counted, ToCounted, count};
 use super::handwritten;
@@ -95,29 +94,25 @@ pub struct Params<T> {
     pub rho2: Vector3<T>,
 }
 
-impl Params<f64> {
-    /// Reads a case's `params` (a missing parameter is zero).
-    pub fn from_case(case: &Value) -> Result<Self, String> {
-        let params = case.get("params").ok_or("missing `params`")?;
-        let v = |name: &str| -> Result<Vector3<f64>, String> {
-            match params.get(name) {
-                None => Ok(Vector3::zeros()),
-                Some(x) => vector::<3>(x).map(Vector3::from).map_err(|e| format!("params.{name}: {e}")),
-            }
-        };
-        Ok(Params {
-            s: v("s")?,
-            h: v("h")?,
-            b: v("b")?,
-            c: v("c")?,
-            f: v("f")?,
-            g: v("g")?,
-            k: v("k")?,
-            rho1: v("rho1")?,
-            rho2: v("rho2")?,
-        })
+impl From<&conformance::Params> for Params<f64> {
+    /// A case's parameters; a missing one is zero.
+    fn from(p: &conformance::Params) -> Self {
+        let v = |x: Option<[f64; 3]>| x.map_or_else(Vector3::zeros, Vector3::from);
+        Params {
+            s: v(p.s),
+            h: v(p.h),
+            b: v(p.b),
+            c: v(p.c),
+            f: v(p.f),
+            g: v(p.g),
+            k: v(p.k),
+            rho1: v(p.rho1),
+            rho2: v(p.rho2),
+        }
     }
+}
 
+impl Params<f64> {
     /// The parameters converted to the scalar `T`.
     pub fn lift<T: SimdRealField + Copy>(&self) -> Params<T> {
         let l = |v: &Vector3<f64>| v.map(lift::<T>);
@@ -135,58 +130,43 @@ impl Params<f64> {
     }
 }
 
-fn vector<const N: usize>(v: &Value) -> Result<[f64; N], String> {
-    let xs = v.as_array().ok_or("not an array")?;
-    if xs.len() != N {
-        return Err(format!("{} numbers, expected {N}", xs.len()));
-    }
-    let mut out = [0.0; N];
-    for (o, x) in out.iter_mut().zip(xs) {
-        *o = x.as_f64().ok_or("not a number")?;
-    }
-    Ok(out)
-}
-
 /// A case's state as flat coordinates ([`joint_tests::trajectory::Coords`]):
 /// per body `r, p, ṙ` and `ω` or `ṗ`; the relative formulations fill body 0
 /// with `δ, p_rel, δ̇, ω_rel`.
-pub fn coords_from_case(case: &Value) -> Result<Coords<f64>, String> {
-    let state = case.get("state").ok_or("missing `state`")?;
+///
+/// # Errors
+/// The state has neither a relative state nor both bodies.
+pub fn coords_from_state(state: &conformance::State) -> Result<Coords<f64>, String> {
     let mut c = Flat([0.0; 34]);
-    let mut put = |o: usize, body: &Value, key: &str, n: usize, required: bool| -> Result<(), String> {
-        match body.get(key) {
-            Some(x) if n == 3 => c.set(o, &vector::<3>(x).map_err(|e| format!("{key}: {e}"))?),
-            Some(x) => c.set(o, &vector::<4>(x).map_err(|e| format!("{key}: {e}"))?),
-            None if required => return Err(format!("missing `{key}`")),
-            None => {}
+    if let Some(rel) = &state.relative {
+        c.set(0, &rel.delta);
+        c.set(3, &rel.p);
+        c.set(7, &rel.delta_dot);
+        c.set(10, &rel.omega);
+        return Ok(c);
+    }
+    for (b, body) in [(0, &state.body1), (1, &state.body2)] {
+        let body = body.as_ref().ok_or_else(|| format!("missing `state.body{}`", b + 1))?;
+        let o = BODY * b;
+        c.set(o, &body.r);
+        c.set(o + 3, &body.p);
+        c.set(o + 7, &body.rdot);
+        // `omega` or `pdot`, whichever the formulation has.
+        if let Some(omega) = &body.omega {
+            c.set(o + 10, omega);
         }
-        Ok(())
-    };
-    if let Some(rel) = state.get("relative") {
-        put(0, rel, "delta", 3, true)?;
-        put(3, rel, "p", 4, true)?;
-        put(7, rel, "delta_dot", 3, true)?;
-        put(10, rel, "omega", 3, true)?;
-    } else {
-        for (b, key) in ["body1", "body2"].iter().enumerate() {
-            let body = state.get(key).ok_or_else(|| format!("missing `state.{key}`"))?;
-            put(BODY * b, body, "r", 3, true)?;
-            put(BODY * b + 3, body, "p", 4, true)?;
-            put(BODY * b + 7, body, "rdot", 3, true)?;
-            put(BODY * b + 10, body, "omega", 3, false)?;
-            put(BODY * b + 13, body, "pdot", 4, false)?;
+        if let Some(pdot) = &body.pdot {
+            c.set(o + 13, pdot);
         }
     }
     Ok(c)
 }
 
-/// One conformance case, parsed.
+/// One conformance case, prepared for the variants.
 #[derive(Clone, Debug)]
 pub struct Case<'a> {
-    /// The case as read (expected values and scales).
-    pub json: &'a Value,
-    /// The case id.
-    pub id: String,
+    /// The case as read (id, expected values and scales).
+    pub source: &'a conformance::Case,
     /// The joint's parameters.
     pub params: Params<f64>,
     /// The state.
@@ -194,12 +174,13 @@ pub struct Case<'a> {
 }
 
 impl<'a> Case<'a> {
-    /// Parses `json`.
-    pub fn new(json: &'a Value) -> Result<Self, String> {
-        let id = json.get("id").and_then(Value::as_str).unwrap_or("?").to_string();
-        let params = Params::from_case(json).map_err(|e| format!("{id}: {e}"))?;
-        let coords = coords_from_case(json).map_err(|e| format!("{id}: {e}"))?;
-        Ok(Case { json, id, params, coords })
+    /// Prepares `source`.
+    ///
+    /// # Errors
+    /// The state is incomplete (see [`coords_from_state`]).
+    pub fn new(source: &'a conformance::Case) -> Result<Self, String> {
+        let coords = coords_from_state(&source.state).map_err(|e| format!("{}: {e}", source.id))?;
+        Ok(Case { source, params: Params::from(&source.params), coords })
     }
 }
 
@@ -245,14 +226,6 @@ impl Errors {
     }
 }
 
-fn numbers(v: Option<&Value>) -> Vec<f64> {
-    v.and_then(Value::as_array).map(|xs| xs.iter().filter_map(Value::as_f64).collect()).unwrap_or_default()
-}
-
-fn rows(v: Option<&Value>) -> Vec<Vec<f64>> {
-    v.and_then(Value::as_array).map(|rs| rs.iter().map(|r| numbers(Some(r))).collect()).unwrap_or_default()
-}
-
 /// Moves nonzero entries of zero scale out of `got` into `(units, count)`.
 fn take_zeros(got: &mut [f64], scale: &[f64], reference: f64) -> (f64, usize) {
     let (mut worst, mut count) = (0.0f64, 0);
@@ -269,22 +242,14 @@ fn take_zeros(got: &mut [f64], scale: &[f64], reference: f64) -> (f64, usize) {
 
 /// The errors of one case's output, Φ, J and γ separately, each through
 /// [`case_error`] with the other two parts replaced by the expected values.
-pub fn errors(case: &Value, got: &Output) -> Result<Errors, String> {
-    let expected = case.get("expected").ok_or("missing `expected`")?;
-    let scale = case.get("scale").ok_or("missing `scale`")?;
-    let want = Output {
-        id: got.id.clone(),
-        phi: numbers(expected.get("phi")),
-        jacobian: rows(expected.get("jacobian")),
-        gamma: numbers(expected.get("gamma")),
-    };
-    let (sphi, sjac, sgamma) = (numbers(scale.get("phi")), rows(scale.get("jacobian")), numbers(scale.get("gamma")));
+pub fn errors(case: &conformance::Case, got: &Output) -> Result<Errors, String> {
+    let (want, scale) = (&case.expected, &case.scale);
     let mut got = got.clone();
     let biggest = |xs: &[f64]| xs.iter().copied().fold(0.0, f64::max) / 64.0;
-    let (zphi, nphi) = take_zeros(&mut got.phi, &sphi, biggest(&sphi));
-    let (zgamma, ngamma) = take_zeros(&mut got.gamma, &sgamma, biggest(&sgamma));
+    let (zphi, nphi) = take_zeros(&mut got.phi, &scale.phi, biggest(&scale.phi));
+    let (zgamma, ngamma) = take_zeros(&mut got.gamma, &scale.gamma, biggest(&scale.gamma));
     let (mut zjac, mut njac) = (0.0f64, 0);
-    for (row, srow) in got.jacobian.iter_mut().zip(&sjac) {
+    for (row, srow) in got.jacobian.iter_mut().zip(&scale.jacobian) {
         let (z, n) = take_zeros(row, srow, biggest(srow));
         zjac = zjac.max(z);
         njac += n;
@@ -305,7 +270,7 @@ pub fn errors(case: &Value, got: &Output) -> Result<Errors, String> {
 pub fn worst_errors(cases: &[Case], outputs: &[Output]) -> Result<Errors, String> {
     let mut worst = Errors::default();
     for (case, out) in cases.iter().zip(outputs) {
-        worst = worst.max(&errors(case.json, out).map_err(|e| format!("{}: {e}", case.id))?);
+        worst = worst.max(&errors(case.source, out).map_err(|e| format!("{}: {e}", case.source.id))?);
     }
     Ok(worst)
 }
@@ -509,7 +474,7 @@ where
         .zip(&prepared)
         .map(|(c, (j, s))| {
             let e = j.evaluate(s);
-            output(&c.id, &e.phi, &e.jacobian, &e.gamma, |x| x)
+            output(&c.source.id, &e.phi, &e.jacobian, &e.gamma, |x| x)
         })
         .collect();
     let once = Box::new(move || {
@@ -719,7 +684,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
         .zip(&g64)
         .map(|(c, (j, s))| {
             let e = j.evaluate(s);
-            output(&c.id, &e.phi, &e.jacobian, &e.gamma, |x| x)
+            output(&c.source.id, &e.phi, &e.jacobian, &e.gamma, |x| x)
         })
         .collect();
     let generated_errors = worst_errors(cases, &outputs)?;
@@ -755,7 +720,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
         .zip(&g32)
         .map(|(c, (j, s))| {
             let e = j.evaluate(s);
-            output(&c.id, &e.phi, &e.jacobian, &e.gamma, f64::from)
+            output(&c.source.id, &e.phi, &e.jacobian, &e.gamma, f64::from)
         })
         .collect();
     let generated_f32 = Measured {
@@ -781,7 +746,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
         .zip(&duals)
         .map(|(c, (jd, j2, c0))| {
             let (p, j, g) = num_dual_eval::<Fa, R, C>(jd, j2, c0);
-            output(&c.id, &p, &j, &g, |x| x)
+            output(&c.source.id, &p, &j, &g, |x| x)
         })
         .collect();
     let num_dual = Measured {
@@ -807,7 +772,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
             .zip(&plain)
             .map(|(c, (j, c0))| {
                 let (p, jac, g) = central_differences::<Fa, R, C>(j, c0, h, &turns);
-                output(&c.id, &p, &jac, &g, |x| x)
+                output(&c.source.id, &p, &jac, &g, |x| x)
             })
             .collect();
         let ns = *fd_ns.get_or_insert_with(|| {
@@ -836,19 +801,13 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
 
 /// Measures every group of [`GROUPS`] over the cases of `docs` (the vectors
 /// files), reporting each step through `progress`.
-pub fn measure_all(docs: &[Value], progress: &mut dyn FnMut(&str)) -> Result<Vec<GroupResult>, String> {
-    let mut all = Vec::new();
-    for doc in docs {
-        all.extend(doc.get("cases").and_then(Value::as_array).ok_or("no `cases` array")?.iter());
-    }
+pub fn measure_all(docs: &[VectorFile], progress: &mut dyn FnMut(&str)) -> Result<Vec<GroupResult>, String> {
+    let all: Vec<&conformance::Case> = docs.iter().flat_map(|d| &d.cases).collect();
     let mut results = Vec::new();
     for (i, (joint, form)) in GROUPS.iter().enumerate() {
         let cases = all
             .iter()
-            .filter(|c| {
-                c.get("joint").and_then(Value::as_str) == Some(joint)
-                    && c.get("formulation").and_then(Value::as_str) == Some(form)
-            })
+            .filter(|c| c.joint == *joint && c.formulation == *form)
             .map(|c| Case::new(c))
             .collect::<Result<Vec<_>, _>>()?;
         if cases.is_empty() {
