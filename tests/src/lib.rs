@@ -7,6 +7,12 @@
 //! and dynamics tests, [`random`] the deterministic random states of the batch
 //! tests and benchmark.
 
+/// The repository's README, whose examples run as doctests here (the crate
+/// READMEs are their crates' own docs).
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+struct RepositoryReadme;
+
 pub mod conformance;
 pub mod joints;
 pub mod random;
