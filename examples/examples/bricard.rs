@@ -3,7 +3,7 @@
 //! find, assembles the mechanism from a 5° perturbation, and runs 10 s of free
 //! motion under gravity with both integrators, printing energy and constraint
 //! drift and the end position of the point `P3`; plots go to
-//! `target/plots/bricard_*.svg`.
+//! `target/plots/bricard_*.svg` and an animation of the RK4 run to `target/plots/bricard.svg`.
 //!
 //! ```text
 //! cargo run --release --example bricard

@@ -2,7 +2,8 @@
 //! constant speed in its bearing, a universal joint, and an output shaft in a
 //! bearing bent by β. Kinematic analysis over one turn for β = 10°, 30°, 60°, 85°
 //! against the closed form `tan φ₂ = tan φ₁ / cos β`, the redundant rows the
-//! analysis finds, and a plot of the output speed.
+//! analysis finds, a plot of the output speed and an animation of the 60° shaft
+//! (`target/plots/cardan.svg`).
 //!
 //! ```text
 //! cargo run --release --example cardan
@@ -10,7 +11,6 @@
 
 use joint_examples::cardan::{self, Curve, Sweep, plot_speed_ratios};
 use joint_examples::write_animation;
-use joint_runtime::nalgebra::Vector3;
 use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;
@@ -79,11 +79,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     plot_speed_ratios(&path, "Cardan shaft: output speed over one input turn", &curves)?;
     println!("\nplot: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
     // The 60° shaft turning, its yokes marked (points on the axes alone would not show the spin).
-    let mut run = sweeps[2].trajectory.clone();
-    for y in [-0.15, 0.15] {
-        run.add_point(0, Vector3::new(0.5, y, 0.0));
-        run.add_point(1, Vector3::new(-0.5, 0.0, y));
-    }
+    let shown = sweeps.iter().find(|s| (s.bend.to_degrees() - 60.0).abs() < 1e-9).ok_or("no 60° sweep")?;
+    let mut run = shown.trajectory.clone();
+    cardan::mark_yokes(&mut run, 0, &[1]);
     let path = path.with_file_name("cardan.svg");
     let options = SvgOptions::default().with_title("Cardan shaft bent by 60°, one input turn per second");
     write_animation(&path, &run, &options)?;

@@ -3,7 +3,8 @@
 //! arrangement (input and output meeting at 2β). With the intermediate shaft's
 //! yokes in phase the output turns at exactly the input speed; a quarter turn out
 //! of phase, the two joints' fluctuations multiply:
-//! `ω_o/ω₁ = cos²β / (1 − (1 − cos⁴β) cos²φ₁)`.
+//! `ω_o/ω₁ = cos²β / (1 − (1 − cos⁴β) cos²φ₁)`. A plot of the output speeds and
+//! an animation of the Z shaft (`target/plots/double-cardan.svg`).
 //!
 //! ```text
 //! cargo run --release --example double_cardan
@@ -12,7 +13,6 @@
 use joint_examples::cardan::{Curve, plot_speed_ratios};
 use joint_examples::double_cardan::{self, Arrangement, Phasing, Sweep};
 use joint_examples::write_animation;
-use joint_runtime::nalgebra::Vector3;
 use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;
@@ -111,12 +111,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     plot_speed_ratios(&path, "Double Cardan shaft: output speed over one input turn", &curves)?;
     println!("\nplot: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
     // The Z arrangement bent by 30°, yokes in phase, its yokes marked.
-    let mut run = sweeps[1].trajectory.clone();
-    for y in [-0.15, 0.15] {
-        run.add_point(0, Vector3::new(0.5, y, 0.0));
-        run.add_point(1, Vector3::new(-0.5, 0.0, y));
-        run.add_point(2, Vector3::new(-0.5, 0.0, y));
-    }
+    let shown = sweeps
+        .iter()
+        .find(|s| {
+            let g = s.geometry;
+            (g.arrangement, g.phasing) == (Arrangement::Z, Phasing::InPhase)
+                && (g.bend.to_degrees() - 30.0).abs() < 1e-9
+        })
+        .ok_or("no Z, in-phase, 30° sweep")?;
+    let mut run = shown.trajectory.clone();
+    joint_examples::cardan::mark_yokes(&mut run, 0, &[1, 2]);
     let path = path.with_file_name("double-cardan.svg");
     let options = SvgOptions::default().with_title("Double Cardan shaft (Z, in phase, 30°), one input turn per second");
     write_animation(&path, &run, &options)?;

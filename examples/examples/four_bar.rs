@@ -3,7 +3,7 @@
 //! all bars align and the Jacobian loses rank. The program prints the rank drop
 //! at the singular position, then runs 10 s and prints energy and constraint
 //! drift, the passages through the singular position and how close they came;
-//! plots go to `target/plots/four_bar_*.svg`.
+//! plots go to `target/plots/four_bar_*.svg`, an animation to `four_bar.svg`.
 //!
 //! ```text
 //! cargo run --release --example four_bar

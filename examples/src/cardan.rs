@@ -406,3 +406,16 @@ pub fn plot_speed_ratios(path: &std::path::Path, caption: &str, curves: &[Curve]
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
+
+/// Marks the yokes of a shaft drawing: on body `input` two points either side
+/// of its fork at `(0.5, 0, 0)` along y, on each of `outputs` either side of the
+/// fork at `(−0.5, 0, 0)` along z (the yoke axes `s`, `h` of the crosses), so
+/// that the shafts' spin shows, which their points on the axes alone do not.
+pub fn mark_yokes<const NB: usize>(run: &mut Trajectory<NB>, input: usize, outputs: &[usize]) {
+    for side in [-0.15, 0.15] {
+        run.add_point(input, Vector3::new(0.5, side, 0.0));
+        for &body in outputs {
+            run.add_point(body, Vector3::new(-0.5, 0.0, side));
+        }
+    }
+}

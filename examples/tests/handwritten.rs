@@ -8,10 +8,6 @@ use joint_examples::report::handwritten::*;
 use joint_runtime::Joint;
 use joint_tests::conformance::{self, Case, FromCase, Output, TOLERANCE, VectorFile, case_error};
 
-fn vectors(file: &str) -> VectorFile {
-    conformance::load(&conformance::vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
-}
-
 fn cases<'a>(doc: &'a VectorFile, joint: &str, formulation: &str) -> Vec<&'a Case> {
     doc.cases.iter().filter(|c| c.joint == joint && c.formulation == formulation).collect()
 }
@@ -70,7 +66,7 @@ where
 /// land far outside the tolerance.
 #[test]
 fn a_wrong_convention_fails() {
-    let doc = vectors("vectors.json");
+    let doc = conformance::vectors("vectors.json");
     let failed = |errors: Vec<(String, Result<f64, String>)>| {
         assert!(!errors.is_empty());
         errors.iter().filter(|(_, e)| e.as_ref().map_or(true, |e| *e > TOLERANCE)).count() * 2 > errors.len()
@@ -88,7 +84,7 @@ fn a_wrong_convention_fails() {
 #[test]
 fn runs_at_f32() {
     use joint_runtime::{EulerBody, TwoBodies};
-    let doc = vectors("vectors.json");
+    let doc = conformance::vectors("vectors.json");
     let case = cases(&doc, "universal", "euler")[0];
     let j = UniversalEuler::<f64>::from_case(case).expect("params");
     let state = TwoBodies::<EulerBody<f64>>::from_case(case).expect("state");
@@ -112,7 +108,7 @@ macro_rules! conformance {
         #[test]
         fn $test() {
             for (file, min_cases) in [("vectors.json", 4), ("hard.json", 4)] {
-                let doc = vectors(file);
+                let doc = conformance::vectors(file);
                 let (err, id, n) = worst::<$ty<f64>, $r, $c>(&doc, $joint, $form);
                 println!("{file}: {}/{}: worst {err:.2} ε·scale over {n} cases ({id})", $joint, $form);
                 assert!(n >= min_cases, "{file}: only {n} cases of {}/{}", $joint, $form);
@@ -145,7 +141,7 @@ conformance! {
 /// `vectors.json`, counted with `Counted`; the counted values must be the `f64` ones.
 macro_rules! op_counts {
     ($($ty:ident, $gen:ident, $joint:literal, $form:literal, $r:literal, $c:literal;)*) => {{
-        let doc = vectors("vectors.json");
+        let doc = conformance::vectors("vectors.json");
         let mut rows = Vec::new();
         $({
             let case = cases(&doc, $joint, $form)[0];

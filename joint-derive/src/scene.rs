@@ -336,10 +336,7 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[(String
     });
     let number = |v: f64| Literal::f64_suffixed(v);
     let vec3 = |q: &Quantity| match q {
-        Quantity::Const(v) => {
-            let [x, y, z] = [0, 1, 2].map(|i| number(v.get(i).copied().unwrap_or(0.0)));
-            quote!(#krate::nalgebra::Vector3::new(#x, #y, #z))
-        }
+        Quantity::Const(v) => const_vector(v, &krate),
         Quantity::Field(f) => quote!(self.#f),
     };
     let inertias = s.bodies.iter().map(|b| {
@@ -426,10 +423,7 @@ fn joint_points(s: &SceneDecl, krate: &TokenStream) -> Vec<TokenStream> {
         for (param, body) in [("rho1", j.bodies[0]), ("rho2", j.bodies[1])] {
             let Some((_, source)) = j.params.iter().find(|(p, _)| *p == param) else { continue };
             let point = match source {
-                Source::Const(v, _) => {
-                    let [x, y, z] = [0, 1, 2].map(|i| Literal::f64_suffixed(v.get(i).copied().unwrap_or(0.0)));
-                    quote!(#krate::nalgebra::Vector3::new(#x, #y, #z))
-                }
+                Source::Const(v, _) => const_vector(v, krate),
                 Source::Field { member, .. } => quote!(self.#member),
             };
             let body = match body {
@@ -443,4 +437,10 @@ fn joint_points(s: &SceneDecl, krate: &TokenStream) -> Vec<TokenStream> {
         }
     }
     calls
+}
+
+/// A constant 3-vector (missing components zero; the parser checked the length).
+fn const_vector(v: &[f64], krate: &TokenStream) -> TokenStream {
+    let [x, y, z] = [0, 1, 2].map(|i| Literal::f64_suffixed(v.get(i).copied().unwrap_or(0.0)));
+    quote!(#krate::nalgebra::Vector3::new(#x, #y, #z))
 }

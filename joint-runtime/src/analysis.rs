@@ -360,6 +360,7 @@ impl From<LinalgError> for AnalysisError {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct AssemblyOptions {
     /// Converged when ‖Φ‖₂ ≤ `tolerance`.
     pub tolerance: f64,

@@ -206,6 +206,7 @@ pub const REDUNDANT_TOLERANCE: f64 = 1e-4;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct SimulationOptions {
     /// The integrator.
     pub integrator: Integrator,

@@ -116,6 +116,7 @@ impl View {
 
 /// How [`Trajectory::svg`] draws.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default))]
 #[non_exhaustive]
 pub struct SvgOptions {
     /// The projection.
@@ -201,7 +202,8 @@ impl<const NB: usize> Trajectory<NB> {
         }
     }
 
-    /// Appends a sample.
+    /// Appends a sample. Record in time order: the animation's key times follow
+    /// the samples' times.
     pub fn record(&mut self, state: &SystemState<NB>) {
         self.samples.push(*state);
     }

@@ -1,4 +1,5 @@
-//! `[T; N]` for every `N` (serde's own impls stop at 32), as a tuple of `N`
+//! `[T; N]` for a generic `N` (serde implements arrays only for each length up
+//! to 32, not for a const parameter), as a tuple of `N`
 //! elements: `#[serde(with = "crate::serde_array")]` on a field.
 
 use core::fmt;

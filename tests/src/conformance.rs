@@ -13,7 +13,6 @@ use std::time::Instant;
 
 use joint_runtime::{Drive, EulerBody, Joint, OmegaBody, RelativeState, TwoBodies};
 use serde::Deserialize;
-use serde_json::Value;
 
 /// `ε = 2⁻⁵²`.
 pub const EPS: f64 = f64::EPSILON;
@@ -37,6 +36,15 @@ pub fn vectors_dir() -> PathBuf {
 pub fn load(path: &Path) -> Result<VectorFile, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
     serde_json::from_str(&text).map_err(|e| format!("parsing {}: {e}", path.display()))
+}
+
+/// Reads `file` (`vectors.json` or `hard.json`) from the repository's
+/// [`vectors_dir`]; a test's failure if it cannot.
+///
+/// # Panics
+/// When the file is missing or malformed: the tests have nothing to check.
+pub fn vectors(file: &str) -> VectorFile {
+    load(&vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 // ---------------------------------------------------------------------------
@@ -237,8 +245,8 @@ impl FromCase for RelativeState<f64> {
 // Evaluating cases.
 // ---------------------------------------------------------------------------
 
-/// What the generated code computed for one case.
-#[derive(Clone, Debug)]
+/// What the generated code computed for one case (a case of the `--emit` document).
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct Output {
     /// The case id.
     pub id: String,
@@ -429,7 +437,7 @@ where
     }
 }
 
-/// The worst error of one case in units of `ε · max(scale, floor)`, or `None`
+/// The worst error of one case in units of `ε · max(scale, floor)`, or `Err`
 /// when an entry whose scale is 0 is not exactly zero, or a shape is wrong.
 pub fn case_error(case: &Case, got: &Output) -> Result<f64, String> {
     let (expected, scale) = (&case.expected, &case.scale);
@@ -531,11 +539,9 @@ pub fn run(doc: &VectorFile, joints: Option<&[String]>, time: bool) -> Result<Su
     Ok(summary)
 }
 
-/// The `--emit` document.
-pub fn emit_json(outputs: &[Output]) -> Value {
-    let cases: Vec<Value> = outputs
-        .iter()
-        .map(|o| serde_json::json!({"id": o.id, "phi": o.phi, "jacobian": o.jacobian, "gamma": o.gamma}))
-        .collect();
-    serde_json::json!({ "cases": cases })
+/// The `--emit` document: `{"cases": [{"id", "phi", "jacobian", "gamma"}, ..]}`.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Emitted<'a> {
+    /// What was computed, case by case.
+    pub cases: &'a [Output],
 }

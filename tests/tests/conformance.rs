@@ -3,14 +3,10 @@
 //! the conformance README; and the check that those copies are still the
 //! originals they were taken from.
 
-use joint_tests::conformance::{self, TOLERANCE, VectorFile};
-
-fn vectors(file: &str) -> VectorFile {
-    conformance::load(&conformance::vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
-}
+use joint_tests::conformance::{self, TOLERANCE};
 
 fn check(file: &str, min_cases: usize) {
-    let summary = conformance::run(&vectors(file), None, false).expect("well-formed cases");
+    let summary = conformance::run(&conformance::vectors(file), None, false).expect("well-formed cases");
     for ((joint, form), (worst, n)) in &summary.worst {
         println!("{file}: {joint}/{form}: worst {worst:.3} eps*scale over {n} cases");
     }
@@ -35,7 +31,7 @@ fn hard_json() {
 /// nonzero value where the scale says the entry is identically zero.
 #[test]
 fn a_wrong_value_fails() {
-    let mut doc = vectors("vectors.json");
+    let mut doc = conformance::vectors("vectors.json");
     doc.cases.retain(|c| c.joint == "universal" && c.formulation == "omega_body");
     doc.cases[0].expected.gamma[3] *= 1.0 + 1e-9;
     doc.cases[1].expected.jacobian[0][1] = 1e-300;
@@ -46,18 +42,20 @@ fn a_wrong_value_fails() {
 /// The repository's vectors are copies: where the originals sit beside the
 /// repository (the `shared` folder next to it, as on the developers' machines
 /// and in CI), they must be the same bytes, so that the references are never
-/// edited here by mistake nor left behind when the originals change. A bare
-/// clone has no originals and skips the check.
+/// edited here by mistake nor left behind when the originals change. Where a
+/// `shared` folder sits beside the repository its vectors must be there; a bare
+/// clone has none and skips the check.
 #[test]
 fn in_repo_copies_match_the_originals() {
     let ours = conformance::vectors_dir();
     let repository = ours.parent().expect("the vectors folder is inside the repository");
     // Its `conformance` folder inside the `shared` folder beside the repository.
-    let originals = repository.join("..").join("shared").join("conformance");
-    if !originals.is_dir() {
-        println!("skipped: no originals at {}", originals.display());
+    let shared = repository.join("..").join("shared");
+    if !shared.is_dir() {
+        println!("skipped: no folder {}", shared.display());
         return;
     }
+    let originals = shared.join("conformance");
     for file in ["vectors.json", "hard.json"] {
         let read = |dir: &std::path::Path| {
             let path = dir.join(file);

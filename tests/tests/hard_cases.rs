@@ -32,16 +32,12 @@ use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, Singularity, SystemState,
 use joint_tests::conformance::{self, TOLERANCE, VectorFile};
 use joint_tests::joints::UniversalOmegaBody;
 
-fn vectors(file: &str) -> VectorFile {
-    conformance::load(&conformance::vectors_dir().join(file)).unwrap_or_else(|e| panic!("{e}"))
-}
-
 // ---------------------------------------------------------------------------
 // hard.json, one regime at a time.
 
 /// The cases of `hard.json` whose id names `regime` (`joint/formulation/regime/NNN`).
 fn regime(name: &str) -> VectorFile {
-    let mut doc = vectors("hard.json");
+    let mut doc = conformance::vectors("hard.json");
     doc.cases.retain(|c| c.id.split('/').nth(2) == Some(name));
     doc
 }
@@ -302,7 +298,7 @@ fn propagated(base: &[f64], moved: &[f64], poisoned: &[f64], nan: bool) -> Resul
 
 #[test]
 fn generated_functions_propagate_nan_and_infinity() {
-    let doc = vectors("vectors.json");
+    let doc = conformance::vectors("vectors.json");
     let groups = conformance::groups(&doc.cases, None);
     let (mut checked, mut dependent) = (0usize, 0usize);
     for ((joint, form), cs) in &groups {

@@ -8,10 +8,11 @@ use std::fmt::Debug;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::dynamics::{
-    Attachment, Integrator, Loads, Reaction, SimulationOptions, SpringDamper, Stabilisation, StepReport,
+    Attachment, Integrator, Loads, NoLoads, Reaction, Simulation, SimulationOptions, SpringDamper, Stabilisation,
+    StepReport,
 };
 use joint_runtime::nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector4};
-use joint_runtime::record::View;
+use joint_runtime::record::{SvgOptions, View};
 use joint_runtime::{
     AxisFrame, BodyInertia, Constant, Drive, EulerBody, Formulation, Joint, OmegaBody, OneBody, Polynomial, Profile,
     Ramp, RelativeState, Scene, Sinusoid, SmoothStep, SystemState, TwoBodies,
@@ -78,6 +79,13 @@ fn options_time_functions_and_springs_round_trip() {
     assert!(json.contains(r#""integrator":"implicit_midpoint""#) && json.contains(r#""baumgarte""#), "{json}");
     round_trip(&SimulationOptions::default());
     round_trip(&AssemblyOptions::default().with_tolerance(1e-9));
+    // Options read from a partial document keep their defaults (and will when
+    // fields are added).
+    let partial: SimulationOptions = serde_json::from_str(r#"{"integrator": "implicit_midpoint"}"#).expect("partial");
+    assert_eq!(partial, SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint));
+    assert_eq!(serde_json::from_str::<AssemblyOptions>("{}").expect("empty"), AssemblyOptions::default());
+    let svg: SvgOptions = serde_json::from_str(r#"{"width": 800, "title": "run"}"#).expect("partial");
+    assert_eq!(svg, SvgOptions::default().with_size(800, 480).with_title("run"));
     round_trip(&Drive { value: 1.0, rate: -2.0, accel: 3.0 });
     round_trip(&Constant(0.5));
     round_trip(&Ramp { start: 0.1, rate: 10.0 });
@@ -107,6 +115,10 @@ fn values_and_results_round_trip() {
     }
     round_trip(&View::isometric());
     round_trip(&StepReport::default());
+    let mut sim = Simulation::new(&Redundant, NoLoads, &[], SimulationOptions::default()).expect("valid");
+    round_trip(&sim.energy(&hanging()));
+    let report = sim.step(&mut hanging(), 1e-3).expect("steps");
+    assert!(round_trip(&report).contains("constraint_residual"));
     round_trip(&Reaction { force: Vector3::x(), torque: Vector3::z() });
     let joint = joint_tests::joints::UniversalOmegaBody {
         s: Vector3::y(),
@@ -127,13 +139,16 @@ fn values_and_results_round_trip() {
 #[joint(ball = spherical(ground, link), rho1 = [0, 0.2, 0], rho2 = [0, 0.2, 0.5])]
 struct Redundant;
 
+/// The link swung by 0.4 rad about the hinge, at rest: assembled.
+fn hanging() -> SystemState<1> {
+    let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.4);
+    let link = OmegaBody::from_rotation(q * Vector3::new(0.0, 0.0, -0.5), &q, Vector3::zeros(), Vector3::zeros());
+    SystemState { bodies: [link], t: 0.0 }
+}
+
 #[test]
 fn reports_serialize_with_joint_names() {
-    let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.4);
-    let mut state = SystemState {
-        bodies: [OmegaBody::from_rotation(q * Vector3::new(0.0, 0.0, -0.5), &q, Vector3::zeros(), Vector3::zeros())],
-        t: 0.0,
-    };
+    let mut state = hanging();
     let assembly = assemble(&Redundant, &mut state, &AssemblyOptions::default()).expect("assembles");
     let json = serde_json::to_value(assembly).expect("serializes");
     let rows = json["redundant"].as_array().expect("a list of rows");
@@ -141,6 +156,16 @@ fn reports_serialize_with_joint_names() {
     assert!(rows.iter().all(|r| r["joint"] == "hinge" || r["joint"] == "ball"), "{json}");
     assert_eq!(json["iterations"], assembly.iterations);
     assert_eq!(Redundant.phi(&state).len(), 8);
+}
+
+#[test]
+fn an_analysis_error_names_its_source() {
+    use std::error::Error;
+    let e = joint_runtime::analysis::AnalysisError::from(joint_runtime::linalg::LinalgError::Singular { step: 4 });
+    let source = e.source().expect("a factorisation error wraps its cause");
+    assert_eq!(source.to_string(), "matrix is singular (zero pivot at step 4)");
+    assert!(!e.to_string().contains("step 4"), "the cause is shown once, by source(): {e}");
+    assert!(joint_runtime::analysis::AnalysisError::BadOption { name: "h" }.source().is_none());
 }
 
 #[test]

@@ -54,7 +54,7 @@ fn main() -> ExitCode {
     };
     print_summary(&file, &summary);
     if let Some(path) = args.emit {
-        let text = serde_json::to_string_pretty(&conformance::emit_json(&summary.outputs)).unwrap_or_default();
+        let text = serde_json::to_string_pretty(&conformance::Emitted { cases: &summary.outputs }).unwrap_or_default();
         if let Err(e) = std::fs::write(&path, text) {
             eprintln!("conformance: cannot write `{}`: {e}", path.display());
             return ExitCode::from(2);
