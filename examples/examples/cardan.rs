@@ -85,7 +85,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = path.with_file_name("cardan.svg");
     let options = SvgOptions::default().with_title("Cardan shaft bent by 60°, one input turn per second");
     write_animation(&path, &run, &options)?;
-    println!("animation: {}", path.display());
+    println!("animation: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
     Ok(())
 }
 

@@ -124,6 +124,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = path.with_file_name("double-cardan.svg");
     let options = SvgOptions::default().with_title("Double Cardan shaft (Z, in phase, 30°), one input turn per second");
     write_animation(&path, &run, &options)?;
-    println!("animation: {}", path.display());
+    println!("animation: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
     Ok(())
 }

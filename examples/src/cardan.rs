@@ -407,15 +407,16 @@ pub fn plot_speed_ratios(path: &std::path::Path, caption: &str, curves: &[Curve]
     Ok(())
 }
 
-/// Marks the yokes of a shaft drawing: on body `input` two points either side
-/// of its fork at `(0.5, 0, 0)` along y, on each of `outputs` either side of the
-/// fork at `(−0.5, 0, 0)` along z (the yoke axes `s`, `h` of the crosses), so
-/// that the shafts' spin shows, which their points on the axes alone do not.
+/// Draws the yokes of a shaft drawing: on body `input` across its fork at
+/// `(0.5, 0, 0)` along y, on each of `outputs` across the fork at `(−0.5, 0, 0)`
+/// along z (the yoke axes `s`, `h` of the crosses), so that the shafts' spin
+/// shows, which their points on the axes alone do not.
 pub fn mark_yokes<const NB: usize>(run: &mut Trajectory<NB>, input: usize, outputs: &[usize]) {
-    for side in [-0.15, 0.15] {
-        run.add_point(input, Vector3::new(0.5, side, 0.0));
-        for &body in outputs {
-            run.add_point(body, Vector3::new(-0.5, 0.0, side));
-        }
+    let yoke = |centre: Vector3<f64>, across: Vector3<f64>| (centre - 0.15 * across, centre + 0.15 * across);
+    let (a, b) = yoke(Vector3::new(0.5, 0.0, 0.0), Vector3::y());
+    run.add_segment(input, a, b);
+    for &body in outputs {
+        let (a, b) = yoke(Vector3::new(-0.5, 0.0, 0.0), Vector3::z());
+        run.add_segment(body, a, b);
     }
 }

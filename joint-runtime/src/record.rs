@@ -3,10 +3,13 @@
 //! as CSV (one row per sample) or as an animated SVG that plays in a browser by
 //! itself (SMIL animation, no script). Feature `record`.
 //!
-//! Each body is drawn from its joint points ([`Scene::joint_points`]): a line from
-//! its centre of mass to each of them, so a bar between two joints is drawn as
-//! that bar. Points on the ground are small squares. The view is a projection
-//! on a plane ([`View`]).
+//! Each body is drawn from its joint points ([`Scene::joint_points`]) as a
+//! polyline through them in declaration order (from its centre of mass when it
+//! has one joint point, a dot there when it has none), so a bar between two
+//! joints is drawn as that bar; [`Trajectory::add_segment`] adds body-fixed
+//! marks, such as a shaft's yoke, whose spin points on the axis cannot show.
+//! Points on the ground are small squares. The view is a projection on a plane
+//! ([`View`]).
 //!
 //! ```
 //! use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
@@ -50,8 +53,12 @@ use crate::scene::{JointPoint, Scene, SystemState};
 pub struct Trajectory<const NB: usize> {
     bodies: [&'static str; NB],
     points: Vec<JointPoint>,
+    segments: Vec<Segment>,
     samples: Vec<SystemState<NB>>,
 }
+
+/// A body-fixed mark: body index, both ends in body components.
+type Segment = (usize, Vector3<f64>, Vector3<f64>);
 
 /// A column the user adds to the CSV: a name and a value computed from each
 /// sample.
@@ -189,16 +196,16 @@ impl<const NB: usize> Trajectory<NB> {
     pub fn new<S: Scene<NB, NV, M>, const NV: usize, const M: usize>(scene: &S) -> Self {
         let mut points = Vec::new();
         scene.joint_points(&mut |p| points.push(p));
-        Trajectory { bodies: S::BODIES, points, samples: Vec::new() }
+        Trajectory { bodies: S::BODIES, points, segments: Vec::new(), samples: Vec::new() }
     }
 
-    /// Adds a point fixed in body `body` (body components, from its centre of
-    /// mass) to draw it by, beside its joint points: a mark off a shaft's axis
-    /// shows its spin, which points on the axis do not. An out-of-range `body`
+    /// Adds a segment fixed in body `body` from `a` to `b` (body components,
+    /// from its centre of mass) to its drawing: a yoke across a shaft shows the
+    /// shaft's spin, which its points on the axis do not. An out-of-range `body`
     /// is ignored.
-    pub fn add_point(&mut self, body: usize, point: Vector3<f64>) {
+    pub fn add_segment(&mut self, body: usize, a: Vector3<f64>, b: Vector3<f64>) {
         if body < NB {
-            self.points.push(JointPoint { joint: "", body: Some(body), point });
+            self.segments.push((body, a, b));
         }
     }
 
@@ -213,7 +220,7 @@ impl<const NB: usize> Trajectory<NB> {
         &self.samples
     }
 
-    /// The scene's joint points and the added ones, as drawn.
+    /// The scene's joint points, as drawn.
     pub fn joint_points(&self) -> &[JointPoint] {
         &self.points
     }
@@ -325,11 +332,19 @@ impl<const NB: usize> Trajectory<NB> {
         (0..m).filter_map(|k| self.samples.get(k * (n - 1) / (m - 1)).copied()).collect()
     }
 
-    /// Where body `body`'s joint points are at `state`, inertial.
-    fn body_points(&self, state: &SystemState<NB>, body: usize) -> Vec<Vector3<f64>> {
+    /// Body `body` at `state`, inertial: the polylines that draw it (its joint
+    /// points, then each added segment).
+    fn body_lines(&self, state: &SystemState<NB>, body: usize) -> Vec<Vec<Vector3<f64>>> {
         let Some(b) = state.bodies.get(body) else { return Vec::new() };
         let a = rotation_matrix(&b.p);
-        self.points.iter().filter(|p| p.body == Some(body)).map(|p| b.r + a * p.point).collect()
+        let at = |p: &Vector3<f64>| b.r + a * p;
+        let mut points: Vec<_> = self.points.iter().filter(|p| p.body == Some(body)).map(|p| at(&p.point)).collect();
+        if points.len() < 2 {
+            points.insert(0, b.r);
+        }
+        let mut lines = vec![points];
+        lines.extend(self.segments.iter().filter(|s| s.0 == body).map(|s| vec![at(&s.1), at(&s.2)]));
+        lines
     }
 }
 
@@ -361,7 +376,7 @@ impl Canvas {
         for s in frames {
             for (i, b) in s.bodies.iter().enumerate() {
                 include(&b.r);
-                run.body_points(s, i).iter().for_each(&mut include);
+                run.body_lines(s, i).iter().flatten().for_each(&mut include);
             }
         }
         run.points.iter().filter(|p| p.body.is_none()).for_each(|p| include(&p.point));
@@ -385,20 +400,19 @@ impl Canvas {
         [self.origin[0] + self.scale * x, self.origin[1] - self.scale * y]
     }
 
-    /// A line from the body's centre of mass to each of its joint points (a dot
-    /// when it has none); the same commands in every frame, so that a browser
-    /// interpolates between frames.
+    /// The body's polylines as one path; the same commands in every frame, so
+    /// that a browser interpolates between frames. A lone point is a dot.
     fn body_path<const NB: usize>(&self, run: &Trajectory<NB>, state: &SystemState<NB>, body: usize) -> String {
-        let Some(b) = state.bodies.get(body) else { return String::new() };
-        let [cx, cy] = self.pixel(&b.r);
-        let points = run.body_points(state, body);
         let mut d = String::new();
-        if points.is_empty() {
-            let _ = write!(d, "M{cx:.2} {cy:.2}L{cx:.2} {cy:.2}");
-        }
-        for p in &points {
-            let [x, y] = self.pixel(p);
-            let _ = write!(d, "M{cx:.2} {cy:.2}L{x:.2} {y:.2}");
+        for line in run.body_lines(state, body) {
+            for (k, p) in line.iter().enumerate() {
+                let [x, y] = self.pixel(p);
+                let _ = write!(d, "{}{x:.2} {y:.2}", if k == 0 { 'M' } else { 'L' });
+            }
+            if let [p] = line.as_slice() {
+                let [x, y] = self.pixel(p);
+                let _ = write!(d, "L{x:.2} {y:.2}");
+            }
         }
         d
     }

@@ -43,8 +43,7 @@ impl BodyInertia {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct JointPoint {
-    /// The joint's name in the scene (`""` for a point added to a drawing with
-    /// `record::Trajectory::add_point`).
+    /// The joint's name in the scene.
     pub joint: &'static str,
     /// The body the point is fixed in (its index in the state), `None` for the ground.
     pub body: Option<usize>,

@@ -106,3 +106,16 @@ fn svg_animates_each_body_over_its_frames() {
     let one = swinging(1).svg(&options);
     assert!(!one.contains("<animate"));
 }
+
+#[test]
+fn a_body_is_a_polyline_through_its_joint_points_and_its_marks() {
+    let mut run = swinging(3);
+    run.add_segment(1, Vector3::new(-0.1, 0.0, 0.0), Vector3::new(0.1, 0.0, 0.0));
+    run.add_segment(7, Vector3::zeros(), Vector3::x()); // no such body: ignored
+    let still = run.svg_frame(0, &SvgOptions::default()).expect("a frame");
+    let paths: Vec<&str> = still.split("<path d=\"").skip(1).map(|p| p.split('"').next().unwrap_or("")).collect();
+    // The upper rod through its two joint points; the lower rod through its one
+    // joint point from its centre, then the mark.
+    let commands = |d: &str| d.chars().filter(|c| c.is_ascii_uppercase()).collect::<String>();
+    assert_eq!(paths.iter().map(|d| commands(d)).collect::<Vec<_>>(), ["ML", "MLML"]);
+}
