@@ -11,7 +11,7 @@ use std::error::Error;
 use std::path::Path;
 
 use joint_examples::steering::{SteeringColumn, compare_split, sweep};
-use joint_runtime::{Ramp, Scene};
+use joint_runtime::Ramp;
 use plotters::prelude::*;
 
 fn main() -> Result<(), Box<dyn Error>> {
@@ -25,7 +25,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         g.bend_lower.to_degrees(),
         g.length
     );
-    let blocks: Vec<String> = <SteeringColumn<Ramp> as Scene<3, 18, 18>>::BLOCKS
+    let blocks: Vec<String> = SteeringColumn::<Ramp>::BLOCKS
         .iter()
         .map(|b| format!("{} ({} {})", b.name, b.rows, if b.rows == 1 { "row" } else { "rows" }))
         .collect();

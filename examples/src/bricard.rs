@@ -27,7 +27,7 @@ use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
-use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState, rotation_matrix};
+use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState};
 
 /// Number of moving bars.
 pub const BODIES: usize = 5;
@@ -107,9 +107,7 @@ pub fn perturbed_state(degrees: f64) -> SystemState<BODIES> {
         let k = i as f64;
         let axis = joint_runtime::nalgebra::Unit::new_normalize(Vector3::new(1.0 + k, 2.0 - k, 0.5 + 0.3 * k));
         let turn = UnitQuaternion::from_axis_angle(&axis, angle);
-        let q = UnitQuaternion::new_normalize(joint_runtime::nalgebra::Quaternion::new(b.p[0], b.p[1], b.p[2], b.p[3]));
-        let p = turn * q;
-        b.p = joint_runtime::nalgebra::Vector4::new(p.w, p.i, p.j, p.k);
+        b.set_rotation(&(turn * b.rotation()));
         b.r += Vector3::new(0.3 - 0.1 * k, 0.1 * k - 0.2, 0.25) * (degrees / 100.0);
     }
     s
@@ -117,8 +115,7 @@ pub fn perturbed_state(degrees: f64) -> SystemState<BODIES> {
 
 /// Position of the body-fixed point `local` of bar `body` (inertial components).
 pub fn point(state: &SystemState<BODIES>, body: usize, local: &Vector3<f64>) -> Vector3<f64> {
-    let b = &state.bodies[body];
-    b.r + rotation_matrix(&b.p) * local
+    state.bodies[body].point(local)
 }
 
 /// The joint point `P3` (between `bar3` and `bar4`), the benchmark's reference point.

@@ -55,9 +55,9 @@
 // `AnalysisError` is returned by value, as in `joint_runtime` (it carries the worst rows).
 
 use joint_runtime::analysis::{AnalysisError, Assembly, AssemblyOptions, RowInfo, assemble, velocities};
-use joint_runtime::nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
-use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState, rotation_matrix};
+use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState};
 
 /// The Cardan shaft (see the module documentation): bodies `input`, `output`;
 /// joints `input_bearing`, `output_bearing` (revolute to the ground), `cross`
@@ -149,7 +149,7 @@ pub fn wrap(x: f64) -> f64 {
 /// of the body's y axis from the reference's y axis towards the reference's z axis.
 /// In `(−π, π]`.
 pub fn shaft_angle(body: &OmegaBody<f64>, reference: &UnitQuaternion<f64>) -> f64 {
-    let y = rotation_matrix(&body.p) * Vector3::y();
+    let y = body.rotation_matrix() * Vector3::y();
     let (ry, rz) = (reference * Vector3::y(), reference * Vector3::z());
     y.dot(&rz).atan2(y.dot(&ry))
 }
@@ -159,9 +159,7 @@ pub fn shaft_angle(body: &OmegaBody<f64>, reference: &UnitQuaternion<f64>) -> f6
 pub fn predict<const NB: usize>(state: &mut SystemState<NB>, dt: f64) {
     for b in state.bodies.iter_mut() {
         b.r += b.rdot * dt;
-        let q = UnitQuaternion::new_normalize(Quaternion::new(b.p[0], b.p[1], b.p[2], b.p[3]))
-            * UnitQuaternion::from_scaled_axis(b.omega * dt);
-        b.p = joint_runtime::nalgebra::Vector4::new(q.w, q.i, q.j, q.k);
+        b.turn(&(b.omega * dt));
     }
 }
 
@@ -322,7 +320,7 @@ pub fn sweep(bend: f64, input_speed: f64, steps: usize) -> Result<Sweep, Analysi
 
 /// The scene's joint blocks, for reports: `name rows start..end`.
 pub fn blocks() -> &'static [joint_runtime::RowBlock] {
-    <CardanShaft as Scene<2, 12, 15>>::BLOCKS
+    CardanShaft::BLOCKS
 }
 
 /// One curve of a speed plot: a label and `(input angle in degrees, ω_out/ω_in)` points.

@@ -27,7 +27,7 @@ use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{DMatrix, UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
-use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState, rotation_matrix};
+use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState};
 
 /// Number of four-bar loops.
 pub const LOOPS: usize = 4;
@@ -122,14 +122,14 @@ pub fn initial_state() -> SystemState<BODIES> {
 
 /// Angle of crank `i` from +x (rad, in (−π, π]).
 pub fn crank_angle(state: &SystemState<BODIES>, i: usize) -> f64 {
-    let a = rotation_matrix(&state.bodies[crank(i)].p) * Vector3::y();
+    let a = state.bodies[crank(i)].rotation_matrix() * Vector3::y();
     a.y.atan2(a.x)
 }
 
 /// The tip `B0` of the first crank.
 pub fn b0(state: &SystemState<BODIES>) -> Vector3<f64> {
     let b = &state.bodies[crank(0)];
-    b.r + rotation_matrix(&b.p) * Vector3::new(0.0, 0.5, 0.0)
+    b.point(&Vector3::new(0.0, 0.5, 0.0))
 }
 
 /// Largest angle (rad) between crank 0 and any other crank, or any coupler and
@@ -142,7 +142,7 @@ pub fn branch_deviation(state: &SystemState<BODIES>) -> f64 {
         worst = worst.max(d.sin().abs().max(1.0 - d.cos()));
     }
     for i in 0..LOOPS {
-        let x = rotation_matrix(&state.bodies[coupler(i)].p) * Vector3::x();
+        let x = state.bodies[coupler(i)].rotation_matrix() * Vector3::x();
         worst = worst.max(x.y.atan2(x.x).abs());
     }
     worst

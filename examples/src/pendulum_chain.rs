@@ -17,7 +17,7 @@
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
-use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState, rotation_matrix};
+use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState};
 
 /// Number of bars.
 pub const BODIES: usize = 5;
@@ -90,7 +90,7 @@ pub fn initial_state() -> SystemState<BODIES> {
 /// The lower end of the last bar.
 pub fn tip(state: &SystemState<BODIES>) -> Vector3<f64> {
     let b = &state.bodies[BODIES - 1];
-    b.r + rotation_matrix(&b.p) * Vector3::new(0.5, 0.0, 0.0)
+    b.point(&Vector3::new(0.5, 0.0, 0.0))
 }
 
 /// One sample of a run.

@@ -345,13 +345,13 @@ impl<F> SteeringColumn<F> {
 
     /// The pinion's angle in `state` (from its frame's `b` towards `c`), in `(−π, π]`.
     pub fn output_angle(&self, state: &SystemState<3>) -> f64 {
-        let z = body_rotation(&state.bodies[2]) * Vector3::z();
+        let z = state.bodies[2].rotation_matrix() * Vector3::z();
         f64::atan2(z.dot(&self.pinion_axis.c), z.dot(&self.pinion_axis.b))
     }
 
     /// The wheel shaft's angle in `state`, in `(−π, π]`.
     pub fn input_angle(&self, state: &SystemState<3>) -> f64 {
-        let z = body_rotation(&state.bodies[0]) * Vector3::z();
+        let z = state.bodies[0].rotation_matrix() * Vector3::z();
         f64::atan2(z.dot(&self.column_axis.c), z.dot(&self.column_axis.b))
     }
 }
@@ -375,19 +375,14 @@ impl<F> SplitSteeringColumn<F> {
 
     /// The pinion's angle in `state`, as [`SteeringColumn::output_angle`].
     pub fn output_angle(&self, state: &SystemState<4>) -> f64 {
-        let z = body_rotation(&state.bodies[3]) * Vector3::z();
+        let z = state.bodies[3].rotation_matrix() * Vector3::z();
         f64::atan2(z.dot(&self.pinion_axis.c), z.dot(&self.pinion_axis.b))
     }
 }
 
-/// A body's rotation matrix.
-pub fn body_rotation(b: &OmegaBody<f64>) -> Matrix3<f64> {
-    joint_runtime::rotation_matrix(&b.p)
-}
-
-/// A point fixed in a body (body components), in ground.
+/// The point at `x` on a shaft's axis (body x), in ground.
 pub fn body_point(b: &OmegaBody<f64>, x: f64) -> Vector3<f64> {
-    b.r + body_rotation(b) * Vector3::new(x, 0.0, 0.0)
+    b.point(&Vector3::new(x, 0.0, 0.0))
 }
 
 /// The intermediate shaft's length in `state`: from the upper Cardan centre (a
@@ -400,7 +395,8 @@ pub fn intermediate_length(state: &SystemState<3>) -> f64 {
 /// Cardan centre along the intermediate axis, from the nominal lower end).
 pub fn slide(state: &SystemState<3>) -> f64 {
     let mid = &state.bodies[1];
-    (body_rotation(mid).transpose() * (body_point(&state.bodies[2], OUTPUT_JOINT_X) - mid.r)).x - INTERMEDIATE_LOWER_X
+    (mid.rotation_matrix().transpose() * (body_point(&state.bodies[2], OUTPUT_JOINT_X) - mid.r)).x
+        - INTERMEDIATE_LOWER_X
 }
 
 /// One step of a [`Sweep`].

@@ -4,7 +4,6 @@
 //! bearings').
 
 use joint_examples::cardan::{self, CardanShaft, output_angle, speed_ratio};
-use joint_runtime::Scene;
 
 const SPEED: f64 = 2.0 * std::f64::consts::PI;
 
@@ -42,7 +41,7 @@ fn the_cross_repeats_the_bearings_three_rows() {
             );
         }
     }
-    let blocks = <CardanShaft as Scene<2, 12, 15>>::BLOCKS;
+    let blocks = CardanShaft::BLOCKS;
     assert_eq!(blocks.iter().map(|b| b.rows).sum::<usize>(), 15);
 }
 

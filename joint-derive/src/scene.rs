@@ -192,6 +192,18 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
             Ok(()) => unreachable!("an error was recorded"),
         };
     }
+    for (i, b) in bodies.iter().enumerate() {
+        let constant = body_constant(&b.name).to_string();
+        // A body declared twice is reported as such, not again here.
+        let clash = bodies[..i].iter().find(|e| e.name != b.name && body_constant(&e.name) == constant);
+        if SIZE_CONSTANTS.contains(&constant.as_str()) {
+            let message = format!("body `{}` would be named `{constant}`, a constant of the scene's size", b.name);
+            errors.at(b.name.span(), format!("{message}; rename the body"));
+        } else if let Some(earlier) = clash {
+            let message = format!("bodies `{}` and `{}` would both be named `{constant}`", earlier.name, b.name);
+            errors.at(b.name.span(), format!("{message}; rename one"));
+        }
+    }
     if joint_attrs.is_empty() {
         errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
@@ -330,9 +342,18 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[(String
     let columns = columns.iter().map(|&x| Literal::usize_unsuffixed(x));
 
     let body_names = s.bodies.iter().map(|b| b.name.to_string());
-    let blocks = blocks.iter().map(|(n, start, rows)| {
-        let (start, rows) = (Literal::usize_unsuffixed(*start), Literal::usize_unsuffixed(*rows));
-        quote!(#krate::RowBlock { name: #n, start: #start, rows: #rows })
+    let blocks: Vec<TokenStream> = blocks
+        .iter()
+        .map(|(n, start, rows)| {
+            let (start, rows) = (Literal::usize_unsuffixed(*start), Literal::usize_unsuffixed(*rows));
+            quote!(#krate::RowBlock { name: #n, start: #start, rows: #rows })
+        })
+        .collect();
+    let body_indices = s.bodies.iter().enumerate().map(|(i, b)| {
+        let name = body_constant(&b.name);
+        let doc = format!(" The index of body `{}` in the state's `bodies`.", b.name);
+        let i = Literal::usize_unsuffixed(i);
+        quote!(#[doc = #doc] pub const #name: usize = #i;)
     });
     let number = |v: f64| Literal::f64_suffixed(v);
     let vec3 = |q: &Quantity| match q {
@@ -403,6 +424,22 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[(String
             fn joint_points(&self, visit: &mut dyn FnMut(#krate::JointPoint)) { #(#points)* }
         }
 
+        /// The scene's sizes and its bodies by name, without spelling out
+        /// `Scene<NB, NV, ROWS>`.
+        #[automatically_derived]
+        #[allow(dead_code)]
+        impl #ig #ident #tg #wc {
+            #(#body_indices)*
+            /// Number of bodies (`NB` of `Scene<NB, NV, M>`).
+            pub const NB: usize = #nb_l;
+            /// Velocity columns, 6 per body (`NV`).
+            pub const NV: usize = #nv_l;
+            /// Constraint rows (`M`).
+            pub const ROWS: usize = #m_l;
+            /// Each joint's block of rows, in row order (as `Scene::BLOCKS`).
+            pub const BLOCKS: &'static [#krate::RowBlock] = &[#(#blocks),*];
+        }
+
         #[allow(clippy::all, clippy::pedantic, unused_variables, non_snake_case)]
         #[deny(clippy::panic, clippy::unwrap_used, clippy::indexing_slicing)]
         impl #ig #krate::SparseJacobian<#nb_l, #nnz> for #ident #tg #wc {
@@ -444,3 +481,13 @@ fn const_vector(v: &[f64], krate: &TokenStream) -> TokenStream {
     let [x, y, z] = [0, 1, 2].map(|i| Literal::f64_suffixed(v.get(i).copied().unwrap_or(0.0)));
     quote!(#krate::nalgebra::Vector3::new(#x, #y, #z))
 }
+
+/// The inherent constant naming a body's index: its name in upper case
+/// (`input` → `Shaft::INPUT`).
+fn body_constant(name: &syn::Ident) -> syn::Ident {
+    let text = name.to_string();
+    syn::Ident::new(text.strip_prefix("r#").unwrap_or(&text).to_uppercase().as_str(), name.span())
+}
+
+/// The inherent constants the derive adds beside the bodies' indices.
+const SIZE_CONSTANTS: [&str; 4] = ["NB", "NV", "ROWS", "BLOCKS"];

@@ -107,6 +107,14 @@ impl<const NB: usize> Loads<NB> {
         *f += force;
         *t += point.cross(&(rotation_matrix(&b.p).transpose() * force));
     }
+
+    /// Adds `torque` given in inertial components to body `body` (stored in the
+    /// body's components, `Aᵀ torque`). An out-of-range `body` is ignored.
+    pub fn add_torque_inertial(&mut self, state: &SystemState<NB>, body: usize, torque: &Vector3<f64>) {
+        if let (Some(b), Some(t)) = (state.bodies.get(body), self.torque.get_mut(body)) {
+            *t += rotation_matrix(&b.p).transpose() * torque;
+        }
+    }
 }
 
 /// User code that applies loads: called at every evaluation of the dynamics with
@@ -637,7 +645,7 @@ where
         let phi_t = self.scene.phi_t(state);
         check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
         let v = velocity_vector::<NB, NV>(state);
-        let (dv, _, _) = min_norm(&j, &(-(j * v + phi_t)), Some(&self.inverse), options.rank_tolerance)?;
+        let dv = min_norm(&j, &(-(j * v + phi_t)), Some(&self.inverse), options.rank_tolerance)?.x;
         let v = v + dv;
         set_velocities(state, &v);
         let velocity_residual = (j * v + phi_t).norm();

@@ -4,7 +4,7 @@
 //! `CONVENTIONS.md` (nalgebra's `Quaternion` stores the scalar last; use
 //! [`EulerBody::from_rotation`] or [`OmegaBody::from_rotation`] to convert).
 
-use nalgebra::{RealField, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Matrix3, Quaternion, RealField, UnitQuaternion, Vector3, Vector4};
 
 fn euler_parameters<T: RealField>(q: &UnitQuaternion<T>) -> Vector4<T> {
     Vector4::new(q.w.clone(), q.i.clone(), q.j.clone(), q.k.clone())
@@ -64,6 +64,44 @@ impl<T: RealField> OmegaBody<T> {
     /// A body at `r` with orientation `rotation`, moving with `rdot` and `omega`.
     pub fn from_rotation(r: Vector3<T>, rotation: &UnitQuaternion<T>, rdot: Vector3<T>, omega: Vector3<T>) -> Self {
         OmegaBody { r, p: euler_parameters(rotation), rdot, omega }
+    }
+}
+
+/// Orientation helpers (`CONVENTIONS.md`: `p = [e0, e1, e2, e3]`, scalar first).
+impl<T: RealField + Copy> OmegaBody<T> {
+    /// The orientation as a unit quaternion (`p` normalised).
+    pub fn rotation(&self) -> UnitQuaternion<T> {
+        UnitQuaternion::new_normalize(Quaternion::new(self.p[0], self.p[1], self.p[2], self.p[3]))
+    }
+
+    /// Sets `p` to `rotation`.
+    pub fn set_rotation(&mut self, rotation: &UnitQuaternion<T>) {
+        self.p = euler_parameters(rotation);
+    }
+
+    /// `A(p)`: body components to inertial ones.
+    pub fn rotation_matrix(&self) -> Matrix3<T> {
+        crate::rotation_matrix(&self.p)
+    }
+
+    /// The body-fixed point `local` (body components, from the body's origin) in
+    /// inertial components: `r + A(p) local`.
+    pub fn point(&self, local: &Vector3<T>) -> Vector3<T> {
+        self.r + self.rotation_matrix() * local
+    }
+
+    /// ω in inertial components, `A(p) ω'`, when `omega` holds the body's own
+    /// components (the `omega_body` formulation, and every scene).
+    pub fn omega_inertial(&self) -> Vector3<T> {
+        self.rotation_matrix() * self.omega
+    }
+}
+
+impl OmegaBody<f64> {
+    /// Turns the body by the rotation vector `theta` in its own components:
+    /// `p ← p ⊗ q(θ')`, renormalised (the increment `q ⊕ δθ` the analyses take).
+    pub fn turn(&mut self, theta: &Vector3<f64>) {
+        self.p = crate::analysis::rotate_body(&self.p, theta);
     }
 }
 

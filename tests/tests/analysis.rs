@@ -44,12 +44,9 @@ struct DuplicatedChain {
 fn perturb(s: &mut SystemState<3>) {
     let axes = [Vector3::new(1.0, 2.0, 0.5), Vector3::new(-0.3, 1.0, 1.0), Vector3::new(0.7, -0.2, 1.0)];
     for (b, axis) in s.bodies.iter_mut().zip(axes) {
-        let q0 =
-            UnitQuaternion::from_quaternion(joint_runtime::nalgebra::Quaternion::new(b.p[0], b.p[1], b.p[2], b.p[3]));
         let dq =
             UnitQuaternion::from_axis_angle(&joint_runtime::nalgebra::Unit::new_normalize(axis), 5f64.to_radians());
-        let q = q0 * dq;
-        b.p = joint_runtime::nalgebra::Vector4::new(q.w, q.i, q.j, q.k);
+        b.set_rotation(&(b.rotation() * dq));
     }
 }
 
@@ -226,4 +223,28 @@ fn driven_pendulum_velocities_and_accelerations_match_closed_form() {
             (got - rddot).norm()
         );
     }
+}
+
+/// The state types' orientation helpers against nalgebra's own quaternions.
+#[test]
+fn orientation_helpers_agree_with_nalgebra() {
+    let q = UnitQuaternion::from_axis_angle(
+        &joint_runtime::nalgebra::Unit::new_normalize(Vector3::new(1.0, -2.0, 0.5)),
+        0.9,
+    );
+    let omega = Vector3::new(0.3, -1.0, 2.0);
+    let mut b = OmegaBody::from_rotation(Vector3::new(1.0, 2.0, 3.0), &q, Vector3::zeros(), omega);
+    assert!(b.rotation().angle_to(&q) < 1e-15);
+    assert!((b.rotation_matrix() - q.to_rotation_matrix().into_inner()).norm() < 1e-15);
+    assert!((b.omega_inertial() - q * omega).norm() < 1e-14);
+    let local = Vector3::new(0.5, 0.0, -0.2);
+    assert!((b.point(&local) - (b.r + q * local)).norm() < 1e-15);
+    // A turn in body components composes on the right: q ⊗ exp(θ').
+    let theta = Vector3::new(0.01, -0.2, 0.05);
+    b.turn(&theta);
+    assert!(b.rotation().angle_to(&(q * UnitQuaternion::from_scaled_axis(theta))) < 1e-15);
+    assert!((b.p.norm() - 1.0).abs() < 1e-15);
+    // And a rotation set is read back.
+    b.set_rotation(&q);
+    assert!(b.rotation().angle_to(&q) < 1e-15);
 }

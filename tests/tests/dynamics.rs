@@ -236,7 +236,7 @@ fn reactions_and_multipliers_of_a_hanging_pendulum() {
     let s = swung(0.0);
     let d = sim.dynamics(&s).unwrap();
     assert!(d.vdot.norm() < 1e-12);
-    let r = sim.reactions(&s, &d.lambda, &<Pendulum as Scene<1, 6, 3>>::BLOCKS[0]);
+    let r = sim.reactions(&s, &d.lambda, &Pendulum::BLOCKS[0]);
     println!("hanging pendulum: λ = {:?}, reaction {:?}", d.lambda.as_slice(), r[0]);
     assert!((r[0].force - Vector3::new(0.0, 0.0, G)).norm() < 1e-12);
     assert!(r[0].torque.norm() < 1e-12);
@@ -250,4 +250,25 @@ fn reactions_and_multipliers_of_a_hanging_pendulum() {
     assert!(sim.step(&mut swung(0.1), f64::NAN).is_err());
     let bad = Pendulum { mass: 0.0 };
     assert!(Simulation::new(&bad, NoLoads, &[], SimulationOptions::default()).is_err());
+}
+
+/// A torque given in inertial components lands in the body's own components
+/// (`Aᵀ τ`), and a force at a point adds its moment there.
+#[test]
+fn loads_in_inertial_components() {
+    let s = swung(0.7);
+    let mut loads = joint_runtime::dynamics::Loads::<1>::default();
+    let torque = Vector3::new(1.0, -2.0, 0.5);
+    loads.add_torque_inertial(&s, 0, &torque);
+    let body = s.bodies[0];
+    assert!((body.rotation() * loads.torque[0] - torque).norm() < 1e-15);
+    loads.add_torque_inertial(&s, 3, &torque); // no such body: ignored
+    assert!((body.rotation() * loads.torque[0] - torque).norm() < 1e-15);
+    let mut at_point = joint_runtime::dynamics::Loads::<1>::default();
+    let point = Vector3::new(0.0, 0.0, 1.0);
+    at_point.add_force_at(&s, 0, &Vector3::x(), &point);
+    // The same moment given inertially: (A point) × F.
+    let mut moment = joint_runtime::dynamics::Loads::<1>::default();
+    moment.add_torque_inertial(&s, 0, &(body.rotation() * point).cross(&Vector3::x()));
+    assert!((at_point.torque[0] - moment.torque[0]).norm() < 1e-15);
 }

@@ -6,7 +6,7 @@
 
 use joint_runtime::nalgebra::Vector3;
 use joint_runtime::record::{Column, SvgOptions, Trajectory, View};
-use joint_runtime::{JointPoint, Scene, SystemState, rotation_matrix};
+use joint_runtime::{JointPoint, Scene, SystemState};
 use joint_tests::scenes::hanging_rods;
 
 /// Two rods hanging from the origin; the lower rod's point is a field.
@@ -56,8 +56,7 @@ fn swinging(samples: usize) -> Trajectory<2> {
 fn csv_holds_every_sample_exactly() {
     let run = swinging(50);
     let mut bytes = Vec::new();
-    let lower_tip =
-        |s: &SystemState<2>| (s.bodies[1].r - rotation_matrix(&s.bodies[1].p) * Vector3::new(0.0, 0.0, 0.5)).y;
+    let lower_tip = |s: &SystemState<2>| s.bodies[1].point(&Vector3::new(0.0, 0.0, -0.5)).y;
     run.write_csv(&mut bytes, &[Column::new("tip_y", &lower_tip)]).expect("written");
     let mut reader = csv::Reader::from_reader(bytes.as_slice());
     let header: Vec<String> = reader.headers().expect("a header").iter().map(String::from).collect();

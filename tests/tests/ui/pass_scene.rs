@@ -23,5 +23,9 @@ fn main() {
         drive: Ramp { start: 0.0, rate: 1.0 },
     };
     assert_eq!(<Driven<Ramp> as Scene<2, 12, 9>>::BODIES, ["link", "bob"]);
+    // Bodies by name and the sizes, without the trait's parameters.
+    assert_eq!((Driven::<Ramp>::LINK, Driven::<Ramp>::BOB), (0, 1));
+    assert_eq!((Driven::<Ramp>::NB, Driven::<Ramp>::NV, Driven::<Ramp>::ROWS), (2, 12, 9));
+    assert_eq!(Driven::<Ramp>::BLOCKS[1].name, "ball");
     assert_eq!(scene.inertias()[1].mass, 0.5);
 }

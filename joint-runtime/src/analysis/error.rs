@@ -1,0 +1,178 @@
+//! What can go wrong in an analysis or a dynamics step.
+
+// The error type is returned by value: without an allocator it cannot be boxed,
+// and it carries the three worst rows by design.
+
+use core::fmt;
+
+use super::{RowInfo, WorstRows};
+use crate::linalg::LinalgError;
+
+/// Why an analysis (or a dynamics step) failed. The state is left at the last
+/// accepted iterate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum AnalysisError {
+    /// An input is NaN or infinite.
+    NonFinite {
+        /// The body (from [`Scene::BODIES`]), or `None` for the time.
+        body: Option<&'static str>,
+        /// The field: `"r"`, `"p"`, `"rdot"`, `"omega"` or `"t"`.
+        field: &'static str,
+    },
+    /// A body's Euler parameters are zero (no orientation to normalise).
+    ZeroQuaternion {
+        /// The body.
+        body: &'static str,
+    },
+    /// The scene produced a non-finite value (e.g. a NaN joint parameter).
+    NonFiniteOutput {
+        /// `"Φ"`, `"Φ_t"`, `"J"`, `"γ"`, `"forces"` or `"accelerations"`.
+        quantity: &'static str,
+        /// The first offending row, when the quantity has rows.
+        row: Option<RowInfo>,
+    },
+    /// Newton's method ran out of iterations.
+    NotConverged {
+        /// Final ‖Φ‖₂.
+        residual: f64,
+        /// Iterations taken.
+        iterations: usize,
+        /// The rows whose residual is largest.
+        worst: WorstRows,
+    },
+    /// Newton's method made no progress: no step along the minimum-norm
+    /// direction reduced ‖Φ‖ (a singular Jacobian, or an impossible configuration
+    /// whose least-squares residual is not zero).
+    NoProgress {
+        /// ‖Φ‖₂ where it stopped.
+        residual: f64,
+        /// Iterations taken.
+        iterations: usize,
+        /// The rows whose residual is largest.
+        worst: WorstRows,
+    },
+    /// A linear analysis (velocity, acceleration, λ) has no solution: redundant
+    /// rows contradict the others.
+    Inconsistent {
+        /// What was solved.
+        analysis: Analysis,
+        /// ‖J x − b‖₂.
+        residual: f64,
+        /// The rows whose residual is largest.
+        worst: WorstRows,
+    },
+    /// `NV` is not `6 NB`.
+    Dimensions {
+        /// Bodies.
+        nb: usize,
+        /// Velocity columns.
+        nv: usize,
+    },
+    /// A body's mass is not positive and finite, or its inertia tensor is not
+    /// invertible.
+    BadInertia {
+        /// The body.
+        body: &'static str,
+    },
+    /// An option is out of range (a step size that is not positive and finite, ...).
+    BadOption {
+        /// The option.
+        name: &'static str,
+    },
+    /// The implicit integrator's Newton iteration did not converge.
+    ImplicitNotConverged {
+        /// Iterations taken.
+        iterations: usize,
+        /// Last ‖Δv‖₂.
+        correction: f64,
+    },
+    /// A factorisation failed (the implicit integrator's iteration matrix is singular).
+    Linalg(LinalgError),
+}
+
+impl fmt::Display for AnalysisError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AnalysisError::NonFinite { body: Some(b), field } => {
+                write!(f, "non-finite input: field `{field}` of body `{b}` is NaN or infinite")
+            }
+            AnalysisError::NonFinite { body: None, field } => {
+                write!(f, "non-finite input: `{field}` is NaN or infinite")
+            }
+            AnalysisError::ZeroQuaternion { body } => write!(f, "body `{body}` has zero Euler parameters"),
+            AnalysisError::NonFiniteOutput { quantity, row: Some(r) } => {
+                write!(f, "the scene's {quantity} is not finite at {r}")
+            }
+            AnalysisError::NonFiniteOutput { quantity, row: None } => write!(f, "the scene's {quantity} is not finite"),
+            AnalysisError::NotConverged { residual, iterations, worst } => write!(
+                f,
+                "assembly did not converge: |Φ| = {residual:.3e} after {iterations} iterations; largest residuals: {worst}"
+            ),
+            AnalysisError::NoProgress { residual, iterations, worst } => write!(
+                f,
+                "assembly made no progress (singular Jacobian or impossible configuration): |Φ| = {residual:.3e} \
+                 after {iterations} iterations; largest residuals: {worst}"
+            ),
+            AnalysisError::Inconsistent { analysis, residual, worst } => write!(
+                f,
+                "{analysis} analysis: redundant constraints are inconsistent, residual {residual:.3e}; largest: {worst}"
+            ),
+            AnalysisError::Dimensions { nb, nv } => {
+                write!(f, "a scene of {nb} bodies needs {} velocity columns, not {nv}", 6 * nb)
+            }
+            AnalysisError::BadInertia { body } => {
+                write!(f, "body `{body}` has a non-positive mass or a singular inertia tensor")
+            }
+            AnalysisError::BadOption { name } => write!(f, "option `{name}` is out of range"),
+            AnalysisError::ImplicitNotConverged { iterations, correction } => write!(
+                f,
+                "implicit integrator: Newton did not converge in {iterations} iterations (last correction {correction:.3e})"
+            ),
+            // The factorisation's own message is `source()`'s (the API guidelines:
+            // a wrapped error is either shown or returned, not both).
+            AnalysisError::Linalg(_) => {
+                f.write_str("a factorisation failed (a singular or non-finite iteration matrix)")
+            }
+        }
+    }
+}
+
+impl core::error::Error for AnalysisError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AnalysisError::Linalg(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<LinalgError> for AnalysisError {
+    fn from(e: LinalgError) -> Self {
+        AnalysisError::Linalg(e)
+    }
+}
+
+/// Which linear problem an [`AnalysisError::Inconsistent`] comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+#[non_exhaustive]
+pub enum Analysis {
+    /// Velocity analysis, `J v = −Φ_t`.
+    Velocity,
+    /// Acceleration analysis, `J v̇ = γ`.
+    Acceleration,
+    /// Forward dynamics.
+    Dynamics,
+}
+
+impl core::fmt::Display for Analysis {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Analysis::Velocity => "velocity",
+            Analysis::Acceleration => "acceleration",
+            Analysis::Dynamics => "dynamics",
+        })
+    }
+}

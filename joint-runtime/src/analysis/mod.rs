@@ -1,0 +1,223 @@
+//! Kinematic analyses of any [`Scene`]: assembly (position analysis), velocity
+//! analysis and acceleration analysis.
+//!
+//! All three solve underdetermined or redundant linear systems `J x = b` in the
+//! minimum-norm sense, `x = Jᵀ y` with `(J Jᵀ) y = b`, factorising the Gram matrix
+//! with the rank-revealing [`PivotedCholesky`]. Rows it drops as dependent are
+//! *redundant* and are reported by joint name (via [`Scene::BLOCKS`]) in a
+//! [`RowList`]; they receive no correction of their own, which is right when the
+//! redundant rows are consistent with the others (a duplicated joint) and shows up
+//! as a residual otherwise.
+//!
+//! Everything here works on fixed-size nalgebra types: no allocation, no panic on
+//! bad input (NaN, infinities, zero quaternions, impossible configurations all
+//! return an [`AnalysisError`]).
+//!
+//! Orientation updates stay on the rotation group: a velocity-level increment
+//! `Δθ'` (body components, the `ω'` columns of `J`) moves `p ← p ⊗ q(Δθ')` with
+//! `q(θ) = [cos(|θ|/2), sin(|θ|/2) θ/|θ|]` (scalar first), then `p` is renormalised.
+//! Because `A(p ⊗ q) = A(p) A(q)`, this is the increment whose first-order effect
+//! the `omega_body` Jacobian describes.
+
+mod diagnostics;
+mod error;
+mod motion;
+mod newton;
+mod solve;
+
+use nalgebra::SVector;
+
+pub use diagnostics::{RowInfo, RowList, RowResidual, WorstRows};
+pub(crate) use diagnostics::{check_dims, check_output, check_state};
+pub use error::{Analysis, AnalysisError};
+pub(crate) use motion::{
+    apply_increment, normalise_orientations, quat_mul, rotate_body, set_velocities, velocity_vector,
+};
+pub(crate) use newton::newton;
+pub(crate) use solve::{InverseMass, Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
+
+use crate::linalg::DEFAULT_RANK_TOLERANCE;
+use crate::scene::{Scene, SystemState};
+
+/// Options of [`assemble`] (and of the projection step of [`crate::dynamics`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
+#[cfg_attr(feature = "serde", serde(default))]
+pub struct AssemblyOptions {
+    /// Converged when ‖Φ‖₂ ≤ `tolerance`.
+    pub tolerance: f64,
+    /// Newton iterations allowed.
+    pub max_iterations: usize,
+    /// Relative pivot tolerance of the rank-revealing factorisation.
+    pub rank_tolerance: f64,
+    /// Smallest step fraction the backtracking line search tries before
+    /// reporting [`AnalysisError::NoProgress`].
+    pub min_step: f64,
+}
+
+impl Default for AssemblyOptions {
+    fn default() -> Self {
+        AssemblyOptions { tolerance: 1e-12, max_iterations: 25, rank_tolerance: DEFAULT_RANK_TOLERANCE, min_step: 1e-4 }
+    }
+}
+
+/// Options are `#[non_exhaustive]` (more will come); set them from the defaults:
+/// `AssemblyOptions::default().with_tolerance(1e-10)`.
+impl AssemblyOptions {
+    /// Sets [`tolerance`](Self::tolerance).
+    pub const fn with_tolerance(mut self, tolerance: f64) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+    /// Sets [`max_iterations`](Self::max_iterations).
+    pub const fn with_max_iterations(mut self, max_iterations: usize) -> Self {
+        self.max_iterations = max_iterations;
+        self
+    }
+    /// Sets [`rank_tolerance`](Self::rank_tolerance).
+    pub const fn with_rank_tolerance(mut self, rank_tolerance: f64) -> Self {
+        self.rank_tolerance = rank_tolerance;
+        self
+    }
+    /// Sets [`min_step`](Self::min_step).
+    pub const fn with_min_step(mut self, min_step: f64) -> Self {
+        self.min_step = min_step;
+        self
+    }
+}
+
+/// The result of [`assemble`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
+pub struct Assembly<const M: usize> {
+    /// Newton iterations taken (0 if the configuration was already assembled).
+    pub iterations: usize,
+    /// Final ‖Φ‖₂.
+    pub residual: f64,
+    /// Rows found redundant at the final configuration.
+    pub redundant: RowList<M>,
+}
+
+/// The result of [`velocities`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
+pub struct VelocityAnalysis<const M: usize> {
+    /// ‖J v + Φ_t‖₂ after the solve.
+    pub residual: f64,
+    /// Redundant rows.
+    pub redundant: RowList<M>,
+}
+
+/// The result of [`accelerations`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
+pub struct AccelerationAnalysis<const NV: usize, const M: usize> {
+    /// `v̇ = [r̈_0, ω̇'_0, r̈_1, ...]`: the minimum-norm solution of `J v̇ = γ`.
+    pub vdot: SVector<f64, NV>,
+    /// ‖J v̇ − γ‖₂.
+    pub residual: f64,
+    /// Redundant rows.
+    pub redundant: RowList<M>,
+}
+
+// ---------------------------------------------------------------------------
+// Public analyses.
+
+/// Assembles the mechanism: moves `state`'s positions and orientations onto
+/// Φ = 0 by damped Newton from a rough configuration.
+///
+/// Each iteration solves `J Δ = −Φ` in the minimum-norm least-squares sense
+/// (`Δ = Jᵀ y`, `(J Jᵀ) y = −Φ` by [`PivotedCholesky`]), then tries `r += α Δr`,
+/// `p ← p ⊗ q(α Δθ')` for `α = 1, ½, ¼, …` until ‖Φ‖₂ decreases (Armijo). The
+/// Euler parameters are normalised first (a rough `p` need not be unit).
+/// Velocities and time are not touched.
+///
+/// # Errors
+/// [`AnalysisError::NonFinite`] names the body and field of a NaN/infinite
+/// position input; [`AnalysisError::NotConverged`] after `max_iterations`;
+/// [`AnalysisError::NoProgress`] when no step reduces ‖Φ‖ (singular or
+/// impossible). Both name the rows with the largest residuals. On error `state`
+/// holds the last accepted iterate.
+pub fn assemble<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &mut SystemState<NB>,
+    options: &AssemblyOptions,
+) -> Result<Assembly<M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    newton(scene, state, options, None)
+}
+
+/// Velocity analysis: solves `J v = −Φ_t` (minimum norm) at `state`'s
+/// configuration and writes every body's `ṙ` and `ω'`. Degrees of freedom not
+/// fixed by the constraints (or drivers) get zero velocity; use this on a fully
+/// driven mechanism, or to start from rest.
+///
+/// # Errors
+/// Non-finite inputs or outputs; [`AnalysisError::Inconsistent`] when redundant
+/// rows contradict the others. Redundant but consistent rows are reported in the
+/// result.
+pub fn velocities<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &mut SystemState<NB>,
+) -> Result<VelocityAnalysis<M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    velocities_with(scene, state, DEFAULT_RANK_TOLERANCE)
+}
+
+/// [`velocities`] with a chosen relative rank tolerance.
+pub fn velocities_with<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &mut SystemState<NB>,
+    rank_tolerance: f64,
+) -> Result<VelocityAnalysis<M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    check_state::<S, NB, NV, M>(state, false)?;
+    let j = scene.jacobian(state);
+    check_output::<S, NB, NV, M, NV>("J", &j)?;
+    let phi_t = scene.phi_t(state);
+    check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
+    let solution = solve_linear::<S, NB, NV, M>(Analysis::Velocity, &j, &(-phi_t), None, rank_tolerance)?;
+    set_velocities(state, &solution.x);
+    Ok(VelocityAnalysis { residual: solution.residual, redundant: solution.redundant })
+}
+
+/// Acceleration analysis: the minimum-norm solution of `J v̇ = γ` at `state`.
+///
+/// # Errors
+/// As [`velocities`].
+pub fn accelerations<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &SystemState<NB>,
+) -> Result<AccelerationAnalysis<NV, M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    accelerations_with(scene, state, DEFAULT_RANK_TOLERANCE)
+}
+
+/// [`accelerations`] with a chosen relative rank tolerance.
+pub fn accelerations_with<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &SystemState<NB>,
+    rank_tolerance: f64,
+) -> Result<AccelerationAnalysis<NV, M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    check_state::<S, NB, NV, M>(state, true)?;
+    let e = scene.evaluate(state);
+    check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
+    check_output::<S, NB, NV, M, 1>("γ", &e.gamma)?;
+    let solution = solve_linear::<S, NB, NV, M>(Analysis::Acceleration, &e.jacobian, &e.gamma, None, rank_tolerance)?;
+    Ok(AccelerationAnalysis { vdot: solution.x, residual: solution.residual, redundant: solution.redundant })
+}

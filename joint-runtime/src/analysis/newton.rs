@@ -1,0 +1,74 @@
+//! Damped Newton on Φ = 0: assembly and the projection step of the dynamics.
+
+use super::{
+    AnalysisError, Assembly, AssemblyOptions, Metric, RowList, WorstRows, apply_increment, check_output, check_state,
+    min_norm, normalise_orientations,
+};
+use crate::scene::{Scene, SystemState};
+
+/// Damped Newton on Φ = 0 with minimum-norm steps in the metric.
+pub(crate) fn newton<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &mut SystemState<NB>,
+    options: &AssemblyOptions,
+    metric: Metric<'_, NB>,
+) -> Result<Assembly<M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    check_state::<S, NB, NV, M>(state, false)?;
+    if options.tolerance.is_nan() || options.tolerance < 0.0 {
+        return Err(AnalysisError::BadOption { name: "tolerance" });
+    }
+    if !(options.min_step > 0.0 && options.min_step <= 1.0) {
+        return Err(AnalysisError::BadOption { name: "min_step" });
+    }
+    normalise_orientations::<S, NB, NV, M>(state)?;
+    let mut phi = scene.phi(state);
+    check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
+    let mut norm = phi.norm();
+    let mut iterations = 0;
+    loop {
+        let j = scene.jacobian(state);
+        check_output::<S, NB, NV, M, NV>("J", &j)?;
+        if norm <= options.tolerance {
+            let chol = min_norm(&j, &phi, metric, options.rank_tolerance)?.factor;
+            return Ok(Assembly {
+                iterations,
+                residual: norm,
+                redundant: RowList::from_rows::<S, NB, NV>(chol.dropped()),
+            });
+        }
+        if iterations >= options.max_iterations {
+            return Err(AnalysisError::NotConverged {
+                residual: norm,
+                iterations,
+                worst: WorstRows::of::<S, NB, NV, M>(&phi),
+            });
+        }
+        let delta = min_norm(&j, &(-phi), metric, options.rank_tolerance)?.x;
+        let mut alpha = 1.0;
+        loop {
+            let mut trial = *state;
+            apply_increment(&mut trial, &delta, alpha);
+            let p = scene.phi(&trial);
+            let n = p.norm();
+            // Armijo on ‖Φ‖ (the Gauss-Newton direction decreases it at rate 1).
+            if n.is_finite() && n <= (1.0 - 1e-4 * alpha) * norm {
+                *state = trial;
+                phi = p;
+                norm = n;
+                break;
+            }
+            alpha *= 0.5;
+            if alpha < options.min_step {
+                return Err(AnalysisError::NoProgress {
+                    residual: norm,
+                    iterations,
+                    worst: WorstRows::of::<S, NB, NV, M>(&phi),
+                });
+            }
+        }
+        iterations += 1;
+    }
+}
