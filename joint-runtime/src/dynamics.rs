@@ -362,11 +362,16 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
     gravity: Vector3<f64>,
     /// The options (may be changed between steps).
     pub options: SimulationOptions,
-    /// The pivot order and rank of `J M⁻¹ Jᵀ` fixed for the stages of the
-    /// current step, so that every stage drops the same redundant rows.
-    pivots: Option<([usize; M], usize)>,
-    /// Whether this step's redundant rows were checked (at its first stage).
-    redundant_checked: bool,
+}
+
+/// What the stages of one step share, decided at the step's start: which rows
+/// of `J M⁻¹ Jᵀ` to drop as redundant (its pivot order and rank), so that every
+/// stage drops the same ones, and whether the start was checked for
+/// contradictory redundant rows.
+struct StepRule<const M: usize> {
+    order: [usize; M],
+    rank: usize,
+    checked: bool,
 }
 
 /// Shows the options and the mechanical data; the scene and the loads are shown
@@ -436,17 +441,7 @@ where
         if !gravity.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::BadOption { name: "gravity" });
         }
-        Ok(Simulation {
-            scene,
-            loads,
-            springs,
-            inertias,
-            inverse,
-            gravity,
-            options,
-            pivots: None,
-            redundant_checked: false,
-        })
+        Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, options })
     }
 
     /// The scene.
@@ -505,13 +500,14 @@ where
         q
     }
 
-    /// The pivot order and rank of `J M⁻¹ Jᵀ` at `state`.
-    fn pivot_order(&self, state: &SystemState<NB>) -> Result<([usize; M], usize), AnalysisError> {
+    /// The rule of a step starting at `state`: the pivot order and rank of
+    /// `J M⁻¹ Jᵀ` there.
+    fn step_rule(&self, state: &SystemState<NB>) -> Result<StepRule<M>, AnalysisError> {
         let j = self.scene.jacobian(state);
         check_output::<S, NB, NV, M, NV>("J", &j)?;
         let jw = jacobian_times_metric(Some(&self.inverse), &j);
         let chol = PivotedCholesky::new(&(jw * j.transpose()), self.options.rank_tolerance)?;
-        Ok((*chol.permutation(), chol.rank()))
+        Ok(StepRule { order: *chol.permutation(), rank: chol.rank(), checked: false })
     }
 
     /// Constrained accelerations and Lagrange multipliers at `state` (with the
@@ -522,6 +518,16 @@ where
     /// Non-finite inputs or outputs; [`AnalysisError::Inconsistent`] when
     /// redundant constraints contradict each other.
     pub fn dynamics(&mut self, state: &SystemState<NB>) -> Result<Dynamics<NV, M>, AnalysisError> {
+        self.solve(state, None)
+    }
+
+    /// [`dynamics`](Self::dynamics) on its own (`rule` `None`: the rows to drop
+    /// chosen here, all checked), or at a stage of a step under its rule.
+    fn solve(
+        &mut self,
+        state: &SystemState<NB>,
+        rule: Option<&mut StepRule<M>>,
+    ) -> Result<Dynamics<NV, M>, AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
         let e = self.scene.evaluate(state);
         check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
@@ -542,8 +548,8 @@ where
         let minv_q = apply_metric::<NB, NV>(metric, &forces);
         let jw = jacobian_times_metric(metric, &e.jacobian);
         let gram = jw * e.jacobian.transpose();
-        let chol = match &self.pivots {
-            Some((order, rank)) => PivotedCholesky::with_order(&gram, order, *rank, self.options.rank_tolerance)?,
+        let chol = match &rule {
+            Some(r) => PivotedCholesky::with_order(&gram, &r.order, r.rank, self.options.rank_tolerance)?,
             None => PivotedCholesky::new(&gram, self.options.rank_tolerance)?,
         };
         let lambda = chol.solve(&(e.jacobian * minv_q - gamma));
@@ -571,8 +577,10 @@ where
         // Within a step only the first stage (the step's own start) is checked:
         // contradiction is a property of the configuration, while later stages
         // sit O(h²) off the manifold by construction.
-        let check_dropped = !(self.pivots.is_some() && self.redundant_checked);
-        self.redundant_checked |= self.pivots.is_some();
+        let check_dropped = match rule {
+            Some(r) => !core::mem::replace(&mut r.checked, true),
+            None => true,
+        };
         if kept.norm() > 1e-9 * scale || (check_dropped && dropped > REDUNDANT_TOLERANCE * scale) {
             return Err(AnalysisError::Inconsistent {
                 analysis: crate::analysis::Analysis::Dynamics,
@@ -652,8 +660,8 @@ where
         Ok((iterations, residual, velocity_residual))
     }
 
-    fn rate(&mut self, state: &SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError> {
-        let d = self.dynamics(state)?;
+    fn rate(&mut self, state: &SystemState<NB>, rule: &mut StepRule<M>) -> Result<Rate<NB, NV>, AnalysisError> {
+        let d = self.solve(state, Some(rule))?;
         let mut rate = Rate { rdot: [Vector3::zeros(); NB], pdot: [Vector4::zeros(); NB], vdot: d.vdot };
         for ((b, rdot), pdot) in state.bodies.iter().zip(rate.rdot.iter_mut()).zip(rate.pdot.iter_mut()) {
             *rdot = b.rdot;
@@ -684,13 +692,18 @@ where
         y
     }
 
-    fn step_rk4(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<usize, AnalysisError> {
+    fn step_rk4(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        rule: &mut StepRule<M>,
+    ) -> Result<usize, AnalysisError> {
         let y0 = *state;
         let t0 = y0.t;
-        let k1 = self.rate(&y0)?;
-        let k2 = self.rate(&Self::advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h))?;
-        let k3 = self.rate(&Self::advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h))?;
-        let k4 = self.rate(&Self::advance(&y0, &[(&k3, 1.0)], h, t0 + h))?;
+        let k1 = self.rate(&y0, rule)?;
+        let k2 = self.rate(&Self::advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h), rule)?;
+        let k3 = self.rate(&Self::advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h), rule)?;
+        let k4 = self.rate(&Self::advance(&y0, &[(&k3, 1.0)], h, t0 + h), rule)?;
         let sixth = 1.0 / 6.0;
         *state = Self::advance(&y0, &[(&k1, sixth), (&k2, 2.0 * sixth), (&k3, 2.0 * sixth), (&k4, sixth)], h, t0 + h);
         Ok(0)
@@ -703,21 +716,27 @@ where
         v0: &SVector<f64, NV>,
         w: &SVector<f64, NV>,
         h: f64,
+        rule: &mut StepRule<M>,
     ) -> Result<SVector<f64, NV>, AnalysisError> {
         let mut mid = *y0;
         apply_increment(&mut mid, w, 0.5 * h);
         set_velocities(&mut mid, w);
         mid.t = y0.t + 0.5 * h;
-        let a = self.dynamics(&mid)?.vdot;
+        let a = self.solve(&mid, Some(rule))?.vdot;
         Ok(w - v0 - a * (0.5 * h))
     }
 
-    fn step_midpoint(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<usize, AnalysisError> {
+    fn step_midpoint(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        rule: &mut StepRule<M>,
+    ) -> Result<usize, AnalysisError> {
         let y0 = *state;
         let v0 = velocity_vector::<NB, NV>(&y0);
         // Explicit predictor.
-        let mut w = v0 + self.dynamics(&y0)?.vdot * (0.5 * h);
-        let mut r = self.midpoint_residual(&y0, &v0, &w, h)?;
+        let mut w = v0 + self.solve(&y0, Some(rule))?.vdot * (0.5 * h);
+        let mut r = self.midpoint_residual(&y0, &v0, &w, h, rule)?;
         let mut lu: Option<Lu<NV>> = None;
         let mut last = f64::INFINITY;
         let max = self.options.newton_max_iterations;
@@ -735,7 +754,7 @@ where
                         let eps = 1e-7 * (1.0 + libm::fabs(w[c]));
                         let mut wc = w;
                         wc[c] += eps;
-                        let rc = self.midpoint_residual(&y0, &v0, &wc, h)?;
+                        let rc = self.midpoint_residual(&y0, &v0, &wc, h, rule)?;
                         jac.set_column(c, &((rc - r) / eps));
                     }
                     let f = Lu::new(&jac)?;
@@ -745,7 +764,7 @@ where
             };
             let dw = factor.solve(&(-r));
             w += dw;
-            r = self.midpoint_residual(&y0, &v0, &w, h)?;
+            r = self.midpoint_residual(&y0, &v0, &w, h, rule)?;
             iterations += 1;
             let size = dw.norm();
             if !size.is_finite() {
@@ -786,15 +805,11 @@ where
         // off the constraint manifold (at the stages) redundant rows disagree by
         // O(h²), and a choice that switched between stages would cost the method
         // its order.
-        self.pivots = None;
-        self.pivots = Some(self.pivot_order(&y)?);
-        self.redundant_checked = false;
-        let stepped = match self.options.integrator {
-            Integrator::Rk4 => self.step_rk4(&mut y, h),
-            Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h),
+        let mut rule = self.step_rule(&y)?;
+        let newton_iterations = match self.options.integrator {
+            Integrator::Rk4 => self.step_rk4(&mut y, h, &mut rule)?,
+            Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,
         };
-        self.pivots = None;
-        let newton_iterations = stepped?;
         let mut report = StepReport { newton_iterations, ..StepReport::default() };
         if let Some(options) = self.options.projection {
             // Projected on the copy: a failed projection (a NaN parameter seen
