@@ -39,16 +39,47 @@ pub struct Arg {
     pub value: Option<Value>,
 }
 
+/// A number: a literal, or arithmetic on literals folded here (`0.007 - 0.00092`,
+/// `-1.0 / 3.0`, `2.0 * (0.5 + 0.25)`), so that the geometry checks still see it.
 fn number(input: ParseStream) -> syn::Result<(f64, Span)> {
-    let neg = input.parse::<Option<Token![-]>>()?.is_some();
-    let lit: syn::Lit =
-        input.parse().map_err(|e| syn::Error::new(e.span(), "expected a number, as in `[0, 0, 1]` or `0.5`"))?;
-    let v = match &lit {
-        syn::Lit::Int(i) => i.base10_parse::<f64>()?,
-        syn::Lit::Float(f) => f.base10_parse::<f64>()?,
-        _ => return Err(syn::Error::new(lit.span(), "expected a number, as in `[0, 0, 1]` or `0.5`")),
+    let expr: syn::Expr = input.parse().map_err(|e| syn::Error::new(e.span(), EXPECTED_NUMBER))?;
+    Ok((fold(&expr)?, expr.span()))
+}
+
+const EXPECTED_NUMBER: &str =
+    "expected a number or arithmetic on numbers, as in `0.5`, `[0, 0, 1]` or `0.007 - 0.00092`";
+
+/// The value of arithmetic on number literals, in f64 as Rust would compute it
+/// (each operation rounded once, left to right as written).
+fn fold(expr: &syn::Expr) -> syn::Result<f64> {
+    use syn::{BinOp, Expr, Lit, UnOp};
+    let value = match expr {
+        Expr::Lit(syn::ExprLit { lit: Lit::Int(i), .. }) => i.base10_parse::<f64>()?,
+        Expr::Lit(syn::ExprLit { lit: Lit::Float(f), .. }) => f.base10_parse::<f64>()?,
+        Expr::Paren(e) => fold(&e.expr)?,
+        Expr::Group(e) => fold(&e.expr)?,
+        Expr::Unary(e) if matches!(e.op, UnOp::Neg(_)) => -fold(&e.expr)?,
+        Expr::Binary(e) => {
+            let (a, b) = (fold(&e.left)?, fold(&e.right)?);
+            match e.op {
+                BinOp::Add(_) => a + b,
+                BinOp::Sub(_) => a - b,
+                BinOp::Mul(_) => a * b,
+                BinOp::Div(_) => a / b,
+                _ => return Err(syn::Error::new(e.op.span(), "expected `+`, `-`, `*` or `/` between numbers")),
+            }
+        }
+        Expr::Path(p) => {
+            return Err(syn::Error::new(
+                p.span(),
+                "a named constant is not accepted here; write the number or arithmetic on numbers, as in `0.007 - 0.00092`",
+            ));
+        }
+        _ => return Err(syn::Error::new(expr.span(), EXPECTED_NUMBER)),
     };
-    Ok((if neg { -v } else { v }, lit.span()))
+    // A non-finite result (`1.0 / 0.0`) is the parameter checks' to report, as
+    // for a non-finite literal.
+    Ok(value)
 }
 
 impl Parse for Arg {

@@ -124,6 +124,9 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     let mut bodies: Vec<Body> = Vec::new();
     let mut joint_attrs: Vec<JointAttr> = Vec::new();
     let mut gravity = Quantity::Const(vec![0.0; 3]);
+    // Attributes written, parsed or not: a scene whose only joint attribute has a
+    // mistake gets that mistake reported, not a second "needs joints" as well.
+    let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
     for attr in &input.attrs {
         if attr.path().is_ident("scene") {
             match attr.parse_args_with(Punctuated::<Arg, Token![,]>::parse_terminated) {
@@ -185,8 +188,12 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     }
     if bodies.is_empty() {
         // Every joint would be ground to ground: say the one thing that is wrong.
-        errors
-            .at(input.ident.span(), "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`");
+        if !written("body") {
+            errors.at(
+                input.ident.span(),
+                "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`",
+            );
+        }
         return match errors.finish() {
             Err(e) => Err(e),
             Ok(()) => unreachable!("an error was recorded"),
@@ -204,7 +211,7 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
             errors.at(b.name.span(), format!("{message}; rename one"));
         }
     }
-    if joint_attrs.is_empty() {
+    if !written("joint") {
         errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
     for b in &bodies {

@@ -11,9 +11,10 @@ struct Cardan<T> {
     point: Vector3<T>,
 }
 
-/// Every parameter constant, grounded body 1, a field that is not a parameter.
+/// Every parameter constant (arithmetic on numbers folded), grounded body 1, a
+/// field that is not a parameter.
 #[derive(Joint)]
-#[joint(spherical, formulation = euler, ground = body1, rho1 = [0, 0, 0.5], rho2 = [-1, 0, 0])]
+#[joint(spherical, formulation = euler, ground = body1, rho1 = [0, 0, 2.0 * (0.125 + 0.125)], rho2 = [-1.0 / 1.0, 0, 0])]
 struct Ball<T> {
     #[joint(skip)]
     label: &'static str,

@@ -6,7 +6,7 @@ use joint_runtime::{AxisFrame, Ramp, Scene};
 #[body(link, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[body(bob, mass = mass, inertia = moments)]
 #[joint(hinge = revolute(ground, link), axis1 = axis, axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
-#[joint(ball = spherical(link, bob), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.2])]
+#[joint(ball = spherical(link, bob), rho1 = [0, 0, -0.5], rho2 = [0.007 - 0.00092, 0, -1.0 / 5.0 + 0.4])]
 #[joint(motor = rotational_driver(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], theta = drive)]
 struct Driven<F> {
     axis: AxisFrame<f64>,
@@ -28,4 +28,8 @@ fn main() {
     assert_eq!((Driven::<Ramp>::NB, Driven::<Ramp>::NV, Driven::<Ramp>::ROWS), (2, 12, 9));
     assert_eq!(Driven::<Ramp>::BLOCKS[1].name, "ball");
     assert_eq!(scene.inertias()[1].mass, 0.5);
+    // Arithmetic in the attribute is folded as Rust folds it.
+    let mut points = Vec::new();
+    scene.joint_points(&mut |p| points.push(p));
+    assert_eq!(points[3].point, Vector3::new(0.007 - 0.00092, 0.0, -1.0 / 5.0 + 0.4));
 }
