@@ -141,13 +141,39 @@ pub struct SystemDerivatives {
 pub fn derive_all(k: &mut Kinematics, phi: &[Id], spans: &[Span]) -> syn::Result<SystemDerivatives> {
     check_rows(k, phi, spans)?;
     let mut out = SystemDerivatives { jacobian: Vec::new(), gamma: Vec::new(), phi_t: Vec::new() };
+    let mut alternatives = Vec::new();
     for (&row, &span) in phi.iter().zip(spans) {
         let d = k.derive_row(row).map_err(|m| syn::Error::new(span, m))?;
         out.jacobian.push(d.jacobian);
         out.gamma.push(d.gamma);
+        alternatives.push(d.gamma_body);
         out.phi_t.push(d.phi_t);
     }
+    choose_gammas(k, phi, &mut out, &alternatives);
     Ok(out)
+}
+
+/// Where rows' γ can be written two ways, keeps the set that costs the fused
+/// evaluation (Φ, J and γ) fewest operations among: every row's body-frame
+/// form, a row-by-row greedy choice, every row's inertial form; on a tie the
+/// earlier, whose rounding follows the exact entries' degree in `p`.
+fn choose_gammas(k: &Kinematics, phi: &[Id], out: &mut SystemDerivatives, alternatives: &[Option<Id>]) {
+    let base: Vec<Id> = phi.iter().chain(out.jacobian.iter().flatten()).copied().collect();
+    let cost = |gammas: &[Id]| emit::count_ops(&k.g, &[&base[..], gammas].concat());
+    let inertial = out.gamma.clone();
+    let body: Vec<Id> = inertial.iter().zip(alternatives).map(|(&g, a)| a.unwrap_or(g)).collect();
+    let mut greedy = Vec::new();
+    for (&g, alternative) in inertial.iter().zip(alternatives) {
+        let pick = match *alternative {
+            Some(b) if cost(&[&greedy[..], &[b]].concat()) <= cost(&[&greedy[..], &[g]].concat()) => b,
+            _ => g,
+        };
+        greedy.push(pick);
+    }
+    let best = [body, greedy, inertial].into_iter().min_by_key(|gammas| cost(gammas));
+    if let Some(best) = best {
+        out.gamma = best;
+    }
 }
 
 /// Builds Φ from the joint's primitives and derives the rest.

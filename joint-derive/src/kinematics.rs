@@ -118,6 +118,10 @@ pub struct Kinematics {
     pub rules: TimeRules,
     /// Rules for Φ_t: only explicit time moves.
     pub time_rules: TimeRules,
+    /// `omega_body`: each rotated vector's body-frame rule `u̇ = A (ω' × a')`
+    /// (and its second derivative), overriding the inertial `u̇ = ω × u` of
+    /// [`rules`](Self::rules) when J is derived (see [`Kinematics::derive_row`]).
+    pub body_rules: TimeRules,
     /// Coordinates in column order (`euler`: J = ∂Φ/∂q).
     pub coords: Vec<Id>,
     /// Velocities in column order.
@@ -127,6 +131,9 @@ pub struct Kinematics {
     /// Whether [`Kinematics::dot1`] may take dot-1 rows in B2 components
     /// (`relative_b2`); the derive tries both and keeps the cheaper.
     pub dot1_in_b2: bool,
+    /// Whether rotated vectors also get [`body_rules`](Self::body_rules)
+    /// (`omega_body`, whose velocities are `ω'` in body components).
+    body_frame_rules: bool,
     /// Frame 0 is the ground (identity); bodies follow.
     frames: Vec<Frame>,
     /// The frames of the current joint's body 1 and body 2.
@@ -138,6 +145,7 @@ impl Kinematics {
     /// Sets up the inputs and rules of `formulation` with `ground`.
     pub fn new(formulation: Formulation, ground: Ground) -> Self {
         let mut k = Kinematics::empty();
+        k.body_frame_rules = formulation == Formulation::OmegaBody;
         if formulation.is_relative() {
             let delta = k.vector("delta", vec!["delta".into()]);
             let p = k.vector4("p", vec!["p".into()], false);
@@ -180,6 +188,7 @@ impl Kinematics {
     /// one after the other with [`Kinematics::connect`].
     pub fn scene(formulation: Formulation, bodies: &[String]) -> Self {
         let mut k = Kinematics::empty();
+        k.body_frame_rules = formulation == Formulation::OmegaBody;
         for (i, name) in bodies.iter().enumerate() {
             k.add_body(&format!("_{name}"), vec!["bodies".into(), i.to_string()], formulation);
         }
@@ -194,6 +203,7 @@ impl Kinematics {
             g,
             rules: TimeRules::new(),
             time_rules: TimeRules::new(),
+            body_rules: TimeRules::new(),
             coords: Vec::new(),
             velocities: Vec::new(),
             inputs: Vec::new(),
@@ -201,6 +211,7 @@ impl Kinematics {
             pair: [0, 0],
             delta: None,
             dot1_in_b2: true,
+            body_frame_rules: false,
         }
     }
 
@@ -323,7 +334,27 @@ impl Kinematics {
         if let Some(rates) = self.frames[frame].euler {
             self.euler_rule(rates, a, u, hint);
         }
+        if self.body_frame_rules {
+            self.body_rule(frame, a, u, 2);
+        }
         u
+    }
+
+    /// With ω' in the frame's own components: `u = A a'` moves as `u̇ = A (ω' × a')`
+    /// (and, ω̇' held at zero, `ü = A (ω' × (ω' × a'))`, for `depth` 2). The
+    /// Jacobian then comes out as `a' × (Aᵀ g)`: products of `A`'s entries with
+    /// the body-fixed vector, of the degree in `p` the exact entries have, where
+    /// `ω × u` with `ω = A ω'` multiplies `A` by `A a'` and loses digits.
+    fn body_rule(&mut self, frame: usize, a: V3, u: V3, depth: usize) {
+        let (Some(w), m) = (self.frames[frame].body_rate, self.frames[frame].a) else { return };
+        let b = cross(&mut self.g, w, a);
+        let du = mat_vec(&mut self.g, &m, b);
+        for j in 0..3 {
+            self.body_rules.set_node(&self.g, u[j], du[j]);
+        }
+        if depth > 1 {
+            self.body_rule(frame, b, du, depth - 1);
+        }
     }
 
     /// The Euler-parameter rule for `u = A(p) a'`, exact for any `p` (unit or not):
@@ -482,17 +513,32 @@ impl Kinematics {
     /// Φ̇, J and γ of one row Φ, and Φ_t. Fails when J would depend on the
     /// velocities (the row is not linear in them).
     pub fn derive_row(&mut self, phi: Id) -> Result<RowDerivatives, &'static str> {
+        // In `omega_body`, J comes from the body-frame rules: `a' × (Aᵀ g)` keeps
+        // the degree in `p` of the exact entries, where the inertial rule's
+        // `Aᵀ (u × g)` multiplies `A` by `A a'` and loses up to 3 ε·scale.
+        let mut body = self.body_frame_rules.then(|| self.rules.overridden(&self.body_rules));
         let phi_dot = self.rules.dt(&mut self.g, phi);
+        let phi_dot_body = match &mut body {
+            Some(rules) => rules.dt(&mut self.g, phi),
+            None => phi_dot,
+        };
         // J is the coefficient of the velocities in Φ̇ (in `euler` that is ∂Φ/∂q).
         let velocities = self.velocities.clone();
-        let jacobian = grad(&mut self.g, phi_dot, &velocities);
+        let jacobian = grad(&mut self.g, phi_dot_body, &velocities);
         if jacobian.iter().any(|&j| self.g.mask(j) & crate::engine::graph::VELOCITY != 0) {
             return Err("the derivative of this row is not linear in the velocities");
         }
+        // γ both ways where there are two: the caller keeps the one that costs
+        // the fused evaluation less (the body form for a point's row, the
+        // inertial one where one ω serves several axes).
         let phi_ddot = self.rules.dt(&mut self.g, phi_dot);
         let gamma = self.g.neg(phi_ddot);
+        let gamma_body = body.map(|mut rules| {
+            let phi_ddot = rules.dt(&mut self.g, phi_dot_body);
+            self.g.neg(phi_ddot)
+        });
         let phi_t = self.time_rules.dt(&mut self.g, phi);
-        Ok(RowDerivatives { jacobian, gamma, phi_t })
+        Ok(RowDerivatives { jacobian, gamma, gamma_body, phi_t })
     }
 }
 
@@ -502,6 +548,9 @@ pub struct RowDerivatives {
     pub jacobian: Vec<Id>,
     /// γ.
     pub gamma: Id,
+    /// γ from the body-frame rules (`omega_body`), the same number written
+    /// another way.
+    pub gamma_body: Option<Id>,
     /// Φ_t.
     pub phi_t: Id,
 }

@@ -43,7 +43,7 @@ pub mod driven {
         fn jacobian(scene: &DoubleCardan, state: &SystemState<3>) -> SMatrix<f64, 19, 18> { scene.jacobian(state) }
         fn gamma(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.gamma(state) }
         fn evaluate(scene: &DoubleCardan, state: &SystemState<3>) -> Evaluation<f64, 19, 18> { scene.evaluate(state) }
-        fn jacobian_values(scene: &DoubleCardan, state: &SystemState<3>) -> [f64; 79] { scene.jacobian_values(state) }
+        fn jacobian_values(scene: &DoubleCardan, state: &SystemState<3>) -> [f64; 62] { scene.jacobian_values(state) }
         fn assemble_(
             scene: &DoubleCardan,
             state: &mut SystemState<3>,

@@ -49,6 +49,17 @@ impl TimeRules {
         self.memo.clear();
     }
 
+    /// These rules with `overrides`' node rules in place of their own (the same
+    /// motion written another way, e.g. a rotated vector's body-frame rule).
+    pub fn overridden(&self, overrides: &TimeRules) -> TimeRules {
+        let mut rules = self.clone();
+        for (&node, &derivative) in &overrides.nodes {
+            rules.nodes.insert(node, derivative);
+        }
+        rules.memo.clear();
+        rules
+    }
+
     /// The time derivative of `id`.
     pub fn dt(&mut self, g: &mut Graph, id: Id) -> Id {
         if let Some(&d) = self.memo.get(&id) {

@@ -755,6 +755,25 @@ mod time_derivative {
         assert_eq!(cx.dt(c), cx.g.zero());
     }
 
+    /// Overridden rules replace the node rules they name, keep the others and
+    /// the variables' rules, and leave the originals as they were.
+    #[test]
+    fn overridden_rules_replace_node_rules() {
+        let mut cx = Ctx::new();
+        let (xy, yz) = (cx.build("(* x y)"), cx.build("(* y z)"));
+        let (r1, r2, r3) = (cx.v("a"), cx.v("b"), cx.v("c"));
+        cx.rules.set_node(&cx.g, xy, r1);
+        cx.rules.set_node(&cx.g, yz, r2);
+        let mut overrides = TimeRules::new();
+        overrides.set_node(&cx.g, xy, r3);
+        let mut both = cx.rules.overridden(&overrides);
+        assert_eq!(both.dt(&mut cx.g, xy), r3);
+        assert_eq!(both.dt(&mut cx.g, yz), r2);
+        let x = cx.v("x");
+        assert_eq!(both.dt(&mut cx.g, x), cx.v("xd"));
+        assert_eq!(cx.dt(xy), r1);
+    }
+
     /// A rule added after a derivative was taken invalidates the memo.
     #[test]
     fn rules_reset_memo() {
