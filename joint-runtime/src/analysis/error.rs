@@ -15,7 +15,7 @@ use crate::linalg::LinalgError;
 pub enum AnalysisError {
     /// An input is NaN or infinite.
     NonFinite {
-        /// The body (from [`Scene::BODIES`]), or `None` for the time.
+        /// The body (from [`Scene::BODIES`](crate::Scene::BODIES)), or `None` for the time.
         body: Option<&'static str>,
         /// The field: `"r"`, `"p"`, `"rdot"`, `"omega"` or `"t"`.
         field: &'static str,

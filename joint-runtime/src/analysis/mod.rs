@@ -3,7 +3,7 @@
 //!
 //! All three solve underdetermined or redundant linear systems `J x = b` in the
 //! minimum-norm sense, `x = Jᵀ y` with `(J Jᵀ) y = b`, factorising the Gram matrix
-//! with the rank-revealing [`PivotedCholesky`]. Rows it drops as dependent are
+//! with the rank-revealing [`PivotedCholesky`](crate::linalg::PivotedCholesky). Rows it drops as dependent are
 //! *redundant* and are reported by joint name (via [`Scene::BLOCKS`]) in a
 //! [`RowList`]; they receive no correction of their own, which is right when the
 //! redundant rows are consistent with the others (a duplicated joint) and shows up
@@ -131,7 +131,7 @@ pub struct AccelerationAnalysis<const NV: usize, const M: usize> {
 /// Φ = 0 by damped Newton from a rough configuration.
 ///
 /// Each iteration solves `J Δ = −Φ` in the minimum-norm least-squares sense
-/// (`Δ = Jᵀ y`, `(J Jᵀ) y = −Φ` by [`PivotedCholesky`]), then tries `r += α Δr`,
+/// (`Δ = Jᵀ y`, `(J Jᵀ) y = −Φ` by [`PivotedCholesky`](crate::linalg::PivotedCholesky)), then tries `r += α Δr`,
 /// `p ← p ⊗ q(α Δθ')` for `α = 1, ½, ¼, …` until ‖Φ‖₂ decreases (Armijo). The
 /// Euler parameters are normalised first (a rough `p` need not be unit).
 /// Velocities and time are not touched.
