@@ -388,7 +388,7 @@ pub fn impl_header(decl: &Declaration, rows: usize, cols: usize) -> Header {
 /// The number of rows and columns of a declaration, from its rows and
 /// formulation alone (no derivation): for a stub after an error.
 pub fn shape(decl: &Declaration) -> (usize, usize) {
-    let rows = decl.kind.rows.iter().map(|r| if matches!(r, Row::Scalar(_)) { 1 } else { 3 }).sum();
+    let rows = decl.kind.row_count();
     let per_body = if decl.formulation == Formulation::Euler { 7 } else { 6 };
     let cols = match (decl.formulation.is_relative(), decl.ground) {
         (true, _) => 6,

@@ -44,3 +44,67 @@ pub fn expand(input: &syn::DeriveInput, error: syn::Error, partial: Option<&Decl
         }
     }
 }
+
+/// The inherent constants a scene gets beside its bodies' indices.
+pub const SIZE_CONSTANTS: [&str; 4] = ["NB", "NV", "ROWS", "BLOCKS"];
+
+/// What a stub `Scene` needs: each body's name and its index constant, and
+/// the number of rows.
+pub struct SceneShape {
+    /// `(name, constant)` per body, in state order.
+    pub bodies: Vec<(String, syn::Ident)>,
+    /// Rows of all joints.
+    pub rows: usize,
+}
+
+/// `compile_error!` for every error of a `#[derive(Scene)]`, plus, when the
+/// bodies and the number of rows are known, a stub impl of `Scene` of that
+/// shape and the inherent constants, so that the scene's uses (a `Simulation`,
+/// `Shaft::INPUT`) type-check and one mistake gives one message.
+pub fn scene(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) -> TokenStream {
+    let errors = error.to_compile_error();
+    let Some(SceneShape { bodies, rows }) = shape else { return errors };
+    let ident = &input.ident;
+    let (ig, tg, wc) = input.generics.split_for_impl();
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let (nb, nv, m) = (lit(bodies.len()), lit(6 * bodies.len()), lit(rows));
+    let names = bodies.iter().map(|(name, _)| name);
+    // A constant that clashes (the error being reported) is left out here.
+    let mut seen: Vec<String> = SIZE_CONSTANTS.map(String::from).to_vec();
+    let mut indices = Vec::new();
+    for (i, (_, constant)) in bodies.iter().enumerate() {
+        if !seen.contains(&constant.to_string()) {
+            seen.push(constant.to_string());
+            let i = lit(i);
+            indices.push(quote!(pub const #constant: usize = #i;));
+        }
+    }
+    let k = quote!(::joint_runtime);
+    let state = quote!(#k::SystemState<#nb>);
+    quote! {
+        #errors
+        #[automatically_derived]
+        #[allow(unused_variables, dead_code, clippy::all)]
+        impl #ig #ident #tg #wc {
+            #(#indices)*
+            pub const NB: usize = #nb;
+            pub const NV: usize = #nv;
+            pub const ROWS: usize = #m;
+            pub const BLOCKS: &'static [#k::RowBlock] = &[];
+        }
+        #[automatically_derived]
+        #[allow(unused_variables, clippy::all)]
+        impl #ig #k::Scene<#nb, #nv, #m> for #ident #tg #wc {
+            const BODIES: [&'static str; #nb] = [#(#names),*];
+            const BLOCKS: &'static [#k::RowBlock] = &[];
+            const OPS: #k::Ops = #k::Ops { phi: 0, phi_t: 0, jacobian: 0, gamma: 0, evaluate: 0 };
+            fn phi(&self, state: &#state) -> #k::__private::SVector<f64, #m> { loop {} }
+            fn phi_t(&self, state: &#state) -> #k::__private::SVector<f64, #m> { loop {} }
+            fn jacobian(&self, state: &#state) -> #k::__private::SMatrix<f64, #m, #nv> { loop {} }
+            fn gamma(&self, state: &#state) -> #k::__private::SVector<f64, #m> { loop {} }
+            fn evaluate(&self, state: &#state) -> #k::Evaluation<f64, #m, #nv> { loop {} }
+            fn inertias(&self) -> [#k::BodyInertia; #nb] { loop {} }
+            fn gravity(&self) -> #k::nalgebra::Vector3<f64> { loop {} }
+        }
+    }
+}

@@ -156,6 +156,11 @@ pub struct Singularity {
 }
 
 impl JointKind {
+    /// The number of scalar rows (a vector row is three).
+    pub fn row_count(&self) -> usize {
+        self.rows.iter().map(|r| if matches!(r, Row::Scalar(_)) { 1 } else { 3 }).sum()
+    }
+
     /// The parameter called `name`.
     pub fn param(&self, name: &str) -> Option<&Param> {
         self.params.iter().find(|p| p.name == name)

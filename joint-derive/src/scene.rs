@@ -75,8 +75,26 @@ struct JointDecl {
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     match parse(input).and_then(|s| expand(input, &s)) {
         Ok(t) => t,
-        Err(e) => e.to_compile_error(),
+        Err(e) => crate::fallback::scene(input, e, shape(input)),
     }
+}
+
+/// The bodies' names and the number of rows, read from the attributes alone
+/// when every body and joint attribute parses and names a known joint: enough
+/// for a stub impl beside a compile error (see [`crate::fallback::scene`]).
+fn shape(input: &syn::DeriveInput) -> Option<crate::fallback::SceneShape> {
+    let (mut bodies, mut rows) = (Vec::new(), 0);
+    for attr in &input.attrs {
+        if attr.path().is_ident("body") {
+            let args = attr.parse_args_with(Punctuated::<Arg, Token![,]>::parse_terminated).ok()?;
+            let name = args.into_iter().next()?.key;
+            bodies.push((name.to_string(), body_constant(&name)));
+        } else if attr.path().is_ident("joint") {
+            let joint = attr.parse_args::<JointAttr>().ok()?;
+            rows += joints::lookup(&joint.kind.to_string())?.row_count();
+        }
+    }
+    (!bodies.is_empty()).then_some(crate::fallback::SceneShape { bodies, rows })
 }
 
 struct SceneDecl {
@@ -203,7 +221,7 @@ fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         let constant = body_constant(&b.name).to_string();
         // A body declared twice is reported as such, not again here.
         let clash = bodies[..i].iter().find(|e| e.name != b.name && body_constant(&e.name) == constant);
-        if SIZE_CONSTANTS.contains(&constant.as_str()) {
+        if crate::fallback::SIZE_CONSTANTS.contains(&constant.as_str()) {
             let message = format!("body `{}` would be named `{constant}`, a constant of the scene's size", b.name);
             errors.at(b.name.span(), format!("{message}; rename the body"));
         } else if let Some(earlier) = clash {
@@ -495,6 +513,3 @@ fn body_constant(name: &syn::Ident) -> syn::Ident {
     let text = name.to_string();
     syn::Ident::new(text.strip_prefix("r#").unwrap_or(&text).to_uppercase().as_str(), name.span())
 }
-
-/// The inherent constants the derive adds beside the bodies' indices.
-const SIZE_CONSTANTS: [&str; 4] = ["NB", "NV", "ROWS", "BLOCKS"];
