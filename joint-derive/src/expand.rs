@@ -142,8 +142,9 @@ pub fn derive_all(k: &mut Kinematics, phi: &[Id], spans: &[Span]) -> syn::Result
     check_rows(k, phi, spans)?;
     let mut out = SystemDerivatives { jacobian: Vec::new(), gamma: Vec::new(), phi_t: Vec::new() };
     let mut alternatives = Vec::new();
+    let mut body = k.body_view();
     for (&row, &span) in phi.iter().zip(spans) {
-        let d = k.derive_row(row).map_err(|m| syn::Error::new(span, m))?;
+        let d = k.derive_row(row, body.as_mut()).map_err(|m| syn::Error::new(span, m))?;
         out.jacobian.push(d.jacobian);
         out.gamma.push(d.gamma);
         alternatives.push(d.gamma_body);

@@ -510,13 +510,21 @@ impl Kinematics {
         d
     }
 
-    /// Φ̇, J and γ of one row Φ, and Φ_t. Fails when J would depend on the
+    /// The rules J is derived with in `omega_body`: [`rules`](Self::rules) with
+    /// the body-frame ones laid over them; `None` in the other formulations.
+    /// Built once for all rows (and their memo shared), after every row is lowered.
+    pub fn body_view(&self) -> Option<TimeRules> {
+        self.body_frame_rules.then(|| self.rules.overridden(&self.body_rules))
+    }
+
+    /// Φ̇, J and γ of one row Φ, and Φ_t, with `body` from
+    /// [`body_view`](Self::body_view). Fails when J would depend on the
     /// velocities (the row is not linear in them).
-    pub fn derive_row(&mut self, phi: Id) -> Result<RowDerivatives, &'static str> {
+    pub fn derive_row(&mut self, phi: Id, body: Option<&mut TimeRules>) -> Result<RowDerivatives, &'static str> {
         // In `omega_body`, J comes from the body-frame rules: `a' × (Aᵀ g)` keeps
         // the degree in `p` of the exact entries, where the inertial rule's
         // `Aᵀ (u × g)` multiplies `A` by `A a'` and loses up to 3 ε·scale.
-        let mut body = self.body_frame_rules.then(|| self.rules.overridden(&self.body_rules));
+        let mut body = body;
         let phi_dot = self.rules.dt(&mut self.g, phi);
         let phi_dot_body = match &mut body {
             Some(rules) => rules.dt(&mut self.g, phi),
@@ -533,7 +541,7 @@ impl Kinematics {
         // inertial one where one ω serves several axes).
         let phi_ddot = self.rules.dt(&mut self.g, phi_dot);
         let gamma = self.g.neg(phi_ddot);
-        let gamma_body = body.map(|mut rules| {
+        let gamma_body = body.map(|rules| {
             let phi_ddot = rules.dt(&mut self.g, phi_dot_body);
             self.g.neg(phi_ddot)
         });
