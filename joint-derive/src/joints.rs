@@ -3,6 +3,7 @@
 //! drivers, a time function). This table is the only place joints are described;
 //! no derivative appears here. User-written rows use the same [`Expr`] language.
 
+use std::borrow::Cow;
 use std::sync::OnceLock;
 
 /// Where a parameter lives and what it means.
@@ -21,9 +22,9 @@ pub enum Role {
 /// A parameter of a joint.
 #[derive(Clone, Debug)]
 pub struct Param {
-    /// The name in the DSL and in `CONVENTIONS.md` (leaked for user-declared
-    /// parameters: a few bytes per derive, and `&'static` keeps the parser simple).
-    pub name: &'static str,
+    /// The name in the DSL and in `CONVENTIONS.md` (owned for user-declared
+    /// parameters).
+    pub name: Cow<'static, str>,
     /// Its role.
     pub role: Role,
 }
@@ -118,7 +119,7 @@ impl Part {
 /// Parameters a person would give instead of others: an axis from which
 /// perpendicular vectors are derived (at compile time for a constant, by
 /// `joint_runtime::AxisFrame::new` once for a field).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Derivation {
     /// The axis a person gives (`axis1`, `axis2`, `d`).
     pub source: &'static str,
@@ -129,7 +130,7 @@ pub struct Derivation {
 }
 
 /// A joint kind.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct JointKind {
     /// The name in the DSL.
     pub name: &'static str,
@@ -147,7 +148,7 @@ pub struct JointKind {
 }
 
 /// A generated measure of how far a joint is from losing rank.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Singularity {
     /// The measure.
     pub measure: Expr,
@@ -178,11 +179,14 @@ impl JointKind {
 }
 
 fn axis(name: &'static str, body: usize) -> Param {
-    Param { name, role: Role::Axis(body) }
+    Param { name: Cow::Borrowed(name), role: Role::Axis(body) }
 }
 
 fn points() -> [Param; 2] {
-    [Param { name: "rho1", role: Role::Point(0) }, Param { name: "rho2", role: Role::Point(1) }]
+    [
+        Param { name: Cow::Borrowed("rho1"), role: Role::Point(0) },
+        Param { name: Cow::Borrowed("rho2"), role: Role::Point(1) },
+    ]
 }
 
 /// `dot1(a, b)`.
@@ -302,7 +306,7 @@ fn with_points(mut params: Vec<Param>) -> Vec<Param> {
 
 fn build() -> Vec<JointKind> {
     use Row::{Scalar as S, Spherical};
-    let time = |name: &'static str| Param { name, role: Role::Time };
+    let time = |name: &'static str| Param { name: Cow::Borrowed(name), role: Role::Time };
     // Rotational driver: sin(angle − θ) = (g·k) cos θ − (f·k) sin θ, the angle of
     // `k` measured from `f` towards `g`.
     let theta = || Box::new(Expr::Time("theta".into()));
@@ -386,7 +390,7 @@ fn build() -> Vec<JointKind> {
         with(
             kind(
                 "distance",
-                with_points(vec![Param { name: "length", role: Role::Scalar }]),
+                with_points(vec![Param { name: Cow::Borrowed("length"), role: Role::Scalar }]),
                 vec![S(distance("length"))],
             ),
             separation_over_length("length"),

@@ -1,20 +1,20 @@
-//! `#[derive(Joint)]`: joint declarations in, constraint code out.
+//! `#[derive(Joint)]` and `#[derive(Scene)]`: joint declarations in, constraint
+//! code out.
 //!
-//! Use it through `joint-runtime`, which re-exports it and holds the trait the
-//! generated code implements. The pipeline is thin: `dsl` parses the
-//! declaration (keeping spans for errors), `kinematics` and `joints` state Φ
-//! over the symbolic `engine`, which differentiates, simplifies, shares common
-//! subexpressions and prints Rust.
+//! Use it through `joint-runtime`, which re-exports it and holds the traits the
+//! generated code implements. The arrows run one way: the front end (`front`)
+//! reads and checks the attributes, lowering (`lower`) states Φ over the
+//! symbolic `engine` through `kinematics` and the `joints` catalogue and
+//! derives the rest, `generate` prints the methods, and the two `derives` put
+//! their impls together.
 
-mod dsl;
+mod derives;
 mod engine;
-mod expand;
-mod fallback;
+mod front;
+mod generate;
 mod joints;
 mod kinematics;
-mod params;
-mod rows;
-mod scene;
+mod lower;
 
 #[cfg(test)]
 mod output_tests;
@@ -31,7 +31,7 @@ mod output_tests;
 #[proc_macro_derive(Joint, attributes(joint))]
 pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
     let input = syn::parse_macro_input!(input as syn::DeriveInput);
-    expand::derive(&input).into()
+    derives::joint::derive(&input).into()
 }
 
 /// Derives `joint_runtime::Scene` (and `SparseJacobian`) for a mechanism: its
@@ -47,5 +47,5 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 #[proc_macro_derive(Scene, attributes(scene, body, joint))]
 pub fn derive_scene(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
     let input = syn::parse_macro_input!(input as syn::DeriveInput);
-    scene::derive(&input).into()
+    derives::scene::derive(&input).into()
 }

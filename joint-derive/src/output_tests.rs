@@ -75,7 +75,7 @@ fn op_counts(file: &syn::File) -> Option<String> {
 /// operation counts, and compares it with the stored snapshot `name`.
 #[track_caller]
 fn check(name: &str, input: syn::DeriveInput) {
-    check_with(name, input, crate::expand::derive);
+    check_with(name, input, crate::derives::joint::derive);
 }
 
 fn check_with(name: &str, input: syn::DeriveInput, derive: fn(&syn::DeriveInput) -> proc_macro2::TokenStream) {
@@ -515,6 +515,6 @@ fn scene_cardan_shaft() {
                 drive: F,
             }
         },
-        crate::scene::derive,
+        crate::derives::scene::derive,
     );
 }

@@ -181,7 +181,7 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
                         id.span(),
                         format!(
                             "unknown name `{name}` in a row{}; expected a parameter of this joint ({}) or `d`",
-                            crate::dsl::did_you_mean(&name, names.all.iter().copied().chain(["d"])),
+                            super::names::did_you_mean(&name, names.all.iter().copied().chain(["d"])),
                             all.join(", ")
                         ),
                     )
@@ -292,7 +292,7 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
                     fname.span(),
                     format!(
                         "unknown function `{other}`{}; expected one of {}",
-                        crate::dsl::did_you_mean(other, FUNCTIONS),
+                        super::names::did_you_mean(other, FUNCTIONS),
                         FUNCTIONS.map(|f| format!("`{f}`")).join(", ")
                     ),
                 ),

@@ -1,0 +1,254 @@
+//! `#[derive(Scene)]`: the `Scene` and `SparseJacobian` impls of a mechanism and
+//! its inherent constants (bodies by name, sizes), or `compile_error!` beside a
+//! stub of the same shape.
+
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+use crate::engine::emit::ScalarTy;
+use crate::front::attr::Number;
+use crate::front::resolve::Source;
+use crate::front::scene::{self, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape, body_constant};
+use crate::generate::{self, Printed, Signature, krate, lints};
+use crate::lower::{self, Block, Derived};
+
+/// The derive's entry point.
+pub fn derive(input: &syn::DeriveInput) -> TokenStream {
+    let derived = scene::parse(input).and_then(|s| lower::derive_scene(&s).map(|d| (s, d)));
+    match derived {
+        Ok((s, (d, blocks))) => print(input, &s, &d, &blocks),
+        Err(e) => stub(input, e, scene::shape(input)),
+    }
+}
+
+/// The sizes every impl of a scene shares.
+struct Sizes {
+    nb: Literal,
+    nv: Literal,
+    m: Literal,
+    signature: Signature,
+}
+
+fn sizes(bodies: usize, rows: usize) -> Sizes {
+    let k = krate();
+    let lit = Literal::usize_unsuffixed;
+    let nb = lit(bodies);
+    let state = quote!(#k::SystemState<#nb>);
+    let signature = Signature { state, scalar: quote!(f64), rows, cols: 6 * bodies, prelude: TokenStream::new() };
+    Sizes { nb, nv: lit(6 * bodies), m: lit(rows), signature }
+}
+
+/// The inherent constants: each body's index by name, and the sizes.
+fn inherent(bodies: &[(String, syn::Ident)], z: &Sizes, blocks: &TokenStream) -> TokenStream {
+    let k = krate();
+    // A constant that clashes (an error being reported) is left out.
+    let mut seen: Vec<String> = SIZE_CONSTANTS.map(String::from).to_vec();
+    let mut indices = Vec::new();
+    for (i, (name, constant)) in bodies.iter().enumerate() {
+        if !seen.contains(&constant.to_string()) {
+            seen.push(constant.to_string());
+            let (doc, i) =
+                (format!(" The index of body `{name}` in the state's `bodies`."), Literal::usize_unsuffixed(i));
+            indices.push(quote!(#[doc = #doc] pub const #constant: usize = #i;));
+        }
+    }
+    let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
+    quote! {
+        #(#indices)*
+        /// Number of bodies (`NB` of `Scene<NB, NV, M>`).
+        pub const NB: usize = #nb;
+        /// Velocity columns, 6 per body (`NV`).
+        pub const NV: usize = #nv;
+        /// Constraint rows (`M`).
+        pub const ROWS: usize = #m;
+        /// Each joint's block of rows, in row order (as `Scene::BLOCKS`).
+        pub const BLOCKS: &'static [#k::RowBlock] = #blocks;
+    }
+}
+
+fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block]) -> TokenStream {
+    let k = krate();
+    let z = sizes(s.bodies.len(), d.phi.len());
+    let printed = generate::print(d, &ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true });
+    let (sparse, nnz, sparse_ops) = sparse_jacobian(d, &printed, &z);
+    let blocks = blocks.iter().map(|b| {
+        let (name, start, rows) = (&b.name, Literal::usize_unsuffixed(b.start), Literal::usize_unsuffixed(b.rows));
+        quote!(#k::RowBlock { name: #name, start: #start, rows: #rows })
+    });
+    let blocks = quote!(&[#(#blocks),*]);
+    let bodies: Vec<(String, syn::Ident)> =
+        s.bodies.iter().map(|b| (b.name.to_string(), body_constant(&b.name))).collect();
+    let body_names = bodies.iter().map(|(n, _)| n);
+    let inherent = inherent(&bodies, &z, &blocks);
+    let inertias = s.bodies.iter().map(|b| inertia(&b.mass, &b.inertia));
+    let gravity = vector(&s.gravity);
+    let points = joint_points(s);
+    let ident = &input.ident;
+    let mut generics = input.generics.clone();
+    let wc = generics.make_where_clause();
+    for ty in &s.time_types {
+        wc.predicates.push(syn::parse_quote!(#ty: #k::TimeFunction));
+    }
+    let (ig, tg, wc) = generics.split_for_impl();
+    let doc = format!(
+        " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}.",
+        s.bodies.len(),
+        d.phi.len(),
+        6 * s.bodies.len(),
+        printed.ops_text()
+    );
+    let (nb, nv, m, lints) = (&z.nb, &z.nv, &z.m, lints());
+    let (ops, methods) = (generate::ops_const(Some(&printed)), z.signature.methods(Some(&printed)));
+    quote! {
+        #[doc = #doc]
+        #lints
+        impl #ig #k::Scene<#nb, #nv, #m> for #ident #tg #wc {
+            const BODIES: [&'static str; #nb] = [#(#body_names),*];
+            const BLOCKS: &'static [#k::RowBlock] = #blocks;
+            #ops
+            #methods
+            fn inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
+            fn gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
+            fn joint_points(&self, visit: &mut dyn FnMut(#k::JointPoint)) { #(#points)* }
+        }
+
+        /// The scene's sizes and its bodies by name, without spelling out
+        /// `Scene<NB, NV, ROWS>`.
+        #lints
+        impl #ig #ident #tg #wc { #inherent }
+
+        #lints
+        impl #ig #k::SparseJacobian<#nb, #nnz> for #ident #tg #wc { #sparse }
+    }
+}
+
+/// The sparse form: the entries of J that are not structurally zero, row by
+/// row (CSR), and the function that computes them. Returns the items, the
+/// number of entries and the function's operation count.
+fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, Literal, usize) {
+    let mut row_starts = vec![0usize];
+    let (mut columns, mut entries) = (Vec::new(), Vec::new());
+    for row in &d.jacobian {
+        for (c, &e) in row.iter().enumerate() {
+            if d.kinematics.g.as_const(e) != Some(0.0) {
+                columns.push(c);
+                entries.push(e);
+            }
+        }
+        row_starts.push(columns.len());
+    }
+    let nnz = Literal::usize_unsuffixed(columns.len());
+    let (body, values, ops) = printed.emit(&entries);
+    let row_starts = row_starts.iter().map(|&x| Literal::usize_unsuffixed(x));
+    let columns = columns.iter().map(|&x| Literal::usize_unsuffixed(x));
+    let state = &z.signature.state;
+    let items = quote! {
+        const ROW_STARTS: &'static [usize] = &[#(#row_starts),*];
+        const COLUMNS: [usize; #nnz] = [#(#columns),*];
+        #[inline]
+        fn jacobian_values(&self, state: &#state) -> [f64; #nnz] { #body [#(#values),*] }
+    };
+    (items, nnz, ops)
+}
+
+/// A number as generated code writes it.
+fn number(n: &Number) -> TokenStream {
+    match n {
+        Number::Known(x) => {
+            let x = Literal::f64_suffixed(*x);
+            quote!(#x)
+        }
+        Number::Named(e) => generate::named_f64(e),
+    }
+}
+
+/// A 3-vector of numbers (missing components zero; the parser checked the
+/// length) or a field.
+fn vector(q: &Quantity) -> TokenStream {
+    match q {
+        Quantity::Const(v) => const_vector(v),
+        Quantity::Field(f) => quote!(self.#f),
+    }
+}
+
+fn const_vector(v: &[Number]) -> TokenStream {
+    let k = krate();
+    let [x, y, z] = [0, 1, 2].map(|i| v.get(i).map_or_else(|| quote!(0.0f64), number));
+    quote!(#k::nalgebra::Vector3::new(#x, #y, #z))
+}
+
+/// `BodyInertia { mass, inertia }`: principal moments or six entries.
+fn inertia(mass: &Quantity, inertia: &Quantity) -> TokenStream {
+    let k = krate();
+    let mass = match mass {
+        Quantity::Const(v) => v.first().map_or_else(|| quote!(1.0f64), number),
+        Quantity::Field(f) => quote!(self.#f),
+    };
+    let inertia = match inertia {
+        Quantity::Const(v) if v.len() == 6 => {
+            let [xx, yy, zz, xy, xz, yz] = [0, 1, 2, 3, 4, 5].map(|i| number(&v[i]));
+            quote!(#k::nalgebra::Matrix3::new(#xx, #xy, #xz, #xy, #yy, #yz, #xz, #yz, #zz))
+        }
+        q => {
+            let v = vector(q);
+            quote!(#k::nalgebra::Matrix3::from_diagonal(&#v))
+        }
+    };
+    quote!(#k::BodyInertia { mass: #mass, inertia: #inertia })
+}
+
+/// One `visit(JointPoint { .. })` per joint point (`rho1`, `rho2`) in declaration
+/// order: what a trajectory recorder draws. A point on the ground is inertial.
+fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
+    let k = krate();
+    let mut calls = Vec::new();
+    for j in &s.joints {
+        let name = j.name.to_string();
+        for (param, body) in [("rho1", j.bodies[0]), ("rho2", j.bodies[1])] {
+            let Some(p) = j.params.iter().find(|p| p.name == param) else { continue };
+            let point = match &p.source {
+                Source::Const(v, _) => const_vector(v),
+                Source::Field { member, .. } => quote!(self.#member),
+            };
+            let body = match body {
+                Some(i) => {
+                    let i = Literal::usize_unsuffixed(i);
+                    quote!(::core::option::Option::Some(#i))
+                }
+                None => quote!(::core::option::Option::None),
+            };
+            calls.push(quote!(visit(#k::JointPoint { joint: #name, body: #body, point: #point });));
+        }
+    }
+    calls
+}
+
+/// `compile_error!` for every error, plus, when the bodies and the number of
+/// rows are known, a stub `Scene` of that shape and the inherent constants, so
+/// that the scene's uses (a `Simulation`, `Shaft::INPUT`) type-check and one
+/// mistake gives one message.
+fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) -> TokenStream {
+    let errors = error.to_compile_error();
+    let Some(SceneShape { bodies, rows }) = shape else { return errors };
+    let (k, z, lints) = (krate(), sizes(bodies.len(), rows), lints());
+    let ident = &input.ident;
+    let (ig, tg, wc) = input.generics.split_for_impl();
+    let names = bodies.iter().map(|(name, _)| name);
+    let inherent = inherent(&bodies, &z, &quote!(&[]));
+    let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
+    let (ops, methods) = (generate::ops_const(None), z.signature.methods(None));
+    quote! {
+        #errors
+        #lints
+        impl #ig #ident #tg #wc { #inherent }
+        #lints
+        impl #ig #k::Scene<#nb, #nv, #m> for #ident #tg #wc {
+            const BODIES: [&'static str; #nb] = [#(#names),*];
+            const BLOCKS: &'static [#k::RowBlock] = &[];
+            #ops
+            #methods
+            fn inertias(&self) -> [#k::BodyInertia; #nb] { loop {} }
+            fn gravity(&self) -> #k::nalgebra::Vector3<f64> { loop {} }
+        }
+    }
+}

@@ -1,0 +1,25 @@
+//! The front end: attributes in, checked declarations out, in typed phases (after
+//! thiserror's and serde's derives):
+//!
+//! ```text
+//! syn::DeriveInput ─ attr ─▶ attribute AST (spans kept; slots report duplicates)
+//!                  ─ joint / scene ─▶ parameters given, by name
+//!                  ─ resolve ─▶ every parameter of the joint, checked (one resolver
+//!                               for both derives, so a mistake is worded once)
+//! ```
+//!
+//! Errors go to one [`context::Errors`], which cannot be dropped unreported. Nothing
+//! here knows the engine: the arrows run front end → lowering → code generation.
+
+pub mod attr;
+pub mod context;
+pub mod custom;
+pub mod geometry;
+pub mod joint;
+pub mod names;
+pub mod resolve;
+pub mod rows;
+pub mod scene;
+
+#[cfg(test)]
+mod tests;

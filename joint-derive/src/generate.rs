@@ -1,0 +1,277 @@
+//! Code generation shared by both derives: one table of the generated methods
+//! ([`METHODS`]) drives the `Joint` impl, the `Scene` impl and both fallback
+//! stubs, and [`lints`] is the one place for hygiene attributes. Adding a
+//! generated function is one row of the table (and the trait method it implements).
+
+use std::collections::BTreeSet;
+
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::{format_ident, quote};
+
+use crate::engine::Id;
+use crate::engine::emit::{self, ScalarTy};
+use crate::engine::graph::VarId;
+use crate::front::resolve::FieldShape;
+use crate::lower::{Derived, Read};
+
+/// What a generated method returns.
+#[derive(Clone, Copy)]
+enum Returns {
+    /// `SVector<S, ROWS>`.
+    Rows,
+    /// `SMatrix<S, ROWS, COLS>`, column-major.
+    Matrix,
+    /// `Evaluation { phi, jacobian, gamma }`.
+    Evaluation,
+}
+
+/// A generated method: its name (also its field in `Ops`), its outputs and
+/// what it returns.
+pub struct Method {
+    name: &'static str,
+    outputs: fn(&Derived) -> Vec<Id>,
+    returns: Returns,
+}
+
+/// J's entries in column-major order.
+fn jacobian_columns(d: &Derived) -> Vec<Id> {
+    let cols = d.kinematics.velocities.len();
+    (0..cols).flat_map(|c| d.jacobian.iter().map(move |row| row[c])).collect()
+}
+
+/// Every method of `Joint` and `Scene` the derives generate, in trait order.
+pub const METHODS: [Method; 5] = [
+    Method { name: "phi", outputs: |d| d.phi.clone(), returns: Returns::Rows },
+    Method { name: "phi_t", outputs: |d| d.phi_t.clone(), returns: Returns::Rows },
+    Method { name: "jacobian", outputs: jacobian_columns, returns: Returns::Matrix },
+    Method { name: "gamma", outputs: |d| d.gamma.clone(), returns: Returns::Rows },
+    Method {
+        name: "evaluate",
+        outputs: |d| [d.phi.clone(), jacobian_columns(d), d.gamma.clone()].concat(),
+        returns: Returns::Evaluation,
+    },
+];
+
+/// The attributes every generated impl carries: derived code, silent under
+/// the user's lints, and proven panic-free by clippy's where it matters.
+pub fn lints() -> TokenStream {
+    quote! {
+        #[automatically_derived]
+        #[allow(clippy::all, clippy::pedantic, dead_code, unused_variables, non_snake_case)]
+        #[deny(clippy::panic, clippy::unwrap_used, clippy::indexing_slicing)]
+    }
+}
+
+/// The runtime crate, as generated code names it.
+pub fn krate() -> TokenStream {
+    quote!(::joint_runtime)
+}
+
+/// What the generated methods take and return.
+pub struct Signature {
+    /// The state type (`Self::State`, `SystemState<3>`).
+    pub state: TokenStream,
+    /// The scalar type.
+    pub scalar: TokenStream,
+    /// Rows of Φ.
+    pub rows: usize,
+    /// Velocity columns of J.
+    pub cols: usize,
+    /// Statements every method starts with.
+    pub prelude: TokenStream,
+}
+
+impl Signature {
+    fn returns(&self, returns: Returns) -> TokenStream {
+        let (k, s) = (krate(), &self.scalar);
+        let (r, c) = (Literal::usize_unsuffixed(self.rows), Literal::usize_unsuffixed(self.cols));
+        match returns {
+            Returns::Rows => quote!(#k::__private::SVector<#s, #r>),
+            Returns::Matrix => quote!(#k::__private::SMatrix<#s, #r, #c>),
+            Returns::Evaluation => quote!(#k::Evaluation<#s, #r, #c>),
+        }
+    }
+
+    /// The methods of [`METHODS`]: printed, or, for a stub, bodies that are
+    /// never run (the crate does not compile).
+    pub fn methods(&self, printed: Option<&Printed>) -> TokenStream {
+        let (state, prelude) = (&self.state, &self.prelude);
+        let methods = METHODS.iter().enumerate().map(|(i, m)| {
+            let (name, returns) = (format_ident!("{}", m.name), self.returns(m.returns));
+            match printed {
+                Some(p) => {
+                    let (body, value) = &p.bodies[i];
+                    quote! {
+                        #[inline]
+                        fn #name(&self, state: &#state) -> #returns { #prelude #body #value }
+                    }
+                }
+                None => quote!(fn #name(&self, state: &#state) -> #returns { loop {} }),
+            }
+        });
+        quote!(#(#methods)*)
+    }
+}
+
+/// `const OPS: Ops = Ops { phi: .., .. }`, zero for a stub.
+pub fn ops_const(printed: Option<&Printed>) -> TokenStream {
+    let k = krate();
+    let fields = METHODS.iter().enumerate().map(|(i, m)| {
+        let (name, n) = (format_ident!("{}", m.name), Literal::usize_unsuffixed(printed.map_or(0, |p| p.ops[i])));
+        quote!(#name: #n)
+    });
+    quote!(const OPS: #k::Ops = #k::Ops { #(#fields),* };)
+}
+
+/// The printed methods of a derivation, in [`METHODS`] order.
+pub struct Printed<'a> {
+    d: &'a Derived,
+    sty: ScalarTy,
+    /// Each method's statements and returned value.
+    pub bodies: Vec<(TokenStream, TokenStream)>,
+    /// Each method's operation count.
+    pub ops: Vec<usize>,
+}
+
+impl Printed<'_> {
+    /// Statements, output expressions and operation count for `outputs`.
+    pub fn emit(&self, outputs: &[Id]) -> (TokenStream, Vec<TokenStream>, usize) {
+        let e = emit::emit(&self.d.kinematics.g, outputs, &self.sty);
+        let bind = bindings(self.d, &e.used_vars, &self.sty);
+        let body = e.body;
+        (quote!(#bind #body), e.outputs, e.ops)
+    }
+
+    /// "phi 12, phi_t 0, ..." for docs.
+    pub fn ops_text(&self) -> String {
+        METHODS.iter().zip(&self.ops).map(|(m, n)| format!("{} {n}", m.name)).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// Prints every method of [`METHODS`] for a derivation.
+pub fn print<'a>(d: &'a Derived, sty: &ScalarTy) -> Printed<'a> {
+    let mut p = Printed { d, sty: sty.clone(), bodies: Vec::new(), ops: Vec::new() };
+    let rows = d.phi.len();
+    for m in &METHODS {
+        let (body, outs, ops) = p.emit(&(m.outputs)(d));
+        let value = match m.returns {
+            Returns::Rows => vector_tokens(&outs),
+            Returns::Matrix => matrix_tokens(&outs, rows),
+            Returns::Evaluation => {
+                let (phi, rest) = outs.split_at(rows);
+                let (jac, gamma) = rest.split_at(rows * d.kinematics.velocities.len());
+                let (phi, jac, gamma) = (vector_tokens(phi), matrix_tokens(jac, rows), vector_tokens(gamma));
+                let k = krate();
+                quote!(#k::Evaluation { phi: #phi, jacobian: #jac, gamma: #gamma })
+            }
+        };
+        p.bodies.push((body, value));
+        p.ops.push(ops);
+    }
+    p
+}
+
+/// `SVector` from its entries.
+fn vector_tokens(outs: &[TokenStream]) -> TokenStream {
+    let k = krate();
+    quote!(#k::__private::SMatrix::from_data(#k::__private::ArrayStorage([[#(#outs),*]])))
+}
+
+/// `SMatrix` from its entries in column-major order.
+fn matrix_tokens(outs: &[TokenStream], rows: usize) -> TokenStream {
+    let k = krate();
+    let columns = outs.chunks(rows.max(1)).map(|c| quote!([#(#c),*]));
+    quote!(#k::__private::SMatrix::from_data(#k::__private::ArrayStorage([#(#columns),*])))
+}
+
+/// The name of a variable node the function reads, if it reads it.
+fn used_name(d: &Derived, used: &BTreeSet<VarId>, node: Id) -> Option<Ident> {
+    let g = &d.kinematics.g;
+    g.as_var(node).filter(|v| used.contains(v)).map(|v| format_ident!("{}", g.vars()[v.0 as usize].name))
+}
+
+/// `[[a, _, c]]`: a pattern for the nodes a function reads, if any.
+fn pattern(d: &Derived, used: &BTreeSet<VarId>, nodes: &[Id]) -> Option<TokenStream> {
+    let names: Vec<Option<Ident>> = nodes.iter().map(|&n| used_name(d, used, n)).collect();
+    if names.iter().all(Option::is_none) {
+        return None;
+    }
+    let names = names.iter().map(|n| n.as_ref().map_or_else(|| quote!(_), |n| quote!(#n)));
+    Some(quote!([[#(#names),*]]))
+}
+
+/// `let` statements that read exactly the inputs a function uses.
+fn bindings(d: &Derived, used: &BTreeSet<VarId>, sty: &ScalarTy) -> TokenStream {
+    let mut out = TokenStream::new();
+    for b in &d.bindings {
+        out.extend(match &b.read {
+            Read::Constant(expr) => constant_binding(d, used, b.nodes[0], expr, sty),
+            Read::Field { member, shape: FieldShape::Time, .. } => time_binding(d, used, &b.nodes, member, sty),
+            Read::Field { member, .. } if b.nodes.len() == 1 => match used_name(d, used, b.nodes[0]) {
+                Some(id) => quote!(let #id = self.#member;),
+                None => TokenStream::new(),
+            },
+            Read::Field { member, part, .. } => match pattern(d, used, &b.nodes) {
+                Some(p) if part.is_empty() => quote!(let #p = self.#member.data.0;),
+                Some(p) => {
+                    let part = format_ident!("{}", part);
+                    quote!(let #p = self.#member.#part.data.0;)
+                }
+                None => TokenStream::new(),
+            },
+        });
+    }
+    for input in &d.kinematics.inputs {
+        if let Some(p) = pattern(d, used, &input.vars) {
+            let path = input.path.iter().map(|s| match s.parse::<usize>() {
+                Ok(i) => {
+                    let i = Literal::usize_unsuffixed(i);
+                    quote!([#i])
+                }
+                Err(_) => {
+                    let f = format_ident!("{}", s);
+                    quote!(.#f)
+                }
+            });
+            out.extend(quote!(let #p = state #(#path)*.data.0;));
+        }
+    }
+    out
+}
+
+/// A named constant's value, converted to the scalar (an `f64` expression the
+/// compiler folds).
+fn constant_binding(d: &Derived, used: &BTreeSet<VarId>, node: Id, expr: &syn::Expr, sty: &ScalarTy) -> TokenStream {
+    let Some(name) = used_name(d, used, node) else { return TokenStream::new() };
+    let (ty, k, value) = (&sty.ty, &sty.krate, named_f64(expr));
+    if sty.concrete_f64 {
+        quote!(let #name: f64 = #value;)
+    } else {
+        quote!(let #name: #ty = #k::__private::convert::<f64, #ty>(#value);)
+    }
+}
+
+/// A number that names constants, as an `f64` block: every use reads it the
+/// same way, so a constant of the wrong type gives one compiler error, at the
+/// user's token.
+pub fn named_f64(expr: &syn::Expr) -> TokenStream {
+    quote!({ let value: f64 = #expr; value })
+}
+
+/// One call of the time function per evaluation, at the state's time.
+fn time_binding(d: &Derived, used: &BTreeSet<VarId>, nodes: &[Id], member: &Ident, sty: &ScalarTy) -> TokenStream {
+    let names: Vec<Option<Ident>> = nodes.iter().map(|&n| used_name(d, used, n)).collect();
+    if names.iter().all(Option::is_none) {
+        return TokenStream::new();
+    }
+    let drive = format_ident!("{}_drive", member);
+    let (ty, k) = (&sty.ty, &sty.krate);
+    let mut out = quote!(let #drive = #k::TimeFunction::eval(&self.#member, state.t););
+    for (name, field) in names.iter().zip(["value", "rate", "accel"]) {
+        if let Some(name) = name {
+            let field = format_ident!("{}", field);
+            out.extend(quote!(let #name: #ty = #k::__private::convert::<f64, #ty>(#drive.#field);));
+        }
+    }
+    out
+}
