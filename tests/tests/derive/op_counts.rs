@@ -9,7 +9,7 @@
 //! and are printed (run with `--nocapture` to see them); record them with
 //!
 //! ```text
-//! UPDATE_OP_COUNTS=1 cargo test -p joint-tests --test op_counts
+//! UPDATE_OP_COUNTS=1 cargo test -p joint-tests --test derive op_counts
 //! ```
 //!
 //! which rewrites the file from the current code (and then passes). An
@@ -202,7 +202,7 @@ fn generated_operation_counts_do_not_grow() {
     }
     if !better.is_empty() {
         println!(
-            "{} operation counts went down (record them with {UPDATE}=1 cargo test -p joint-tests --test op_counts):",
+            "{} operation counts went down (record them with {UPDATE}=1 cargo test -p joint-tests --test derive op_counts):",
             better.len()
         );
         for line in &better {
@@ -211,7 +211,7 @@ fn generated_operation_counts_do_not_grow() {
     }
     assert!(
         worse.is_empty(),
-        "{} operation counts grew:\n  {}\n(if intended, record them with {UPDATE}=1 cargo test -p joint-tests --test op_counts)",
+        "{} operation counts grew:\n  {}\n(if intended, record them with {UPDATE}=1 cargo test -p joint-tests --test derive op_counts)",
         worse.len(),
         worse.join("\n  ")
     );

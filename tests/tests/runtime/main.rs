@@ -1,0 +1,16 @@
+//! The runtime on derive-generated joints and scenes: one test binary, so that
+//! two cores build it once.
+//!
+//! * `analysis`: assembly, velocity and acceleration analysis.
+//! * `batch`: batches scalar, in SIMD lanes and with rayon.
+//! * `dynamics`: forward dynamics and the integrators.
+//! * `record`: trajectories as CSV and SVG.
+//! * `serde_io`: the types through serde.
+
+#![allow(missing_docs)]
+
+mod analysis;
+mod batch;
+mod dynamics;
+mod record;
+mod serde_io;
