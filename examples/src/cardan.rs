@@ -108,7 +108,7 @@ impl CardanShaft {
     }
 
     /// The assembled reference configuration at `t = 0` (both angles zero), at rest.
-    pub fn reference_state(&self) -> SystemState<2> {
+    pub fn reference_state(&self) -> CardanShaftState {
         let still = Vector3::zeros();
         let output = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), self.bend);
         SystemState {

@@ -141,7 +141,7 @@ impl Geometry {
     }
 
     /// The assembled reference configuration (all angles zero) at `t = 0`, at rest.
-    pub fn reference_state(&self) -> SystemState<3> {
+    pub fn reference_state(&self) -> DoubleCardanState {
         let still = Vector3::zeros();
         let [qi, qm, qo] = self.references();
         let middle = Vector3::new(self.bend.cos(), self.bend.sin(), 0.0) * 0.5;
@@ -207,7 +207,7 @@ impl DoubleCardan {
     ///
     /// # Errors
     /// Those of [`velocities`].
-    pub fn initial_state(&self) -> Result<SystemState<3>, AnalysisError> {
+    pub fn initial_state(&self) -> Result<DoubleCardanState, AnalysisError> {
         let mut state = self.geometry.reference_state();
         velocities(self, &mut state)?;
         Ok(state)

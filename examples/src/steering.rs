@@ -312,7 +312,7 @@ impl<F> SteeringColumn<F> {
     /// A rough starting configuration for assembly at steering angle `theta`:
     /// every shaft on its nominal axis at its reference turn (the intermediate
     /// shaft not yet turned to meet its yokes, nor slid to its length).
-    pub fn rough_state(&self, theta: f64) -> SystemState<3> {
+    pub fn rough_state(&self, theta: f64) -> SteeringColumnState {
         let (upper, lower) = (self.upper_joint(), self.lower_joint());
         let a = self.column_axis.axis.normalize();
         let c = self.pinion_axis.axis.normalize();
@@ -344,13 +344,13 @@ impl<F> SteeringColumn<F> {
     }
 
     /// The pinion's angle in `state` (from its frame's `b` towards `c`), in `(−π, π]`.
-    pub fn output_angle(&self, state: &SystemState<3>) -> f64 {
+    pub fn output_angle(&self, state: &SteeringColumnState) -> f64 {
         let z = state.bodies[2].rotation_matrix() * Vector3::z();
         f64::atan2(z.dot(&self.pinion_axis.c), z.dot(&self.pinion_axis.b))
     }
 
     /// The wheel shaft's angle in `state`, in `(−π, π]`.
-    pub fn input_angle(&self, state: &SystemState<3>) -> f64 {
+    pub fn input_angle(&self, state: &SteeringColumnState) -> f64 {
         let z = state.bodies[0].rotation_matrix() * Vector3::z();
         f64::atan2(z.dot(&self.column_axis.c), z.dot(&self.column_axis.b))
     }
@@ -360,7 +360,7 @@ impl<F> SplitSteeringColumn<F> {
     /// A rough starting configuration at steering angle `theta`: that of
     /// [`SteeringColumn::rough_state`], with the lower half at the lower Cardan
     /// centre, turned as the upper half.
-    pub fn rough_state(&self, theta: f64) -> SystemState<4> {
+    pub fn rough_state(&self, theta: f64) -> SplitSteeringColumnState {
         let column = SteeringColumn {
             steer: (),
             column_axis: self.column_axis,
@@ -374,7 +374,7 @@ impl<F> SplitSteeringColumn<F> {
     }
 
     /// The pinion's angle in `state`, as [`SteeringColumn::output_angle`].
-    pub fn output_angle(&self, state: &SystemState<4>) -> f64 {
+    pub fn output_angle(&self, state: &SplitSteeringColumnState) -> f64 {
         let z = state.bodies[3].rotation_matrix() * Vector3::z();
         f64::atan2(z.dot(&self.pinion_axis.c), z.dot(&self.pinion_axis.b))
     }
@@ -387,13 +387,13 @@ pub fn body_point(b: &OmegaBody<f64>, x: f64) -> Vector3<f64> {
 
 /// The intermediate shaft's length in `state`: from the upper Cardan centre (a
 /// point of the intermediate shaft) to the lower one (a point of the pinion shaft).
-pub fn intermediate_length(state: &SystemState<3>) -> f64 {
+pub fn intermediate_length(state: &SteeringColumnState) -> f64 {
     (body_point(&state.bodies[2], OUTPUT_JOINT_X) - body_point(&state.bodies[1], INTERMEDIATE_UPPER_X)).norm()
 }
 
 /// How far the lower half has slid out of its nominal position (the lower
 /// Cardan centre along the intermediate axis, from the nominal lower end).
-pub fn slide(state: &SystemState<3>) -> f64 {
+pub fn slide(state: &SteeringColumnState) -> f64 {
     let mid = &state.bodies[1];
     (mid.rotation_matrix().transpose() * (body_point(&state.bodies[2], OUTPUT_JOINT_X) - mid.r)).x
         - INTERMEDIATE_LOWER_X

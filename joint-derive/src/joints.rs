@@ -315,13 +315,6 @@ fn build() -> Vec<JointKind> {
         Box::new(Expr::Mul(Box::new(dot1("f", "k")), Box::new(Expr::Sin(theta())))),
     );
     let translational = Expr::Sub(Box::new(dot2("h")), Box::new(Expr::Time("x".into())));
-    use Part::{Axis, First, Second};
-    // The axis of a joint in B1 gives the perpendicular pair `f, g`; in B2 it is
-    // `h` itself, and `k` is the second of its pair, so that in the configuration
-    // where both bodies' frames coincide `f ⟂ k` (and a driver's angle is 0).
-    let pair1 = || derive("axis1", 0, &[("f", First), ("g", Second)]);
-    let axis2 = || derive("axis2", 1, &[("h", Axis)]);
-    let fg: &[(&'static str, &'static str)] = &[("f", "g")];
     let joints = vec![
         kind("spherical", points().to_vec(), vec![Spherical]),
         with(
@@ -398,24 +391,34 @@ fn build() -> Vec<JointKind> {
         kind("rotational_driver", vec![axis("f", 0), axis("g", 0), axis("k", 1), time("theta")], vec![S(rotational)]),
         kind("translational_driver", with_points(vec![axis("h", 0), time("x")]), vec![S(translational)]),
     ];
-    joints
-        .into_iter()
-        .map(|k| match k.name {
-            "universal_translational" => axes(k, vec![derive("d", 0, &[("b", First), ("c", Second)])], &[("b", "c")]),
-            "revolute" | "cylindrical" | "parallel" => axes(k, vec![pair1(), axis2()], fg),
-            "point_on_line" => axes(k, vec![pair1()], fg),
-            "translational" | "fixed" => {
-                axes(k, vec![pair1(), derive("axis2", 1, &[("h", Axis), ("k", Second)])], &[("f", "g"), ("h", "k")])
-            }
-            "planar" => axes(
-                k,
-                vec![derive("axis1", 0, &[("f", First), ("g", Second), ("n", Axis)]), axis2()],
-                &[("f", "g"), ("f", "n"), ("g", "n")],
-            ),
-            "rotational_driver" => axes(k, vec![pair1(), derive("axis2", 1, &[("k", First)])], fg),
-            _ => k,
-        })
-        .collect()
+    joints.into_iter().map(person_axes).collect()
+}
+
+/// The axes a person may give instead of a joint's vectors, and the pairs of
+/// its vectors that must be perpendicular.
+fn person_axes(k: JointKind) -> JointKind {
+    use Part::{Axis, First, Second};
+    // The axis of a joint in B1 gives the perpendicular pair `f, g`; in B2 it is
+    // `h` itself, and `k` is the second of its pair, so that in the configuration
+    // where both bodies' frames coincide `f ⟂ k` (and a driver's angle is 0).
+    let pair1 = || derive("axis1", 0, &[("f", First), ("g", Second)]);
+    let axis2 = || derive("axis2", 1, &[("h", Axis)]);
+    let fg: &[(&'static str, &'static str)] = &[("f", "g")];
+    match k.name {
+        "universal_translational" => axes(k, vec![derive("d", 0, &[("b", First), ("c", Second)])], &[("b", "c")]),
+        "revolute" | "cylindrical" | "parallel" => axes(k, vec![pair1(), axis2()], fg),
+        "point_on_line" => axes(k, vec![pair1()], fg),
+        "translational" | "fixed" => {
+            axes(k, vec![pair1(), derive("axis2", 1, &[("h", Axis), ("k", Second)])], &[("f", "g"), ("h", "k")])
+        }
+        "planar" => axes(
+            k,
+            vec![derive("axis1", 0, &[("f", First), ("g", Second), ("n", Axis)]), axis2()],
+            &[("f", "g"), ("f", "n"), ("g", "n")],
+        ),
+        "rotational_driver" => axes(k, vec![pair1(), derive("axis2", 1, &[("k", First)])], fg),
+        _ => k,
+    }
 }
 
 /// Every joint the derive knows.

@@ -1,6 +1,6 @@
 //! Lowering: a checked declaration's rows onto the symbolic graph, and the
-//! derivatives of every row (Φ_t, J, γ), checked. Printing is
-//! [`crate::generate`]'s; the front end never sees the graph.
+//! derivatives of every row (Φ_t, J, γ), checked. Printing comes after, in
+//! the code generator; the front end never sees the graph.
 
 use proc_macro2::Span;
 

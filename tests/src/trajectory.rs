@@ -1,5 +1,5 @@
-//! Exact trajectories for the derivative tests (`tests/derivatives.rs`,
-//! `tests/catalogue.rs`): flat coordinate arrays generic over the scalar (f64,
+//! Exact trajectories for the derivative tests (`tests/derive/derivatives.rs`,
+//! `tests/derive/catalogue/`): flat coordinate arrays generic over the scalar (f64,
 //! f32, num-dual, SIMD lanes), their motion with constant velocities in every
 //! formulation, the state types built from them, and the comparisons the tests
 //! make.

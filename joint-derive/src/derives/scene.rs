@@ -66,6 +66,19 @@ fn inherent(bodies: &[(String, syn::Ident)], z: &Sizes, blocks: &TokenStream) ->
     }
 }
 
+/// `type NameState = SystemState<NB>`, beside the struct with its visibility:
+/// the state of the scene without its size spelled out (an inherent associated
+/// type is not stable Rust; strum's `NameIter` is the precedent for a named item).
+fn state_alias(input: &syn::DeriveInput, nb: &Literal) -> TokenStream {
+    let (k, vis) = (krate(), &input.vis);
+    let alias = quote::format_ident!("{}State", input.ident);
+    let doc = format!(" The state of [`{}`]: its bodies' positions and velocities, and the time.", input.ident);
+    quote! {
+        #[doc = #doc]
+        #vis type #alias = #k::SystemState<#nb>;
+    }
+}
+
 fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block]) -> TokenStream {
     let k = krate();
     let z = sizes(s.bodies.len(), d.phi.len());
@@ -99,7 +112,10 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block])
     );
     let (nb, nv, m, lints) = (&z.nb, &z.nv, &z.m, lints());
     let (ops, methods) = (generate::ops_const(Some(&printed)), z.signature.methods(Some(&printed)));
+    let alias = state_alias(input, nb);
     quote! {
+        #alias
+
         #[doc = #doc]
         #lints
         impl #ig #k::Scene<#nb, #nv, #m> for #ident #tg #wc {
@@ -237,8 +253,10 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
     let inherent = inherent(&bodies, &z, &quote!(&[]));
     let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
     let (ops, methods) = (generate::ops_const(None), z.signature.methods(None));
+    let alias = state_alias(input, nb);
     quote! {
         #errors
+        #alias
         #lints
         impl #ig #ident #tg #wc { #inherent }
         #lints

@@ -88,11 +88,11 @@ fn paren(e: &(TokenStream, u8), min: u8) -> TokenStream {
     if *p >= min { t.clone() } else { quote!((#t)) }
 }
 
-/// Emits the computation of `outputs`.
-pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
-    let nodes = reachable(g, outputs);
+/// How many times each node is read by the nodes and outputs that need it; a
+/// negation is free and never bound, so its uses count as its operand's.
+fn count_uses(g: &Graph, nodes: &[Id], outputs: &[Id]) -> HashMap<Id, usize> {
     let mut uses: HashMap<Id, usize> = HashMap::new();
-    for &id in &nodes {
+    for &id in nodes {
         match g.node(id) {
             Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
                 *uses.entry(a).or_default() += 1;
@@ -105,141 +105,186 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
     for &o in outputs {
         *uses.entry(o).or_default() += 1;
     }
-    // A negation is free and never bound: its uses are its operand's uses.
     for &id in nodes.iter().rev() {
         if let Node::Neg(a) = g.node(id) {
             let extra = uses.get(&id).copied().unwrap_or(0).saturating_sub(1);
             *uses.entry(a).or_default() += extra;
         }
     }
+    uses
+}
 
-    let ty = &scalar.ty;
-    let krate = &scalar.krate;
-    // Every node emitted so far, as itself and as its negation.
-    let mut exprs: HashMap<Id, Ex> = HashMap::new();
-    let mut body = TokenStream::new();
-    let mut used_vars = BTreeSet::new();
-    // Input names are taken: a `let` never shadows an input (a user's scalar
-    // parameter may well be called `two` or `t1`).
-    let mut taken: HashMap<String, usize> =
-        nodes.iter().filter_map(|&id| g.as_var(id)).map(|v| (g.vars()[v.0 as usize].name.clone(), 1)).collect();
-    let mut counter = 0usize;
-    let mut ops = 0usize;
-    let mut consts: std::collections::BTreeMap<u64, Ident> = std::collections::BTreeMap::new();
+/// The state of one emission: every node printed so far, the `let`s, and the
+/// names taken.
+struct Emitter<'a> {
+    g: &'a Graph,
+    scalar: &'a ScalarTy,
+    /// Every node emitted so far, as itself and as its negation.
+    exprs: HashMap<Id, Ex>,
+    body: TokenStream,
+    used_vars: BTreeSet<VarId>,
+    /// Input names are taken: a `let` never shadows an input (a user's scalar
+    /// parameter may well be called `two` or `t1`).
+    taken: HashMap<String, usize>,
+    counter: usize,
+    ops: usize,
+    /// Constants by magnitude, bound once in the prologue (the sign is free).
+    consts: std::collections::BTreeMap<u64, Ident>,
+}
 
+/// Emits the computation of `outputs`.
+pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
+    let nodes = reachable(g, outputs);
+    let uses = count_uses(g, &nodes, outputs);
+    let taken = nodes.iter().filter_map(|&id| g.as_var(id)).map(|v| (g.vars()[v.0 as usize].name.clone(), 1)).collect();
+    let mut e = Emitter {
+        g,
+        scalar,
+        exprs: HashMap::new(),
+        body: TokenStream::new(),
+        used_vars: BTreeSet::new(),
+        taken,
+        counter: 0,
+        ops: 0,
+        consts: Default::default(),
+    };
     for &id in &nodes {
+        let ex = e.node(id);
         let node = g.node(id);
-        // Operands of + and × are printed with the running sum (or product) on the
-        // left, where Rust needs no parentheses; both orders give the same bits.
-        let ordered = |a: Id, b: Id, prec: u8| {
-            let (pa, pb) = (exprs[&a].pos.1, exprs[&b].pos.1);
-            if pb == prec && pa != prec { (b, a) } else { (a, b) }
-        };
-        let ex = match node {
-            Node::Const(bits) => {
-                // Bound once per magnitude in the prologue; the sign is free.
-                let v = f64::from_bits(bits);
-                let name = consts
-                    .entry(v.abs().to_bits())
-                    .or_insert_with(|| {
-                        let base = const_name(v.abs()).to_string();
-                        let n = taken.entry(base.clone()).or_insert(0);
-                        *n += 1;
-                        if *n == 1 { format_ident!("{}", base) } else { format_ident!("{}_{}", base, *n) }
-                    })
-                    .clone();
-                let (plain, negated) = ((quote!(#name), ATOM), (quote!(-#name), 3));
-                if v < 0.0 { Ex { pos: negated, neg: plain } } else { Ex { pos: plain, neg: negated } }
-            }
+        let bind = uses.get(&id).copied().unwrap_or(0) > 1
+            && matches!(
+                node,
+                Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..) | Node::Sin(_) | Node::Cos(_)
+            );
+        let ex = if bind { e.bind(id, ex) } else { ex };
+        e.exprs.insert(id, ex);
+    }
+    let mut body = e.prologue();
+    body.extend(std::mem::take(&mut e.body));
+    let outputs = outputs.iter().map(|o| e.exprs[o].pos.0.clone()).collect();
+    Emitted { body, outputs, used_vars: e.used_vars, ops: e.ops }
+}
+
+impl Emitter<'_> {
+    /// A fresh name from `base`: `base`, then `base_2`, ...
+    fn fresh(&mut self, base: String) -> Ident {
+        let n = self.taken.entry(base.clone()).or_insert(0);
+        *n += 1;
+        if *n == 1 { format_ident!("{}", base) } else { format_ident!("{}_{}", base, *n) }
+    }
+
+    /// Operands of + and × are printed with the running sum (or product) on the
+    /// left, where Rust needs no parentheses; both orders give the same bits.
+    fn ordered(&self, a: Id, b: Id, prec: u8) -> (Id, Id) {
+        let (pa, pb) = (self.exprs[&a].pos.1, self.exprs[&b].pos.1);
+        if pb == prec && pa != prec { (b, a) } else { (a, b) }
+    }
+
+    /// The expression of one node, its operands already emitted.
+    fn node(&mut self, id: Id) -> Ex {
+        let node = self.g.node(id);
+        if matches!(node, Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..)) {
+            self.ops += 1;
+        }
+        match node {
+            Node::Const(bits) => self.constant(f64::from_bits(bits)),
             Node::Var(v) => {
-                used_vars.insert(v);
-                let name = Ident::new(&g.vars()[v.0 as usize].name, Span::call_site());
+                self.used_vars.insert(v);
+                let name = Ident::new(&self.g.vars()[v.0 as usize].name, Span::call_site());
                 Ex::atom(quote!(#name))
             }
             Node::Add(a, b) => {
-                ops += 1;
-                let (a, b) = ordered(a, b, 1);
-                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (a, b) = self.ordered(a, b, 1);
+                let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r, ln) = (paren(&ea.pos, 1), paren(&eb.pos, 2), paren(&ea.neg, 1));
                 // −(a + b) = (−a) − b
                 Ex { pos: (quote!(#l + #r), 1), neg: (quote!(#ln - #r), 1) }
             }
             Node::Sub(a, b) => {
-                ops += 1;
-                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r) = (paren(&ea.pos, 1), paren(&eb.pos, 2));
                 let (bl, ar) = (paren(&eb.pos, 1), paren(&ea.pos, 2));
                 // −(a − b) = b − a
                 Ex { pos: (quote!(#l - #r), 1), neg: (quote!(#bl - #ar), 1) }
             }
             Node::Mul(a, b) => {
-                ops += 1;
-                let (a, b) = ordered(a, b, 2);
-                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (a, b) = self.ordered(a, b, 2);
+                let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r, ln) = (paren(&ea.pos, 2), paren(&eb.pos, 3), paren(&ea.neg, 2));
                 // −(a · b) = (−a) · b
                 Ex { pos: (quote!(#l * #r), 2), neg: (quote!(#ln * #r), 2) }
             }
             Node::Div(a, b) => {
-                ops += 1;
-                let (ea, eb) = (&exprs[&a], &exprs[&b]);
+                let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r, ln) = (paren(&ea.pos, 2), paren(&eb.pos, 3), paren(&ea.neg, 2));
                 Ex { pos: (quote!(#l / #r), 2), neg: (quote!(#ln / #r), 2) }
             }
             Node::Neg(a) => {
-                let ea = &exprs[&a];
+                let ea = &self.exprs[&a];
                 Ex { pos: ea.neg.clone(), neg: ea.pos.clone() }
             }
             Node::Sin(a) | Node::Cos(a) => {
-                let x = paren(&exprs[&a].pos, 1);
+                let x = paren(&self.exprs[&a].pos, 1);
                 let f = if matches!(node, Node::Sin(_)) { quote!(simd_sin) } else { quote!(simd_cos) };
+                let (ty, krate) = (&self.scalar.ty, &self.scalar.krate);
                 Ex::atom(quote!(<#ty as #krate::__private::SimdComplexField>::#f(#x)))
             }
-        };
-        let shared = uses.get(&id).copied().unwrap_or(0) > 1;
-        let bind = shared
-            && matches!(
-                node,
-                Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..) | Node::Sin(_) | Node::Cos(_)
-            );
-        if bind {
-            let base = match g.hint_of(id) {
-                Some(h) => h.to_string(),
-                None => {
-                    counter += 1;
-                    format!("t{counter}")
-                }
-            };
-            let n = taken.entry(base.clone()).or_insert(0);
-            *n += 1;
-            let name = if *n == 1 { format_ident!("{}", base) } else { format_ident!("{}_{}", base, *n) };
-            let expr = ex.pos.0;
-            body.extend(quote!(let #name = #expr;));
-            exprs.insert(id, Ex::atom(quote!(#name)));
-        } else {
-            exprs.insert(id, ex);
         }
     }
-    let mut prologue = TokenStream::new();
-    for (bits, name) in &consts {
-        let v = f64::from_bits(*bits);
-        // A literal must be finite; a constant folded to ∞ or NaN is spelled out.
-        let lit = if v.is_finite() {
-            let l = proc_macro2::Literal::f64_suffixed(v);
-            quote!(#l)
-        } else if v.is_nan() {
-            quote!(::core::f64::NAN)
-        } else {
-            quote!(::core::f64::INFINITY)
+
+    /// A constant: bound once per magnitude in the prologue; the sign is free.
+    fn constant(&mut self, v: f64) -> Ex {
+        let name = match self.consts.get(&v.abs().to_bits()) {
+            Some(name) => name.clone(),
+            None => {
+                let name = self.fresh(const_name(v.abs()).to_string());
+                self.consts.insert(v.abs().to_bits(), name.clone());
+                name
+            }
         };
-        let value =
-            if scalar.concrete_f64 { quote!(#lit) } else { quote!(#krate::__private::convert::<f64, #ty>(#lit)) };
-        prologue.extend(quote!(let #name: #ty = #value;));
+        let (plain, negated) = ((quote!(#name), ATOM), (quote!(-#name), 3));
+        if v < 0.0 { Ex { pos: negated, neg: plain } } else { Ex { pos: plain, neg: negated } }
     }
-    prologue.extend(body);
-    let body = prologue;
-    let outputs = outputs.iter().map(|o| exprs[o].pos.0.clone()).collect();
-    Emitted { body, outputs, used_vars, ops }
+
+    /// A `let` for a node used more than once, named by its hint or `t<n>`.
+    fn bind(&mut self, id: Id, ex: Ex) -> Ex {
+        let base = match self.g.hint_of(id) {
+            Some(h) => h.to_string(),
+            None => {
+                self.counter += 1;
+                format!("t{}", self.counter)
+            }
+        };
+        let name = self.fresh(base);
+        let expr = ex.pos.0;
+        self.body.extend(quote!(let #name = #expr;));
+        Ex::atom(quote!(#name))
+    }
+
+    /// The constants' `let`s, converted once to the scalar.
+    fn prologue(&self) -> TokenStream {
+        let (ty, krate) = (&self.scalar.ty, &self.scalar.krate);
+        let mut prologue = TokenStream::new();
+        for (bits, name) in &self.consts {
+            let v = f64::from_bits(*bits);
+            // A literal must be finite; a constant folded to ∞ or NaN is spelled out.
+            let lit = if v.is_finite() {
+                let l = proc_macro2::Literal::f64_suffixed(v);
+                quote!(#l)
+            } else if v.is_nan() {
+                quote!(::core::f64::NAN)
+            } else {
+                quote!(::core::f64::INFINITY)
+            };
+            let value = if self.scalar.concrete_f64 {
+                quote!(#lit)
+            } else {
+                quote!(#krate::__private::convert::<f64, #ty>(#lit))
+            };
+            prologue.extend(quote!(let #name: #ty = #value;));
+        }
+        prologue
+    }
 }
 
 fn const_name(v: f64) -> Ident {

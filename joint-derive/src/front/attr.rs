@@ -204,6 +204,9 @@ pub fn items(attrs: &[syn::Attribute], name: &str, errors: &mut Errors) -> Vec<A
     out
 }
 
+/// The named fields of the struct (`None` for a unit struct).
+pub type Fields = Option<Punctuated<syn::Field, syn::Token![,]>>;
+
 /// An attribute slot that takes one value and reports a second one itself
 /// (after serde's `Attr`).
 pub struct Slot<T> {

@@ -5,11 +5,27 @@
 
 use proc_macro2::Span;
 
-use super::attr::{self, Value};
+use super::attr::{self, Fields, Value};
 use super::context::Errors;
-use super::joint::{CUSTOM, Fields, TAGS, tag_role};
 use super::rows::{self, Names};
 use crate::joints::{JointKind, Param, Role};
+
+/// The kind name of a joint declared by `rows(...)`.
+pub const CUSTOM: &str = "custom";
+
+/// Field tags of a user-written joint.
+pub const TAGS: [&str; 5] = ["body1", "body2", "point1", "point2", "time"];
+
+/// The role a tag gives a vector or field.
+pub fn tag_role(tag: &str) -> Role {
+    match tag {
+        "body1" => Role::Axis(0),
+        "body2" => Role::Axis(1),
+        "point1" => Role::Point(0),
+        "point2" => Role::Point(1),
+        _ => Role::Time,
+    }
+}
 
 /// The parameters of a user-written joint as they are found.
 #[derive(Default)]

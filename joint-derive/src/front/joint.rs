@@ -9,10 +9,10 @@
 use std::borrow::Cow;
 
 use proc_macro2::Span;
-use syn::punctuated::Punctuated;
 
-use super::attr::{self, Arg, Slot, Value};
+use super::attr::{self, Arg, Fields, Slot, Value};
 use super::context::Errors;
+use super::custom::{CUSTOM, TAGS, tag_role};
 use super::names::did_you_mean;
 use super::resolve::{self, Dialect, Given, GivenValue, Origin, Parameter};
 use crate::joints::{self, JointKind, Role};
@@ -77,26 +77,6 @@ impl Failure {
 
 const FORMULATIONS: &str = "`euler`, `omega_inertial`, `omega_body`, `relative_b1`, `relative_b2`";
 const SHAPE: &str = "expected a struct with named fields, as in `struct Cardan<T> { h: Vector3<T>, .. }`";
-
-/// The kind name of a joint declared by `rows(...)`.
-pub const CUSTOM: &str = "custom";
-
-/// Field tags of a user-written joint.
-pub const TAGS: [&str; 5] = ["body1", "body2", "point1", "point2", "time"];
-
-/// The role a tag gives a vector or field.
-pub fn tag_role(tag: &str) -> Role {
-    match tag {
-        "body1" => Role::Axis(0),
-        "body2" => Role::Axis(1),
-        "point1" => Role::Point(0),
-        "point2" => Role::Point(1),
-        _ => Role::Time,
-    }
-}
-
-/// The named fields of the struct (`None` for a unit struct).
-pub type Fields = Option<Punctuated<syn::Field, syn::Token![,]>>;
 
 fn fields(input: &syn::DeriveInput) -> syn::Result<Fields> {
     let (span, what) = match &input.data {

@@ -151,7 +151,7 @@ fn args(call: &syn::ExprCall, n: usize, form: &str) -> syn::Result<Vec<syn::Expr
 }
 
 fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
-    use syn::{BinOp, Expr as E, UnOp};
+    use syn::{Expr as E, UnOp};
     match e {
         E::Paren(p) => check(&p.expr, names),
         E::Group(g) => check(&g.expr, names),
@@ -160,145 +160,154 @@ fn check(e: &syn::Expr, names: &Names) -> syn::Result<Typed> {
             syn::Lit::Float(f) => Ok(Typed::S(Expr::Num(f.base10_parse::<f64>()?))),
             _ => err(l.span(), "expected a number, a parameter or a function such as `dot(u, v)`"),
         },
-        E::Path(p) => {
-            let Some(id) = p.path.get_ident() else {
-                return err(p.span(), "expected a parameter name, `d`, or a function such as `dot(u, v)`");
-            };
-            let name = id.to_string();
-            match (names.role)(&name) {
-                Some(Role::Axis(_)) => Ok(Typed::V(VExpr::Axis(name))),
-                Some(Role::Point(_)) => Ok(Typed::V(VExpr::Point(name))),
-                Some(Role::Scalar) => Ok(Typed::S(Expr::Scalar(name))),
-                Some(Role::Time) => Ok(Typed::S(Expr::Time(name))),
-                None if name == "d" => Ok(Typed::V(VExpr::Separation)),
-                None if name == "spherical" => err(
-                    id.span(),
-                    "`spherical` is a whole row (three rows); expected it on its own, as in `rows(spherical, dot1(s, h))`",
-                ),
-                None => {
-                    let all: Vec<String> = names.all.iter().map(|n| format!("`{n}`")).collect();
-                    err(
-                        id.span(),
-                        format!(
-                            "unknown name `{name}` in a row{}; expected a parameter of this joint ({}) or `d`",
-                            super::names::did_you_mean(&name, names.all.iter().copied().chain(["d"])),
-                            all.join(", ")
-                        ),
-                    )
-                }
-            }
-        }
+        E::Path(p) => check_path(p, names),
         E::Unary(u) if matches!(u.op, UnOp::Neg(_)) => Ok(match check(&u.expr, names)? {
             Typed::S(s) => Typed::S(Expr::Neg(b(s))),
             Typed::V(v) => Typed::V(VExpr::Neg(b(v))),
         }),
-        E::Binary(bin) => {
-            let (l, r) = (check(&bin.left, names)?, check(&bin.right, names)?);
-            match (&bin.op, l, r) {
-                (BinOp::Add(_), Typed::S(x), Typed::S(y)) => Ok(Typed::S(Expr::Add(b(x), b(y)))),
-                (BinOp::Sub(_), Typed::S(x), Typed::S(y)) => Ok(Typed::S(Expr::Sub(b(x), b(y)))),
-                (BinOp::Mul(_), Typed::S(x), Typed::S(y)) => Ok(Typed::S(Expr::Mul(b(x), b(y)))),
-                (BinOp::Add(_), Typed::V(x), Typed::V(y)) => Ok(Typed::V(VExpr::Add(b(x), b(y)))),
-                (BinOp::Sub(_), Typed::V(x), Typed::V(y)) => Ok(Typed::V(VExpr::Sub(b(x), b(y)))),
-                (BinOp::Mul(_), Typed::S(x), Typed::V(y)) | (BinOp::Mul(_), Typed::V(y), Typed::S(x)) => {
-                    Ok(Typed::V(VExpr::Scale(b(x), b(y))))
-                }
-                (BinOp::Mul(_), Typed::V(_), Typed::V(_)) => {
-                    err(bin.op.span(), "cannot multiply two vectors; expected `dot(u, v)` or `cross(u, v)`")
-                }
-                (BinOp::Add(_) | BinOp::Sub(_), l, _) => {
-                    let (verb, side) =
-                        if matches!(bin.op, BinOp::Add(_)) { ("add", "to") } else { ("subtract", "from") };
-                    let (what, other) =
-                        if matches!(l, Typed::V(_)) { ("a number", "a vector") } else { ("a vector", "a number") };
-                    err(
-                        bin.op.span(),
-                        format!(
-                            "cannot {verb} {what} {side} {other}; expected both sides vectors or both numbers, as in `dot(s, h) - 1`"
-                        ),
-                    )
-                }
-                (BinOp::Div(_), ..) => err(
-                    bin.op.span(),
-                    "rows take no division (Φ stays polynomial); expected the row multiplied out, as in `a - b * c` for `a / b - c`",
-                ),
-                _ => err(bin.op.span(), "unknown operator in a row; expected `+`, `-` or `*`"),
-            }
-        }
-        E::Call(call) => {
-            let Some(fname) = ident(&call.func) else {
-                return err(call.func.span(), "expected a function name, as in `dot(s, h)`");
-            };
-            match fname.to_string().as_str() {
-                "dot" => {
-                    let a = args(call, 2, "dot(u, v)")?;
-                    let (u, v) = (vector(&a[0], names, "dot(u, v)")?, vector(&a[1], names, "dot(u, v)")?);
-                    Ok(Typed::S(Expr::Dot(b(u), b(v))))
-                }
-                "cross" => {
-                    let a = args(call, 2, "cross(u, v)")?;
-                    let (u, v) = (vector(&a[0], names, "cross(u, v)")?, vector(&a[1], names, "cross(u, v)")?);
-                    Ok(Typed::V(VExpr::Cross(b(u), b(v))))
-                }
-                "norm2" => {
-                    let a = args(call, 1, "norm2(u)")?;
-                    let u = vector(&a[0], names, "norm2(u)")?;
-                    Ok(Typed::S(Expr::Dot(b(u.clone()), b(u))))
-                }
-                "sin" | "cos" => {
-                    let form = format!("{fname}(alpha)");
-                    let a = args(call, 1, &form)?;
-                    let x = scalar(&a[0], names, &form)?;
-                    if !constant_in_space(&x) {
-                        return err(
-                            a[0].span(),
-                            format!(
-                                "`{fname}` of the bodies' coordinates is not allowed (Φ stays polynomial in them); \
-                                 expected numbers, scalars and time functions only, as in `{form}`"
-                            ),
-                        );
-                    }
-                    Ok(Typed::S(if fname == "sin" { Expr::Sin(b(x)) } else { Expr::Cos(b(x)) }))
-                }
-                "dot1" => {
-                    let a = args(call, 2, "dot1(s, h)")?;
-                    // Both arguments in the wrong order: one mistake, one message.
-                    if let (Some(x), Some(y)) = (ident(&a[0]), ident(&a[1]))
-                        && (names.role)(&x.to_string()) == Some(Role::Axis(1))
-                        && (names.role)(&y.to_string()) == Some(Role::Axis(0))
-                    {
-                        return err(
-                            call.paren_token.span.join(),
-                            format!(
-                                "the arguments of `dot1` are swapped: `{x}` is an axis of body 2 and `{y}` of body 1; \
-                                 expected `dot1({y}, {x})`"
-                            ),
-                        );
-                    }
-                    let (x, y) = (axis_of(&a[0], names, 0, "dot1(s, h)")?, axis_of(&a[1], names, 1, "dot1(s, h)")?);
-                    Ok(Typed::S(Expr::Dot1(x, y)))
-                }
-                "dot2" => {
-                    let a = args(call, 1, "dot2(b)")?;
-                    Ok(Typed::S(Expr::Dot2(axis_of(&a[0], names, 0, "dot2(b)")?)))
-                }
-                "distance" => {
-                    let a = args(call, 1, "distance(length)")?;
-                    let l = scalar(&a[0], names, "distance(length)")?;
-                    let d = || b(VExpr::Separation);
-                    Ok(Typed::S(Expr::Sub(b(Expr::Dot(d(), d())), b(Expr::Mul(b(l.clone()), b(l))))))
-                }
-                other => err(
-                    fname.span(),
-                    format!(
-                        "unknown function `{other}`{}; expected one of {}",
-                        super::names::did_you_mean(other, FUNCTIONS),
-                        FUNCTIONS.map(|f| format!("`{f}`")).join(", ")
-                    ),
-                ),
-            }
-        }
+        E::Binary(bin) => check_binary(bin, names),
+        E::Call(call) => check_call(call, names),
         _ => err(e.span(), "expected a row: numbers, parameters, `d`, `+ - *` and functions such as `dot(u, v)`"),
+    }
+}
+
+/// A name: a parameter (by its role) or `d`.
+fn check_path(p: &syn::ExprPath, names: &Names) -> syn::Result<Typed> {
+    let Some(id) = p.path.get_ident() else {
+        return err(p.span(), "expected a parameter name, `d`, or a function such as `dot(u, v)`");
+    };
+    let name = id.to_string();
+    match (names.role)(&name) {
+        Some(Role::Axis(_)) => Ok(Typed::V(VExpr::Axis(name))),
+        Some(Role::Point(_)) => Ok(Typed::V(VExpr::Point(name))),
+        Some(Role::Scalar) => Ok(Typed::S(Expr::Scalar(name))),
+        Some(Role::Time) => Ok(Typed::S(Expr::Time(name))),
+        None if name == "d" => Ok(Typed::V(VExpr::Separation)),
+        None if name == "spherical" => err(
+            id.span(),
+            "`spherical` is a whole row (three rows); expected it on its own, as in `rows(spherical, dot1(s, h))`",
+        ),
+        None => {
+            let all: Vec<String> = names.all.iter().map(|n| format!("`{n}`")).collect();
+            err(
+                id.span(),
+                format!(
+                    "unknown name `{name}` in a row{}; expected a parameter of this joint ({}) or `d`",
+                    super::names::did_you_mean(&name, names.all.iter().copied().chain(["d"])),
+                    all.join(", ")
+                ),
+            )
+        }
+    }
+}
+
+/// `+`, `-`, `*` on numbers and vectors; no division.
+fn check_binary(bin: &syn::ExprBinary, names: &Names) -> syn::Result<Typed> {
+    use syn::BinOp;
+    let (l, r) = (check(&bin.left, names)?, check(&bin.right, names)?);
+    match (&bin.op, l, r) {
+        (BinOp::Add(_), Typed::S(x), Typed::S(y)) => Ok(Typed::S(Expr::Add(b(x), b(y)))),
+        (BinOp::Sub(_), Typed::S(x), Typed::S(y)) => Ok(Typed::S(Expr::Sub(b(x), b(y)))),
+        (BinOp::Mul(_), Typed::S(x), Typed::S(y)) => Ok(Typed::S(Expr::Mul(b(x), b(y)))),
+        (BinOp::Add(_), Typed::V(x), Typed::V(y)) => Ok(Typed::V(VExpr::Add(b(x), b(y)))),
+        (BinOp::Sub(_), Typed::V(x), Typed::V(y)) => Ok(Typed::V(VExpr::Sub(b(x), b(y)))),
+        (BinOp::Mul(_), Typed::S(x), Typed::V(y)) | (BinOp::Mul(_), Typed::V(y), Typed::S(x)) => {
+            Ok(Typed::V(VExpr::Scale(b(x), b(y))))
+        }
+        (BinOp::Mul(_), Typed::V(_), Typed::V(_)) => {
+            err(bin.op.span(), "cannot multiply two vectors; expected `dot(u, v)` or `cross(u, v)`")
+        }
+        (BinOp::Add(_) | BinOp::Sub(_), l, _) => {
+            let (verb, side) = if matches!(bin.op, BinOp::Add(_)) { ("add", "to") } else { ("subtract", "from") };
+            let (what, other) =
+                if matches!(l, Typed::V(_)) { ("a number", "a vector") } else { ("a vector", "a number") };
+            err(
+                bin.op.span(),
+                format!(
+                    "cannot {verb} {what} {side} {other}; expected both sides vectors or both numbers, as in `dot(s, h) - 1`"
+                ),
+            )
+        }
+        (BinOp::Div(_), ..) => err(
+            bin.op.span(),
+            "rows take no division (Φ stays polynomial); expected the row multiplied out, as in `a - b * c` for `a / b - c`",
+        ),
+        _ => err(bin.op.span(), "unknown operator in a row; expected `+`, `-` or `*`"),
+    }
+}
+
+/// A function of the row language.
+fn check_call(call: &syn::ExprCall, names: &Names) -> syn::Result<Typed> {
+    let Some(fname) = ident(&call.func) else {
+        return err(call.func.span(), "expected a function name, as in `dot(s, h)`");
+    };
+    match fname.to_string().as_str() {
+        "dot" => {
+            let a = args(call, 2, "dot(u, v)")?;
+            let (u, v) = (vector(&a[0], names, "dot(u, v)")?, vector(&a[1], names, "dot(u, v)")?);
+            Ok(Typed::S(Expr::Dot(b(u), b(v))))
+        }
+        "cross" => {
+            let a = args(call, 2, "cross(u, v)")?;
+            let (u, v) = (vector(&a[0], names, "cross(u, v)")?, vector(&a[1], names, "cross(u, v)")?);
+            Ok(Typed::V(VExpr::Cross(b(u), b(v))))
+        }
+        "norm2" => {
+            let a = args(call, 1, "norm2(u)")?;
+            let u = vector(&a[0], names, "norm2(u)")?;
+            Ok(Typed::S(Expr::Dot(b(u.clone()), b(u))))
+        }
+        "sin" | "cos" => {
+            let form = format!("{fname}(alpha)");
+            let a = args(call, 1, &form)?;
+            let x = scalar(&a[0], names, &form)?;
+            if !constant_in_space(&x) {
+                return err(
+                    a[0].span(),
+                    format!(
+                        "`{fname}` of the bodies' coordinates is not allowed (Φ stays polynomial in them); \
+                         expected numbers, scalars and time functions only, as in `{form}`"
+                    ),
+                );
+            }
+            Ok(Typed::S(if fname == "sin" { Expr::Sin(b(x)) } else { Expr::Cos(b(x)) }))
+        }
+        "dot1" => {
+            let a = args(call, 2, "dot1(s, h)")?;
+            // Both arguments in the wrong order: one mistake, one message.
+            if let (Some(x), Some(y)) = (ident(&a[0]), ident(&a[1]))
+                && (names.role)(&x.to_string()) == Some(Role::Axis(1))
+                && (names.role)(&y.to_string()) == Some(Role::Axis(0))
+            {
+                return err(
+                    call.paren_token.span.join(),
+                    format!(
+                        "the arguments of `dot1` are swapped: `{x}` is an axis of body 2 and `{y}` of body 1; \
+                         expected `dot1({y}, {x})`"
+                    ),
+                );
+            }
+            let (x, y) = (axis_of(&a[0], names, 0, "dot1(s, h)")?, axis_of(&a[1], names, 1, "dot1(s, h)")?);
+            Ok(Typed::S(Expr::Dot1(x, y)))
+        }
+        "dot2" => {
+            let a = args(call, 1, "dot2(b)")?;
+            Ok(Typed::S(Expr::Dot2(axis_of(&a[0], names, 0, "dot2(b)")?)))
+        }
+        "distance" => {
+            let a = args(call, 1, "distance(length)")?;
+            let l = scalar(&a[0], names, "distance(length)")?;
+            let d = || b(VExpr::Separation);
+            Ok(Typed::S(Expr::Sub(b(Expr::Dot(d(), d())), b(Expr::Mul(b(l.clone()), b(l))))))
+        }
+        other => err(
+            fname.span(),
+            format!(
+                "unknown function `{other}`{}; expected one of {}",
+                super::names::did_you_mean(other, FUNCTIONS),
+                FUNCTIONS.map(|f| format!("`{f}`")).join(", ")
+            ),
+        ),
     }
 }
 

@@ -89,7 +89,7 @@ struct LiteralPendulum;
 
 #[test]
 fn a_scene_with_named_constants_is_the_scene_with_their_values() {
-    let state = hanging_rods([0.3]);
+    let state: NamedPendulumState = hanging_rods([0.3]);
     close(&NamedPendulum.evaluate(&state), &LiteralPendulum.evaluate(&state));
     assert_eq!(NamedPendulum.gravity(), Vector3::new(0.0, 0.0, -9.81));
     let (named, literal) = (NamedPendulum.inertias()[0], LiteralPendulum.inertias()[0]);

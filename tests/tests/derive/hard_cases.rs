@@ -22,7 +22,7 @@
 //! position (`examples/tests/bricard.rs`, `four_bar.rs`), the 10⁶-step Cardan run
 //! (`examples/tests/long_run.rs`), property tests of J against num-dual and of γ
 //! against differences of `J v` for every joint and formulation
-//! (`tests/derivatives.rs`, `tests/catalogue.rs`).
+//! (`derivatives.rs`, `catalogue/`).
 
 use joint_runtime::analysis::{AnalysisError, AssemblyOptions, accelerations, assemble, velocities};
 use joint_runtime::conditioning::conditioning;
