@@ -345,10 +345,60 @@ type PointMotion = (Vector3<f64>, Vector3<f64>, Option<(usize, Vector3<f64>)>);
 
 /// Time derivative of the state for RK4.
 #[derive(Clone, Copy)]
-struct Rate<const NB: usize, const NV: usize> {
+pub(crate) struct Rate<const NB: usize, const NV: usize> {
     rdot: [Vector3<f64>; NB],
     pdot: [Vector4<f64>; NB],
     vdot: SVector<f64, NV>,
+}
+
+impl<const NB: usize, const NV: usize> Rate<NB, NV> {
+    /// The rate at `state` with accelerations `vdot`.
+    pub(crate) fn new(state: &SystemState<NB>, vdot: SVector<f64, NV>) -> Self {
+        let mut rate = Rate { rdot: [Vector3::zeros(); NB], pdot: [Vector4::zeros(); NB], vdot };
+        for ((b, rdot), pdot) in state.bodies.iter().zip(rate.rdot.iter_mut()).zip(rate.pdot.iter_mut()) {
+            *rdot = b.rdot;
+            *pdot = quat_mul(&b.p, &Vector4::new(0.0, b.omega.x, b.omega.y, b.omega.z)) * 0.5;
+        }
+        rate
+    }
+}
+
+/// RK4's combination of its four stage rates.
+pub(crate) fn rk4_weights<'r, const NB: usize, const NV: usize>(
+    k1: &'r Rate<NB, NV>,
+    k2: &'r Rate<NB, NV>,
+    k3: &'r Rate<NB, NV>,
+    k4: &'r Rate<NB, NV>,
+) -> [(&'r Rate<NB, NV>, f64); 4] {
+    let sixth = 1.0 / 6.0;
+    [(k1, sixth), (k2, 2.0 * sixth), (k3, 2.0 * sixth), (k4, sixth)]
+}
+
+/// `y0 + h Σ c_k k_k`, with `p` renormalised, at time `t`.
+pub(crate) fn advance<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    rates: &[(&Rate<NB, NV>, f64)],
+    h: f64,
+    t: f64,
+) -> SystemState<NB> {
+    let mut y = *y0;
+    let mut v = velocity_vector::<NB, NV>(y0);
+    for (k, c) in rates {
+        for ((b, rdot), pdot) in y.bodies.iter_mut().zip(k.rdot.iter()).zip(k.pdot.iter()) {
+            b.r += rdot * (h * c);
+            b.p += pdot * (h * c);
+        }
+        v += k.vdot * (h * c);
+    }
+    for b in y.bodies.iter_mut() {
+        let n = b.p.norm();
+        if n > 0.0 {
+            b.p /= n;
+        }
+    }
+    set_velocities(&mut y, &v);
+    y.t = t;
+    y
 }
 
 /// A scene with loads, springs and options: computes constrained dynamics and
@@ -410,33 +460,8 @@ where
     ) -> Result<Self, AnalysisError> {
         crate::analysis::check_dims::<NB, NV>()?;
         let inertias = scene.inertias();
-        let mut inverse = [InverseMass { inv_mass: 0.0, inv_inertia: Matrix3::zeros() }; NB];
-        for (i, (b, inv)) in inertias.iter().zip(inverse.iter_mut()).enumerate() {
-            let body = S::BODIES.get(i).copied().unwrap_or("");
-            let sym = (b.inertia + b.inertia.transpose()) * 0.5;
-            let ok_mass = b.mass.is_finite() && b.mass > 0.0;
-            let inv_inertia = if sym.iter().all(|x| x.is_finite()) { sym.try_inverse() } else { None };
-            match (ok_mass, inv_inertia) {
-                (true, Some(j)) if j.iter().all(|x| x.is_finite()) => {
-                    *inv = InverseMass { inv_mass: 1.0 / b.mass, inv_inertia: (j + j.transpose()) * 0.5 };
-                }
-                _ => return Err(AnalysisError::BadInertia { body }),
-            }
-        }
-        for s in springs {
-            for end in [s.a, s.b] {
-                let ok = match end {
-                    Attachment::Ground(x) => x.iter().all(|v| v.is_finite()),
-                    Attachment::Body { body, point } => body < NB && point.iter().all(|v| v.is_finite()),
-                };
-                if !ok {
-                    return Err(AnalysisError::BadOption { name: "spring attachment" });
-                }
-            }
-            if !(s.stiffness.is_finite() && s.damping.is_finite() && s.rest_length.is_finite()) {
-                return Err(AnalysisError::BadOption { name: "spring coefficients" });
-            }
-        }
+        let inverse = inverse_masses::<S, NB, NV, M>(&inertias)?;
+        check_springs::<NB>(springs)?;
         let gravity = scene.gravity();
         if !gravity.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::BadOption { name: "gravity" });
@@ -449,55 +474,9 @@ where
         self.scene
     }
 
-    /// Position and velocity (inertial) of an attachment point.
-    fn point(state: &SystemState<NB>, end: &Attachment) -> PointMotion {
-        match *end {
-            Attachment::Ground(x) => (x, Vector3::zeros(), None),
-            Attachment::Body { body, point } => match state.bodies.get(body) {
-                Some(b) => {
-                    let a = rotation_matrix(&b.p);
-                    (b.r + a * point, b.rdot + a * b.omega.cross(&point), Some((body, point)))
-                }
-                None => (Vector3::zeros(), Vector3::zeros(), None),
-            },
-        }
-    }
-
     /// The generalised forces `Q` (gravity, user loads, gyroscopic terms, springs).
     pub fn forces(&mut self, state: &SystemState<NB>) -> SVector<f64, NV> {
-        let mut loads = Loads::<NB>::default();
-        self.loads.apply(state, &mut loads);
-        for s in self.springs {
-            let (xa, va, a) = Self::point(state, &s.a);
-            let (xb, vb, b) = Self::point(state, &s.b);
-            let d = xb - xa;
-            let len = d.norm();
-            if len.is_nan() || len <= 1e-12 {
-                continue;
-            }
-            let u = d / len;
-            let tension = s.stiffness * (len - s.rest_length) + s.damping * u.dot(&(vb - va));
-            // Tension pulls a towards b and b towards a.
-            if let Some((body, point)) = a {
-                loads.add_force_at(state, body, &(u * tension), &point);
-            }
-            if let Some((body, point)) = b {
-                loads.add_force_at(state, body, &(u * -tension), &point);
-            }
-        }
-        let mut q = SVector::<f64, NV>::zeros();
-        for (i, ((b, inertia), (f, t))) in
-            state.bodies.iter().zip(self.inertias.iter()).zip(loads.force.iter().zip(loads.torque.iter())).enumerate()
-        {
-            if 6 * i + 6 > NV {
-                break;
-            }
-            let force = self.gravity * inertia.mass + f;
-            let torque = t - b.omega.cross(&(inertia.inertia * b.omega));
-            q.fixed_rows_mut::<3>(6 * i).copy_from(&force);
-            q.fixed_rows_mut::<3>(6 * i + 3).copy_from(&torque);
-        }
-        q
+        generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state)
     }
 
     /// The rule of a step starting at `state`: the pivot order and rank of
@@ -620,8 +599,8 @@ where
             e.gravity -= inertia.mass * self.gravity.dot(&b.r);
         }
         for s in self.springs {
-            let (xa, _, _) = Self::point(state, &s.a);
-            let (xb, _, _) = Self::point(state, &s.b);
+            let (xa, _, _) = point_motion(state, &s.a);
+            let (xb, _, _) = point_motion(state, &s.b);
             let stretch = (xb - xa).norm() - s.rest_length;
             e.elastic += 0.5 * s.stiffness * stretch * stretch;
         }
@@ -661,35 +640,7 @@ where
     }
 
     fn rate(&mut self, state: &SystemState<NB>, rule: &mut StepRule<M>) -> Result<Rate<NB, NV>, AnalysisError> {
-        let d = self.solve(state, Some(rule))?;
-        let mut rate = Rate { rdot: [Vector3::zeros(); NB], pdot: [Vector4::zeros(); NB], vdot: d.vdot };
-        for ((b, rdot), pdot) in state.bodies.iter().zip(rate.rdot.iter_mut()).zip(rate.pdot.iter_mut()) {
-            *rdot = b.rdot;
-            *pdot = quat_mul(&b.p, &Vector4::new(0.0, b.omega.x, b.omega.y, b.omega.z)) * 0.5;
-        }
-        Ok(rate)
-    }
-
-    /// `y0 + h Σ c_k k_k`, with `p` renormalised, at time `t`.
-    fn advance(y0: &SystemState<NB>, rates: &[(&Rate<NB, NV>, f64)], h: f64, t: f64) -> SystemState<NB> {
-        let mut y = *y0;
-        let mut v = velocity_vector::<NB, NV>(y0);
-        for (k, c) in rates {
-            for ((b, rdot), pdot) in y.bodies.iter_mut().zip(k.rdot.iter()).zip(k.pdot.iter()) {
-                b.r += rdot * (h * c);
-                b.p += pdot * (h * c);
-            }
-            v += k.vdot * (h * c);
-        }
-        for b in y.bodies.iter_mut() {
-            let n = b.p.norm();
-            if n > 0.0 {
-                b.p /= n;
-            }
-        }
-        set_velocities(&mut y, &v);
-        y.t = t;
-        y
+        Ok(Rate::new(state, self.solve(state, Some(rule))?.vdot))
     }
 
     fn step_rk4(
@@ -701,11 +652,10 @@ where
         let y0 = *state;
         let t0 = y0.t;
         let k1 = self.rate(&y0, rule)?;
-        let k2 = self.rate(&Self::advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h), rule)?;
-        let k3 = self.rate(&Self::advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h), rule)?;
-        let k4 = self.rate(&Self::advance(&y0, &[(&k3, 1.0)], h, t0 + h), rule)?;
-        let sixth = 1.0 / 6.0;
-        *state = Self::advance(&y0, &[(&k1, sixth), (&k2, 2.0 * sixth), (&k3, 2.0 * sixth), (&k4, sixth)], h, t0 + h);
+        let k2 = self.rate(&advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h), rule)?;
+        let k3 = self.rate(&advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h), rule)?;
+        let k4 = self.rate(&advance(&y0, &[(&k3, 1.0)], h, t0 + h), rule)?;
+        *state = advance(&y0, &rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
         Ok(0)
     }
 
@@ -827,4 +777,100 @@ where
         }
         Ok(report)
     }
+}
+
+/// The inverse mass of every body, checked.
+pub(crate) fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    inertias: &[BodyInertia; NB],
+) -> Result<[InverseMass; NB], AnalysisError> {
+    let mut inverse = [InverseMass { inv_mass: 0.0, inv_inertia: Matrix3::zeros() }; NB];
+    for (i, (b, inv)) in inertias.iter().zip(inverse.iter_mut()).enumerate() {
+        let body = S::BODIES.get(i).copied().unwrap_or("");
+        let sym = (b.inertia + b.inertia.transpose()) * 0.5;
+        let ok_mass = b.mass.is_finite() && b.mass > 0.0;
+        let inv_inertia = if sym.iter().all(|x| x.is_finite()) { sym.try_inverse() } else { None };
+        match (ok_mass, inv_inertia) {
+            (true, Some(j)) if j.iter().all(|x| x.is_finite()) => {
+                *inv = InverseMass { inv_mass: 1.0 / b.mass, inv_inertia: (j + j.transpose()) * 0.5 };
+            }
+            _ => return Err(AnalysisError::BadInertia { body }),
+        }
+    }
+    Ok(inverse)
+}
+
+/// Springs attached to bodies that exist, with finite coefficients.
+pub(crate) fn check_springs<const NB: usize>(springs: &[SpringDamper]) -> Result<(), AnalysisError> {
+    for s in springs {
+        for end in [s.a, s.b] {
+            let ok = match end {
+                Attachment::Ground(x) => x.iter().all(|v| v.is_finite()),
+                Attachment::Body { body, point } => body < NB && point.iter().all(|v| v.is_finite()),
+            };
+            if !ok {
+                return Err(AnalysisError::BadOption { name: "spring attachment" });
+            }
+        }
+        if !(s.stiffness.is_finite() && s.damping.is_finite() && s.rest_length.is_finite()) {
+            return Err(AnalysisError::BadOption { name: "spring coefficients" });
+        }
+    }
+    Ok(())
+}
+
+/// Position and velocity (inertial) of an attachment point.
+fn point_motion<const NB: usize>(state: &SystemState<NB>, end: &Attachment) -> PointMotion {
+    match *end {
+        Attachment::Ground(x) => (x, Vector3::zeros(), None),
+        Attachment::Body { body, point } => match state.bodies.get(body) {
+            Some(b) => {
+                let a = rotation_matrix(&b.p);
+                (b.r + a * point, b.rdot + a * b.omega.cross(&point), Some((body, point)))
+            }
+            None => (Vector3::zeros(), Vector3::zeros(), None),
+        },
+    }
+}
+
+/// The generalised forces `Q` (gravity, user loads, gyroscopic terms, springs).
+pub(crate) fn generalised_forces<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
+    user: &mut L,
+    springs: &[SpringDamper],
+    inertias: &[BodyInertia; NB],
+    gravity: &Vector3<f64>,
+    state: &SystemState<NB>,
+) -> SVector<f64, NV> {
+    let mut loads = Loads::<NB>::default();
+    user.apply(state, &mut loads);
+    for s in springs {
+        let (xa, va, a) = point_motion(state, &s.a);
+        let (xb, vb, b) = point_motion(state, &s.b);
+        let d = xb - xa;
+        let len = d.norm();
+        if len.is_nan() || len <= 1e-12 {
+            continue;
+        }
+        let u = d / len;
+        let tension = s.stiffness * (len - s.rest_length) + s.damping * u.dot(&(vb - va));
+        // Tension pulls a towards b and b towards a.
+        if let Some((body, point)) = a {
+            loads.add_force_at(state, body, &(u * tension), &point);
+        }
+        if let Some((body, point)) = b {
+            loads.add_force_at(state, body, &(u * -tension), &point);
+        }
+    }
+    let mut q = SVector::<f64, NV>::zeros();
+    for (i, ((b, inertia), (f, t))) in
+        state.bodies.iter().zip(inertias.iter()).zip(loads.force.iter().zip(loads.torque.iter())).enumerate()
+    {
+        if 6 * i + 6 > NV {
+            break;
+        }
+        let force = gravity * inertia.mass + f;
+        let torque = t - b.omega.cross(&(inertia.inertia * b.omega));
+        q.fixed_rows_mut::<3>(6 * i).copy_from(&force);
+        q.fixed_rows_mut::<3>(6 * i + 3).copy_from(&torque);
+    }
+    q
 }

@@ -7,6 +7,9 @@
 #![warn(missing_debug_implementations)]
 #![cfg_attr(not(feature = "std"), no_std)]
 
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
 pub mod analysis;
 pub mod conventions {
     #![doc = include_str!("../CONVENTIONS.md")]
@@ -22,6 +25,9 @@ pub mod record;
 pub mod scene;
 #[cfg(feature = "serde")]
 mod serde_array;
+#[cfg(feature = "alloc")]
+#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
+pub mod sparse;
 mod state;
 mod time;
 

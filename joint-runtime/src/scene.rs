@@ -108,6 +108,19 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     const ROW_STARTS: &'static [usize];
     /// Column of each entry.
     const COLUMNS: [usize; NNZ];
+    /// The bodies each joint connects (`None`: the ground), in [`Scene::BLOCKS`] order.
+    const BLOCK_BODIES: &'static [[Option<usize>; 2]];
+    /// The joint blocks of `J M⁻¹ Jᵀ` in a fill-reducing elimination order
+    /// (minimum degree on "shares a body", computed by the derive): leaves first
+    /// on a tree, fill kept local where loops close.
+    const ELIMINATION: &'static [usize];
+    /// `FACTOR_STARTS[k]..FACTOR_STARTS[k + 1]` index the entries of
+    /// [`FACTOR_BELOW`](Self::FACTOR_BELOW) for the `k`-th block eliminated.
+    const FACTOR_STARTS: &'static [usize];
+    /// The pattern of the block factor: for each eliminated block, the positions
+    /// (in [`ELIMINATION`](Self::ELIMINATION), all later) of the blocks its
+    /// column reaches, fill included.
+    const FACTOR_BELOW: &'static [usize];
     /// The entries' values at `state`.
     fn jacobian_values(&self, state: &SystemState<NB>) -> [f64; NNZ];
 }

@@ -83,7 +83,8 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block])
     let k = krate();
     let z = sizes(s.bodies.len(), d.phi.len());
     let printed = generate::print(d, &ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true });
-    let (sparse, nnz, sparse_ops) = sparse_jacobian(d, &printed, &z);
+    let (mut sparse, nnz, sparse_ops) = sparse_jacobian(d, &printed, &z);
+    sparse.extend(block_structure(s));
     let blocks = blocks.iter().map(|b| {
         let (name, start, rows) = (&b.name, Literal::usize_unsuffixed(b.start), Literal::usize_unsuffixed(b.rows));
         quote!(#k::RowBlock { name: #name, start: #start, rows: #rows })
@@ -165,6 +166,52 @@ fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, L
         fn jacobian_values(&self, state: &#state) -> [f64; #nnz] { #body [#(#values),*] }
     };
     (items, nnz, ops)
+}
+
+/// The joints' bodies and the elimination order of the joint blocks of
+/// `J M⁻¹ Jᵀ` (two blocks are coupled when their joints share a body), with the
+/// pattern of its block factor: fixed here, at compile time.
+fn block_structure(s: &SceneDecl) -> TokenStream {
+    let bodies = |j: &crate::front::scene::JointDecl| {
+        j.bodies.map(|b| match b {
+            Some(i) => {
+                let i = Literal::usize_unsuffixed(i);
+                quote!(::core::option::Option::Some(#i))
+            }
+            None => quote!(::core::option::Option::None),
+        })
+    };
+    let block_bodies = s.joints.iter().map(|j| {
+        let [a, b] = bodies(j);
+        quote!([#a, #b])
+    });
+    let adjacency: Vec<Vec<usize>> = s
+        .joints
+        .iter()
+        .map(|a| {
+            let shares =
+                |b: &crate::front::scene::JointDecl| a.bodies.iter().flatten().any(|x| b.bodies.contains(&Some(*x)));
+            s.joints.iter().enumerate().filter(|(_, b)| shares(b)).map(|(i, _)| i).collect()
+        })
+        .collect();
+    let e = crate::engine::order::minimum_degree(&adjacency);
+    let lit = |v: &[usize]| {
+        let v = v.iter().map(|&x| Literal::usize_unsuffixed(x));
+        quote!(&[#(#v),*])
+    };
+    let mut starts = vec![0];
+    let mut below = Vec::new();
+    for b in &e.below {
+        below.extend(b.iter().copied());
+        starts.push(below.len());
+    }
+    let (order, starts, below) = (lit(&e.order), lit(&starts), lit(&below));
+    quote! {
+        const BLOCK_BODIES: &'static [[::core::option::Option<usize>; 2]] = &[#(#block_bodies),*];
+        const ELIMINATION: &'static [usize] = #order;
+        const FACTOR_STARTS: &'static [usize] = #starts;
+        const FACTOR_BELOW: &'static [usize] = #below;
+    }
 }
 
 /// A number as generated code writes it.

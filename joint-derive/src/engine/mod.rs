@@ -4,6 +4,7 @@
 pub mod diff;
 pub mod emit;
 pub mod graph;
+pub mod order;
 
 #[cfg(test)]
 mod tests;

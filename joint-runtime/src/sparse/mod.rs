@@ -1,0 +1,30 @@
+//! Scenes that scale: the constrained dynamics of a [`Scene`](crate::Scene)
+//! through its compile-time structure, in time and memory proportional to the
+//! scene (feature `alloc`).
+//!
+//! The derive fixes, for every scene, which bodies each joint connects, a
+//! fill-reducing elimination order of the joint blocks of `J M⁻¹ Jᵀ` (minimum
+//! degree: leaves first on a tree, the fill of each closed loop kept local) and
+//! the pattern of its block factor ([`SparseJacobian`](crate::SparseJacobian)).
+//! [`BlockFactor`] turns that pattern, once, into a compact static schedule
+//! (which factor blocks update which), allocated once; every factorisation then
+//! runs the schedule on blocks of at most 6 × 6, with no search and no
+//! allocation. Why a schedule rather than generated factorisation code: the
+//! code would grow with the factor's operation count and rustc's time with it
+//! (a 160-body chain's dense Jacobian alone is 460 000 literal entries), while
+//! the schedule is a few integers per block pair and the kernels stay in cache.
+//!
+//! Redundant rows are found as in the dense path: each diagonal block is
+//! factorised with diagonal pivoting, and a pivot below `rank_tolerance ×` the
+//! largest diagonal of `J M⁻¹ Jᵀ` marks its row redundant (dropped, λ = 0). The
+//! elimination order is the derive's, not the order the rows were written in.
+//!
+//! [`SparseSimulation`] integrates with RK4 and the mass-metric projection of
+//! the dense [`Simulation`](crate::dynamics::Simulation), reading only Φ, Φ_t, γ
+//! and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
+
+mod factor;
+mod simulation;
+
+pub use factor::BlockFactor;
+pub use simulation::SparseSimulation;

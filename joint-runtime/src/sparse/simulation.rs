@@ -1,0 +1,311 @@
+//! RK4 with projection on the block factor: the dense
+//! [`Simulation`](crate::dynamics::Simulation)'s equations, in time and memory
+//! proportional to the scene.
+
+use alloc::vec::Vec;
+
+use nalgebra::{SVector, Vector3};
+
+use super::BlockFactor;
+use crate::analysis::{
+    Analysis, AnalysisError, AssemblyOptions, InverseMass, RowList, WorstRows, apply_increment, apply_metric,
+    check_state, normalise_orientations, set_velocities, velocity_vector,
+};
+use crate::dynamics::{
+    AppliedLoads, Integrator, REDUNDANT_TOLERANCE, Rate, SimulationOptions, SpringDamper, StepReport, advance,
+    check_springs, generalised_forces, inverse_masses, rk4_weights,
+};
+use crate::scene::{BodyInertia, Scene, SparseJacobian, SystemState};
+
+/// Constrained accelerations and multipliers at one state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct SparseDynamics<const NV: usize, const M: usize> {
+    /// `v̇ = [r̈_0, ω̇'_0, ...]`.
+    pub vdot: SVector<f64, NV>,
+    /// Lagrange multipliers (`M v̇ + Jᵀ λ = Q`); zero on redundant rows.
+    pub lambda: SVector<f64, M>,
+}
+
+/// A scene with loads, springs and options, integrated on the sparse block
+/// factor of `J M⁻¹ Jᵀ` (see the [module docs](super)): RK4 with the
+/// mass-metric projection of [`Simulation`](crate::dynamics::Simulation).
+/// The workspace is allocated once, in [`SparseSimulation::new`]; a step
+/// allocates nothing.
+pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    scene: &'a S,
+    loads: L,
+    springs: &'a [SpringDamper],
+    inertias: [BodyInertia; NB],
+    inverse: [InverseMass; NB],
+    gravity: Vector3<f64>,
+    factor: BlockFactor,
+    /// The pivots of the step's start, kept by its stages.
+    rule: Vec<([usize; 6], usize)>,
+    /// The options (the integrator must be RK4).
+    pub options: SimulationOptions,
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
+    for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+{
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SparseSimulation")
+            .field("scene", &core::any::type_name::<S>())
+            .field("factor_blocks", &self.factor.factor_blocks())
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
+}
+
+/// `J x` from the CSR entries.
+fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
+    values: &[f64; NNZ],
+    x: &SVector<f64, NV>,
+) -> SVector<f64, M> {
+    let mut out = SVector::<f64, M>::zeros();
+    for (r, o) in out.iter_mut().enumerate() {
+        let (Some(&a), Some(&b)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) else { break };
+        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+            *o += v * x.get(c).copied().unwrap_or(0.0);
+        }
+    }
+    out
+}
+
+/// `Jᵀ y` from the CSR entries.
+fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
+    values: &[f64; NNZ],
+    y: &SVector<f64, M>,
+) -> SVector<f64, NV> {
+    let mut out = SVector::<f64, NV>::zeros();
+    for (r, &yr) in y.iter().enumerate() {
+        let (Some(&a), Some(&b)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) else { break };
+        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+            if let Some(o) = out.get_mut(c) {
+                *o += v * yr;
+            }
+        }
+    }
+    out
+}
+
+fn non_finite(quantity: &'static str) -> AnalysisError {
+    AnalysisError::NonFiniteOutput { quantity, row: None }
+}
+
+impl<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    SparseSimulation<'a, S, L, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    L: AppliedLoads<NB>,
+{
+    /// A simulation of `scene` with user `loads` and `springs`; the block
+    /// factor's schedule is built here, once.
+    ///
+    /// # Errors
+    /// As [`Simulation::new`](crate::dynamics::Simulation::new);
+    /// [`AnalysisError::BadOption`] for an integrator other than RK4 (the
+    /// implicit one still runs on the dense path).
+    pub fn new(
+        scene: &'a S,
+        loads: L,
+        springs: &'a [SpringDamper],
+        options: SimulationOptions,
+    ) -> Result<Self, AnalysisError> {
+        crate::analysis::check_dims::<NB, NV>()?;
+        if options.integrator != Integrator::Rk4 {
+            return Err(AnalysisError::BadOption { name: "integrator" });
+        }
+        let inertias = scene.inertias();
+        let inverse = inverse_masses::<S, NB, NV, M>(&inertias)?;
+        check_springs::<NB>(springs)?;
+        let gravity = scene.gravity();
+        if !gravity.iter().all(|x| x.is_finite()) {
+            return Err(AnalysisError::BadOption { name: "gravity" });
+        }
+        let blocks: Vec<(usize, usize)> = S::BLOCKS.iter().map(|b| (b.start, b.rows)).collect();
+        let factor = BlockFactor::new(
+            &blocks,
+            S::BLOCK_BODIES,
+            S::ROW_STARTS,
+            &S::COLUMNS,
+            S::ELIMINATION,
+            S::FACTOR_STARTS,
+            S::FACTOR_BELOW,
+        )?;
+        let rule = Vec::with_capacity(blocks.len());
+        Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, factor, rule, options })
+    }
+
+    /// The block factor (its size, and the rows the last factorisation dropped).
+    pub fn factor(&self) -> &BlockFactor {
+        &self.factor
+    }
+
+    /// Constrained accelerations and multipliers at `state`; redundant rows get
+    /// zero multipliers and must agree with the others.
+    ///
+    /// # Errors
+    /// Non-finite inputs or outputs; [`AnalysisError::Inconsistent`] when
+    /// redundant constraints contradict each other.
+    pub fn dynamics(&mut self, state: &SystemState<NB>) -> Result<SparseDynamics<NV, M>, AnalysisError> {
+        self.solve(state, false, true)
+    }
+
+    /// The dynamics; `keep` factorises under the step's rule, `check` holds the
+    /// dropped rows to [`REDUNDANT_TOLERANCE`].
+    fn solve(
+        &mut self,
+        state: &SystemState<NB>,
+        keep: bool,
+        check: bool,
+    ) -> Result<SparseDynamics<NV, M>, AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)?;
+        let values = self.scene.jacobian_values(state);
+        let gamma = self.scene.gamma(state);
+        if !gamma.iter().all(|x| x.is_finite()) {
+            return Err(non_finite("γ"));
+        }
+        let forces: SVector<f64, NV> =
+            generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state);
+        if !forces.iter().all(|x| x.is_finite()) {
+            return Err(non_finite("forces"));
+        }
+        let minv_q = apply_metric::<NB, NV>(Some(&self.inverse), &forces);
+        let rule = if keep { Some(&self.rule[..]) } else { None };
+        self.factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
+        let mut lambda = j_mul::<S, NB, NNZ, NV, M>(&values, &minv_q) - gamma;
+        self.factor.solve(lambda.as_mut_slice());
+        let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(&values, &lambda));
+        let r = j_mul::<S, NB, NNZ, NV, M>(&values, &vdot) - gamma;
+        let residual = r.norm();
+        if !residual.is_finite() || !vdot.iter().all(|x| x.is_finite()) {
+            return Err(non_finite("accelerations"));
+        }
+        let scale = 1.0 + gamma.norm() + values.iter().map(|x| x * x).sum::<f64>().sqrt() * vdot.norm();
+        let mut kept = r;
+        for &i in self.factor.dropped() {
+            if let Some(x) = kept.get_mut(i) {
+                *x = 0.0;
+            }
+        }
+        let dropped = (r - kept).norm();
+        if kept.norm() > 1e-9 * scale || (check && dropped > REDUNDANT_TOLERANCE * scale) {
+            let worst = WorstRows::of::<S, NB, NV, M>(&r);
+            return Err(AnalysisError::Inconsistent { analysis: Analysis::Dynamics, residual, worst });
+        }
+        Ok(SparseDynamics { vdot, lambda })
+    }
+
+    /// The rows the last factorisation dropped, by joint.
+    pub fn redundant(&self) -> RowList<M> {
+        RowList::from_rows::<S, NB, NV>(self.factor.dropped())
+    }
+
+    /// One RK4 stage: the rate at `state` under the step's rule.
+    fn rate(&mut self, state: &SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError> {
+        Ok(Rate::new(state, self.solve(state, true, false)?.vdot))
+    }
+
+    /// Advances `state` by one RK4 step `h`, then projects onto the
+    /// constraints if configured. On error `state` is unchanged.
+    ///
+    /// # Errors
+    /// As [`Simulation::step`](crate::dynamics::Simulation::step).
+    pub fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(AnalysisError::BadOption { name: "step size" });
+        }
+        check_state::<S, NB, NV, M>(state, true)?;
+        let mut y0 = *state;
+        normalise_orientations::<S, NB, NV, M>(&mut y0)?;
+        // The start chooses which rows to drop; every stage drops the same.
+        let d1 = self.solve(&y0, false, true)?;
+        self.rule.clear();
+        self.rule.extend(self.factor.rule());
+        let t0 = y0.t;
+        let k1 = Rate::new(&y0, d1.vdot);
+        let k2 = self.rate(&advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h))?;
+        let k3 = self.rate(&advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h))?;
+        let k4 = self.rate(&advance(&y0, &[(&k3, 1.0)], h, t0 + h))?;
+        let mut y = advance(&y0, &rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
+        let mut report = StepReport::default();
+        match self.options.projection {
+            Some(options) => {
+                let (it, c, v) = self.project(&mut y, &options)?;
+                (report.projection_iterations, report.constraint_residual, report.velocity_residual) = (it, c, v);
+            }
+            None => {
+                report.constraint_residual = self.scene.phi(&y).norm();
+                let values = self.scene.jacobian_values(&y);
+                let v = velocity_vector::<NB, NV>(&y);
+                report.velocity_residual = (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + self.scene.phi_t(&y)).norm();
+            }
+        }
+        *state = y;
+        Ok(report)
+    }
+
+    /// `W Jᵀ y` with `(J W Jᵀ) y = b`: the least change (in kinetic energy)
+    /// with `J x = b`.
+    fn min_norm(
+        &mut self,
+        values: &[f64; NNZ],
+        b: SVector<f64, M>,
+        tolerance: f64,
+    ) -> Result<SVector<f64, NV>, AnalysisError> {
+        self.factor.factor(values, &self.inverse, tolerance, None).map_err(|_| non_finite("J"))?;
+        let mut y = b;
+        self.factor.solve(y.as_mut_slice());
+        Ok(apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(values, &y)))
+    }
+
+    /// Projects `state` onto Φ = 0 (damped minimum-norm Newton in the mass
+    /// metric) and its velocities onto `J v = −Φ_t`. Returns the iterations,
+    /// ‖Φ‖ and ‖J v + Φ_t‖ afterwards.
+    ///
+    /// # Errors
+    /// As [`Simulation::project`](crate::dynamics::Simulation::project).
+    pub fn project(
+        &mut self,
+        state: &mut SystemState<NB>,
+        options: &AssemblyOptions,
+    ) -> Result<(usize, f64, f64), AnalysisError> {
+        let mut phi = self.scene.phi(state);
+        let mut norm = phi.norm();
+        let mut iterations = 0;
+        while norm > options.tolerance && iterations < options.max_iterations {
+            let values = self.scene.jacobian_values(state);
+            let delta = self.min_norm(&values, -phi, options.rank_tolerance)?;
+            let mut alpha = 1.0;
+            loop {
+                let mut trial = *state;
+                apply_increment(&mut trial, &delta, alpha);
+                let p = self.scene.phi(&trial);
+                let n = p.norm();
+                if n.is_finite() && n <= (1.0 - 1e-4 * alpha) * norm {
+                    (*state, phi, norm) = (trial, p, n);
+                    break;
+                }
+                alpha *= 0.5;
+                if alpha < options.min_step {
+                    let worst = WorstRows::of::<S, NB, NV, M>(&phi);
+                    return Err(AnalysisError::NoProgress { residual: norm, iterations, worst });
+                }
+            }
+            iterations += 1;
+        }
+        if norm.is_nan() || norm > 1e3 * options.tolerance {
+            let worst = WorstRows::of::<S, NB, NV, M>(&phi);
+            return Err(AnalysisError::NotConverged { residual: norm, iterations, worst });
+        }
+        let values = self.scene.jacobian_values(state);
+        let phi_t = self.scene.phi_t(state);
+        let v = velocity_vector::<NB, NV>(state);
+        let dv = self.min_norm(&values, -(j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t), options.rank_tolerance)?;
+        let v = v + dv;
+        set_velocities(state, &v);
+        Ok((iterations, norm, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
+    }
+}
