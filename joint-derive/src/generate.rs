@@ -148,11 +148,36 @@ impl Printed<'_> {
     }
 }
 
-/// Prints every method of [`METHODS`] for a derivation.
-pub fn print<'a>(d: &'a Derived, sty: &ScalarTy) -> Printed<'a> {
+/// For a large scene, the dense methods written over the sparse ones: a
+/// straight-line dense Jacobian would grow with `M × NV` (460 000 literal
+/// entries for a 160-body chain) and rustc's time and memory with it.
+pub struct FromSparse {
+    /// The body of `jacobian`: a scatter of the nonzero entries.
+    pub jacobian: TokenStream,
+    /// The body of `evaluate`: `phi`, `jacobian` and `gamma`.
+    pub evaluate: TokenStream,
+    /// Their operation counts.
+    pub ops: [usize; 2],
+}
+
+/// Prints every method of [`METHODS`] for a derivation (the dense ones over
+/// the sparse ones when `large` is given).
+pub fn print<'a>(d: &'a Derived, sty: &ScalarTy, large: Option<&FromSparse>) -> Printed<'a> {
     let mut p = Printed { d, sty: sty.clone(), bodies: Vec::new(), ops: Vec::new() };
     let rows = d.phi.len();
     for m in &METHODS {
+        if let Some(f) = large {
+            let written = match m.returns {
+                Returns::Matrix => Some((&f.jacobian, f.ops[0])),
+                Returns::Evaluation => Some((&f.evaluate, f.ops[1])),
+                Returns::Rows => None,
+            };
+            if let Some((value, ops)) = written {
+                p.bodies.push((TokenStream::new(), value.clone()));
+                p.ops.push(ops);
+                continue;
+            }
+        }
         let (body, outs, ops) = p.emit(&(m.outputs)(d));
         let value = match m.returns {
             Returns::Rows => vector_tokens(&outs),
@@ -169,6 +194,11 @@ pub fn print<'a>(d: &'a Derived, sty: &ScalarTy) -> Printed<'a> {
         p.ops.push(ops);
     }
     p
+}
+
+/// A printer that has printed no method yet (for functions beside them).
+pub fn print_none<'a>(d: &'a Derived, sty: &ScalarTy) -> Printed<'a> {
+    Printed { d, sty: sty.clone(), bodies: Vec::new(), ops: Vec::new() }
 }
 
 /// `SVector` from its entries.

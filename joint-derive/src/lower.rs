@@ -226,16 +226,22 @@ pub fn derive_all(k: &mut Kinematics, phi: &[Id], spans: &[Span]) -> syn::Result
 /// form, a row-by-row greedy choice, every row's inertial form; on a tie the
 /// earlier, whose rounding follows the exact entries' degree in `p`.
 fn choose_gammas(k: &Kinematics, phi: &[Id], out: &mut SystemDerivatives, alternatives: &[Option<Id>]) {
-    let base: Vec<Id> = phi.iter().chain(out.jacobian.iter().flatten()).copied().collect();
-    let cost = |gammas: &[Id]| emit::count_ops(&k.g, &[&base[..], gammas].concat());
+    let mut base = emit::OpCount::new(&k.g);
+    base.add(phi);
+    for row in &out.jacobian {
+        base.add(row);
+    }
+    let cost = |gammas: &[Id]| base.clone().add(gammas);
     let inertial = out.gamma.clone();
     let body: Vec<Id> = inertial.iter().zip(alternatives).map(|(&g, a)| a.unwrap_or(g)).collect();
     let mut greedy = Vec::new();
+    let mut so_far = base.clone();
     for (&g, alternative) in inertial.iter().zip(alternatives) {
         let pick = match *alternative {
-            Some(b) if cost(&[&greedy[..], &[b]].concat()) <= cost(&[&greedy[..], &[g]].concat()) => b,
+            Some(b) if so_far.extra(&[b]) <= so_far.extra(&[g]) => b,
             _ => g,
         };
+        so_far.add(&[pick]);
         greedy.push(pick);
     }
     let best = [body, greedy, inertial].into_iter().min_by_key(|gammas| cost(gammas));
@@ -441,16 +447,17 @@ pub struct Block {
 
 /// All joints of a scene on one graph over the bodies' frames, derived.
 pub fn derive_scene(s: &crate::front::scene::SceneDecl) -> syn::Result<(Derived, Vec<Block>)> {
-    let names: Vec<String> = s.bodies.iter().map(|b| b.name.to_string()).collect();
+    // Names for generated code: `link_3` for `link[3]`.
+    let names: Vec<String> = s.bodies.iter().map(|b| b.label().replace('[', "_").replace(']', "")).collect();
     let mut k = Kinematics::scene(Formulation::OmegaBody, &names);
     let mut bindings = Vec::new();
     let (mut phi, mut spans, mut blocks) = (Vec::new(), Vec::new(), Vec::new());
     for j in &s.joints {
         k.connect(j.bodies[0], j.bodies[1]);
-        let joint = j.name.to_string();
-        let values = param_nodes(&mut k, j.kind, &j.params, Naming::ByField { joint: &joint }, &mut bindings);
+        let prefix = j.prefix();
+        let values = param_nodes(&mut k, j.kind, &j.params, Naming::ByField { joint: &prefix }, &mut bindings);
         let rows = lower_rows(&mut k, j.kind, &values, &[], j.kind_span);
-        blocks.push(Block { name: joint, start: phi.len(), rows: rows.phi.len() });
+        blocks.push(Block { name: j.label(), start: phi.len(), rows: rows.phi.len() });
         phi.extend(rows.phi);
         spans.extend(rows.spans);
     }

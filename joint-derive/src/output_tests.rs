@@ -518,3 +518,23 @@ fn scene_cardan_shaft() {
         crate::derives::scene::derive,
     );
 }
+
+/// The derive's own time on chains of 80, 160 and 320 bodies (a build-time
+/// regression guard to run by hand: `cargo test -p joint-derive --lib
+/// time_large_scene -- --ignored --nocapture`; a debug build, as cargo builds
+/// proc macros for release builds too).
+#[test]
+#[ignore]
+fn time_large_scene() {
+    for n in [80usize, 160, 320] {
+        let src = format!(
+            "#[body(link[{n}], mass = 1.0, inertia = [0.0833, 0.0833, 0.001])] \
+             #[joint(top = spherical(ground, link[0]), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])] \
+             #[joint(hinge[i in 1..{n}] = spherical(link[i - 1], link[i]), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])] struct Chain;"
+        );
+        let input: syn::DeriveInput = syn::parse_str(&src).expect("parses");
+        let t = std::time::Instant::now();
+        let out = crate::derives::scene::derive(&input);
+        println!("N={n}: derive {:.2} s, {} bytes of tokens", t.elapsed().as_secs_f64(), out.to_string().len());
+    }
+}

@@ -48,4 +48,6 @@ pub mod __private {
 
     /// Implemented by the stub the derive emits beside a compile error.
     pub trait FallbackJoint {}
+
+    pub use crate::scene::dense_from_csr;
 }

@@ -124,3 +124,24 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     /// The entries' values at `state`.
     fn jacobian_values(&self, state: &SystemState<NB>) -> [f64; NNZ];
 }
+
+/// The dense matrix of a CSR one (the pattern of [`SparseJacobian`]): what a
+/// large scene's generated `jacobian` returns, so that its code grows with the
+/// nonzeros. Entries outside `M × NV` are ignored.
+#[doc(hidden)]
+pub fn dense_from_csr<const M: usize, const NV: usize, const NNZ: usize>(
+    row_starts: &[usize],
+    columns: &[usize; NNZ],
+    values: &[f64; NNZ],
+) -> SMatrix<f64, M, NV> {
+    let mut j = SMatrix::<f64, M, NV>::zeros();
+    for (r, w) in row_starts.windows(2).enumerate() {
+        let (&[a, b], true) = (w, r < M) else { break };
+        for (&c, &v) in columns.iter().zip(values.iter()).take(b).skip(a) {
+            if let Some(x) = j.get_mut((r, c)) {
+                *x = v;
+            }
+        }
+    }
+    j
+}

@@ -88,7 +88,7 @@ fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let (impl_head, signature, items) = (&head.impl_head, &head.signature, &head.items);
     let concrete_f64 = matches!(&decl.scalar, ScalarKind::Concrete(t) if t == "f64");
     let sty = ScalarTy { ty: signature.scalar.clone(), krate: krate(), concrete_f64 };
-    let printed = generate::print(d, &sty);
+    let printed = generate::print(d, &sty, None);
     let (ops, methods, lints) = (generate::ops_const(Some(&printed)), signature.methods(Some(&printed)), lints());
     let doc = format!(" Operation counts (binary + − ×): {}.", printed.ops_text());
     let singularity = singularity(decl, d, &printed, &head);

@@ -8,7 +8,7 @@ use quote::quote;
 use crate::engine::emit::ScalarTy;
 use crate::front::attr::Number;
 use crate::front::resolve::Source;
-use crate::front::scene::{self, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape, body_constant};
+use crate::front::scene::{self, BodyName, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape};
 use crate::generate::{self, Printed, Signature, krate, lints};
 use crate::lower::{self, Block, Derived};
 
@@ -38,17 +38,30 @@ fn sizes(bodies: usize, rows: usize) -> Sizes {
     Sizes { nb, nv: lit(6 * bodies), m: lit(rows), signature }
 }
 
-/// The inherent constants: each body's index by name, and the sizes.
-fn inherent(bodies: &[(String, syn::Ident)], z: &Sizes, blocks: &TokenStream) -> TokenStream {
+/// The inherent constants: each body's index by name (an array for a row of
+/// bodies), and the sizes.
+fn inherent(bodies: &[BodyName], z: &Sizes, blocks: &TokenStream) -> TokenStream {
     let k = krate();
     // A constant that clashes (an error being reported) is left out.
     let mut seen: Vec<String> = SIZE_CONSTANTS.map(String::from).to_vec();
     let mut indices = Vec::new();
-    for (i, (name, constant)) in bodies.iter().enumerate() {
-        if !seen.contains(&constant.to_string()) {
-            seen.push(constant.to_string());
+    for (i, b) in bodies.iter().enumerate() {
+        if seen.contains(&b.constant.to_string()) {
+            continue;
+        }
+        seen.push(b.constant.to_string());
+        let constant = &b.constant;
+        if b.element {
+            let members: Vec<usize> =
+                (i..bodies.len()).filter(|&x| bodies[x].element && bodies[x].constant == b.constant).collect();
+            let n = Literal::usize_unsuffixed(members.len());
+            let members = members.into_iter().map(Literal::usize_unsuffixed);
+            let name = b.label.split('[').next().unwrap_or_default();
+            let doc = format!(" The indices of bodies `{name}[0]`, `{name}[1]`, ... in the state's `bodies`.");
+            indices.push(quote!(#[doc = #doc] pub const #constant: [usize; #n] = [#(#members),*];));
+        } else {
             let (doc, i) =
-                (format!(" The index of body `{name}` in the state's `bodies`."), Literal::usize_unsuffixed(i));
+                (format!(" The index of body `{}` in the state's `bodies`.", b.label), Literal::usize_unsuffixed(i));
             indices.push(quote!(#[doc = #doc] pub const #constant: usize = #i;));
         }
     }
@@ -82,17 +95,19 @@ fn state_alias(input: &syn::DeriveInput, nb: &Literal) -> TokenStream {
 fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block]) -> TokenStream {
     let k = krate();
     let z = sizes(s.bodies.len(), d.phi.len());
-    let printed = generate::print(d, &ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true });
-    let (mut sparse, nnz, sparse_ops) = sparse_jacobian(d, &printed, &z);
+    let sty = ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true };
+    // The sparse Jacobian first (its printer's bindings do not depend on the methods).
+    let (mut sparse, nnz, sparse_ops) = sparse_jacobian(d, &generate::print_none(d, &sty), &z);
     sparse.extend(block_structure(s));
+    let large = (d.phi.len() * 6 * s.bodies.len() > DENSE_LIMIT).then(|| from_sparse(d, &z, &nnz, sparse_ops));
+    let printed = generate::print(d, &sty, large.as_ref());
     let blocks = blocks.iter().map(|b| {
         let (name, start, rows) = (&b.name, Literal::usize_unsuffixed(b.start), Literal::usize_unsuffixed(b.rows));
         quote!(#k::RowBlock { name: #name, start: #start, rows: #rows })
     });
     let blocks = quote!(&[#(#blocks),*]);
-    let bodies: Vec<(String, syn::Ident)> =
-        s.bodies.iter().map(|b| (b.name.to_string(), body_constant(&b.name))).collect();
-    let body_names = bodies.iter().map(|(n, _)| n);
+    let bodies = s.body_names();
+    let body_names = bodies.iter().map(|b| &b.label);
     let inherent = inherent(&bodies, &z, &blocks);
     let inertias = s.bodies.iter().map(|b| inertia(&b.mass, &b.inertia));
     let gravity = vector(&s.gravity);
@@ -137,6 +152,27 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block])
         #lints
         impl #ig #k::SparseJacobian<#nb, #nnz> for #ident #tg #wc { #sparse }
     }
+}
+
+/// Above this many entries of `J` (`M × NV`, about a 33-body chain), the dense
+/// `jacobian` and `evaluate` are written over the sparse Jacobian, so that the
+/// generated code and the build grow with the nonzeros, not with `M × NV`.
+const DENSE_LIMIT: usize = 20_000;
+
+/// The dense methods of a large scene over its sparse ones.
+fn from_sparse(d: &Derived, z: &Sizes, nnz: &Literal, sparse_ops: usize) -> generate::FromSparse {
+    let (k, nb, nv, m) = (krate(), &z.nb, &z.nv, &z.m);
+    let scene = quote!(<Self as #k::Scene<#nb, #nv, #m>>);
+    let sparse = quote!(<Self as #k::SparseJacobian<#nb, #nnz>>);
+    let jacobian = quote! {
+        #k::__private::dense_from_csr(#sparse::ROW_STARTS, &#sparse::COLUMNS, &#sparse::jacobian_values(self, state))
+    };
+    let evaluate = quote! {
+        #k::Evaluation { phi: #scene::phi(self, state), jacobian: #scene::jacobian(self, state), gamma: #scene::gamma(self, state) }
+    };
+    let count = |outputs: &[crate::engine::Id]| crate::engine::emit::count_ops(&d.kinematics.g, outputs);
+    let ops = [sparse_ops, count(&d.phi) + sparse_ops + count(&d.gamma)];
+    generate::FromSparse { jacobian, evaluate, ops }
 }
 
 /// The sparse form: the entries of J that are not structurally zero, row by
@@ -266,7 +302,7 @@ fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
     let k = krate();
     let mut calls = Vec::new();
     for j in &s.joints {
-        let name = j.name.to_string();
+        let name = j.label();
         for (param, body) in [("rho1", j.bodies[0]), ("rho2", j.bodies[1])] {
             let Some(p) = j.params.iter().find(|p| p.name == param) else { continue };
             let point = match &p.source {
@@ -296,7 +332,7 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
     let (k, z, lints) = (krate(), sizes(bodies.len(), rows), lints());
     let ident = &input.ident;
     let (ig, tg, wc) = input.generics.split_for_impl();
-    let names = bodies.iter().map(|(name, _)| name);
+    let names = bodies.iter().map(|b| &b.label);
     let inherent = inherent(&bodies, &z, &quote!(&[]));
     let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
     let (ops, methods) = (generate::ops_const(None), z.signature.methods(None));

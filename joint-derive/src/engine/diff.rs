@@ -133,9 +133,12 @@ pub fn grad(g: &mut Graph, root: Id, wrt: &[Id]) -> Vec<Id> {
         return vec![zero; wrt.len()];
     }
     adjoint.insert(root, g.constant(1.0));
-    // Descending ids are a reverse topological order of the arena.
-    for i in (0..=root.index()).rev() {
-        let id = Id(i as u32);
+    // Descending ids are a reverse topological order of the arena: a node is
+    // taken once every node above it that reaches it has given its share. Only
+    // the nodes the root reaches are visited (a scene's row touches two bodies
+    // of hundreds), so a row costs its own subgraph, not the arena.
+    let mut pending = std::collections::BinaryHeap::from([root]);
+    while let Some(id) = pending.pop() {
         let Some(&bar) = adjoint.get(&id) else { continue };
         let mut push = |g: &mut Graph, child: Id, contribution: Id| {
             if g.mask(child) & wanted == 0 {
@@ -143,7 +146,10 @@ pub fn grad(g: &mut Graph, root: Id, wrt: &[Id]) -> Vec<Id> {
             }
             let next = match adjoint.get(&child) {
                 Some(&acc) => g.add(acc, contribution),
-                None => contribution,
+                None => {
+                    pending.push(child);
+                    contribution
+                }
             };
             adjoint.insert(child, next);
         };

@@ -66,6 +66,59 @@ pub fn count_ops(g: &Graph, outputs: &[Id]) -> usize {
         .count()
 }
 
+/// Binary operations of a growing set of outputs (shared nodes counted once),
+/// counted incrementally: linear in the graph over all additions, where
+/// recounting the union each time would be quadratic.
+#[derive(Clone)]
+pub struct OpCount<'g> {
+    g: &'g Graph,
+    live: Vec<bool>,
+    ops: usize,
+}
+
+impl<'g> OpCount<'g> {
+    /// Nothing counted yet.
+    pub fn new(g: &'g Graph) -> Self {
+        OpCount { g, live: vec![false; g.len()], ops: 0 }
+    }
+
+    /// The nodes `outputs` need that are not counted yet, and their operations.
+    fn new_nodes(&self, outputs: &[Id]) -> (std::collections::HashSet<Id>, usize) {
+        let mut seen = std::collections::HashSet::new();
+        let mut stack: Vec<Id> = outputs.to_vec();
+        let mut extra = 0;
+        while let Some(id) = stack.pop() {
+            if self.live[id.index()] || !seen.insert(id) {
+                continue;
+            }
+            match self.g.node(id) {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
+                    extra += 1;
+                    stack.extend([a, b]);
+                }
+                Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => stack.push(a),
+                Node::Const(_) | Node::Var(_) => {}
+            }
+        }
+        (seen, extra)
+    }
+
+    /// Operations `outputs` would add.
+    pub fn extra(&self, outputs: &[Id]) -> usize {
+        self.new_nodes(outputs).1
+    }
+
+    /// Counts `outputs`; returns the total.
+    pub fn add(&mut self, outputs: &[Id]) -> usize {
+        let (seen, extra) = self.new_nodes(outputs);
+        for id in seen {
+            self.live[id.index()] = true;
+        }
+        self.ops += extra;
+        self.ops
+    }
+}
+
 const ATOM: u8 = 4;
 
 /// A node as printed: the expression and its precedence (1 `+ −`, 2 `×`, 3 unary

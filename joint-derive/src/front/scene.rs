@@ -13,7 +13,6 @@
 
 use proc_macro2::Span;
 use syn::parse::{Parse, ParseStream};
-use syn::punctuated::Punctuated;
 use syn::spanned::Spanned;
 use syn::{Token, parenthesized};
 
@@ -24,33 +23,159 @@ use super::resolve::{self, Dialect, Given, GivenValue, Origin, Parameter};
 use crate::joints::{self, JointKind};
 use crate::kinematics::Formulation;
 
-/// `NAME = KIND(BODY, BODY), PARAM = VALUE, ...`
+/// `NAME = KIND(BODY, BODY), PARAM = VALUE, ...`, or a row of joints
+/// `NAME[i in A..B] = KIND(BODY[i - 1], BODY[i]), ...`.
 struct JointAttr {
     name: syn::Ident,
+    repeat: Option<Repeat>,
     kind: syn::Ident,
-    bodies: Vec<syn::Ident>,
+    bodies: Vec<BodyRef>,
     args: Vec<Arg>,
+}
+
+/// `[i in A..B]` or `[i in A..=B]`: one joint per value of `i`.
+struct Repeat {
+    var: syn::Ident,
+    values: core::ops::Range<i64>,
+}
+
+/// A body in `KIND(BODY, BODY)`: `ground`, `NAME`, or `NAME[INDEX]` with the
+/// index a number or the joint's variable plus or minus a number.
+struct BodyRef {
+    name: syn::Ident,
+    index: Option<(Index, Span)>,
+}
+
+#[derive(Clone, Copy)]
+enum Index {
+    Fixed(i64),
+    /// `i + offset`.
+    Var(i64),
+}
+
+const REPEAT_FORM: &str = "expected `NAME[i in A..B]` with whole numbers, as in `hinge[i in 1..40]`";
+const INDEX_FORM: &str = "expected an index `[3]`, `[i]`, `[i + 1]` or `[i - 1]`";
+
+fn int(e: &syn::Expr, form: &str) -> syn::Result<i64> {
+    match e {
+        syn::Expr::Lit(syn::ExprLit { lit: syn::Lit::Int(i), .. }) => i.base10_parse(),
+        _ => Err(syn::Error::new(e.span(), form)),
+    }
+}
+
+impl Parse for Repeat {
+    fn parse(input: ParseStream) -> syn::Result<Self> {
+        let var: syn::Ident = input.parse()?;
+        input.parse::<Token![in]>().map_err(|e| syn::Error::new(e.span(), REPEAT_FORM))?;
+        let range: syn::ExprRange = input.parse().map_err(|e| syn::Error::new(e.span(), REPEAT_FORM))?;
+        let (Some(a), Some(b)) = (&range.start, &range.end) else {
+            return Err(syn::Error::new(range.span(), REPEAT_FORM));
+        };
+        let (a, mut b) = (int(a, REPEAT_FORM)?, int(b, REPEAT_FORM)?);
+        if matches!(range.limits, syn::RangeLimits::Closed(_)) {
+            b += 1;
+        }
+        if b <= a {
+            return Err(syn::Error::new(range.span(), format!("the range is empty; {REPEAT_FORM}")));
+        }
+        Ok(Repeat { var, values: a..b })
+    }
+}
+
+impl BodyRef {
+    fn parse_with(input: ParseStream, var: Option<&syn::Ident>) -> syn::Result<Self> {
+        let name: syn::Ident = input.parse()?;
+        if !input.peek(syn::token::Bracket) {
+            return Ok(BodyRef { name, index: None });
+        }
+        let content;
+        syn::bracketed!(content in input);
+        let e: syn::Expr = content.parse()?;
+        let is_var = |p: &syn::Expr| matches!(p, syn::Expr::Path(p) if var.is_some_and(|v| p.path.is_ident(v)));
+        let index = match &e {
+            syn::Expr::Lit(_) => Index::Fixed(int(&e, INDEX_FORM)?),
+            p if is_var(p) => Index::Var(0),
+            syn::Expr::Binary(b) if is_var(&b.left) => match b.op {
+                syn::BinOp::Add(_) => Index::Var(int(&b.right, INDEX_FORM)?),
+                syn::BinOp::Sub(_) => Index::Var(-int(&b.right, INDEX_FORM)?),
+                _ => return Err(syn::Error::new(b.op.span(), INDEX_FORM)),
+            },
+            _ => return Err(syn::Error::new(e.span(), INDEX_FORM)),
+        };
+        Ok(BodyRef { name, index: Some((index, e.span())) })
+    }
 }
 
 impl Parse for JointAttr {
     fn parse(input: ParseStream) -> syn::Result<Self> {
         let name: syn::Ident = input.parse()?;
+        let repeat = if input.peek(syn::token::Bracket) {
+            let content;
+            syn::bracketed!(content in input);
+            Some(content.parse::<Repeat>()?)
+        } else {
+            None
+        };
         input.parse::<Token![=]>().map_err(|e| {
             syn::Error::new(e.span(), "expected `NAME = KIND(BODY, BODY)`, as in `cardan = universal(input, output)`")
         })?;
         let kind: syn::Ident = input.parse()?;
         let content;
         parenthesized!(content in input);
-        let bodies = Punctuated::<syn::Ident, Token![,]>::parse_terminated(&content)?.into_iter().collect();
+        let var = repeat.as_ref().map(|r| &r.var);
+        let mut bodies = Vec::new();
+        while !content.is_empty() {
+            bodies.push(BodyRef::parse_with(&content, var)?);
+            if content.is_empty() {
+                break;
+            }
+            content.parse::<Token![,]>()?;
+        }
         let mut args = Vec::new();
         if input.parse::<Option<Token![,]>>()?.is_some() {
             args = attr::args(input)?;
         }
-        Ok(JointAttr { name, kind, bodies, args })
+        Ok(JointAttr { name, repeat, kind, bodies, args })
+    }
+}
+
+/// `NAME` or `NAME[COUNT]`, then the body's options.
+struct BodyAttr {
+    name: syn::Ident,
+    count: Option<usize>,
+    args: Vec<Arg>,
+}
+
+impl Parse for BodyAttr {
+    fn parse(input: ParseStream) -> syn::Result<Self> {
+        let name: syn::Ident = input.parse()?;
+        let count = if input.peek(syn::token::Bracket) {
+            let content;
+            syn::bracketed!(content in input);
+            let n: syn::LitInt =
+                content.parse().map_err(|e| syn::Error::new(e.span(), "expected `NAME[COUNT]`, as in `link[40]`"))?;
+            match n.base10_parse::<usize>()? {
+                0 => {
+                    return Err(syn::Error::new(
+                        n.span(),
+                        "a row of bodies needs at least one; expected `NAME[COUNT]` with COUNT ≥ 1",
+                    ));
+                }
+                c => Some(c),
+            }
+        } else {
+            None
+        };
+        let mut args = Vec::new();
+        if input.parse::<Option<Token![,]>>()?.is_some() {
+            args = attr::args(input)?;
+        }
+        Ok(BodyAttr { name, count, args })
     }
 }
 
 /// Numbers, or a field read at run time.
+#[derive(Clone)]
 pub enum Quantity {
     /// Numbers written in the attribute.
     Const(Vec<Number>),
@@ -62,16 +187,34 @@ pub enum Quantity {
 pub struct Body {
     /// The name, as in the joints' `KIND(BODY, BODY)`.
     pub name: syn::Ident,
+    /// Its place in a row of bodies (`link[3]`), if declared as one.
+    pub element: Option<usize>,
     /// Its mass.
     pub mass: Quantity,
     /// Its inertia about the centre of mass, in body components.
     pub inertia: Quantity,
 }
 
+impl Body {
+    /// `link` or `link[3]`.
+    pub fn label(&self) -> String {
+        label(&self.name, self.element)
+    }
+}
+
+fn label(name: &syn::Ident, element: Option<usize>) -> String {
+    match element {
+        Some(i) => format!("{name}[{i}]"),
+        None => name.to_string(),
+    }
+}
+
 /// A joint of the scene.
 pub struct JointDecl {
     /// Its name (the row block's).
     pub name: syn::Ident,
+    /// Its value of the row's variable, for a row of joints.
+    pub element: Option<usize>,
     /// The catalogue joint.
     pub kind: &'static JointKind,
     /// Where the kind was written.
@@ -80,6 +223,21 @@ pub struct JointDecl {
     pub bodies: [Option<usize>; 2],
     /// Its parameters in the joint's order.
     pub params: Vec<Parameter>,
+}
+
+impl JointDecl {
+    /// `hinge` or `hinge[3]`.
+    pub fn label(&self) -> String {
+        label(&self.name, self.element)
+    }
+
+    /// `hinge` or `hinge_3`: a prefix for generated names.
+    pub fn prefix(&self) -> String {
+        match self.element {
+            Some(i) => format!("{}_{i}", self.name),
+            None => self.name.to_string(),
+        }
+    }
 }
 
 /// A checked scene declaration.
@@ -104,11 +262,21 @@ pub fn body_constant(name: &syn::Ident) -> syn::Ident {
     syn::Ident::new(text.strip_prefix("r#").unwrap_or(&text).to_uppercase().as_str(), name.span())
 }
 
-/// What a stub `Scene` needs: each body's name and its index constant, and
-/// the number of rows.
+/// A body's name in generated code.
+pub struct BodyName {
+    /// `link` or `link[3]`.
+    pub label: String,
+    /// The inherent constant: `LINK`, an index or (rows of bodies) an array.
+    pub constant: syn::Ident,
+    /// Part of a row of bodies.
+    pub element: bool,
+}
+
+/// What a stub `Scene` needs: each body's name and constant, and the number
+/// of rows.
 pub struct SceneShape {
-    /// `(name, constant)` per body, in state order.
-    pub bodies: Vec<(String, syn::Ident)>,
+    /// Per body, in state order.
+    pub bodies: Vec<BodyName>,
     /// Rows of all joints.
     pub rows: usize,
 }
@@ -120,14 +288,32 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
     let (mut bodies, mut rows) = (Vec::new(), 0);
     for attr in &input.attrs {
         if attr.path().is_ident("body") {
-            let name = attr.parse_args_with(attr::args).ok()?.into_iter().next()?.key;
-            bodies.push((name.to_string(), body_constant(&name)));
+            let b = attr.parse_args::<BodyAttr>().ok()?;
+            let constant = body_constant(&b.name);
+            match b.count {
+                Some(n) => bodies.extend((0..n).map(|i| BodyName {
+                    label: label(&b.name, Some(i)),
+                    constant: constant.clone(),
+                    element: true,
+                })),
+                None => bodies.push(BodyName { label: b.name.to_string(), constant, element: false }),
+            }
         } else if attr.path().is_ident("joint") {
             let joint = attr.parse_args::<JointAttr>().ok()?;
-            rows += joints::lookup(&joint.kind.to_string())?.row_count();
+            let copies = joint.repeat.map_or(1, |r| r.values.count());
+            rows += copies * joints::lookup(&joint.kind.to_string())?.row_count();
         }
     }
     (!bodies.is_empty()).then_some(SceneShape { bodies, rows })
+}
+
+impl SceneDecl {
+    /// Every body's name in generated code.
+    pub fn body_names(&self) -> Vec<BodyName> {
+        let name =
+            |b: &Body| BodyName { label: b.label(), constant: body_constant(&b.name), element: b.element.is_some() };
+        self.bodies.iter().map(name).collect()
+    }
 }
 
 /// The struct's fields and their types.
@@ -238,20 +424,15 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
 fn bodies(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Vec<Body> {
     let mut bodies: Vec<Body> = Vec::new();
     for attr in input.attrs.iter().filter(|a| a.path().is_ident("body")) {
-        let args = match attr.parse_args_with(attr::args) {
-            Ok(args) => args,
+        let head = match attr.parse_args::<BodyAttr>() {
+            Ok(head) => head,
             Err(e) => {
                 errors.push(e);
                 continue;
             }
         };
-        let mut args = args.into_iter();
-        let Some(first) = args.next().filter(|a| a.value.is_none()) else {
-            errors.at(attr.span(), "expected `#[body(NAME, mass = .., inertia = ..)]`");
-            continue;
-        };
         let (mut mass, mut inertia) = (Slot::new("`mass`", "it once"), Slot::new("`inertia`", "it once"));
-        for a in args {
+        for a in head.args {
             let slot = match a.key.to_string().as_str() {
                 "mass" => &mut mass,
                 "inertia" => &mut inertia,
@@ -264,25 +445,28 @@ fn bodies(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Vec
                 slot.set(a.key.span(), q, errors);
             }
         }
-        if bodies.iter().any(|b| b.name == first.key) || first.key == "ground" {
-            errors.at(first.key.span(), format!("body `{}` is declared twice (or is `ground`)", first.key));
+        if bodies.iter().any(|b| b.name == head.name) || head.name == "ground" {
+            errors.at(head.name.span(), format!("body `{}` is declared twice (or is `ground`)", head.name));
         }
         let ones = |n| Quantity::Const(vec![Number::Known(1.0); n]);
-        let body = Body {
-            name: first.key,
-            mass: mass.take().map_or(ones(1), |(q, _)| q),
-            inertia: inertia.take().map_or(ones(3), |(q, _)| q),
-        };
-        if let Quantity::Const(v) = &body.inertia
+        let (mass, inertia) = (mass.take().map_or(ones(1), |(q, _)| q), inertia.take().map_or(ones(3), |(q, _)| q));
+        if let Quantity::Const(v) = &inertia
             && v.len() != 3
             && v.len() != 6
         {
             errors.at(
-                body.name.span(),
+                head.name.span(),
                 "`inertia` takes 3 principal moments or 6 entries `[ixx, iyy, izz, ixy, ixz, iyz]`",
             );
         }
-        bodies.push(body);
+        let elements: Vec<Option<usize>> = match head.count {
+            Some(n) => (0..n).map(Some).collect(),
+            None => vec![None],
+        };
+        for element in elements {
+            let (mass, inertia) = (mass.clone(), inertia.clone());
+            bodies.push(Body { name: head.name.clone(), element, mass, inertia });
+        }
     }
     check_constant_names(&bodies, errors);
     bodies
@@ -294,6 +478,9 @@ fn check_constant_names(bodies: &[Body], errors: &mut Errors) {
         let constant = body_constant(&b.name).to_string();
         // A body declared twice is reported as such, not again here.
         let clash = bodies[..i].iter().find(|e| e.name != b.name && body_constant(&e.name) == constant);
+        if bodies[..i].iter().any(|e| e.name == b.name) {
+            continue;
+        }
         if SIZE_CONSTANTS.contains(&constant.as_str()) {
             let message = format!("body `{}` would be named `{constant}`, a constant of the scene's size", b.name);
             errors.at(b.name.span(), format!("{message}; rename the body"));
@@ -305,7 +492,7 @@ fn check_constant_names(bodies: &[Body], errors: &mut Errors) {
 }
 
 impl SceneDecl {
-    /// Checks one `#[joint(..)]` and adds it.
+    /// Checks one `#[joint(..)]` (or a row of them) and adds it.
     fn joint(&mut self, j: JointAttr, fields: &Fields, errors: &mut Errors) {
         if self.joints.iter().any(|x| x.name == j.name) {
             errors.at(j.name.span(), format!("joint `{}` is declared twice", j.name));
@@ -320,8 +507,7 @@ impl SceneDecl {
             errors.at(j.kind.span(), message);
             return;
         };
-        let pair = [self.body_index(a, errors), self.body_index(b, errors)];
-        if a == "ground" && b == "ground" {
+        if a.name == "ground" && b.name == "ground" {
             errors.at(j.kind.span(), "a joint between the ground and itself constrains nothing");
         }
         let given: Vec<Given> = j.args.into_iter().map(|a| given(a, fields, errors)).collect();
@@ -331,20 +517,62 @@ impl SceneDecl {
             errors.at(*span, format!("a scene's fields are `f64`; expected `f64` here, found `{s}`"));
         }
         self.time_types.extend(resolved.time_types);
-        let decl = JointDecl { name: j.name, kind, kind_span: j.kind.span(), bodies: pair, params: resolved.params };
-        self.joints.push(decl);
+        let values: Vec<Option<i64>> = match &j.repeat {
+            Some(r) => r.values.clone().map(Some).collect(),
+            None => vec![None],
+        };
+        for i in values {
+            // One message per mistaken reference, not one per joint of the row.
+            let at = i.zip(j.repeat.as_ref().map(|r| &r.var));
+            let pair = [self.body_index(a, at, errors), self.body_index(b, at, errors)];
+            if pair.iter().zip([a, b]).any(|(p, r)| p.is_none() && r.name != "ground") {
+                break;
+            }
+            let element = i.and_then(|i| usize::try_from(i).ok());
+            let params = resolved.params.clone();
+            let decl =
+                JointDecl { name: j.name.clone(), element, kind, kind_span: j.kind.span(), bodies: pair, params };
+            self.joints.push(decl);
+        }
     }
 
-    fn body_index(&self, b: &syn::Ident, errors: &mut Errors) -> Option<usize> {
-        if b == "ground" {
+    /// The state index of the body `r` names (with the row's variable at `i`).
+    fn body_index(&self, r: &BodyRef, at: Option<(i64, &syn::Ident)>, errors: &mut Errors) -> Option<usize> {
+        let i = at.map(|(i, _)| i);
+        if r.name == "ground" && r.index.is_none() {
             return None;
         }
-        let i = self.bodies.iter().position(|x| x.name == *b);
-        if i.is_none() {
-            let message = format!("unknown body `{b}`; expected `ground` or a body declared with `#[body({b}, ..)]`");
-            errors.at(b.span(), message);
+        let element = match (r.index, i) {
+            (None, _) => None,
+            (Some((Index::Fixed(k), _)), _) => Some(k),
+            (Some((Index::Var(d), _)), Some(i)) => Some(i + d),
+            (Some((Index::Var(_), span)), None) => {
+                errors.at(span, format!("`{}` has no row variable; {REPEAT_FORM}", r.name));
+                return None;
+            }
+        };
+        let found = self.bodies.iter().position(|x| x.name == r.name && x.element.map(|e| e as i64) == element);
+        if found.is_none() {
+            let span = r.index.map_or(r.name.span(), |(_, s)| s);
+            let count = self.bodies.iter().filter(|x| x.name == r.name && x.element.is_some()).count();
+            let message = match (element, count) {
+                (Some(e), n) if n > 0 => {
+                    let at = at.map(|(i, var)| format!(" for {var} = {i}")).unwrap_or_default();
+                    format!("`{}[{e}]`{at} is outside `{}[0..{n}]`", r.name, r.name)
+                }
+                (Some(_), _) => format!(
+                    "`{}` is not a row of bodies; expected `{}` or a body declared `#[body({}[COUNT], ..)]`",
+                    r.name, r.name, r.name
+                ),
+                (None, n) if n > 0 => format!("`{}` is a row of {n} bodies; expected `{}[INDEX]`", r.name, r.name),
+                (None, _) => format!(
+                    "unknown body `{}`; expected `ground` or a body declared with `#[body({}, ..)]`",
+                    r.name, r.name
+                ),
+            };
+            errors.at(span, message);
         }
-        i
+        found
     }
 }
 
