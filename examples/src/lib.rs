@@ -8,6 +8,7 @@ pub mod double_cardan;
 pub mod four_bar;
 pub mod pendulum_chain;
 pub mod report;
+pub mod scaling;
 pub mod steering;
 
 use std::path::Path;

@@ -251,6 +251,7 @@ fn bindings(d: &Derived, used: &BTreeSet<VarId>, sty: &ScalarTy) -> TokenStream 
             },
         });
     }
+    let mut reads = Vec::new();
     for input in &d.kinematics.inputs {
         if let Some(p) = pattern(d, used, &input.vars) {
             let path = input.path.iter().map(|s| match s.parse::<usize>() {
@@ -263,11 +264,22 @@ fn bindings(d: &Derived, used: &BTreeSet<VarId>, sty: &ScalarTy) -> TokenStream 
                     quote!(.#f)
                 }
             });
-            out.extend(quote!(let #p = state #(#path)*.data.0;));
+            reads.push((p, quote!(state #(#path)*.data.0)));
         }
+    }
+    // Past a few dozen inputs (a scene of many bodies) one `let` reads them
+    // all: each `let` opens a scope, and rustc's debug info recurses per scope.
+    if reads.len() > INPUT_LETS {
+        let (patterns, values): (Vec<_>, Vec<_>) = reads.into_iter().unzip();
+        out.extend(quote!(let (#(#patterns),*) = (#(#values),*);));
+    } else {
+        out.extend(reads.into_iter().map(|(p, v)| quote!(let #p = #v;)));
     }
     out
 }
+
+/// Beyond this many input reads in one function, they are one `let`.
+const INPUT_LETS: usize = 64;
 
 /// A named constant's value, converted to the scalar (an `f64` expression the
 /// compiler folds).

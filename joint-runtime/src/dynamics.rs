@@ -593,18 +593,7 @@ where
 
     /// Kinetic, gravitational and elastic energy at `state`.
     pub fn energy(&self, state: &SystemState<NB>) -> Energy {
-        let mut e = Energy { kinetic: 0.0, gravity: 0.0, elastic: 0.0 };
-        for (b, inertia) in state.bodies.iter().zip(self.inertias.iter()) {
-            e.kinetic += 0.5 * (inertia.mass * b.rdot.norm_squared() + b.omega.dot(&(inertia.inertia * b.omega)));
-            e.gravity -= inertia.mass * self.gravity.dot(&b.r);
-        }
-        for s in self.springs {
-            let (xa, _, _) = point_motion(state, &s.a);
-            let (xb, _, _) = point_motion(state, &s.b);
-            let stretch = (xb - xa).norm() - s.rest_length;
-            e.elastic += 0.5 * s.stiffness * stretch * stretch;
-        }
-        e
+        energy(&self.inertias, &self.gravity, self.springs, state)
     }
 
     /// Projects `state` onto the constraints: positions onto Φ = 0 by minimum-norm
@@ -873,4 +862,25 @@ pub(crate) fn generalised_forces<L: AppliedLoads<NB>, const NB: usize, const NV:
         q.fixed_rows_mut::<3>(6 * i + 3).copy_from(&torque);
     }
     q
+}
+
+/// Kinetic, gravitational and elastic energy at `state`.
+pub(crate) fn energy<const NB: usize>(
+    inertias: &[BodyInertia; NB],
+    gravity: &Vector3<f64>,
+    springs: &[SpringDamper],
+    state: &SystemState<NB>,
+) -> Energy {
+    let mut e = Energy { kinetic: 0.0, gravity: 0.0, elastic: 0.0 };
+    for (b, inertia) in state.bodies.iter().zip(inertias.iter()) {
+        e.kinetic += 0.5 * (inertia.mass * b.rdot.norm_squared() + b.omega.dot(&(inertia.inertia * b.omega)));
+        e.gravity -= inertia.mass * gravity.dot(&b.r);
+    }
+    for s in springs {
+        let (xa, _, _) = point_motion(state, &s.a);
+        let (xb, _, _) = point_motion(state, &s.b);
+        let stretch = (xb - xa).norm() - s.rest_length;
+        e.elastic += 0.5 * s.stiffness * stretch * stretch;
+    }
+    e
 }

@@ -121,6 +121,9 @@ impl<'g> OpCount<'g> {
 
 const ATOM: u8 = 4;
 
+/// Beyond this many `let`s in one function, they are grouped by level.
+const GROUP_ABOVE: usize = 256;
+
 /// A node as printed: the expression and its precedence (1 `+ −`, 2 `×`, 3 unary
 /// minus, 4 atom), and the same for its negation. Negations are pushed into the
 /// printed expression (`−(a − b)` as `b − a`), which IEEE arithmetic makes exact
@@ -128,11 +131,13 @@ const ATOM: u8 = 4;
 struct Ex {
     pos: (TokenStream, u8),
     neg: (TokenStream, u8),
+    /// The latest `let` it reads: its level (0 for inputs and constants).
+    level: u32,
 }
 
 impl Ex {
-    fn atom(t: TokenStream) -> Self {
-        Ex { neg: (quote!(-#t), 3), pos: (t, ATOM) }
+    fn atom(t: TokenStream, level: u32) -> Self {
+        Ex { neg: (quote!(-#t), 3), pos: (t, ATOM), level }
     }
 }
 
@@ -174,7 +179,8 @@ struct Emitter<'a> {
     scalar: &'a ScalarTy,
     /// Every node emitted so far, as itself and as its negation.
     exprs: HashMap<Id, Ex>,
-    body: TokenStream,
+    /// `let`s: level, name, value.
+    lets: Vec<(u32, Ident, TokenStream)>,
     used_vars: BTreeSet<VarId>,
     /// Input names are taken: a `let` never shadows an input (a user's scalar
     /// parameter may well be called `two` or `t1`).
@@ -194,7 +200,7 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
         g,
         scalar,
         exprs: HashMap::new(),
-        body: TokenStream::new(),
+        lets: Vec::new(),
         used_vars: BTreeSet::new(),
         taken,
         counter: 0,
@@ -213,7 +219,7 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
         e.exprs.insert(id, ex);
     }
     let mut body = e.prologue();
-    body.extend(std::mem::take(&mut e.body));
+    body.extend(e.lets());
     let outputs = outputs.iter().map(|o| e.exprs[o].pos.0.clone()).collect();
     Emitted { body, outputs, used_vars: e.used_vars, ops: e.ops }
 }
@@ -244,43 +250,43 @@ impl Emitter<'_> {
             Node::Var(v) => {
                 self.used_vars.insert(v);
                 let name = Ident::new(&self.g.vars()[v.0 as usize].name, Span::call_site());
-                Ex::atom(quote!(#name))
+                Ex::atom(quote!(#name), 0)
             }
             Node::Add(a, b) => {
                 let (a, b) = self.ordered(a, b, 1);
                 let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r, ln) = (paren(&ea.pos, 1), paren(&eb.pos, 2), paren(&ea.neg, 1));
                 // −(a + b) = (−a) − b
-                Ex { pos: (quote!(#l + #r), 1), neg: (quote!(#ln - #r), 1) }
+                Ex { pos: (quote!(#l + #r), 1), neg: (quote!(#ln - #r), 1), level: ea.level.max(eb.level) }
             }
             Node::Sub(a, b) => {
                 let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r) = (paren(&ea.pos, 1), paren(&eb.pos, 2));
                 let (bl, ar) = (paren(&eb.pos, 1), paren(&ea.pos, 2));
                 // −(a − b) = b − a
-                Ex { pos: (quote!(#l - #r), 1), neg: (quote!(#bl - #ar), 1) }
+                Ex { pos: (quote!(#l - #r), 1), neg: (quote!(#bl - #ar), 1), level: ea.level.max(eb.level) }
             }
             Node::Mul(a, b) => {
                 let (a, b) = self.ordered(a, b, 2);
                 let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r, ln) = (paren(&ea.pos, 2), paren(&eb.pos, 3), paren(&ea.neg, 2));
                 // −(a · b) = (−a) · b
-                Ex { pos: (quote!(#l * #r), 2), neg: (quote!(#ln * #r), 2) }
+                Ex { pos: (quote!(#l * #r), 2), neg: (quote!(#ln * #r), 2), level: ea.level.max(eb.level) }
             }
             Node::Div(a, b) => {
                 let (ea, eb) = (&self.exprs[&a], &self.exprs[&b]);
                 let (l, r, ln) = (paren(&ea.pos, 2), paren(&eb.pos, 3), paren(&ea.neg, 2));
-                Ex { pos: (quote!(#l / #r), 2), neg: (quote!(#ln / #r), 2) }
+                Ex { pos: (quote!(#l / #r), 2), neg: (quote!(#ln / #r), 2), level: ea.level.max(eb.level) }
             }
             Node::Neg(a) => {
                 let ea = &self.exprs[&a];
-                Ex { pos: ea.neg.clone(), neg: ea.pos.clone() }
+                Ex { pos: ea.neg.clone(), neg: ea.pos.clone(), level: ea.level }
             }
             Node::Sin(a) | Node::Cos(a) => {
-                let x = paren(&self.exprs[&a].pos, 1);
+                let (x, level) = (paren(&self.exprs[&a].pos, 1), self.exprs[&a].level);
                 let f = if matches!(node, Node::Sin(_)) { quote!(simd_sin) } else { quote!(simd_cos) };
                 let (ty, krate) = (&self.scalar.ty, &self.scalar.krate);
-                Ex::atom(quote!(<#ty as #krate::__private::SimdComplexField>::#f(#x)))
+                Ex::atom(quote!(<#ty as #krate::__private::SimdComplexField>::#f(#x)), level)
             }
         }
     }
@@ -296,7 +302,7 @@ impl Emitter<'_> {
             }
         };
         let (plain, negated) = ((quote!(#name), ATOM), (quote!(-#name), 3));
-        if v < 0.0 { Ex { pos: negated, neg: plain } } else { Ex { pos: plain, neg: negated } }
+        if v < 0.0 { Ex { pos: negated, neg: plain, level: 0 } } else { Ex { pos: plain, neg: negated, level: 0 } }
     }
 
     /// A `let` for a node used more than once, named by its hint or `t<n>`.
@@ -309,9 +315,32 @@ impl Emitter<'_> {
             }
         };
         let name = self.fresh(base);
-        let expr = ex.pos.0;
-        self.body.extend(quote!(let #name = #expr;));
-        Ex::atom(quote!(#name))
+        let level = ex.level + 1;
+        self.lets.push((level, name.clone(), ex.pos.0));
+        Ex::atom(quote!(#name), level)
+    }
+
+    /// The `let`s in order; past [`GROUP_ABOVE`] of them, one `let` per level
+    /// (a tuple of the bindings that read only earlier levels): every `let`
+    /// opens a scope, and rustc's debug info recurses once per scope (a
+    /// 160-body scene's few thousand nested scopes crash it).
+    fn lets(&mut self) -> TokenStream {
+        let lets = std::mem::take(&mut self.lets);
+        if lets.len() <= GROUP_ABOVE {
+            return lets.into_iter().map(|(_, name, expr)| quote!(let #name = #expr;)).collect();
+        }
+        let top = lets.iter().map(|l| l.0).max().unwrap_or(0);
+        let mut out = TokenStream::new();
+        for level in 1..=top {
+            let (names, exprs): (Vec<&Ident>, Vec<&TokenStream>) =
+                lets.iter().filter(|l| l.0 == level).map(|(_, n, e)| (n, e)).unzip();
+            out.extend(match names.as_slice() {
+                [] => TokenStream::new(),
+                [name] => quote!(let #name = #(#exprs)*;),
+                _ => quote!(let (#(#names),*) = (#(#exprs),*);),
+            });
+        }
+        out
     }
 
     /// The constants' `let`s, converted once to the scalar.

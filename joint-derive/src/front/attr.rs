@@ -39,6 +39,34 @@ impl Number {
     }
 }
 
+/// `number` with the identifier `var` replaced by `value` (a row of joints'
+/// variable), folded when nothing else is named.
+pub fn substitute(number: &Number, var: &syn::Ident, value: i64) -> syn::Result<Number> {
+    let Number::Named(expr) = number else { return Ok(number.clone()) };
+    fn walk(tokens: proc_macro2::TokenStream, var: &syn::Ident, value: i64) -> proc_macro2::TokenStream {
+        tokens
+            .into_iter()
+            .map(|t| match t {
+                proc_macro2::TokenTree::Ident(i) if i == *var => {
+                    let mut lit = proc_macro2::Literal::i64_unsuffixed(value.abs());
+                    lit.set_span(i.span());
+                    let inner: proc_macro2::TokenStream =
+                        if value < 0 { quote::quote!(-#lit) } else { quote::quote!(#lit) };
+                    proc_macro2::TokenTree::Group(proc_macro2::Group::new(proc_macro2::Delimiter::Parenthesis, inner))
+                }
+                proc_macro2::TokenTree::Group(g) => {
+                    let mut out = proc_macro2::Group::new(g.delimiter(), walk(g.stream(), var, value));
+                    out.set_span(g.span());
+                    proc_macro2::TokenTree::Group(out)
+                }
+                other => other,
+            })
+            .collect()
+    }
+    let replaced: syn::Expr = syn::parse2(walk(expr.to_token_stream(), var, value))?;
+    self::number(&replaced)
+}
+
 /// The values of a list when every one is known.
 pub fn known(values: &[Number]) -> Option<Vec<f64>> {
     values.iter().map(Number::known).collect()
@@ -96,7 +124,7 @@ const EXPECTED_NUMBER: &str = "expected a number, arithmetic on numbers or a nam
 
 /// A number: folded when it is arithmetic on literals, kept as written when it
 /// names a constant.
-fn number(expr: &syn::Expr) -> syn::Result<Number> {
+pub fn number(expr: &syn::Expr) -> syn::Result<Number> {
     if names_constant(expr)? {
         return Ok(Number::Named(expr.clone()));
     }

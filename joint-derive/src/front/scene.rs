@@ -19,7 +19,7 @@ use syn::{Token, parenthesized};
 use super::attr::{self, Arg, Number, Slot, Value};
 use super::context::Errors;
 use super::names::did_you_mean;
-use super::resolve::{self, Dialect, Given, GivenValue, Origin, Parameter};
+use super::resolve::{self, Dialect, Given, GivenValue, Origin, Parameter, Source};
 use crate::joints::{self, JointKind};
 use crate::kinematics::Formulation;
 
@@ -529,7 +529,10 @@ impl SceneDecl {
                 break;
             }
             let element = i.and_then(|i| usize::try_from(i).ok());
-            let params = resolved.params.clone();
+            let params = match at {
+                Some((i, var)) => with_variable(&resolved.params, var, i, errors),
+                None => resolved.params.clone(),
+            };
             let decl =
                 JointDecl { name: j.name.clone(), element, kind, kind_span: j.kind.span(), bodies: pair, params };
             self.joints.push(decl);
@@ -574,6 +577,23 @@ impl SceneDecl {
         }
         found
     }
+}
+
+/// The parameters of one joint of a row: the row's variable replaced by its
+/// value in every number (`rho1 = [i, 0, 0]`), folded where nothing else is named.
+fn with_variable(params: &[Parameter], var: &syn::Ident, value: i64, errors: &mut Errors) -> Vec<Parameter> {
+    let mut out = params.to_vec();
+    for p in &mut out {
+        if let Source::Const(numbers, _) = &mut p.source {
+            for n in numbers.iter_mut() {
+                match attr::substitute(n, var, value) {
+                    Ok(x) => *n = x,
+                    Err(e) => errors.push(e),
+                }
+            }
+        }
+    }
+    out
 }
 
 /// A joint parameter as written in a scene: numbers, a field, or a constant.

@@ -12,7 +12,7 @@ use crate::analysis::{
     check_state, normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::{
-    AppliedLoads, Integrator, REDUNDANT_TOLERANCE, Rate, SimulationOptions, SpringDamper, StepReport, advance,
+    AppliedLoads, Energy, Integrator, REDUNDANT_TOLERANCE, Rate, SimulationOptions, SpringDamper, StepReport, advance,
     check_springs, generalised_forces, inverse_masses, rk4_weights,
 };
 use crate::scene::{BodyInertia, Scene, SparseJacobian, SystemState};
@@ -136,6 +136,11 @@ where
         )?;
         let rule = Vec::with_capacity(blocks.len());
         Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, factor, rule, options })
+    }
+
+    /// Kinetic, gravitational and elastic energy at `state`.
+    pub fn energy(&self, state: &SystemState<NB>) -> Energy {
+        crate::dynamics::energy(&self.inertias, &self.gravity, self.springs, state)
     }
 
     /// The block factor (its size, and the rows the last factorisation dropped).

@@ -11,7 +11,7 @@ struct Chain;
 #[derive(Scene)]
 #[body(crank[5], mass = 1.0, inertia = [0.1, 0.1, 0.1])]
 #[body(coupler[4], mass = 1.0, inertia = [0.1, 0.1, 0.1])]
-#[joint(pin[i in 0..=4] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, -0.5, 0])]
+#[joint(pin[i in 0..=4] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [i, 0, 0], rho2 = [0, -0.5, 0])]
 #[joint(left[i in 0..4] = revolute(crank[i], coupler[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [-0.5, 0, 0])]
 #[joint(right[i in 0..4] = revolute(coupler[i], crank[i + 1]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, 0.5, 0])]
 struct Ladder;

@@ -1,0 +1,237 @@
+//! Scenes that scale: µs per RK4 step (with projection, h = 1 ms) against the
+//! number of bodies for a chain, a ladder of closed loops and a branched tree,
+//! sparse and dense, and the peers' numbers beside them; writes
+//! `report/scaling.md` and `report/scaling.svg`.
+//!
+//! `cargo run --release -p joint-examples --bin scaling` (about ten seconds;
+//! add `-- --build-times` to time release builds of chain crates of 10 … 200
+//! bodies too, a few minutes, or `-- --quick` for fewer steps).
+
+use joint_examples::bricard::{Curve, plot_lines};
+use joint_examples::scaling::{chain_start, dense_step_us, exponent, ladder_start, sparse_step_us, tree_start};
+use joint_examples::{chain_scene, ladder_scene, tree_scene};
+
+chain_scene!(Chain5, 5);
+chain_scene!(Chain10, 10);
+chain_scene!(Chain20, 20);
+chain_scene!(Chain40, 40);
+chain_scene!(Chain80, 80);
+chain_scene!(Chain160, 160);
+chain_scene!(Chain500, 500);
+ladder_scene!(Ladder4, 4, 5);
+ladder_scene!(Ladder10, 10, 11);
+ladder_scene!(Ladder20, 20, 21);
+ladder_scene!(Ladder40, 40, 41);
+tree_scene!(Tree5, 5);
+tree_scene!(Tree10, 10);
+tree_scene!(Tree20, 20);
+tree_scene!(Tree40, 40);
+tree_scene!(Tree80, 80);
+
+/// One measured size.
+struct Row {
+    bodies: usize,
+    sparse: f64,
+    dense: Option<f64>,
+}
+
+/// The dense path's stack: its `M × NV` matrices are on it.
+const DENSE_STACK: usize = 256 << 20;
+
+macro_rules! measure {
+    ($steps:expr, $dense_up_to:expr, $start:ident, $(($scene:ident, $nb:expr)),*) => {{
+        let mut rows = Vec::new();
+        $(
+            let start = $start::<$nb>();
+            let sparse = sparse_step_us(&$scene, &start, $steps).map_err(|e| format!("{}: {e}", stringify!($scene)))?;
+            let dense = if $nb <= $dense_up_to {
+                Some(dense_step_us(&$scene, &start, $steps / 4 + 1, DENSE_STACK).map_err(|e| format!("{}: {e}", stringify!($scene)))?)
+            } else {
+                None
+            };
+            eprintln!("{}: sparse {sparse:.1} µs, dense {dense:?}", stringify!($scene));
+            rows.push(Row { bodies: $nb, sparse, dense });
+        )*
+        rows
+    }};
+}
+
+/// The peers' µs per step for the same chain at N = 5 … 160, run on this
+/// machine on 2026-12-01 with the scripts of the project's peer notes
+/// (`exudyn_chain.py N --steps 200 --solver sparse`; `mujoco_make_chain.py N
+/// [--integrator RK4]` and `bench_step chain.xml 200 3`), not in this program:
+/// they need Python wheels the project does not depend on.
+const PEERS: [(&str, [f64; 6]); 3] = [
+    ("Exudyn 1.13.6, generalised-α, sparse", [32.0, 86.5, 133.3, 298.3, 635.8, 1401.3]),
+    ("MuJoCo 4.0, Euler (tree, no constraints)", [2.3, 3.5, 11.9, 55.3, 335.8, 2339.5]),
+    ("MuJoCo 4.0, RK4", [6.4, 14.7, 50.5, 224.8, 1366.2, 9564.6]),
+];
+
+fn table(title: &str, rows: &[Row], what: &str) -> String {
+    let mut out = format!(
+        "### {title}\n\n| bodies | {what} | sparse µs/step | dense µs/step | dense / sparse |\n|---|---|---|---|---|\n"
+    );
+    for r in rows {
+        let dense = r.dense.map_or("—".into(), |d| format!("{d:.1}"));
+        let ratio = r.dense.map_or("—".into(), |d| format!("{:.1}", d / r.sparse));
+        out += &format!("| {} | {} | {:.1} | {dense} | {ratio} |\n", r.bodies, what_of(title, r.bodies), r.sparse);
+    }
+    let from10: Vec<(f64, f64)> = rows.iter().filter(|r| r.bodies >= 10).map(|r| (r.bodies as f64, r.sparse)).collect();
+    out += &format!("\nSparse exponent over N ≥ 10: {:.2}.\n\n", exponent(&from10));
+    out
+}
+
+fn what_of(title: &str, bodies: usize) -> String {
+    match title {
+        t if t.starts_with("Ladder") => format!("{} loops", (bodies - 1) / 2),
+        t if t.starts_with("Tree") => format!("{} ribs", bodies / 2),
+        _ => bodies.to_string(),
+    }
+}
+
+/// Release build time (s) and peak memory (MB, when `/usr/bin/time` is there)
+/// of a crate holding one chain scene of `n` bodies and a simulation of it,
+/// rebuilt after its dependencies are built.
+fn build_time(n: usize) -> Result<(f64, Option<f64>), String> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/scaling-build");
+    let dir = root.join(format!("chain{n}"));
+    std::fs::create_dir_all(dir.join("src")).map_err(|e| e.to_string())?;
+    let runtime = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../joint-runtime");
+    let manifest = format!(
+        "[package]\nname = \"chain{n}\"\nversion = \"0.1.0\"\nedition = \"2024\"\n\n[dependencies]\njoint-runtime = {{ path = {:?} }}\n\n[workspace]\n",
+        runtime.display().to_string()
+    );
+    std::fs::write(dir.join("Cargo.toml"), manifest).map_err(|e| e.to_string())?;
+    let main = format!(
+        "use joint_runtime::dynamics::{{NoLoads, SimulationOptions}};\nuse joint_runtime::sparse::SparseSimulation;\n\
+         #[derive(joint_runtime::Scene)]\n#[scene(gravity = [0, 0, -9.81])]\n\
+         #[body(bar[{n}], mass = 1.0, inertia = [0.00125, 0.084, 0.084])]\n\
+         #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]\n\
+         #[joint(ball[i in 1..{n}] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]\n\
+         struct Chain;\n\
+         fn main() {{\n    let mut state = joint_runtime::SystemState {{ bodies: [joint_runtime::OmegaBody::default(); {n}], t: 0.0 }};\n    \
+         if let Ok(mut sim) = SparseSimulation::new(&Chain, NoLoads, &[], SimulationOptions::default()) {{ let _ = sim.step(&mut state, 1e-3); }}\n}}\n"
+    );
+    std::fs::write(dir.join("src/main.rs"), main).map_err(|e| e.to_string())?;
+    let target = root.join("target");
+    let cargo = || {
+        let mut c = std::process::Command::new("cargo");
+        c.args(["build", "--release", "-q"]).current_dir(&dir).env("CARGO_TARGET_DIR", &target);
+        c
+    };
+    // Dependencies first, then the crate alone, timed.
+    let status = cargo().status().map_err(|e| e.to_string())?;
+    if !status.success() {
+        return Err(format!("building the {n}-body chain crate failed"));
+    }
+    let touch = std::fs::read_to_string(dir.join("src/main.rs")).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("src/main.rs"), touch + "\n").map_err(|e| e.to_string())?;
+    let timer = std::path::Path::new("/usr/bin/time");
+    let t = std::time::Instant::now();
+    let output = if timer.exists() {
+        let mut c = std::process::Command::new(timer);
+        c.args(["-f", "%M", "cargo", "build", "--release", "-q"]).current_dir(&dir).env("CARGO_TARGET_DIR", &target);
+        c.output().map_err(|e| e.to_string())?
+    } else {
+        cargo().output().map_err(|e| e.to_string())?
+    };
+    let seconds = t.elapsed().as_secs_f64();
+    let memory = String::from_utf8_lossy(&output.stderr).lines().last().and_then(|l| l.trim().parse::<f64>().ok()).map(|kb| kb / 1024.0);
+    Ok((seconds, memory))
+}
+
+fn run() -> Result<(), String> {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let builds = std::env::args().any(|a| a == "--build-times");
+    let steps = if quick { 100 } else { 400 };
+    let chain = measure!(
+        steps,
+        40,
+        chain_start,
+        (Chain5, 5),
+        (Chain10, 10),
+        (Chain20, 20),
+        (Chain40, 40),
+        (Chain80, 80),
+        (Chain160, 160)
+    );
+    let ladder = measure!(steps, 21, ladder_start, (Ladder4, 9), (Ladder10, 21), (Ladder20, 41), (Ladder40, 81));
+    let tree = measure!(steps, 40, tree_start, (Tree5, 10), (Tree10, 20), (Tree20, 40), (Tree40, 80), (Tree80, 160));
+    // 500 bodies in a thread with a 2 MiB stack, the sparse path only.
+    let big = std::thread::Builder::new()
+        .stack_size(2 << 20)
+        .spawn(|| sparse_step_us(&Chain500, &chain_start::<500>(), 50))
+        .map_err(|e| e.to_string())?
+        .join()
+        .map_err(|_| "the 500-body chain overflowed its 2 MiB stack".to_string())?
+        .map_err(|e| e.to_string())?;
+    let mut md = String::from("# Scenes that scale\n\n");
+    md += "Written by `cargo run --release -p joint-examples --bin scaling`. µs per RK4 step with projection \
+           (`SimulationOptions::default()`, h = 1 ms), median of 3 rounds, one core. The sparse path is \
+           `joint_runtime::sparse::SparseSimulation`; the dense one `dynamics::Simulation` (run in a thread \
+           with a 256 MiB stack, as its `M × NV` matrices are on the stack).\n\n";
+    md += &table("Chain (spherical joints)", &chain, "joints");
+    md += &table("Ladder (N-four-bar, A02)", &ladder, "loops");
+    md += &table("Tree (a spine with a rib on every bar)", &tree, "ribs");
+    md += &format!("A 500-body chain in a thread with a 2 MiB stack: {big:.0} µs per step.\n\n");
+    md += "The implicit midpoint rule still runs on the dense path only (its Newton matrix is a dense \
+           finite-difference `NV × NV`); its sparse form is not built yet.\n\n";
+    md += "### The chain beside the peers (µs per step)\n\nThe peers ran the same chain on this machine on \
+           2026-12-01 (Exudyn: `exudyn_chain.py N --steps 200 --solver sparse`; MuJoCo: `mujoco_make_chain.py N` \
+           and its C timer `bench_step chain.xml 200 3`), one after the other, not beside this program. \
+           MuJoCo integrates a tree of ball joints in generalised coordinates (no constraint rows), with its \
+           first-order Euler step or RK4; Exudyn uses generalised-α with its sparse solver, Euler parameters \
+           and constraints, as this project does.\n\n| N | this project, sparse |";
+    for (name, _) in PEERS {
+        md += &format!(" {name} |");
+    }
+    md += "\n|---|---|---|---|---|\n";
+    for (i, r) in chain.iter().enumerate() {
+        md += &format!("| {} | {:.1} |", r.bodies, r.sparse);
+        for (_, p) in PEERS {
+            md += &format!(" {} |", p[i]);
+        }
+        md += "\n";
+    }
+    if builds {
+        md += "\n### Release build time of a crate holding one chain scene (the derive, then rustc)\n\n| N | build s | peak rustc memory MB |\n|---|---|---|\n";
+        let mut points = Vec::new();
+        for n in [10, 20, 40, 80, 160, 200] {
+            let (s, mb) = build_time(n)?;
+            eprintln!("build N={n}: {s:.2} s {mb:?} MB");
+            md += &format!("| {n} | {s:.2} | {} |\n", mb.map_or("—".into(), |m| format!("{m:.0}")));
+            points.push((n as f64, s));
+        }
+        md += &format!("\nBuild-time exponent over N = 40 … 200: {:.2}.\n", exponent(&points[2..]));
+    }
+    std::fs::create_dir_all("report").map_err(|e| e.to_string())?;
+    std::fs::write("report/scaling.md", md).map_err(|e| e.to_string())?;
+    let log = |rows: &[Row], f: &dyn Fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
+        rows.iter().filter_map(|r| f(r).map(|y| ((r.bodies as f64).log10(), y.log10()))).collect()
+    };
+    let mut curves: Vec<Curve> = vec![
+        ("chain, sparse".into(), log(&chain, &|r| Some(r.sparse))),
+        ("chain, dense".into(), log(&chain, &|r| r.dense)),
+        ("ladder, sparse".into(), log(&ladder, &|r| Some(r.sparse))),
+        ("tree, sparse".into(), log(&tree, &|r| Some(r.sparse))),
+    ];
+    for (name, p) in PEERS {
+        let pts = chain.iter().zip(p).map(|(r, y)| ((r.bodies as f64).log10(), y.log10())).collect();
+        curves.push((format!("chain, {name}"), pts));
+    }
+    plot_lines(
+        std::path::Path::new("report/scaling.svg"),
+        "µs per step against bodies (log10-log10)",
+        ("log10 bodies", "log10 µs per step"),
+        &curves,
+    )?;
+    println!("wrote report/scaling.md and report/scaling.svg");
+    Ok(())
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("scaling: {e}");
+        std::process::exit(1);
+    }
+}
