@@ -3,9 +3,9 @@
 //! same number of redundant rows (Bricard's one, the Cardan shafts' bearings).
 
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, scaling, steering};
-use joint_runtime::analysis::{AssemblyOptions, assemble, velocities};
+use joint_runtime::analysis::{AssemblyOptions, accelerations, assemble, velocities};
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
-use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::sparse::{SparseAnalysis, SparseSimulation};
 use joint_runtime::{Ramp, Scene, SparseJacobian, SystemState};
 
 /// `|a − b| ≤ tol (1 + |b|)` entry by entry.
@@ -97,8 +97,17 @@ const BIG_STACK: usize = 512 << 20;
 fn a_200_body_chain_matches_the_dense_dynamics_and_keeps_its_energy() {
     let start = scaling::chain_start::<200>();
     let dense = std::thread::scope(|s| {
-        let run = || Simulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).and_then(|mut d| d.dynamics(&start)).map(|d| d.vdot);
-        std::thread::Builder::new().stack_size(BIG_STACK).spawn_scoped(s, run).expect("thread").join().expect("no panic")
+        let run = || {
+            Simulation::new(&Chain200, NoLoads, &[], SimulationOptions::default())
+                .and_then(|mut d| d.dynamics(&start))
+                .map(|d| d.vdot)
+        };
+        std::thread::Builder::new()
+            .stack_size(BIG_STACK)
+            .spawn_scoped(s, run)
+            .expect("thread")
+            .join()
+            .expect("no panic")
     })
     .expect("dense dynamics");
     let mut sparse = SparseSimulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).expect("sparse");
@@ -129,7 +138,8 @@ fn the_40_loop_ladder_runs_through_its_singular_positions() {
     sim.dynamics(&state).expect("dynamics");
     assert_eq!(sim.factor().dropped().len(), 3 * 40);
     let e0 = sim.energy(&state).total();
-    let (mut passages, mut last, mut worst_branch, mut worst_energy) = (0, crank_angle(&state, 0).sin(), 0.0f64, 0.0f64);
+    let (mut passages, mut last, mut worst_branch, mut worst_energy) =
+        (0, crank_angle(&state, 0).sin(), 0.0f64, 0.0f64);
     for _ in 0..4000 {
         let r = sim.step(&mut state, 1e-3).expect("steps through the singular positions");
         assert!(r.constraint_residual <= 1e-10, "{r:?}");
@@ -148,4 +158,28 @@ fn the_40_loop_ladder_runs_through_its_singular_positions() {
     assert!(passages >= 3, "{passages} passages through the horizontal (singular) position in 4 s");
     assert!(worst_branch < 1e-8, "cranks apart by {worst_branch:e}");
     assert!(worst_energy < 1e-6, "energy {worst_energy:e}");
+}
+
+#[test]
+fn the_sparse_analyses_match_the_dense_ones() {
+    // Assembly of Bricard's mechanism from a 5° perturbation, its redundant row found.
+    let scene = bricard::scene();
+    let mut analysis = SparseAnalysis::new(&scene).expect("structure");
+    let (mut a, mut b) = (bricard::perturbed_state(5.0), bricard::perturbed_state(5.0));
+    let dense = assemble(&scene, &mut a, &AssemblyOptions::default()).expect("dense assembly");
+    let sparse = analysis.assemble(&scene, &mut b, &AssemblyOptions::default()).expect("sparse assembly");
+    assert_eq!((sparse.iterations, sparse.redundant.len()), (dense.iterations, dense.redundant.len()));
+    assert!(sparse.residual <= 1e-12);
+    close("assembled", &flat(&b), &flat(&a), 1e-9);
+    // Velocity and acceleration analysis of the driven Cardan shaft.
+    let shaft = cardan::CardanShaft::new(0.5, 10.0).expect("valid bend");
+    let mut analysis = SparseAnalysis::new(&shaft).expect("structure");
+    let (mut a, mut b) = (shaft.reference_state(), shaft.reference_state());
+    let dense = velocities(&shaft, &mut a).expect("dense velocities");
+    let sparse = analysis.velocities(&shaft, &mut b).expect("sparse velocities");
+    assert_eq!(sparse.redundant.len(), dense.redundant.len());
+    close("velocities", &flat(&b), &flat(&a), 1e-12);
+    let dense = accelerations(&shaft, &a).expect("dense accelerations");
+    let sparse = analysis.accelerations(&shaft, &b).expect("sparse accelerations");
+    close("accelerations", sparse.vdot.as_slice(), dense.vdot.as_slice(), 1e-10);
 }

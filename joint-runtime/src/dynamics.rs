@@ -353,6 +353,7 @@ pub(crate) struct Rate<const NB: usize, const NV: usize> {
 
 impl<const NB: usize, const NV: usize> Rate<NB, NV> {
     /// The rate at `state` with accelerations `vdot`.
+    #[inline]
     pub(crate) fn new(state: &SystemState<NB>, vdot: SVector<f64, NV>) -> Self {
         let mut rate = Rate { rdot: [Vector3::zeros(); NB], pdot: [Vector4::zeros(); NB], vdot };
         for ((b, rdot), pdot) in state.bodies.iter().zip(rate.rdot.iter_mut()).zip(rate.pdot.iter_mut()) {
@@ -375,6 +376,7 @@ pub(crate) fn rk4_weights<'r, const NB: usize, const NV: usize>(
 }
 
 /// `y0 + h Σ c_k k_k`, with `p` renormalised, at time `t`.
+#[inline]
 pub(crate) fn advance<const NB: usize, const NV: usize>(
     y0: &SystemState<NB>,
     rates: &[(&Rate<NB, NV>, f64)],
@@ -808,6 +810,7 @@ pub(crate) fn check_springs<const NB: usize>(springs: &[SpringDamper]) -> Result
 }
 
 /// Position and velocity (inertial) of an attachment point.
+#[inline]
 fn point_motion<const NB: usize>(state: &SystemState<NB>, end: &Attachment) -> PointMotion {
     match *end {
         Attachment::Ground(x) => (x, Vector3::zeros(), None),
@@ -822,6 +825,7 @@ fn point_motion<const NB: usize>(state: &SystemState<NB>, end: &Attachment) -> P
 }
 
 /// The generalised forces `Q` (gravity, user loads, gyroscopic terms, springs).
+#[inline]
 pub(crate) fn generalised_forces<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
     user: &mut L,
     springs: &[SpringDamper],

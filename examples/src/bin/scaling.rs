@@ -136,7 +136,11 @@ fn build_time(n: usize) -> Result<(f64, Option<f64>), String> {
         cargo().output().map_err(|e| e.to_string())?
     };
     let seconds = t.elapsed().as_secs_f64();
-    let memory = String::from_utf8_lossy(&output.stderr).lines().last().and_then(|l| l.trim().parse::<f64>().ok()).map(|kb| kb / 1024.0);
+    let memory = String::from_utf8_lossy(&output.stderr)
+        .lines()
+        .last()
+        .and_then(|l| l.trim().parse::<f64>().ok())
+        .map(|kb| kb / 1024.0);
     Ok((seconds, memory))
 }
 

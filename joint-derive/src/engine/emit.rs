@@ -121,8 +121,10 @@ impl<'g> OpCount<'g> {
 
 const ATOM: u8 = 4;
 
-/// Beyond this many `let`s in one function, they are grouped by level.
-const GROUP_ABOVE: usize = 256;
+/// Beyond this many `let`s in one function, they are grouped by level (small
+/// scenes keep one `let` per value: the grouping cost a 3-body scene 3 % per
+/// step; rustc crashed at a few thousand nested scopes).
+const GROUP_ABOVE: usize = 2_000;
 
 /// A node as printed: the expression and its precedence (1 `+ −`, 2 `×`, 3 unary
 /// minus, 4 atom), and the same for its negation. Negations are pushed into the

@@ -20,11 +20,16 @@
 //! elimination order is the derive's, not the order the rows were written in.
 //!
 //! [`SparseSimulation`] integrates with RK4 and the mass-metric projection of
-//! the dense [`Simulation`](crate::dynamics::Simulation), reading only Φ, Φ_t, γ
-//! and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
+//! the dense [`Simulation`](crate::dynamics::Simulation), and [`SparseAnalysis`]
+//! assembles and runs velocity and acceleration analysis, reading only Φ, Φ_t,
+//! γ and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
+//! Not sparse yet: the implicit midpoint rule (its Newton matrix), reactions.
 
+mod analysis;
 mod factor;
 mod simulation;
+mod solver;
 
+pub use analysis::SparseAnalysis;
 pub use factor::BlockFactor;
-pub use simulation::SparseSimulation;
+pub use simulation::{SparseDynamics, SparseSimulation};

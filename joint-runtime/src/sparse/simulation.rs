@@ -7,9 +7,10 @@ use alloc::vec::Vec;
 use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
+use super::solver::{Solver, j_mul, jt_mul, non_finite};
 use crate::analysis::{
-    Analysis, AnalysisError, AssemblyOptions, InverseMass, RowList, WorstRows, apply_increment, apply_metric,
-    check_state, normalise_orientations, set_velocities, velocity_vector,
+    Analysis, AnalysisError, AssemblyOptions, InverseMass, RowList, WorstRows, apply_metric, check_state,
+    normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::{
     AppliedLoads, Energy, Integrator, REDUNDANT_TOLERANCE, Rate, SimulationOptions, SpringDamper, StepReport, advance,
@@ -39,7 +40,7 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     inertias: [BodyInertia; NB],
     inverse: [InverseMass; NB],
     gravity: Vector3<f64>,
-    factor: BlockFactor,
+    solver: Solver<S, NB, NV, M, NNZ>,
     /// The pivots of the step's start, kept by its stages.
     rule: Vec<([usize; 6], usize)>,
     /// The options (the integrator must be RK4).
@@ -52,46 +53,10 @@ impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> c
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("SparseSimulation")
             .field("scene", &core::any::type_name::<S>())
-            .field("factor_blocks", &self.factor.factor_blocks())
+            .field("factor_blocks", &self.solver.factor.factor_blocks())
             .field("options", &self.options)
             .finish_non_exhaustive()
     }
-}
-
-/// `J x` from the CSR entries.
-fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
-    values: &[f64; NNZ],
-    x: &SVector<f64, NV>,
-) -> SVector<f64, M> {
-    let mut out = SVector::<f64, M>::zeros();
-    for (r, o) in out.iter_mut().enumerate() {
-        let (Some(&a), Some(&b)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) else { break };
-        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
-            *o += v * x.get(c).copied().unwrap_or(0.0);
-        }
-    }
-    out
-}
-
-/// `Jᵀ y` from the CSR entries.
-fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
-    values: &[f64; NNZ],
-    y: &SVector<f64, M>,
-) -> SVector<f64, NV> {
-    let mut out = SVector::<f64, NV>::zeros();
-    for (r, &yr) in y.iter().enumerate() {
-        let (Some(&a), Some(&b)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) else { break };
-        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
-            if let Some(o) = out.get_mut(c) {
-                *o += v * yr;
-            }
-        }
-    }
-    out
-}
-
-fn non_finite(quantity: &'static str) -> AnalysisError {
-    AnalysisError::NonFiniteOutput { quantity, row: None }
 }
 
 impl<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
@@ -113,7 +78,6 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        crate::analysis::check_dims::<NB, NV>()?;
         if options.integrator != Integrator::Rk4 {
             return Err(AnalysisError::BadOption { name: "integrator" });
         }
@@ -124,18 +88,9 @@ where
         if !gravity.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::BadOption { name: "gravity" });
         }
-        let blocks: Vec<(usize, usize)> = S::BLOCKS.iter().map(|b| (b.start, b.rows)).collect();
-        let factor = BlockFactor::new(
-            &blocks,
-            S::BLOCK_BODIES,
-            S::ROW_STARTS,
-            &S::COLUMNS,
-            S::ELIMINATION,
-            S::FACTOR_STARTS,
-            S::FACTOR_BELOW,
-        )?;
-        let rule = Vec::with_capacity(blocks.len());
-        Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, factor, rule, options })
+        let solver = Solver::new()?;
+        let rule = Vec::with_capacity(S::BLOCKS.len());
+        Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, solver, rule, options })
     }
 
     /// Kinetic, gravitational and elastic energy at `state`.
@@ -145,7 +100,7 @@ where
 
     /// The block factor (its size, and the rows the last factorisation dropped).
     pub fn factor(&self) -> &BlockFactor {
-        &self.factor
+        &self.solver.factor
     }
 
     /// Constrained accelerations and multipliers at `state`; redundant rows get
@@ -179,18 +134,19 @@ where
         }
         let minv_q = apply_metric::<NB, NV>(Some(&self.inverse), &forces);
         let rule = if keep { Some(&self.rule[..]) } else { None };
-        self.factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
+        let factor = &mut self.solver.factor;
+        factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
         let mut lambda = j_mul::<S, NB, NNZ, NV, M>(&values, &minv_q) - gamma;
-        self.factor.solve(lambda.as_mut_slice());
+        factor.solve(lambda.as_mut_slice());
         let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(&values, &lambda));
         let r = j_mul::<S, NB, NNZ, NV, M>(&values, &vdot) - gamma;
         let residual = r.norm();
         if !residual.is_finite() || !vdot.iter().all(|x| x.is_finite()) {
             return Err(non_finite("accelerations"));
         }
-        let scale = 1.0 + gamma.norm() + values.iter().map(|x| x * x).sum::<f64>().sqrt() * vdot.norm();
+        let scale = 1.0 + gamma.norm() + libm::sqrt(values.iter().map(|x| x * x).sum::<f64>()) * vdot.norm();
         let mut kept = r;
-        for &i in self.factor.dropped() {
+        for &i in self.solver.factor.dropped() {
             if let Some(x) = kept.get_mut(i) {
                 *x = 0.0;
             }
@@ -205,7 +161,7 @@ where
 
     /// The rows the last factorisation dropped, by joint.
     pub fn redundant(&self) -> RowList<M> {
-        RowList::from_rows::<S, NB, NV>(self.factor.dropped())
+        self.solver.redundant()
     }
 
     /// One RK4 stage: the rate at `state` under the step's rule.
@@ -228,7 +184,7 @@ where
         // The start chooses which rows to drop; every stage drops the same.
         let d1 = self.solve(&y0, false, true)?;
         self.rule.clear();
-        self.rule.extend(self.factor.rule());
+        self.rule.extend(self.solver.factor.rule());
         let t0 = y0.t;
         let k1 = Rate::new(&y0, d1.vdot);
         let k2 = self.rate(&advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h))?;
@@ -252,20 +208,6 @@ where
         Ok(report)
     }
 
-    /// `W Jᵀ y` with `(J W Jᵀ) y = b`: the least change (in kinetic energy)
-    /// with `J x = b`.
-    fn min_norm(
-        &mut self,
-        values: &[f64; NNZ],
-        b: SVector<f64, M>,
-        tolerance: f64,
-    ) -> Result<SVector<f64, NV>, AnalysisError> {
-        self.factor.factor(values, &self.inverse, tolerance, None).map_err(|_| non_finite("J"))?;
-        let mut y = b;
-        self.factor.solve(y.as_mut_slice());
-        Ok(apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(values, &y)))
-    }
-
     /// Projects `state` onto Φ = 0 (damped minimum-norm Newton in the mass
     /// metric) and its velocities onto `J v = −Φ_t`. Returns the iterations,
     /// ‖Φ‖ and ‖J v + Φ_t‖ afterwards.
@@ -277,40 +219,21 @@ where
         state: &mut SystemState<NB>,
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
-        let mut phi = self.scene.phi(state);
-        let mut norm = phi.norm();
-        let mut iterations = 0;
-        while norm > options.tolerance && iterations < options.max_iterations {
-            let values = self.scene.jacobian_values(state);
-            let delta = self.min_norm(&values, -phi, options.rank_tolerance)?;
-            let mut alpha = 1.0;
-            loop {
-                let mut trial = *state;
-                apply_increment(&mut trial, &delta, alpha);
-                let p = self.scene.phi(&trial);
-                let n = p.norm();
-                if n.is_finite() && n <= (1.0 - 1e-4 * alpha) * norm {
-                    (*state, phi, norm) = (trial, p, n);
-                    break;
-                }
-                alpha *= 0.5;
-                if alpha < options.min_step {
-                    let worst = WorstRows::of::<S, NB, NV, M>(&phi);
-                    return Err(AnalysisError::NoProgress { residual: norm, iterations, worst });
-                }
-            }
-            iterations += 1;
-        }
-        if norm.is_nan() || norm > 1e3 * options.tolerance {
-            let worst = WorstRows::of::<S, NB, NV, M>(&phi);
-            return Err(AnalysisError::NotConverged { residual: norm, iterations, worst });
-        }
+        let inverse = self.inverse;
+        let (iterations, residual) = match self.solver.newton(self.scene, state, options, &inverse) {
+            Ok(a) => (a.iterations, a.residual),
+            Err(
+                AnalysisError::NotConverged { residual, iterations, .. }
+                | AnalysisError::NoProgress { residual, iterations, .. },
+            ) if residual <= 1e3 * options.tolerance => (iterations, residual),
+            Err(e) => return Err(e),
+        };
         let values = self.scene.jacobian_values(state);
         let phi_t = self.scene.phi_t(state);
         let v = velocity_vector::<NB, NV>(state);
-        let dv = self.min_norm(&values, -(j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t), options.rank_tolerance)?;
-        let v = v + dv;
+        let b = -(j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t);
+        let v = v + self.solver.min_norm(&values, b, &inverse, options.rank_tolerance)?;
         set_velocities(state, &v);
-        Ok((iterations, norm, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
+        Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
     }
 }

@@ -1,0 +1,181 @@
+//! What the sparse analyses and the sparse simulation share: the block factor
+//! of one scene, minimum-norm solves of `J x = b` in a metric, and damped Newton
+//! on Φ = 0, reading only the Jacobian's nonzero entries.
+
+use alloc::vec::Vec;
+use core::marker::PhantomData;
+
+use nalgebra::{Matrix3, SVector};
+
+use super::BlockFactor;
+use crate::analysis::{
+    Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, RowList, WorstRows, apply_increment, apply_metric,
+    check_state, normalise_orientations,
+};
+use crate::scene::{Scene, SparseJacobian, SystemState};
+
+/// The identity metric: minimum-norm solves in the Euclidean sense.
+pub(crate) fn unit_metric<const NB: usize>() -> [InverseMass; NB] {
+    [InverseMass { inv_mass: 1.0, inv_inertia: Matrix3::identity() }; NB]
+}
+
+/// `J x` from the CSR entries.
+pub(crate) fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
+    values: &[f64; NNZ],
+    x: &SVector<f64, NV>,
+) -> SVector<f64, M> {
+    let mut out = SVector::<f64, M>::zeros();
+    for (o, w) in out.iter_mut().zip(S::ROW_STARTS.windows(2)) {
+        let &[a, b] = w else { break };
+        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+            *o += v * x.get(c).copied().unwrap_or(0.0);
+        }
+    }
+    out
+}
+
+/// `Jᵀ y` from the CSR entries.
+pub(crate) fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
+    values: &[f64; NNZ],
+    y: &SVector<f64, M>,
+) -> SVector<f64, NV> {
+    let mut out = SVector::<f64, NV>::zeros();
+    for (&yr, w) in y.iter().zip(S::ROW_STARTS.windows(2)) {
+        let &[a, b] = w else { break };
+        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+            if let Some(o) = out.get_mut(c) {
+                *o += v * yr;
+            }
+        }
+    }
+    out
+}
+
+pub(crate) fn non_finite(quantity: &'static str) -> AnalysisError {
+    AnalysisError::NonFiniteOutput { quantity, row: None }
+}
+
+/// The block factor of one scene type and the solves on it.
+pub(crate) struct Solver<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    pub(crate) factor: BlockFactor,
+    scene: PhantomData<fn() -> S>,
+}
+
+impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Solver<S, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    /// The factor's schedule, from the scene's compile-time structure.
+    pub(crate) fn new() -> Result<Self, AnalysisError> {
+        crate::analysis::check_dims::<NB, NV>()?;
+        let blocks: Vec<(usize, usize)> = S::BLOCKS.iter().map(|b| (b.start, b.rows)).collect();
+        let factor = BlockFactor::new(
+            &blocks,
+            S::BLOCK_BODIES,
+            S::ROW_STARTS,
+            &S::COLUMNS,
+            S::ELIMINATION,
+            S::FACTOR_STARTS,
+            S::FACTOR_BELOW,
+        )?;
+        Ok(Solver { factor, scene: PhantomData })
+    }
+
+    /// `x = W Jᵀ y` with `(J W Jᵀ) y = b`: the solution of `J x = b` closest
+    /// to zero in the metric `W` (its dropped rows: [`BlockFactor::dropped`]).
+    pub(crate) fn min_norm(
+        &mut self,
+        values: &[f64; NNZ],
+        b: SVector<f64, M>,
+        w: &[InverseMass; NB],
+        tolerance: f64,
+    ) -> Result<SVector<f64, NV>, AnalysisError> {
+        self.factor.factor(values, w, tolerance, None).map_err(|_| non_finite("J"))?;
+        let mut y = b;
+        self.factor.solve(y.as_mut_slice());
+        Ok(apply_metric::<NB, NV>(Some(w), &jt_mul::<S, NB, NNZ, NV, M>(values, &y)))
+    }
+
+    /// [`Solver::min_norm`], then the consistency check of the dense
+    /// `solve_linear`: the residual within round-off of `b` and `J x`.
+    pub(crate) fn solve_linear(
+        &mut self,
+        analysis: Analysis,
+        values: &[f64; NNZ],
+        b: SVector<f64, M>,
+        w: &[InverseMass; NB],
+        tolerance: f64,
+    ) -> Result<(SVector<f64, NV>, f64), AnalysisError> {
+        let x = self.min_norm(values, b, w, tolerance)?;
+        let r = j_mul::<S, NB, NNZ, NV, M>(values, &x) - b;
+        let residual = r.norm();
+        if !residual.is_finite() {
+            return Err(non_finite("solution"));
+        }
+        let j_norm = libm::sqrt(values.iter().map(|v| v * v).sum::<f64>());
+        if residual > 1e-9 * (1.0 + b.norm() + j_norm * x.norm()) {
+            return Err(AnalysisError::Inconsistent { analysis, residual, worst: WorstRows::of::<S, NB, NV, M>(&r) });
+        }
+        Ok((x, residual))
+    }
+
+    /// The rows the last factorisation dropped, by joint.
+    pub(crate) fn redundant(&self) -> RowList<M> {
+        RowList::from_rows::<S, NB, NV>(self.factor.dropped())
+    }
+
+    /// Damped Newton on Φ = 0 with minimum-norm steps in the metric `w`, as
+    /// the dense assembly.
+    pub(crate) fn newton(
+        &mut self,
+        scene: &S,
+        state: &mut SystemState<NB>,
+        options: &AssemblyOptions,
+        w: &[InverseMass; NB],
+    ) -> Result<Assembly<M>, AnalysisError> {
+        check_state::<S, NB, NV, M>(state, false)?;
+        if options.tolerance.is_nan() || options.tolerance < 0.0 {
+            return Err(AnalysisError::BadOption { name: "tolerance" });
+        }
+        if !(options.min_step > 0.0 && options.min_step <= 1.0) {
+            return Err(AnalysisError::BadOption { name: "min_step" });
+        }
+        normalise_orientations::<S, NB, NV, M>(state)?;
+        let mut phi = scene.phi(state);
+        let mut norm = phi.norm();
+        if !norm.is_finite() {
+            return Err(non_finite("Φ"));
+        }
+        let mut iterations = 0;
+        loop {
+            let values = scene.jacobian_values(state);
+            if norm <= options.tolerance {
+                self.factor.factor(&values, w, options.rank_tolerance, None).map_err(|_| non_finite("J"))?;
+                return Ok(Assembly { iterations, residual: norm, redundant: self.redundant() });
+            }
+            if iterations >= options.max_iterations {
+                let worst = WorstRows::of::<S, NB, NV, M>(&phi);
+                return Err(AnalysisError::NotConverged { residual: norm, iterations, worst });
+            }
+            let delta = self.min_norm(&values, -phi, w, options.rank_tolerance)?;
+            let mut alpha = 1.0;
+            loop {
+                let mut trial = *state;
+                apply_increment(&mut trial, &delta, alpha);
+                let p = scene.phi(&trial);
+                let n = p.norm();
+                // Armijo on ‖Φ‖ (the Gauss-Newton direction decreases it at rate 1).
+                if n.is_finite() && n <= (1.0 - 1e-4 * alpha) * norm {
+                    (*state, phi, norm) = (trial, p, n);
+                    break;
+                }
+                alpha *= 0.5;
+                if alpha < options.min_step {
+                    let worst = WorstRows::of::<S, NB, NV, M>(&phi);
+                    return Err(AnalysisError::NoProgress { residual: norm, iterations, worst });
+                }
+            }
+            iterations += 1;
+        }
+    }
+}
