@@ -219,6 +219,26 @@ pub fn args(input: ParseStream) -> syn::Result<Vec<Arg>> {
     Ok(Punctuated::<Arg, Token![,]>::parse_terminated(input)?.into_iter().collect())
 }
 
+/// `ARG, ARG, ...` up to the end of `input` or a `;` (which is left).
+pub fn args_until_semicolon(input: ParseStream) -> syn::Result<Vec<Arg>> {
+    let mut out = Vec::new();
+    while !input.is_empty() && !input.peek(Token![;]) {
+        out.push(input.parse()?);
+        if input.is_empty() || input.peek(Token![;]) {
+            break;
+        }
+        input.parse::<Token![,]>()?;
+    }
+    Ok(out)
+}
+
+/// `ITEM; ITEM; ...`: several entries in one attribute (a scene of many
+/// joints: rustc counts each attribute of an item against its recursion limit,
+/// and stops near 128).
+pub fn entries<T: Parse>(attr: &syn::Attribute) -> syn::Result<Vec<T>> {
+    Ok(attr.parse_args_with(Punctuated::<T, Token![;]>::parse_terminated)?.into_iter().collect())
+}
+
 /// The items of every attribute called `name` on an item or field; parse
 /// errors are recorded.
 pub fn items(attrs: &[syn::Attribute], name: &str, errors: &mut Errors) -> Vec<Arg> {

@@ -10,6 +10,9 @@
 //! ```
 //! A value that is a single lower-case identifier names a field; one that
 //! starts with a capital (`RA`) or is a path (`consts::D`) names a constant.
+//! Rows: `#[body(bar[40], ..)]`, `#[joint(ball[i in 1..40] = spherical(bar[i - 1],
+//! bar[i]), rho1 = [i, 0, 0], ..)]`. Several entries may share an attribute,
+//! separated by `;`.
 
 use proc_macro2::Span;
 use syn::parse::{Parse, ParseStream};
@@ -133,7 +136,7 @@ impl Parse for JointAttr {
         }
         let mut args = Vec::new();
         if input.parse::<Option<Token![,]>>()?.is_some() {
-            args = attr::args(input)?;
+            args = attr::args_until_semicolon(input)?;
         }
         Ok(JointAttr { name, repeat, kind, bodies, args })
     }
@@ -168,7 +171,7 @@ impl Parse for BodyAttr {
         };
         let mut args = Vec::new();
         if input.parse::<Option<Token![,]>>()?.is_some() {
-            args = attr::args(input)?;
+            args = attr::args_until_semicolon(input)?;
         }
         Ok(BodyAttr { name, count, args })
     }
@@ -299,9 +302,10 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
                 None => bodies.push(BodyName { label: b.name.to_string(), constant, element: false }),
             }
         } else if attr.path().is_ident("joint") {
-            let joint = attr.parse_args::<JointAttr>().ok()?;
-            let copies = joint.repeat.map_or(1, |r| r.values.count());
-            rows += copies * joints::lookup(&joint.kind.to_string())?.row_count();
+            for joint in attr::entries::<JointAttr>(attr).ok()? {
+                let copies = joint.repeat.map_or(1, |r| r.values.count());
+                rows += copies * joints::lookup(&joint.kind.to_string())?.row_count();
+            }
         }
     }
     (!bodies.is_empty()).then_some(SceneShape { bodies, rows })
@@ -385,8 +389,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // With no bodies every joint would be ground to ground: say the one thing that is wrong.
     if !scene.bodies.is_empty() {
         for attr in input.attrs.iter().filter(|a| a.path().is_ident("joint")) {
-            match attr.parse_args::<JointAttr>() {
-                Ok(j) => scene.joint(j, &fields, &mut errors),
+            match attr::entries::<JointAttr>(attr) {
+                Ok(entries) => entries.into_iter().for_each(|j| scene.joint(j, &fields, &mut errors)),
                 Err(e) => errors.push(e),
             }
         }
@@ -423,14 +427,14 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
 /// scene's constants, inertias of 3 or 6 entries.
 fn bodies(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Vec<Body> {
     let mut bodies: Vec<Body> = Vec::new();
+    let mut heads = Vec::new();
     for attr in input.attrs.iter().filter(|a| a.path().is_ident("body")) {
-        let head = match attr.parse_args::<BodyAttr>() {
-            Ok(head) => head,
-            Err(e) => {
-                errors.push(e);
-                continue;
-            }
-        };
+        match attr::entries::<BodyAttr>(attr) {
+            Ok(entries) => heads.extend(entries),
+            Err(e) => errors.push(e),
+        }
+    }
+    for head in heads {
         let (mut mass, mut inertia) = (Slot::new("`mass`", "it once"), Slot::new("`inertia`", "it once"));
         for a in head.args {
             let slot = match a.key.to_string().as_str() {

@@ -16,7 +16,17 @@ struct Chain;
 #[joint(right[i in 0..4] = revolute(coupler[i], crank[i + 1]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, 0.5, 0])]
 struct Ladder;
 
+// Several entries in one attribute, separated by `;` (rustc stops near 128
+// attributes on one item).
+#[derive(Scene)]
+#[body(upper, mass = 1.0, inertia = [0.1, 0.1, 0.1]; lower, mass = 2.0, inertia = [0.2, 0.2, 0.2])]
+#[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5];
+        elbow = spherical(upper, lower), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])]
+struct Arm;
+
 fn main() {
+    assert_eq!((Arm::UPPER, Arm::LOWER, Arm::ROWS), (0, 1, 6));
+    assert_eq!(Arm.inertias()[1].mass, 2.0);
     assert_eq!(Chain::NB, 40);
     assert_eq!(Chain::ROWS, 120);
     assert_eq!(Chain::LINK[39], 39);
