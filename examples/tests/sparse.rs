@@ -183,3 +183,20 @@ fn the_sparse_analyses_match_the_dense_ones() {
     let sparse = analysis.accelerations(&shaft, &b).expect("sparse accelerations");
     close("accelerations", sparse.vdot.as_slice(), dense.vdot.as_slice(), 1e-10);
 }
+
+#[test]
+fn reactions_match_the_dense_ones() {
+    let scene = pendulum_chain::scene();
+    let state = pendulum_chain::initial_state();
+    let options = SimulationOptions::default();
+    let mut dense = Simulation::new(&scene, NoLoads, &[], options).expect("dense");
+    let mut sparse = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+    let (d, s) = (dense.dynamics(&state).expect("dense"), sparse.dynamics(&state).expect("sparse"));
+    for block in pendulum_chain::Chain::BLOCKS {
+        let (a, b) = (dense.reactions(&state, &d.lambda, block), sparse.reactions(&state, &s.lambda, block));
+        let flat = |r: &[joint_runtime::dynamics::Reaction]| -> Vec<f64> {
+            r.iter().flat_map(|x| x.force.iter().chain(x.torque.iter()).copied().collect::<Vec<_>>()).collect()
+        };
+        close(block.name, &flat(&b), &flat(&a), 1e-9);
+    }
+}

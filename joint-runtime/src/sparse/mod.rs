@@ -23,7 +23,7 @@
 //! the dense [`Simulation`](crate::dynamics::Simulation), and [`SparseAnalysis`]
 //! assembles and runs velocity and acceleration analysis, reading only Φ, Φ_t,
 //! γ and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
-//! Not sparse yet: the implicit midpoint rule (its Newton matrix), reactions.
+//! Not sparse yet: the implicit midpoint rule (its Newton matrix).
 
 mod analysis;
 mod factor;

@@ -13,10 +13,10 @@ use crate::analysis::{
     normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::{
-    AppliedLoads, Energy, Integrator, REDUNDANT_TOLERANCE, Rate, SimulationOptions, SpringDamper, StepReport, advance,
-    check_springs, generalised_forces, inverse_masses, rk4_weights,
+    AppliedLoads, Energy, Integrator, REDUNDANT_TOLERANCE, Rate, Reaction, SimulationOptions, SpringDamper, StepReport,
+    advance, check_springs, generalised_forces, inverse_masses, rk4_weights,
 };
-use crate::scene::{BodyInertia, Scene, SparseJacobian, SystemState};
+use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
 /// Constrained accelerations and multipliers at one state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,6 +157,28 @@ where
             return Err(AnalysisError::Inconsistent { analysis: Analysis::Dynamics, residual, worst });
         }
         Ok(SparseDynamics { vdot, lambda })
+    }
+
+    /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every
+    /// body, from the multipliers of [`SparseSimulation::dynamics`] at `state`:
+    /// `−J_kᵀ λ_k` split by body, from the Jacobian's nonzero entries. Rows
+    /// outside `0..M` are ignored.
+    pub fn reactions(&self, state: &SystemState<NB>, lambda: &SVector<f64, M>, block: &RowBlock) -> [Reaction; NB] {
+        let values = self.scene.jacobian_values(state);
+        let mut out = [Reaction::default(); NB];
+        let end = block.start.saturating_add(block.rows).min(M);
+        for row in block.start.min(end)..end {
+            let (Some(&a), Some(&b), Some(&l)) = (S::ROW_STARTS.get(row), S::ROW_STARTS.get(row + 1), lambda.get(row))
+            else {
+                continue;
+            };
+            for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+                let Some(r) = out.get_mut(c / 6) else { continue };
+                let part = if c % 6 < 3 { &mut r.force } else { &mut r.torque };
+                part[c % 3] -= v * l;
+            }
+        }
+        out
     }
 
     /// The rows the last factorisation dropped, by joint.
