@@ -8,7 +8,7 @@
 //! `#[joint(ball[i in 1..40] = spherical(bar[i - 1], bar[i]), ..)]`), so a
 //! size is one number.
 //!
-//! - **Chain**: the peers' chain (`../shared/peers`): bars of 1 m and 1 kg
+//! - **Chain**: the chain the peers were timed on (Exudyn, MuJoCo): bars of 1 m and 1 kg
 //!   (solid cylinders of radius 0.05 m along body x), spherical joints, the first
 //!   hanging from the origin, gravity −z, straight along `(sin 1, 0, −cos 1)` at rest.
 //! - **Ladder**: the N-four-bar (IFToMM A02, as [`crate::four_bar`]): `N + 1`

@@ -460,14 +460,7 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        crate::analysis::check_dims::<NB, NV>()?;
-        let inertias = scene.inertias();
-        let inverse = inverse_masses::<S, NB, NV, M>(&inertias)?;
-        check_springs::<NB>(springs)?;
-        let gravity = scene.gravity();
-        if !gravity.iter().all(|x| x.is_finite()) {
-            return Err(AnalysisError::BadOption { name: "gravity" });
-        }
+        let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, options })
     }
 
@@ -548,13 +541,6 @@ where
         // dropped rows are held to a looser tolerance that still tells the two
         // apart; projection removes the drift at the end of the step.
         let scale = 1.0 + gamma.norm() + e.jacobian.norm() * vdot.norm();
-        let mut kept = r;
-        for &i in chol.dropped() {
-            if let Some(x) = kept.get_mut(i) {
-                *x = 0.0;
-            }
-        }
-        let dropped = (r - kept).norm();
         // Within a step only the first stage (the step's own start) is checked:
         // contradiction is a property of the configuration, while later stages
         // sit O(h²) off the manifold by construction.
@@ -562,13 +548,7 @@ where
             Some(r) => !core::mem::replace(&mut r.checked, true),
             None => true,
         };
-        if kept.norm() > 1e-9 * scale || (check_dropped && dropped > REDUNDANT_TOLERANCE * scale) {
-            return Err(AnalysisError::Inconsistent {
-                analysis: crate::analysis::Analysis::Dynamics,
-                residual,
-                worst: WorstRows::of::<S, NB, NV, M>(&r),
-            });
-        }
+        check_redundant::<S, NB, NV, M>(&r, chol.dropped(), scale, check_dropped)?;
         Ok(Dynamics { vdot, lambda, forces, redundant: RowList::from_rows::<S, NB, NV>(chol.dropped()) })
     }
 
@@ -611,14 +591,7 @@ where
         state: &mut SystemState<NB>,
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
-        let (iterations, residual) = match newton(self.scene, state, options, Some(&self.inverse)) {
-            Ok(a) => (a.iterations, a.residual),
-            Err(
-                AnalysisError::NotConverged { residual, iterations, .. }
-                | AnalysisError::NoProgress { residual, iterations, .. },
-            ) if residual <= 1e3 * options.tolerance => (iterations, residual),
-            Err(e) => return Err(e),
-        };
+        let (iterations, residual) = near_enough(newton(self.scene, state, options, Some(&self.inverse)), options)?;
         let j = self.scene.jacobian(state);
         let phi_t = self.scene.phi_t(state);
         check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
@@ -770,8 +743,80 @@ where
     }
 }
 
+/// What every simulation of a scene reads besides the scene: its inertias,
+/// their inverses and gravity, checked together with the springs.
+pub(crate) struct Mechanics<const NB: usize> {
+    pub(crate) inertias: [BodyInertia; NB],
+    pub(crate) inverse: [InverseMass; NB],
+    pub(crate) gravity: Vector3<f64>,
+}
+
+impl<const NB: usize> Mechanics<NB> {
+    /// The mechanics of `scene` with `springs`.
+    ///
+    /// # Errors
+    /// As [`Simulation::new`].
+    pub(crate) fn new<S: Scene<NB, NV, M>, const NV: usize, const M: usize>(
+        scene: &S,
+        springs: &[SpringDamper],
+    ) -> Result<Self, AnalysisError> {
+        crate::analysis::check_dims::<NB, NV>()?;
+        let inertias = scene.inertias();
+        let inverse = inverse_masses::<S, NB, NV, M>(&inertias)?;
+        check_springs::<NB>(springs)?;
+        let gravity = scene.gravity();
+        if !gravity.iter().all(|x| x.is_finite()) {
+            return Err(AnalysisError::BadOption { name: "gravity" });
+        }
+        Ok(Mechanics { inertias, inverse, gravity })
+    }
+}
+
+/// The rows a factorisation kept hold to round-off by construction (relative
+/// to `scale`); with `check`, the `dropped` (redundant) rows must agree to
+/// [`REDUNDANT_TOLERANCE`], or the constraints contradict each other.
+pub(crate) fn check_redundant<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    r: &SVector<f64, M>,
+    dropped: &[usize],
+    scale: f64,
+    check: bool,
+) -> Result<(), AnalysisError> {
+    let mut kept = *r;
+    for &i in dropped {
+        if let Some(x) = kept.get_mut(i) {
+            *x = 0.0;
+        }
+    }
+    let disagreement = (r - kept).norm();
+    if kept.norm() > 1e-9 * scale || (check && disagreement > REDUNDANT_TOLERANCE * scale) {
+        let worst = WorstRows::of::<S, NB, NV, M>(r);
+        return Err(AnalysisError::Inconsistent {
+            analysis: crate::analysis::Analysis::Dynamics,
+            residual: r.norm(),
+            worst,
+        });
+    }
+    Ok(())
+}
+
+/// A projection's Newton iterations and final ‖Φ‖, where stopping short of the
+/// tolerance by less than a factor 1000 (the round-off floor) is accepted.
+pub(crate) fn near_enough<const M: usize>(
+    newton: Result<crate::analysis::Assembly<M>, AnalysisError>,
+    options: &AssemblyOptions,
+) -> Result<(usize, f64), AnalysisError> {
+    match newton {
+        Ok(a) => Ok((a.iterations, a.residual)),
+        Err(
+            AnalysisError::NotConverged { residual, iterations, .. }
+            | AnalysisError::NoProgress { residual, iterations, .. },
+        ) if residual <= 1e3 * options.tolerance => Ok((iterations, residual)),
+        Err(e) => Err(e),
+    }
+}
+
 /// The inverse mass of every body, checked.
-pub(crate) fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     inertias: &[BodyInertia; NB],
 ) -> Result<[InverseMass; NB], AnalysisError> {
     let mut inverse = [InverseMass { inv_mass: 0.0, inv_inertia: Matrix3::zeros() }; NB];
@@ -791,7 +836,7 @@ pub(crate) fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usi
 }
 
 /// Springs attached to bodies that exist, with finite coefficients.
-pub(crate) fn check_springs<const NB: usize>(springs: &[SpringDamper]) -> Result<(), AnalysisError> {
+fn check_springs<const NB: usize>(springs: &[SpringDamper]) -> Result<(), AnalysisError> {
     for s in springs {
         for end in [s.a, s.b] {
             let ok = match end {

@@ -60,10 +60,7 @@ pub fn reachable(g: &Graph, outputs: &[Id]) -> Vec<Id> {
 
 /// Binary operations needed by `outputs` (shared nodes counted once).
 pub fn count_ops(g: &Graph, outputs: &[Id]) -> usize {
-    reachable(g, outputs)
-        .into_iter()
-        .filter(|&id| matches!(g.node(id), Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..)))
-        .count()
+    OpCount::new(g).add(outputs)
 }
 
 /// Binary operations of a growing set of outputs (shared nodes counted once),

@@ -4,6 +4,8 @@ use super::{
     AnalysisError, Assembly, AssemblyOptions, Metric, RowList, WorstRows, apply_increment, check_output, check_state,
     min_norm, normalise_orientations,
 };
+use nalgebra::SVector;
+
 use crate::scene::{Scene, SystemState};
 
 /// Damped Newton on Φ = 0 with minimum-norm steps in the metric.
@@ -12,6 +14,27 @@ pub(crate) fn newton<S, const NB: usize, const NV: usize, const M: usize>(
     state: &mut SystemState<NB>,
     options: &AssemblyOptions,
     metric: Metric<'_, NB>,
+) -> Result<Assembly<M>, AnalysisError>
+where
+    S: Scene<NB, NV, M>,
+{
+    damped_newton(scene, state, options, |state, b| {
+        let j = scene.jacobian(state);
+        check_output::<S, NB, NV, M, NV>("J", &j)?;
+        let step = min_norm(&j, &b, metric, options.rank_tolerance)?;
+        Ok((step.x, RowList::from_rows::<S, NB, NV>(step.factor.dropped())))
+    })
+}
+
+/// Damped Newton on Φ = 0 (the dense and the sparse assembly and projection):
+/// `direction(state, b)` solves `J Δ = b` (minimum norm) and lists the rows
+/// its factorisation dropped; the step is `α Δ` with `α = 1, ½, ¼, …` until
+/// ‖Φ‖ decreases (Armijo).
+pub(crate) fn damped_newton<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    state: &mut SystemState<NB>,
+    options: &AssemblyOptions,
+    mut direction: impl FnMut(&SystemState<NB>, SVector<f64, M>) -> Result<(SVector<f64, NV>, RowList<M>), AnalysisError>,
 ) -> Result<Assembly<M>, AnalysisError>
 where
     S: Scene<NB, NV, M>,
@@ -29,15 +52,9 @@ where
     let mut norm = phi.norm();
     let mut iterations = 0;
     loop {
-        let j = scene.jacobian(state);
-        check_output::<S, NB, NV, M, NV>("J", &j)?;
         if norm <= options.tolerance {
-            let chol = min_norm(&j, &phi, metric, options.rank_tolerance)?.factor;
-            return Ok(Assembly {
-                iterations,
-                residual: norm,
-                redundant: RowList::from_rows::<S, NB, NV>(chol.dropped()),
-            });
+            let (_, redundant) = direction(state, phi)?;
+            return Ok(Assembly { iterations, residual: norm, redundant });
         }
         if iterations >= options.max_iterations {
             return Err(AnalysisError::NotConverged {
@@ -46,7 +63,7 @@ where
                 worst: WorstRows::of::<S, NB, NV, M>(&phi),
             });
         }
-        let delta = min_norm(&j, &(-phi), metric, options.rank_tolerance)?.x;
+        let (delta, _) = direction(state, -phi)?;
         let mut alpha = 1.0;
         loop {
             let mut trial = *state;

@@ -9,12 +9,12 @@ use nalgebra::{SVector, Vector3};
 use super::BlockFactor;
 use super::solver::{Solver, j_mul, jt_mul, non_finite};
 use crate::analysis::{
-    Analysis, AnalysisError, AssemblyOptions, InverseMass, RowList, WorstRows, apply_metric, check_state,
+    AnalysisError, AssemblyOptions, InverseMass, RowList, apply_metric, check_output, check_state,
     normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::{
-    AppliedLoads, Energy, Integrator, REDUNDANT_TOLERANCE, Rate, Reaction, SimulationOptions, SpringDamper, StepReport,
-    advance, check_springs, generalised_forces, inverse_masses, rk4_weights,
+    AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, StepReport, advance,
+    check_redundant, generalised_forces, near_enough, rk4_weights,
 };
 use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
@@ -81,13 +81,7 @@ where
         if options.integrator != Integrator::Rk4 {
             return Err(AnalysisError::BadOption { name: "integrator" });
         }
-        let inertias = scene.inertias();
-        let inverse = inverse_masses::<S, NB, NV, M>(&inertias)?;
-        check_springs::<NB>(springs)?;
-        let gravity = scene.gravity();
-        if !gravity.iter().all(|x| x.is_finite()) {
-            return Err(AnalysisError::BadOption { name: "gravity" });
-        }
+        let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
         let rule = Vec::with_capacity(S::BLOCKS.len());
         Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, solver, rule, options })
@@ -124,9 +118,7 @@ where
         check_state::<S, NB, NV, M>(state, true)?;
         let values = self.scene.jacobian_values(state);
         let gamma = self.scene.gamma(state);
-        if !gamma.iter().all(|x| x.is_finite()) {
-            return Err(non_finite("γ"));
-        }
+        check_output::<S, NB, NV, M, 1>("γ", &gamma)?;
         let forces: SVector<f64, NV> =
             generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state);
         if !forces.iter().all(|x| x.is_finite()) {
@@ -140,22 +132,11 @@ where
         factor.solve(lambda.as_mut_slice());
         let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(&values, &lambda));
         let r = j_mul::<S, NB, NNZ, NV, M>(&values, &vdot) - gamma;
-        let residual = r.norm();
-        if !residual.is_finite() || !vdot.iter().all(|x| x.is_finite()) {
+        if !r.norm().is_finite() || !vdot.iter().all(|x| x.is_finite()) {
             return Err(non_finite("accelerations"));
         }
         let scale = 1.0 + gamma.norm() + libm::sqrt(values.iter().map(|x| x * x).sum::<f64>()) * vdot.norm();
-        let mut kept = r;
-        for &i in self.solver.factor.dropped() {
-            if let Some(x) = kept.get_mut(i) {
-                *x = 0.0;
-            }
-        }
-        let dropped = (r - kept).norm();
-        if kept.norm() > 1e-9 * scale || (check && dropped > REDUNDANT_TOLERANCE * scale) {
-            let worst = WorstRows::of::<S, NB, NV, M>(&r);
-            return Err(AnalysisError::Inconsistent { analysis: Analysis::Dynamics, residual, worst });
-        }
+        check_redundant::<S, NB, NV, M>(&r, self.solver.factor.dropped(), scale, check)?;
         Ok(SparseDynamics { vdot, lambda })
     }
 
@@ -242,14 +223,7 @@ where
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
         let inverse = self.inverse;
-        let (iterations, residual) = match self.solver.newton(self.scene, state, options, &inverse) {
-            Ok(a) => (a.iterations, a.residual),
-            Err(
-                AnalysisError::NotConverged { residual, iterations, .. }
-                | AnalysisError::NoProgress { residual, iterations, .. },
-            ) if residual <= 1e3 * options.tolerance => (iterations, residual),
-            Err(e) => return Err(e),
-        };
+        let (iterations, residual) = near_enough(self.solver.newton(self.scene, state, options, &inverse), options)?;
         let values = self.scene.jacobian_values(state);
         let phi_t = self.scene.phi_t(state);
         let v = velocity_vector::<NB, NV>(state);

@@ -9,8 +9,7 @@ use nalgebra::{Matrix3, SVector};
 
 use super::BlockFactor;
 use crate::analysis::{
-    Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, RowList, WorstRows, apply_increment, apply_metric,
-    check_state, normalise_orientations,
+    Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, RowList, WorstRows, apply_metric, damped_newton,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -125,7 +124,7 @@ where
     }
 
     /// Damped Newton on Φ = 0 with minimum-norm steps in the metric `w`, as
-    /// the dense assembly.
+    /// the dense assembly (the same iteration, with this factor's steps).
     pub(crate) fn newton(
         &mut self,
         scene: &S,
@@ -133,49 +132,10 @@ where
         options: &AssemblyOptions,
         w: &[InverseMass; NB],
     ) -> Result<Assembly<M>, AnalysisError> {
-        check_state::<S, NB, NV, M>(state, false)?;
-        if options.tolerance.is_nan() || options.tolerance < 0.0 {
-            return Err(AnalysisError::BadOption { name: "tolerance" });
-        }
-        if !(options.min_step > 0.0 && options.min_step <= 1.0) {
-            return Err(AnalysisError::BadOption { name: "min_step" });
-        }
-        normalise_orientations::<S, NB, NV, M>(state)?;
-        let mut phi = scene.phi(state);
-        let mut norm = phi.norm();
-        if !norm.is_finite() {
-            return Err(non_finite("Φ"));
-        }
-        let mut iterations = 0;
-        loop {
+        damped_newton(scene, state, options, |state, b| {
             let values = scene.jacobian_values(state);
-            if norm <= options.tolerance {
-                self.factor.factor(&values, w, options.rank_tolerance, None).map_err(|_| non_finite("J"))?;
-                return Ok(Assembly { iterations, residual: norm, redundant: self.redundant() });
-            }
-            if iterations >= options.max_iterations {
-                let worst = WorstRows::of::<S, NB, NV, M>(&phi);
-                return Err(AnalysisError::NotConverged { residual: norm, iterations, worst });
-            }
-            let delta = self.min_norm(&values, -phi, w, options.rank_tolerance)?;
-            let mut alpha = 1.0;
-            loop {
-                let mut trial = *state;
-                apply_increment(&mut trial, &delta, alpha);
-                let p = scene.phi(&trial);
-                let n = p.norm();
-                // Armijo on ‖Φ‖ (the Gauss-Newton direction decreases it at rate 1).
-                if n.is_finite() && n <= (1.0 - 1e-4 * alpha) * norm {
-                    (*state, phi, norm) = (trial, p, n);
-                    break;
-                }
-                alpha *= 0.5;
-                if alpha < options.min_step {
-                    let worst = WorstRows::of::<S, NB, NV, M>(&phi);
-                    return Err(AnalysisError::NoProgress { residual: norm, iterations, worst });
-                }
-            }
-            iterations += 1;
-        }
+            let x = self.min_norm(&values, b, w, options.rank_tolerance)?;
+            Ok((x, self.redundant()))
+        })
     }
 }
