@@ -218,7 +218,7 @@ impl DoubleCardan {
 /// input spins freely in its bearing). Joints `input_bearing`, `output_bearing`,
 /// `first`, `second`; gravity along −z.
 #[derive(Scene, Clone, Copy, Debug)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(gravity = [0, 0, -9.81], second_order)]
 #[body(input, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(middle, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(output, mass = 2.0, inertia = [0.001, 0.17, 0.17])]

@@ -13,6 +13,7 @@ use crate::engine::emit::{self, ScalarTy};
 use crate::engine::graph::VarId;
 use crate::front::resolve::FieldShape;
 use crate::lower::{Derived, Read};
+use crate::second_order::SecondOrderNodes;
 
 /// What a generated method returns.
 #[derive(Clone, Copy)]
@@ -111,6 +112,34 @@ impl Signature {
         });
         quote!(#(#methods)*)
     }
+}
+
+/// The `second_order` method of `Joint` and `Scene` (their default returns
+/// `None`) and its operation count.
+pub fn second_order_method(sig: &Signature, printed: &Printed, nodes: &SecondOrderNodes) -> (TokenStream, usize) {
+    let (body, outs, ops) = printed.emit(&nodes.all());
+    let (k, s, state, prelude) = (krate(), &sig.scalar, &sig.state, &sig.prelude);
+    let (rows, cols) = (sig.rows, sig.cols);
+    let (r, c) = (Literal::usize_unsuffixed(rows), Literal::usize_unsuffixed(cols));
+    let (stiffness, rest) = outs.split_at(cols * cols);
+    let (jacobian_q, rest) = rest.split_at(rows * cols);
+    let (gamma_q, gamma_v) = rest.split_at(rows * cols);
+    let (stiffness, jacobian_q) = (matrix_tokens(stiffness, cols), matrix_tokens(jacobian_q, rows));
+    let (gamma_q, gamma_v) = (matrix_tokens(gamma_q, rows), matrix_tokens(gamma_v, rows));
+    let method = quote! {
+        #[inline]
+        fn second_order(
+            &self,
+            state: &#state,
+            lambda: &#k::__private::SVector<#s, #r>,
+            u: &#k::__private::SVector<#s, #c>,
+        ) -> ::core::option::Option<#k::SecondOrder<#s, #r, #c>> {
+            #prelude
+            #body
+            ::core::option::Option::Some(#k::SecondOrder { stiffness: #stiffness, jacobian_q: #jacobian_q, gamma_q: #gamma_q, gamma_v: #gamma_v })
+        }
+    };
+    (method, ops)
 }
 
 /// `const OPS: Ops = Ops { phi: .., .. }`, zero for a stub.
@@ -264,7 +293,8 @@ fn bindings(d: &Derived, used: &BTreeSet<VarId>, sty: &ScalarTy) -> TokenStream 
                     quote!(.#f)
                 }
             });
-            reads.push((p, quote!(state #(#path)*.data.0)));
+            let root = format_ident!("{}", input.root);
+            reads.push((p, quote!(#root #(#path)*.data.0)));
         }
     }
     // Past a few dozen inputs (a scene of many bodies) one `let` reads them

@@ -82,7 +82,9 @@ pub enum Ground {
 
 /// A state vector the generated code destructures: `state.<path>` holds `vars`.
 pub struct Input {
-    /// Field path below `state`, e.g. `["body1", "r"]`; a number is an array index.
+    /// The argument read: `state`, or `lambda` and `u` for the second-order terms.
+    pub root: &'static str,
+    /// Field path below the root, e.g. `["body1", "r"]`; a number is an array index.
     pub path: Vec<String>,
     /// One variable node per component.
     pub vars: Vec<Id>,
@@ -136,6 +138,10 @@ pub struct Kinematics {
     body_frame_rules: bool,
     /// Frame 0 is the ground (identity); bodies follow.
     frames: Vec<Frame>,
+    /// Each rotating frame of the ω formulations: its Euler parameters, its
+    /// angular-velocity variables and whether they are in the frame's own
+    /// components (for the direction rules of [`Kinematics::direction_rules`]).
+    spins: Vec<([Id; 4], V3, bool)>,
     /// The frames of the current joint's body 1 and body 2.
     pair: [usize; 2],
     delta: Option<V3>,
@@ -161,6 +167,7 @@ impl Kinematics {
             let a = rotation_matrix(&mut k.g, p, "a");
             let body = formulation == Formulation::RelativeB2;
             let omega = k.angular_velocity(&a, w, body, "omega_rel");
+            k.spins.push((p, w, body));
             let r = k.zero3();
             k.frames.push(Frame { a, r, omega: Some(omega), euler: None, body_rate: body.then_some(w) });
             k.pair = [0, 1];
@@ -208,6 +215,7 @@ impl Kinematics {
             velocities: Vec::new(),
             inputs: Vec::new(),
             frames: vec![identity],
+            spins: Vec::new(),
             pair: [0, 0],
             delta: None,
             dot1_in_b2: true,
@@ -251,6 +259,7 @@ impl Kinematics {
             let w = k.velocity3(&format!("w{n}"), at("omega"));
             k.velocities.extend(w);
             w_body = w;
+            k.spins.push((p, w, formulation == Formulation::OmegaBody));
             (Some(k.angular_velocity(&a, w, formulation == Formulation::OmegaBody, &format!("omega{n}"))), None)
         };
         let body_rate = (formulation == Formulation::OmegaBody).then_some(w_body);
@@ -268,14 +277,14 @@ impl Kinematics {
     /// Declares a 3-vector input read from `state.<path>` (rules are set by the caller).
     fn vector(&mut self, name: &str, path: Vec<String>) -> V3 {
         let vars = ["x", "y", "z"].map(|c| self.g.state(format!("{name}_{c}")));
-        self.inputs.push(Input { path, vars: vars.to_vec() });
+        self.inputs.push(Input { root: "state", path, vars: vars.to_vec() });
         vars
     }
 
     /// Declares a 3-vector velocity input read from `state.<path>`.
     fn velocity3(&mut self, name: &str, path: Vec<String>) -> V3 {
         let vars = ["x", "y", "z"].map(|c| self.g.velocity(format!("{name}_{c}")));
-        self.inputs.push(Input { path, vars: vars.to_vec() });
+        self.inputs.push(Input { root: "state", path, vars: vars.to_vec() });
         vars
     }
 
@@ -284,7 +293,7 @@ impl Kinematics {
             let n = format!("{name}_{c}");
             if velocity { self.g.velocity(n) } else { self.g.state(n) }
         });
-        self.inputs.push(Input { path, vars: vars.to_vec() });
+        self.inputs.push(Input { root: "state", path, vars: vars.to_vec() });
         vars
     }
 
@@ -517,6 +526,39 @@ impl Kinematics {
         self.body_frame_rules.then(|| self.rules.overridden(&self.body_rules))
     }
 
+    /// `n` values read from the argument `root` of a generated method (an
+    /// `SVector`): constants as far as every derivative is concerned.
+    pub fn argument(&mut self, root: &'static str, n: usize) -> Vec<Id> {
+        let vars: Vec<Id> = (0..n).map(|i| self.g.param(format!("{root}_{i}"))).collect();
+        self.inputs.push(Input { root, path: Vec::new(), vars: vars.clone() });
+        vars
+    }
+
+    /// Derivatives along a direction `δ` of the coordinates, laid out as the
+    /// velocities (`δṙ`, `δω` or `δṗ`, ...): a new variable per velocity column,
+    /// and rules under which `dt` is the directional derivative on the rotation
+    /// group with the velocities and time held. In the ω formulations `δθ`
+    /// rotates a frame as its angular velocity does: `p ⊕ δθ = p ⊗ q(δθ)` for
+    /// body components, `q(δθ) ⊗ p` for inertial ones (`CONVENTIONS.md`,
+    /// "Second-order terms"). Call after every row is lowered.
+    pub fn direction_rules(&mut self) -> (Vec<Id>, TimeRules) {
+        let directions: Vec<Id> = (0..self.velocities.len()).map(|c| self.g.state(format!("dir_{c}"))).collect();
+        let map = self.velocities.iter().zip(&directions).filter_map(|(&v, &d)| Some((self.g.as_var(v)?, d))).collect();
+        let base = self.body_view().unwrap_or_else(|| self.rules.clone());
+        let mut rules = base.along(&mut self.g, &self.coords, &map);
+        for (p, w, body) in self.spins.clone() {
+            let d = w.map(|x| map.get(&self.g.as_var(x).expect("velocities are variables")).copied().unwrap_or(x));
+            let half = self.g.constant(0.5);
+            let spin = [self.g.zero(), d[0], d[1], d[2]];
+            let product = if body { quat_mul(&mut self.g, p, spin) } else { quat_mul(&mut self.g, spin, p) };
+            for (e, x) in p.iter().zip(product) {
+                let rate = self.g.mul(half, x);
+                rules.set_var(&self.g, *e, rate);
+            }
+        }
+        (directions, rules)
+    }
+
     /// Φ̇, J and γ of one row Φ, and Φ_t, with `body` from
     /// [`body_view`](Self::body_view). Fails when J would depend on the
     /// velocities (the row is not linear in them).
@@ -604,6 +646,24 @@ pub fn rotation_matrix(g: &mut Graph, p: [Id; 4], name: &str) -> [[Id; 3]; 3] {
         }
     }
     a
+}
+
+/// The quaternion product `p ⊗ q`.
+fn quat_mul(g: &mut Graph, p: [Id; 4], q: [Id; 4]) -> [Id; 4] {
+    let (pv, qv) = ([p[1], p[2], p[3]], [q[1], q[2], q[3]]);
+    let scalar = {
+        let d = dot(g, pv, qv);
+        let s = g.mul(p[0], q[0]);
+        g.sub(s, d)
+    };
+    let c = cross(g, pv, qv);
+    let v = [0, 1, 2].map(|j| {
+        let a = g.mul(p[0], qv[j]);
+        let b = g.mul(q[0], pv[j]);
+        let ab = g.add(a, b);
+        g.add(ab, c[j])
+    });
+    [scalar, v[0], v[1], v[2]]
 }
 
 /// `M v`.

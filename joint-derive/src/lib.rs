@@ -15,6 +15,7 @@ mod generate;
 mod joints;
 mod kinematics;
 mod lower;
+mod second_order;
 
 #[cfg(test)]
 mod output_tests;

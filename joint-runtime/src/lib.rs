@@ -32,7 +32,7 @@ mod state;
 mod time;
 
 pub use geometry::{AxisFrame, SlidingFrame, perpendicular_pair, rotation_matrix};
-pub use joint::{Evaluation, Formulation, Joint, Ops, ParseFormulationError, Singularity};
+pub use joint::{Evaluation, Formulation, Joint, Ops, ParseFormulationError, SecondOrder, Singularity};
 pub use scene::{BodyInertia, JointPoint, RowBlock, Scene, SparseJacobian, SystemState};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};

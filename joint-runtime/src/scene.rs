@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::{Evaluation, OmegaBody, Ops};
+use crate::{Evaluation, OmegaBody, Ops, SecondOrder};
 
 /// The state of a mechanism of `NB` bodies: each body's `r, p, ṙ, ω'` (ω' in the
 /// body's own components) and the time.
@@ -84,6 +84,20 @@ pub trait Scene<const NB: usize, const NV: usize, const M: usize> {
     fn gamma(&self, state: &SystemState<NB>) -> SVector<f64, M>;
     /// Φ, J and γ from one shared computation.
     fn evaluate(&self, state: &SystemState<NB>) -> Evaluation<f64, M, NV>;
+    /// The second-order terms at `state` ([`SecondOrder`]: `∂(Jᵀλ)/∂q`,
+    /// `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v`, with `δr` inertial and `δθ'` in body
+    /// components, `p ⊕ δθ' = p ⊗ q(δθ')`): `Some` for a scene derived with
+    /// `#[scene(second_order)]`, `None` (the default) otherwise. The implicit
+    /// integrators build their Newton matrix from it when it is there.
+    fn second_order(
+        &self,
+        state: &SystemState<NB>,
+        lambda: &SVector<f64, M>,
+        u: &SVector<f64, NV>,
+    ) -> Option<SecondOrder<f64, M, NV>> {
+        let _ = (state, lambda, u);
+        None
+    }
     /// Mass properties of each body.
     fn inertias(&self) -> [BodyInertia; NB];
     /// Gravity, inertial components.

@@ -17,4 +17,5 @@ pub mod conformance;
 pub mod joints;
 pub mod random;
 pub mod scenes;
+pub mod second_order;
 pub mod trajectory;

@@ -179,6 +179,22 @@ pub fn along<T: SimdRealField + Copy>(c0: &Coords<f64>, rot: Rot, t: T) -> Coord
     c
 }
 
+/// `c` with its velocities replaced by the velocity vector `v` of a
+/// formulation of `C` columns: 14 (`euler`: `ṙ, ṗ` per body), 12 (the ω
+/// formulations: `ṙ, ω` per body) or 6 (the relative ones: `δ̇, ω`).
+pub fn with_velocity<T: SimdRealField + Copy, const C: usize>(c: &Coords<T>, v: &SVector<T, C>) -> Coords<T> {
+    let mut c = *c;
+    let bodies = if C == 6 { 1 } else { 2 };
+    let per = C / bodies;
+    for b in 0..bodies {
+        let o = per * b;
+        c.set(BODY * b + 7, &[v[o], v[o + 1], v[o + 2]]);
+        let rest: Vec<T> = (3..per).map(|i| v[o + i]).collect();
+        c.set(BODY * b + if per == 7 { 13 } else { 10 }, &rest);
+    }
+    c
+}
+
 // ---------------------------------------------------------------------------
 // Formulations: state types, trajectories, velocity vectors.
 // ---------------------------------------------------------------------------

@@ -9,13 +9,17 @@ use crate::front::joint::{self, Declaration, ScalarKind};
 use crate::generate::{self, Signature, krate, lints};
 use crate::kinematics::{Formulation, Ground};
 use crate::lower::{self, Derived};
+use crate::second_order::{self, SecondOrderNodes};
 
 /// The derive's entry point: tokens in, tokens out; errors become
 /// `compile_error!` beside a stub impl.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     match joint::parse(input) {
         Ok(decl) => match lower::derive_rows(&decl) {
-            Ok(derived) => print(&decl, &derived),
+            Ok(mut derived) => {
+                let second = decl.second_order.then(|| second_order::derive(&mut derived));
+                print(&decl, &derived, second.as_ref())
+            }
             Err(e) => stub(input, e, Some(&decl)),
         },
         Err(failure) => stub(input, failure.error, failure.partial.as_deref()),
@@ -81,7 +85,7 @@ fn header(decl: &Declaration, rows: usize, cols: usize) -> Header {
 }
 
 /// The impls for a derived joint.
-fn print(decl: &Declaration, d: &Derived) -> TokenStream {
+fn print(decl: &Declaration, d: &Derived, second: Option<&SecondOrderNodes>) -> TokenStream {
     let (rows, cols) = (d.phi.len(), d.kinematics.velocities.len());
     debug_assert_eq!(lower::shape(decl), (rows, cols), "rows and columns from the declaration alone");
     let head = header(decl, rows, cols);
@@ -90,7 +94,12 @@ fn print(decl: &Declaration, d: &Derived) -> TokenStream {
     let sty = ScalarTy { ty: signature.scalar.clone(), krate: krate(), concrete_f64 };
     let printed = generate::print(d, &sty, None);
     let (ops, methods, lints) = (generate::ops_const(Some(&printed)), signature.methods(Some(&printed)), lints());
-    let doc = format!(" Operation counts (binary + − ×): {}.", printed.ops_text());
+    let (second_method, second_ops) = match second {
+        Some(nodes) => generate::second_order_method(signature, &printed, nodes),
+        None => (TokenStream::new(), 0),
+    };
+    let second_text = if second.is_some() { format!(", second_order {second_ops}") } else { String::new() };
+    let doc = format!(" Operation counts (binary + − ×): {}{second_text}.", printed.ops_text());
     let singularity = singularity(decl, d, &printed, &head);
     quote! {
         #[doc = #doc]
@@ -99,6 +108,7 @@ fn print(decl: &Declaration, d: &Derived) -> TokenStream {
             #items
             #ops
             #methods
+            #second_method
         }
         #singularity
     }

@@ -11,12 +11,29 @@ use crate::front::resolve::Source;
 use crate::front::scene::{self, BodyName, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape};
 use crate::generate::{self, Printed, Signature, krate, lints};
 use crate::lower::{self, Block, Derived};
+use crate::second_order::{self, SecondOrderNodes};
 
 /// The derive's entry point.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     let derived = scene::parse(input).and_then(|s| lower::derive_scene(&s).map(|d| (s, d)));
-    match derived {
-        Ok((s, (d, blocks))) => print(input, &s, &d, &blocks),
+    let with_second = derived.and_then(|(s, (mut d, blocks))| {
+        let second = match s.second_order {
+            Some(span) if d.phi.len() * d.kinematics.velocities.len() > DENSE_LIMIT => {
+                let message = format!(
+                    "`second_order` gives dense matrices, and this scene's J has {} × {} entries, above {DENSE_LIMIT}; \
+                     expected a scene of fewer bodies or rows",
+                    d.phi.len(),
+                    d.kinematics.velocities.len()
+                );
+                return Err(syn::Error::new(span, message));
+            }
+            Some(_) => Some(second_order::derive(&mut d)),
+            None => None,
+        };
+        Ok((s, d, blocks, second))
+    });
+    match with_second {
+        Ok((s, d, blocks, second)) => print(input, &s, &d, &blocks, second.as_ref()),
         Err(e) => stub(input, e, scene::shape(input)),
     }
 }
@@ -92,7 +109,13 @@ fn state_alias(input: &syn::DeriveInput, nb: &Literal) -> TokenStream {
     }
 }
 
-fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block]) -> TokenStream {
+fn print(
+    input: &syn::DeriveInput,
+    s: &SceneDecl,
+    d: &Derived,
+    blocks: &[Block],
+    second: Option<&SecondOrderNodes>,
+) -> TokenStream {
     let k = krate();
     let z = sizes(s.bodies.len(), d.phi.len());
     let sty = ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true };
@@ -119,8 +142,13 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block])
         wc.predicates.push(syn::parse_quote!(#ty: #k::TimeFunction));
     }
     let (ig, tg, wc) = generics.split_for_impl();
+    let (second_method, second_ops) = match second {
+        Some(nodes) => generate::second_order_method(&z.signature, &printed, nodes),
+        None => (TokenStream::new(), 0),
+    };
+    let second_text = if second.is_some() { format!(", second_order {second_ops}") } else { String::new() };
     let doc = format!(
-        " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}.",
+        " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}{second_text}.",
         s.bodies.len(),
         d.phi.len(),
         6 * s.bodies.len(),
@@ -139,6 +167,7 @@ fn print(input: &syn::DeriveInput, s: &SceneDecl, d: &Derived, blocks: &[Block])
             const BLOCKS: &'static [#k::RowBlock] = #blocks;
             #ops
             #methods
+            #second_method
             fn inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
             fn gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
             fn joint_points(&self, visit: &mut dyn FnMut(#k::JointPoint)) { #(#points)* }

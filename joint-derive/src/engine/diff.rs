@@ -15,7 +15,7 @@
 
 use std::collections::HashMap;
 
-use super::graph::{Graph, Id, Node, VarId};
+use super::graph::{Graph, Id, Node, VELOCITY, VarId};
 
 /// The rules of one time derivative.
 #[derive(Default, Clone)]
@@ -58,6 +58,32 @@ impl TimeRules {
         }
         rules.memo.clear();
         rules
+    }
+
+    /// The same motion along another direction: the rules of the coordinates
+    /// `coords` and of every node free of velocities, with each velocity
+    /// variable replaced by its node in `direction`. Rules stated on nodes that
+    /// hold a velocity (an ω held constant, a second derivative) hold only along
+    /// the velocity itself and are left out, as are the time functions': the
+    /// derivative then goes through their parts. The velocities are held.
+    pub fn along(&self, g: &mut Graph, coords: &[Id], direction: &HashMap<VarId, Id>) -> TimeRules {
+        let mut memo = HashMap::new();
+        let mut out = TimeRules::new();
+        let mut vars: Vec<(VarId, Id)> =
+            coords.iter().filter_map(|&c| g.as_var(c)).filter_map(|v| self.vars.get(&v).map(|&d| (v, d))).collect();
+        vars.sort_by_key(|&(v, _)| v.0);
+        for (v, d) in vars {
+            let d = g.substitute(d, direction, &mut memo);
+            out.vars.insert(v, d);
+        }
+        let mut nodes: Vec<(Id, Id)> =
+            self.nodes.iter().filter(|&(&n, _)| g.mask(n) & VELOCITY == 0).map(|(&n, &d)| (n, d)).collect();
+        nodes.sort_by_key(|&(n, _)| n);
+        for (n, d) in nodes {
+            let d = g.substitute(d, direction, &mut memo);
+            out.nodes.insert(n, d);
+        }
+        out
     }
 
     /// The time derivative of `id`.

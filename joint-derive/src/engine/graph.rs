@@ -400,6 +400,38 @@ impl Graph {
         }
     }
 
+    /// `id` with the variables of `map` replaced by their nodes, rebuilt through
+    /// the smart constructors (`memo` carries work between calls). How a rule
+    /// stated along the velocities becomes the same rule along another direction.
+    pub fn substitute(&mut self, id: Id, map: &HashMap<VarId, Id>, memo: &mut HashMap<Id, Id>) -> Id {
+        if let Some(&done) = memo.get(&id) {
+            return done;
+        }
+        let out = match self.node(id) {
+            Node::Const(_) => id,
+            Node::Var(v) => map.get(&v).copied().unwrap_or(id),
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
+                let (x, y) = (self.substitute(a, map, memo), self.substitute(b, map, memo));
+                match self.node(id) {
+                    Node::Add(..) => self.add(x, y),
+                    Node::Sub(..) => self.sub(x, y),
+                    Node::Mul(..) => self.mul(x, y),
+                    _ => self.div(x, y),
+                }
+            }
+            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => {
+                let x = self.substitute(a, map, memo);
+                match self.node(id) {
+                    Node::Neg(_) => self.neg(x),
+                    Node::Sin(_) => self.sin(x),
+                    _ => self.cos(x),
+                }
+            }
+        };
+        memo.insert(id, out);
+        out
+    }
+
     /// `Σ terms` (0 for none), summed left to right.
     pub fn sum(&mut self, terms: &[Id]) -> Id {
         let mut acc = self.zero();

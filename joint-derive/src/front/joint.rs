@@ -52,6 +52,8 @@ pub struct Declaration {
     pub row_spans: Vec<Span>,
     /// The span of the joint kind (or of `rows`).
     pub kind_span: Span,
+    /// Whether `second_order` was asked for (the `second_order` method).
+    pub second_order: bool,
 }
 
 /// A declaration that does not check: the errors, and as much of the
@@ -99,6 +101,7 @@ struct StructAttr {
     formulation: Slot<Formulation>,
     ground: Slot<(Ground, String)>,
     rows: Slot<Vec<syn::Expr>>,
+    second_order: Slot<()>,
     /// `PARAM = VALUE` items.
     consts: Vec<(syn::Ident, Value)>,
     /// Vectors given in `body1(...)` and the other groups, with their roles.
@@ -112,6 +115,7 @@ impl StructAttr {
             formulation: Slot::new("`formulation`", "it once"),
             ground: Slot::new("`ground`", "it once"),
             rows: Slot::new("`rows(...)`", "one list of rows"),
+            second_order: Slot::new("`second_order`", "it once"),
             consts: Vec::new(),
             tagged: Vec::new(),
         };
@@ -131,6 +135,10 @@ impl StructAttr {
     fn item(&mut self, arg: Arg, errors: &mut Errors) {
         let name = arg.key.to_string();
         match (name.as_str(), arg.value) {
+            ("second_order", None) => self.second_order.set(arg.key.span(), (), errors),
+            ("second_order", Some(v)) => {
+                errors.at(v.span(), "`second_order` takes no value; expected `second_order` alone")
+            }
             (_, None) => self.kind_name(&arg.key, errors),
             ("formulation", Some(Value::Ident(f))) => match Formulation::ALL.into_iter().find(|x| f == x.name()) {
                 Some(x) => self.formulation.set(f.span(), x, errors),
@@ -367,6 +375,7 @@ pub fn parse(input: &syn::DeriveInput) -> Result<Declaration, Failure> {
         time_fields: resolved.time_types,
         row_spans,
         kind_span,
+        second_order: attr.second_order.take().is_some(),
     };
     if errors.is_empty() {
         errors.finish().map_err(|e| Failure { error: e, partial: None })?;

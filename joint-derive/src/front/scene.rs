@@ -253,6 +253,8 @@ pub struct SceneDecl {
     pub gravity: Quantity,
     /// Types of time-function fields (each needs a `TimeFunction` bound).
     pub time_types: Vec<syn::Type>,
+    /// `#[scene(second_order)]`: where it was asked for.
+    pub second_order: Option<Span>,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -376,7 +378,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let gravity = scene_options(input, &fields, &mut errors);
+    let (gravity, second_order) = scene_options(input, &fields, &mut errors);
     let bodies = bodies(input, &fields, &mut errors);
     if bodies.is_empty() && !written("body") {
         let message = "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`";
@@ -385,7 +387,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     if !bodies.is_empty() && !written("joint") {
         errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
-    let mut scene = SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new() };
+    let mut scene = SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new(), second_order };
     // With no bodies every joint would be ground to ground: say the one thing that is wrong.
     if !scene.bodies.is_empty() {
         for attr in input.attrs.iter().filter(|a| a.path().is_ident("joint")) {
@@ -399,9 +401,11 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     Ok(scene)
 }
 
-/// `#[scene(gravity = .., formulation = omega_body)]`: the gravity.
-fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Quantity {
+/// `#[scene(gravity = .., formulation = omega_body, second_order)]`: the
+/// gravity, and whether the second-order terms are wanted.
+fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> (Quantity, Option<Span>) {
     let mut gravity = Slot::new("`gravity`", "it once");
+    let mut second_order = Slot::new("`second_order`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
             "gravity" => {
@@ -417,10 +421,21 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                      omega_body` or nothing",
                 ),
             },
-            other => errors.at(a.key.span(), format!("unknown scene option `{other}`; expected `gravity`")),
+            "second_order" => match a.value {
+                None => second_order.set(a.key.span(), (), errors),
+                Some(v) => errors.at(v.span(), "`second_order` takes no value; expected `second_order` alone"),
+            },
+            other => {
+                let hint = did_you_mean(other, ["gravity", "second_order"]);
+                errors.at(
+                    a.key.span(),
+                    format!("unknown scene option `{other}`{hint}; expected `gravity` or `second_order`"),
+                )
+            }
         }
     }
-    gravity.take().map_or(Quantity::Const(vec![Number::Known(0.0); 3]), |(q, _)| q)
+    let gravity = gravity.take().map_or(Quantity::Const(vec![Number::Known(0.0); 3]), |(q, _)| q);
+    (gravity, second_order.take().map(|(_, span)| span))
 }
 
 /// The `#[body(..)]` attributes, checked: names unique and distinct from the

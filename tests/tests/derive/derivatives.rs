@@ -10,8 +10,9 @@
 //!
 //! The trajectories, states and comparisons are [`joint_tests::trajectory`]'s.
 
-use joint_runtime::nalgebra::{Scalar, SimdRealField, SimdValue, Vector3};
+use joint_runtime::nalgebra::{SVector, Scalar, SimdRealField, SimdValue, Vector3};
 use joint_runtime::{Joint, OneBody, SlidingFrame, perpendicular_pair};
+use joint_tests::second_order::{joint_by_duals, joint_generated};
 use joint_tests::trajectory::{
     BODY, Coords, Euler, Flat, Form, OmegaBodyF, OmegaInertial, RelB1, RelB2, along, bitwise, close, coords_from,
     matvec, max_abs,
@@ -78,7 +79,7 @@ macro_rules! joint {
 
 macro_rules! family {
     ($name:ident, $kind:ident, $form:ident, $F:ty, $r:literal, $c:literal, [$($p:ident),*]) => {
-        joint!($name, [$kind, formulation = $form], [$($p),*]);
+        joint!($name, [$kind, formulation = $form, second_order], [$($p),*]);
         impl Family<$r, $c> for $name<f64> {
             type F = $F;
             type J<T: SimdRealField + Copy> = $name<T>;
@@ -307,6 +308,23 @@ fn check_wide<Fa: Family<R, C>, const R: usize, const C: usize>(cs: &[Coords<f64
     Ok(())
 }
 
+/// The generated second-order terms against num-dual over the generated J
+/// and γ ([`joint_tests::second_order::joint_by_duals`]), to 256 ε times the
+/// monomial scale; returns the largest entry compared.
+fn check_second_order<Fa: Family<R, C>, const R: usize, const C: usize>(c: &Coords<f64>, p: &Params<f64>) -> Mag {
+    let lambda = SVector::<f64, R>::from_fn(|i, _| 1.0 + p.0[(7 * i + 2) % 18]);
+    let u = SVector::<f64, C>::from_fn(|i, _| c.0[(5 * i + 3) % 34]);
+    let generated = |c: &Coords<f64>, p: &Params<f64>| {
+        joint_generated(&make::<Fa, R, C, f64>(p), &state::<Fa, R, C, f64>(c), &lambda, &u)
+    };
+    let jd = make::<Fa, R, C, Dual64>(&p.map(Dual64::from_re));
+    let want = joint_by_duals::<Fa::F, _, R, C>(&jd, c, 0.0, &lambda, &u);
+    let mag = magnitude(c, p, generated);
+    let what = format!("{} second-order terms vs num-dual", <Fa::J<f64> as Joint<f64, R, C>>::KIND);
+    close(&what, &generated(c, p), &want, C, 256.0 * f64::EPSILON, &mag)?;
+    Ok(max_abs(&want))
+}
+
 macro_rules! properties {
     ($module:ident, $fam:ty, $r:literal, $c:literal, unit = $unit:literal) => {
         mod $module {
@@ -334,6 +352,10 @@ macro_rules! properties {
                     check_f32::<$fam, $r, $c>(&c, &p)?;
                 }
                 #[test]
+                fn second_order_matches_dual(c in coords($unit), p in params()) {
+                    check_second_order::<$fam, $r, $c>(&c, &p)?;
+                }
+                #[test]
                 fn wide_f64x4_lanes_match_f64(
                     cs in prop::array::uniform4(coords($unit)),
                     ps in prop::array::uniform4(params()),
@@ -350,7 +372,9 @@ macro_rules! properties {
                     let rate = check_jv::<$fam, $r, $c>(&c, &p).unwrap();
                     let acc = check_gamma_dual::<$fam, $r, $c>(&c, &p).unwrap();
                     let fd = check_gamma_fd::<$fam, $r, $c>(&c, &p).unwrap();
+                    let second = check_second_order::<$fam, $r, $c>(&c, &p).unwrap();
                     assert!(rate > 1e-3, "dΦ/dt = 0");
+                    assert!((second == 0.0) == gamma_vanishes::<$fam, $r, $c>(), "second-order terms = {second:e}");
                     if gamma_vanishes::<$fam, $r, $c>() {
                         assert!(acc == 0.0 && fd < 1e-9, "Φ̈ = {acc:e}, FD = {fd:e}: expected 0");
                     } else {

@@ -13,4 +13,5 @@ mod analysis;
 mod batch;
 mod dynamics;
 mod record;
+mod second_order;
 mod serde_io;

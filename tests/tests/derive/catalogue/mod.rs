@@ -123,7 +123,7 @@ macro_rules! family {
     // Vector parameters only.
     ($fam:ident, $name:ident, $kind:ident, $form:ident, $F:ty, $r:literal, $c:literal, [$($p:ident),*]) => {
         #[derive(Joint, Clone, Debug)]
-        #[joint($kind, formulation = $form)]
+        #[joint($kind, formulation = $form, second_order)]
         pub(crate) struct $name<T> {
             $($p: Vector3<T>),*
         }
@@ -146,7 +146,7 @@ macro_rules! family {
     // With a scalar parameter (read from the scalar slot).
     ($fam:ident, $name:ident, $kind:ident, $form:ident, $F:ty, $r:literal, $c:literal, [$($p:ident),*], scalar $sc:ident) => {
         #[derive(Joint, Clone, Debug)]
-        #[joint($kind, formulation = $form)]
+        #[joint($kind, formulation = $form, second_order)]
         pub(crate) struct $name<T> {
             $($p: Vector3<T>,)*
             $sc: T,
@@ -170,7 +170,7 @@ macro_rules! family {
     // A driver: a time-function field of the struct's second type parameter.
     ($fam:ident, $name:ident, $kind:ident, $form:ident, $F:ty, $r:literal, $c:literal, [$($p:ident),*], time $tf:ident $tk:ident) => {
         #[derive(Joint, Clone, Debug)]
-        #[joint($kind, formulation = $form)]
+        #[joint($kind, formulation = $form, second_order)]
         pub(crate) struct $name<T, F> {
             $($p: Vector3<T>,)*
             $tf: F,
@@ -583,6 +583,13 @@ macro_rules! properties {
                     check_time_terms::<$fam, $r, $c>(&k)?;
                 }
             }
+            proptest! {
+                #![proptest_config(ProptestConfig { cases: 8, ..config() })]
+                #[test]
+                fn second_order_matches_dual(k in case($unit)) {
+                    second_order::check_second_order::<$fam, $r, $c>(&k)?;
+                }
+            }
             $(
                 proptest! {
                     #![proptest_config(config())]
@@ -599,6 +606,11 @@ macro_rules! properties {
                     let acc = check_gamma_dual::<$fam, $r, $c>(&k).unwrap();
                     let fd = check_gamma_fd::<$fam, $r, $c>(&k).unwrap();
                     let time = check_time_terms::<$fam, $r, $c>(&k).unwrap();
+                    let second = second_order::check_second_order::<$fam, $r, $c>(&k).unwrap();
+                    // Rows linear in the relative coordinates have none.
+                    let linear = linear_in_relative::<$fam, $r, $c>()
+                        || (relative_form::<$fam, $r, $c>() && <$fam as Family<$r, $c>>::NAME == "translational_driver");
+                    assert!(if linear { second == 0.0 } else { second > 1e-3 }, "second-order terms = {second:e}");
                     assert!(rate > 1e-3, "dΦ/dt = {rate:e}");
                     if linear_in_relative::<$fam, $r, $c>() {
                         assert!(acc == 0.0 && fd < 1e-8, "Φ̈ = {acc:e}, FD = {fd:e}: expected 0");
@@ -653,3 +665,9 @@ mod axes;
 // ---------------------------------------------------------------------------
 
 mod singularity;
+
+// ---------------------------------------------------------------------------
+// Second-order terms.
+// ---------------------------------------------------------------------------
+
+mod second_order;

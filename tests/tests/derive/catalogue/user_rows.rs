@@ -6,7 +6,7 @@ use super::*;
 macro_rules! universal_pair {
     ($user:ident, $cat:ident, $form:ident) => {
         #[derive(Joint, Clone, Debug)]
-        #[joint(rows(spherical, dot1(s, h)), formulation = $form)]
+        #[joint(rows(spherical, dot1(s, h)), formulation = $form, second_order)]
         pub(crate) struct $user<T> {
             #[joint(body1)]
             s: Vector3<T>,
@@ -16,7 +16,7 @@ macro_rules! universal_pair {
             rho2: Vector3<T>,
         }
         #[derive(Joint, Clone, Debug)]
-        #[joint(universal, formulation = $form)]
+        #[joint(universal, formulation = $form, second_order)]
         pub(crate) struct $cat<T> {
             pub(crate) s: Vector3<T>,
             pub(crate) h: Vector3<T>,
@@ -83,7 +83,7 @@ fn user_joints_are_custom() {
 macro_rules! constant_angle {
     ($fam:ident, $name:ident, $form:ident, $F:ty, $c:literal) => {
         #[derive(Joint, Clone, Debug)]
-        #[joint(rows(dot(s, h) - cos(alpha)), formulation = $form)]
+        #[joint(rows(dot(s, h) - cos(alpha)), formulation = $form, second_order)]
         pub(crate) struct $name<T> {
             #[joint(body1)]
             s: Vector3<T>,
@@ -131,7 +131,7 @@ proptest! {
 
 /// The README's cable: `rows(norm2(d) - l * l)` with `l` a time function.
 #[derive(Joint, Clone, Debug)]
-#[joint(rows(norm2(d) - l * l), formulation = euler)]
+#[joint(rows(norm2(d) - l * l), formulation = euler, second_order)]
 pub(crate) struct Cable<T, F> {
     rho1: Vector3<T>,
     rho2: Vector3<T>,

@@ -65,6 +65,8 @@
 
 // `AnalysisError` is returned by value (no allocator to box it).
 
+mod newton_matrix;
+
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector4};
 
 use crate::analysis::{
@@ -203,6 +205,22 @@ pub enum Integrator {
     ImplicitMidpoint,
 }
 
+/// The iteration matrix of the implicit integrator's Newton iteration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+#[non_exhaustive]
+pub enum NewtonMatrix {
+    /// Exact, from the scene's generated second-order terms
+    /// (`#[scene(second_order)]`; see `dynamics/newton_matrix.rs`): one
+    /// factorisation and `NV` solves. Falls back to finite differences for a
+    /// scene derived without them.
+    #[default]
+    Generated,
+    /// Forward differences of the residual: `NV` evaluations of the dynamics.
+    FiniteDifferences,
+}
+
 /// How far (relative to the scale of `J v̇` and γ) a redundant row's
 /// acceleration equation may disagree with the rows that determine the motion
 /// before [`Simulation::dynamics`] calls the constraints contradictory: loose
@@ -230,6 +248,8 @@ pub struct SimulationOptions {
     pub newton_tolerance: f64,
     /// Implicit integrator: Newton iterations allowed per step.
     pub newton_max_iterations: usize,
+    /// Implicit integrator: how its iteration matrix is made.
+    pub newton_matrix: NewtonMatrix,
 }
 
 impl Default for SimulationOptions {
@@ -241,6 +261,7 @@ impl Default for SimulationOptions {
             rank_tolerance: DEFAULT_RANK_TOLERANCE,
             newton_tolerance: 1e-12,
             newton_max_iterations: 30,
+            newton_matrix: NewtonMatrix::Generated,
         }
     }
 }
@@ -271,6 +292,11 @@ impl SimulationOptions {
     /// Sets [`newton_tolerance`](Self::newton_tolerance).
     pub const fn with_newton_tolerance(mut self, newton_tolerance: f64) -> Self {
         self.newton_tolerance = newton_tolerance;
+        self
+    }
+    /// Sets [`newton_matrix`](Self::newton_matrix).
+    pub const fn with_newton_matrix(mut self, newton_matrix: NewtonMatrix) -> Self {
+        self.newton_matrix = newton_matrix;
         self
     }
     /// Sets [`newton_max_iterations`](Self::newton_max_iterations).
@@ -332,6 +358,8 @@ impl Energy {
 pub struct StepReport {
     /// Newton iterations of the implicit integrator (0 for RK4).
     pub newton_iterations: usize,
+    /// Iteration matrices the implicit integrator built and factorised (0 for RK4).
+    pub newton_matrices: usize,
     /// Newton iterations of the position projection.
     pub projection_iterations: usize,
     /// ‖Φ‖₂ at the end of the step.
@@ -640,12 +668,41 @@ where
         Ok(w - v0 - a * (0.5 * h))
     }
 
+    /// The iteration matrix `∂R/∂w` at `w`: generated, or forward differences
+    /// of the residual `r` at `w`.
+    fn midpoint_matrix(
+        &mut self,
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        w: &SVector<f64, NV>,
+        r: &SVector<f64, NV>,
+        h: f64,
+        rule: &mut StepRule<M>,
+    ) -> Result<SMatrix<f64, NV, NV>, AnalysisError> {
+        if self.options.newton_matrix == NewtonMatrix::Generated {
+            if let Some(m) = self.generated_midpoint_matrix(y0, w, h, rule)? {
+                return Ok(m);
+            }
+        }
+        let mut jac = SMatrix::<f64, NV, NV>::zeros();
+        for c in 0..NV {
+            let eps = 1e-7 * (1.0 + libm::fabs(w[c]));
+            let mut wc = *w;
+            wc[c] += eps;
+            let rc = self.midpoint_residual(y0, v0, &wc, h, rule)?;
+            jac.set_column(c, &((rc - r) / eps));
+        }
+        Ok(jac)
+    }
+
+    /// One step of the implicit midpoint rule; returns the Newton iterations
+    /// and the iteration matrices built.
     fn step_midpoint(
         &mut self,
         state: &mut SystemState<NB>,
         h: f64,
         rule: &mut StepRule<M>,
-    ) -> Result<usize, AnalysisError> {
+    ) -> Result<(usize, usize), AnalysisError> {
         let y0 = *state;
         let v0 = velocity_vector::<NB, NV>(&y0);
         // Explicit predictor.
@@ -654,7 +711,7 @@ where
         let mut lu: Option<Lu<NV>> = None;
         let mut last = f64::INFINITY;
         let max = self.options.newton_max_iterations;
-        let mut iterations = 0;
+        let (mut iterations, mut matrices) = (0, 0);
         loop {
             if iterations >= max {
                 return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
@@ -662,16 +719,8 @@ where
             let factor = match lu {
                 Some(f) => f,
                 None => {
-                    // Finite-difference iteration matrix ∂R/∂w.
-                    let mut jac = SMatrix::<f64, NV, NV>::zeros();
-                    for c in 0..NV {
-                        let eps = 1e-7 * (1.0 + libm::fabs(w[c]));
-                        let mut wc = w;
-                        wc[c] += eps;
-                        let rc = self.midpoint_residual(&y0, &v0, &wc, h, rule)?;
-                        jac.set_column(c, &((rc - r) / eps));
-                    }
-                    let f = Lu::new(&jac)?;
+                    let f = Lu::new(&self.midpoint_matrix(&y0, &v0, &w, &r, h, rule)?)?;
+                    matrices += 1;
                     lu = Some(f);
                     f
                 }
@@ -698,7 +747,7 @@ where
         set_velocities(&mut y, &(w * 2.0 - v0));
         y.t = y0.t + h;
         *state = y;
-        Ok(iterations)
+        Ok((iterations, matrices))
     }
 
     /// Advances `state` by one step `h` with the configured integrator, then
@@ -720,11 +769,11 @@ where
         // O(h²), and a choice that switched between stages would cost the method
         // its order.
         let mut rule = self.step_rule(&y)?;
-        let newton_iterations = match self.options.integrator {
-            Integrator::Rk4 => self.step_rk4(&mut y, h, &mut rule)?,
+        let (newton_iterations, newton_matrices) = match self.options.integrator {
+            Integrator::Rk4 => (self.step_rk4(&mut y, h, &mut rule)?, 0),
             Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,
         };
-        let mut report = StepReport { newton_iterations, ..StepReport::default() };
+        let mut report = StepReport { newton_iterations, newton_matrices, ..StepReport::default() };
         if let Some(options) = self.options.projection {
             // Projected on the copy: a failed projection (a NaN parameter seen
             // only by Φ, say) leaves the caller's state as it was.
