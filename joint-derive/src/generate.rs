@@ -123,9 +123,11 @@ pub fn second_order_method(sig: &Signature, printed: &Printed, nodes: &SecondOrd
     let (r, c) = (Literal::usize_unsuffixed(rows), Literal::usize_unsuffixed(cols));
     let (stiffness, rest) = outs.split_at(cols * cols);
     let (jacobian_q, rest) = rest.split_at(rows * cols);
-    let (gamma_q, gamma_v) = rest.split_at(rows * cols);
+    let (gamma_q, rest) = rest.split_at(rows * cols);
+    let (gamma_v, phi_t_q) = rest.split_at(rows * cols);
     let (stiffness, jacobian_q) = (matrix_tokens(stiffness, cols), matrix_tokens(jacobian_q, rows));
     let (gamma_q, gamma_v) = (matrix_tokens(gamma_q, rows), matrix_tokens(gamma_v, rows));
+    let phi_t_q = matrix_tokens(phi_t_q, rows);
     let method = quote! {
         #[inline]
         fn second_order(
@@ -136,7 +138,7 @@ pub fn second_order_method(sig: &Signature, printed: &Printed, nodes: &SecondOrd
         ) -> ::core::option::Option<#k::SecondOrder<#s, #r, #c>> {
             #prelude
             #body
-            ::core::option::Option::Some(#k::SecondOrder { stiffness: #stiffness, jacobian_q: #jacobian_q, gamma_q: #gamma_q, gamma_v: #gamma_v })
+            ::core::option::Option::Some(#k::SecondOrder { stiffness: #stiffness, jacobian_q: #jacobian_q, gamma_q: #gamma_q, gamma_v: #gamma_v, phi_t_q: #phi_t_q })
         }
     };
     (method, ops)

@@ -1,6 +1,7 @@
 //! Second-order terms, when a declaration asks for them (`second_order`): the
-//! tangent stiffness `K(q, λ) = ∂(Jᵀλ)/∂q`, `∂(J u)/∂q`, `∂γ/∂q` and `∂γ/∂v`,
-//! what the Newton matrix of an implicit integrator is made of.
+//! tangent stiffness `K(q, λ) = ∂(Jᵀλ)/∂q`, `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v` and
+//! `∂Φ_t/∂q`: what the Newton matrix of an implicit integrator and a
+//! linearisation are made of.
 //!
 //! Each `∂/∂q` is a directional derivative along `δ` on the rotation group
 //! ([`Kinematics::direction_rules`]), whose coefficients in `δ` are the matrix:
@@ -24,12 +25,18 @@ pub struct SecondOrderNodes {
     pub gamma_q: Vec<Id>,
     /// `∂γ/∂v`, `M × NV`.
     pub gamma_v: Vec<Id>,
+    /// `∂Φ_t/∂q`, `M × NV` (zero but for drivers).
+    pub phi_t_q: Vec<Id>,
 }
 
 impl SecondOrderNodes {
     /// Every entry, in the order of the runtime's `SecondOrder` fields.
     pub fn all(&self) -> Vec<Id> {
-        [&self.stiffness, &self.jacobian_q, &self.gamma_q, &self.gamma_v].into_iter().flatten().copied().collect()
+        [&self.stiffness, &self.jacobian_q, &self.gamma_q, &self.gamma_v, &self.phi_t_q]
+            .into_iter()
+            .flatten()
+            .copied()
+            .collect()
     }
 }
 
@@ -67,11 +74,20 @@ pub fn derive(d: &mut Derived) -> SecondOrderNodes {
         })
         .collect();
     let gamma_v_rows: Vec<Vec<Id>> = d.gamma.iter().map(|&gamma| grad(&mut k.g, gamma, &velocities)).collect();
+    let phi_t_q_rows: Vec<Vec<Id>> = d
+        .phi_t
+        .iter()
+        .map(|&phi_t| {
+            let dp = along.dt(&mut k.g, phi_t);
+            grad(&mut k.g, dp, &directions)
+        })
+        .collect();
     SecondOrderNodes {
         stiffness: column_major(&stiffness_rows, nv),
         jacobian_q: column_major(&jacobian_q_rows, nv),
         gamma_q: column_major(&gamma_q_rows, nv),
         gamma_v: column_major(&gamma_v_rows, nv),
+        phi_t_q: column_major(&phi_t_q_rows, nv),
     }
 }
 

@@ -6,7 +6,7 @@
 
 use joint_runtime::nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3, Vector4};
 use joint_runtime::{Joint, Scene, SecondOrder, SystemState};
-use num_dual::{Dual64, DualNum};
+use num_dual::Dual64;
 
 use crate::trajectory::{Coords, Form, along, lift, with_velocity};
 
@@ -71,6 +71,7 @@ pub fn by_differences<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, con
         jacobian_q: columns(state, false, &|s| scene.jacobian(s) * u),
         gamma_q: columns(state, false, &|s| scene.gamma(s)),
         gamma_v: columns(state, true, &|s| scene.gamma(s)),
+        phi_t_q: columns(state, false, &|s| scene.phi_t(s)),
     }
 }
 
@@ -94,6 +95,7 @@ pub fn worst_error<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const 
         (rel(generated.jacobian_q.as_slice(), fd.jacobian_q.as_slice()), "jacobian_q"),
         (rel(generated.gamma_q.as_slice(), fd.gamma_q.as_slice()), "gamma_q"),
         (rel(generated.gamma_v.as_slice(), fd.gamma_v.as_slice()), "gamma_v"),
+        (rel(generated.phi_t_q.as_slice(), fd.phi_t_q.as_slice()), "phi_t_q"),
     ]
     .into_iter()
     .fold((0.0, ""), |w, x| if x.0 > w.0 { x } else { w })
@@ -108,7 +110,8 @@ pub fn joint_generated<J: Joint<f64, R, C>, const R: usize, const C: usize>(
     u: &SVector<f64, C>,
 ) -> Vec<f64> {
     let s = joint.second_order(state, lambda, u).expect("the joint is derived with `second_order`");
-    [s.stiffness.as_slice(), s.jacobian_q.as_slice(), s.gamma_q.as_slice(), s.gamma_v.as_slice()].concat()
+    [s.stiffness.as_slice(), s.jacobian_q.as_slice(), s.gamma_q.as_slice(), s.gamma_v.as_slice(), s.phi_t_q.as_slice()]
+        .concat()
 }
 
 /// The same entries by num-dual over the generated `jacobian` and `gamma` of
@@ -132,6 +135,7 @@ where
     let eps = |x: Dual64| x.eps;
     let (mut stiffness, mut jacobian_q) = (SMatrix::<f64, C, C>::zeros(), SMatrix::<f64, R, C>::zeros());
     let (mut gamma_q, mut gamma_v) = (SMatrix::<f64, R, C>::zeros(), SMatrix::<f64, R, C>::zeros());
+    let mut phi_t_q = SMatrix::<f64, R, C>::zeros();
     for col in 0..C {
         let e = SVector::<f64, C>::from_fn(|i, _| if i == col { 1.0 } else { 0.0 });
         let moved = along(&with_velocity(c, &e), Fo::ROT, tau);
@@ -140,8 +144,9 @@ where
         stiffness.set_column(col, &(j.transpose() * lambda).map(eps));
         jacobian_q.set_column(col, &(j * u).map(eps));
         gamma_q.set_column(col, &jd.gamma(&s).map(eps));
+        phi_t_q.set_column(col, &jd.phi_t(&s).map(eps));
         let faster = with_velocity(&c.map(lift::<Dual64>), &(v + e.map(Dual64::from_re) * tau));
         gamma_v.set_column(col, &jd.gamma(&Fo::build(&faster, t)).map(eps));
     }
-    [stiffness.as_slice(), jacobian_q.as_slice(), gamma_q.as_slice(), gamma_v.as_slice()].concat()
+    [stiffness.as_slice(), jacobian_q.as_slice(), gamma_q.as_slice(), gamma_v.as_slice(), phi_t_q.as_slice()].concat()
 }

@@ -89,6 +89,17 @@ pub enum AnalysisError {
     },
     /// A factorisation failed (the implicit integrator's iteration matrix is singular).
     Linalg(LinalgError),
+    /// What was asked for needs the scene's generated second-order terms, and
+    /// the scene was derived without `#[scene(second_order)]`.
+    NoSecondOrder {
+        /// What needed them.
+        needed_by: &'static str,
+    },
+    /// An eigenvalue or singular value iteration did not converge.
+    NoConvergence {
+        /// The decomposition.
+        decomposition: &'static str,
+    },
 }
 
 impl fmt::Display for AnalysisError {
@@ -129,6 +140,10 @@ impl fmt::Display for AnalysisError {
                 f,
                 "implicit integrator: Newton did not converge in {iterations} iterations (last correction {correction:.3e})"
             ),
+            AnalysisError::NoSecondOrder { needed_by } => {
+                write!(f, "{needed_by} needs the scene's second-order terms; derive it with `#[scene(second_order)]`")
+            }
+            AnalysisError::NoConvergence { decomposition } => write!(f, "the {decomposition} did not converge"),
             // The factorisation's own message is `source()`'s (the API guidelines:
             // a wrapped error is either shown or returned, not both).
             AnalysisError::Linalg(_) => {

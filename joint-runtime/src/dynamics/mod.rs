@@ -65,7 +65,13 @@
 
 // `AnalysisError` is returned by value (no allocator to box it).
 
+#[cfg(feature = "alloc")]
+mod linear;
 mod newton_matrix;
+
+#[cfg(feature = "alloc")]
+#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
+pub use linear::Linearisation;
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector4};
 
@@ -679,10 +685,10 @@ where
         h: f64,
         rule: &mut StepRule<M>,
     ) -> Result<SMatrix<f64, NV, NV>, AnalysisError> {
-        if self.options.newton_matrix == NewtonMatrix::Generated {
-            if let Some(m) = self.generated_midpoint_matrix(y0, w, h, rule)? {
-                return Ok(m);
-            }
+        if self.options.newton_matrix == NewtonMatrix::Generated
+            && let Some(m) = self.generated_midpoint_matrix(y0, w, h, rule)?
+        {
+            return Ok(m);
         }
         let mut jac = SMatrix::<f64, NV, NV>::zeros();
         for c in 0..NV {

@@ -20,24 +20,104 @@
 //! quadratic) and for gravity, `O(ε²)` for springs and user loads.
 //!
 //! With Baumgarte stabilisation `γ − 2α (J v + Φ_t) − β² Φ`, the matrix adds
-//! `−2α ∂(J v)/∂q − β² J` in `δq` and `−2α J` in `δv`; the variation of `Φ_t`
-//! with `q` (a driver's) is left out, which slows Newton, not the answer.
+//! `−2α (∂(J v)/∂q + ∂Φ_t/∂q) − β² J` in `δq` and `−2α J` in `δv`.
+//! [`Tangent`] holds these pieces at one state; the linearisation
+//! (`crate::linear`) uses them too.
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Simulation, Stabilisation, StepRule, generalised_forces};
-use crate::analysis::{AnalysisError, apply_increment, check_output, jacobian_times_metric, set_velocities};
+use super::{AppliedLoads, Dynamics, Simulation, Stabilisation, StepRule, generalised_forces};
+use crate::analysis::{
+    AnalysisError, InverseMass, apply_increment, check_output, jacobian_times_metric, set_velocities, velocity_vector,
+};
 use crate::linalg::PivotedCholesky;
 use crate::scene::{Scene, SystemState};
 
 /// Relative step of the central differences of the forces.
 const FORCE_STEP: f64 = 1e-6;
 
+/// The linearised equations of motion at one state: `δa` for any direction
+/// `(δq, δv)` is [`Tangent::accelerations`] of `R1 = R1q δq + R1v δv` and
+/// `R2 = R2q δq + R2v δv`.
+pub(super) struct Tangent<const NB: usize, const NV: usize, const M: usize> {
+    /// `Q_q − K`.
+    pub(super) r1q: SMatrix<f64, NV, NV>,
+    /// `Q_v`.
+    pub(super) r1v: SMatrix<f64, NV, NV>,
+    /// `∂(γ̂ − J a)/∂q`, `γ̂` the stabilised right-hand side.
+    pub(super) r2q: SMatrix<f64, M, NV>,
+    /// `∂γ̂/∂v`.
+    pub(super) r2v: SMatrix<f64, M, NV>,
+    /// `J`, and `J M⁻¹`.
+    pub(super) j: SMatrix<f64, M, NV>,
+    jw: SMatrix<f64, M, NV>,
+    /// `J M⁻¹ Jᵀ` under the step's rule for redundant rows.
+    chol: PivotedCholesky<M>,
+    inverse: [InverseMass; NB],
+    /// The accelerations and multipliers at the state.
+    pub(super) dynamics: Dynamics<NV, M>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize> Tangent<NB, NV, M> {
+    /// `δa` for the right-hand sides `r1` (`NV × K`) and `r2` (`M × K`):
+    /// `δa = X − M⁻¹ Jᵀ δλ` with `X = M⁻¹ r1` and `(J M⁻¹ Jᵀ) δλ = J X − r2`.
+    pub(super) fn accelerations<const K: usize>(
+        &self,
+        r1: &SMatrix<f64, NV, K>,
+        r2: &SMatrix<f64, M, K>,
+    ) -> SMatrix<f64, NV, K> {
+        let x = jacobian_times_metric::<NB, NV, K>(Some(&self.inverse), &r1.transpose()).transpose();
+        let mut b = sparse_times(&self.j, &x) - r2;
+        for mut column in b.column_iter_mut() {
+            let solved = self.chol.solve(&column.clone_owned());
+            column.copy_from(&solved);
+        }
+        x - sparse_transpose_times(&self.jw, &b)
+    }
+}
+
 impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
 {
+    /// The linearised equations of motion at `state` (the rule's redundant
+    /// rows dropped, as the accelerations drop them); `None` when the scene
+    /// has no generated second-order terms.
+    pub(super) fn tangent(
+        &mut self,
+        state: &SystemState<NB>,
+        rule: &mut StepRule<M>,
+    ) -> Result<Option<Tangent<NB, NV, M>>, AnalysisError> {
+        let d = self.solve(state, Some(rule))?;
+        let (alpha, beta) = match self.options.stabilisation {
+            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
+            Stabilisation::None => (0.0, 0.0),
+        };
+        let v = velocity_vector::<NB, NV>(state);
+        // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
+        let u = d.vdot + v * (2.0 * alpha);
+        let Some(second) = self.scene.second_order(state, &d.lambda, &u) else { return Ok(None) };
+        let j = self.scene.jacobian(state);
+        check_output::<S, NB, NV, M, NV>("J", &j)?;
+        let (force_q, force_v) = self.force_derivatives(state);
+        let r2q = second.gamma_q - second.jacobian_q - second.phi_t_q * (2.0 * alpha) - j * (beta * beta);
+        let jw = jacobian_times_metric(Some(&self.inverse), &j);
+        let chol =
+            PivotedCholesky::with_order(&(jw * j.transpose()), &rule.order, rule.rank, self.options.rank_tolerance)?;
+        Ok(Some(Tangent {
+            r1q: force_q - second.stiffness,
+            r1v: force_v,
+            r2q,
+            r2v: second.gamma_v - j * (2.0 * alpha),
+            j,
+            jw,
+            chol,
+            inverse: self.inverse,
+            dynamics: d,
+        }))
+    }
+
     /// `∂R/∂w` of the midpoint residual at `w`, exact; `None` when the scene
     /// has no generated second-order terms.
     pub(super) fn generated_midpoint_matrix(
@@ -51,34 +131,12 @@ where
         apply_increment(&mut mid, w, 0.5 * h);
         set_velocities(&mut mid, w);
         mid.t = y0.t + 0.5 * h;
-        let d = self.solve(&mid, Some(rule))?;
-        let (alpha, beta) = match self.options.stabilisation {
-            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
-            Stabilisation::None => (0.0, 0.0),
-        };
-        // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
-        let u = d.vdot + w * (2.0 * alpha);
-        let Some(second) = self.scene.second_order(&mid, &d.lambda, &u) else { return Ok(None) };
-        let j = self.scene.jacobian(&mid);
-        check_output::<S, NB, NV, M, NV>("J", &j)?;
-        let (force_q, force_v) = self.force_derivatives(&mid);
+        let Some(t) = self.tangent(&mid, rule)? else { return Ok(None) };
+        // δq = (h/2) T δw, δv = δw.
         let p = update_blocks::<NB, NV>(w, 0.5 * h);
-        let r1 = times_update(&(force_q - second.stiffness), &p, 0.5 * h) + force_v;
-        let r2 = times_update(&(second.gamma_q - second.jacobian_q - j * (beta * beta)), &p, 0.5 * h) + second.gamma_v
-            - j * (2.0 * alpha);
-        let metric = Some(&self.inverse);
-        let jw = jacobian_times_metric(metric, &j);
-        let chol =
-            PivotedCholesky::with_order(&(jw * j.transpose()), &rule.order, rule.rank, self.options.rank_tolerance)?;
-        // δa = X δw − M⁻¹ Jᵀ δλ with X = M⁻¹ R1 and (J M⁻¹ Jᵀ) δλ = J X − R2.
-        let x = jacobian_times_metric::<NB, NV, NV>(metric, &r1.transpose()).transpose();
-        let mut b = sparse_times(&j, &x) - r2;
-        for mut column in b.column_iter_mut() {
-            let solved = chol.solve(&column.clone_owned());
-            column.copy_from(&solved);
-        }
-        let da = x - sparse_transpose_times(&jw, &b);
-        let matrix = SMatrix::<f64, NV, NV>::identity() - da * (0.5 * h);
+        let r1 = times_update(&t.r1q, &p, 0.5 * h) + t.r1v;
+        let r2 = times_update(&t.r2q, &p, 0.5 * h) + t.r2v;
+        let matrix = SMatrix::<f64, NV, NV>::identity() - t.accelerations(&r1, &r2) * (0.5 * h);
         if !matrix.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFiniteOutput { quantity: "Newton matrix", row: None });
         }
@@ -88,7 +146,7 @@ where
     /// `∂Q/∂q` (along the group increments) and `∂Q/∂v` at `state`, by central
     /// differences.
     fn force_derivatives(&mut self, state: &SystemState<NB>) -> (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>) {
-        let v = crate::analysis::velocity_vector::<NB, NV>(state);
+        let v = velocity_vector::<NB, NV>(state);
         let (mut dq, mut dv) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
         for c in 0..NV {
             let e = SVector::<f64, NV>::from_fn(|i, _| if i == c { 1.0 } else { 0.0 });

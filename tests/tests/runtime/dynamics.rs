@@ -20,16 +20,16 @@ const G: f64 = 9.81;
 #[scene(gravity = [0, 0, -9.81], second_order)]
 #[body(bob, mass = mass, inertia = [0.01, 0.01, 0.01])]
 #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
-struct Pendulum {
-    mass: f64,
+pub(crate) struct Pendulum {
+    pub(crate) mass: f64,
 }
 
-fn pendulum() -> Pendulum {
+pub(crate) fn pendulum() -> Pendulum {
     Pendulum { mass: 1.0 }
 }
 
 /// The bob turned by `angle` about x, at rest.
-fn swung(angle: f64) -> SystemState<1> {
+pub(crate) fn swung(angle: f64) -> SystemState<1> {
     let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), angle);
     let r = -(q * Vector3::new(0.0, 0.0, 1.0));
     SystemState { bodies: [OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::zeros())], t: 0.0 }
@@ -43,10 +43,10 @@ fn swung(angle: f64) -> SystemState<1> {
 #[body(lower, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 #[joint(elbow = spherical(upper, lower), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])]
-struct DoublePendulum;
+pub(crate) struct DoublePendulum;
 
 /// Upper rod horizontal along +y, lower rod at 45°, lower rod spinning about its axis.
-fn double_start() -> SystemState<2> {
+pub(crate) fn double_start() -> SystemState<2> {
     let mut s = hanging_rods([90f64.to_radians(), 135f64.to_radians()]);
     // Spin of the lower rod about its own axis (consistent with the ball joints).
     s.bodies[1].omega = Vector3::new(0.0, 0.0, 3.0);

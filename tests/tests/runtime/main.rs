@@ -12,6 +12,7 @@
 mod analysis;
 mod batch;
 mod dynamics;
+mod linear;
 mod record;
 mod second_order;
 mod serde_io;

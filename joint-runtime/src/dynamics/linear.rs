@@ -1,0 +1,179 @@
+//! Linearisation of a scene's constrained dynamics about a state (feature
+//! `alloc`: the number of freedoms is known only at run time), from the
+//! generated second-order terms (`#[scene(second_order)]`).
+//!
+//! About a state `(q, v)`, increments `δq` (on the group: `δr` inertial, `δθ'`
+//! in body components, `p ⊗ q(δθ')`) and `δv` obey
+//!
+//! ```text
+//! d/dt δq = Λ(v) δq + δv          Λ = blockdiag(0, −ω̃'_i)   (the group's own motion)
+//! d/dt δv = A_q δq + A_v δv + A_u δu
+//! ```
+//!
+//! where `A_q`, `A_v` (and `A_u` for generalised-force inputs) come from
+//! differentiating `M a + Jᵀ λ = Q`, `J a = γ` (the Newton matrix's pieces,
+//! `newton_matrix.rs`). Motions that stay on the constraints keep
+//! `J δq = 0` and `J δv + (∂(J v)/∂q + ∂Φ_t/∂q) δq = 0`: with `N` an
+//! orthonormal basis of J's null space (the `n` freedoms), `δq = N z` and
+//! `δv = N w + V z` with `V = −J⁺ (∂(J v)/∂q + ∂Φ_t/∂q) N`. In the minimal
+//! coordinates `x = (z, w)` the linearised dynamics is `ẋ = A x + B u`, the
+//! full one projected on the constraints' tangent space with the basis frozen
+//! at the state. At an equilibrium the full linearisation leaves that space
+//! invariant and `A` is exact; along a motion the space turns with the state,
+//! and [`Linearisation::full`] (in the `2 NV` increments) is the one to
+//! propagate. Redundant rows do not count: J's rank decides `n`.
+
+use alloc::vec::Vec;
+
+use nalgebra::{Complex, DMatrix, SMatrix, SVector};
+
+use super::{AppliedLoads, Simulation};
+use crate::analysis::{AnalysisError, check_state, velocity_vector};
+use crate::scene::{Scene, SystemState};
+
+/// Singular values of J below this fraction of the largest count as zero.
+const NULL_TOLERANCE: f64 = 1e-9;
+/// Iterations allowed to nalgebra's SVD and Schur decompositions (0: until converged).
+const DECOMPOSITION_ITERATIONS: usize = 0;
+
+/// The linearised dynamics `ẋ = A x + B u` of a scene about a state, in the
+/// minimal coordinates `x = (z, w)` of [`Simulation::linearise`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Linearisation {
+    /// The state matrix, `2n × 2n` (`n` freedoms).
+    pub a: DMatrix<f64>,
+    /// The input matrix, `2n × k` for `k` input columns.
+    pub b: DMatrix<f64>,
+    /// The coordinates: `(δq, δv) = T x`, `2 NV × 2n`.
+    pub basis: DMatrix<f64>,
+    /// The number of freedoms `n` (velocity columns less J's rank).
+    pub freedoms: usize,
+    /// The full linearisation in the increments `(δq, δv)`, `2 NV × 2 NV`:
+    /// `[[Λ(v), I], [A_q, A_v]]`.
+    pub full: DMatrix<f64>,
+    /// The full input matrix, `2 NV × k`: `[0; A_u]`.
+    pub full_b: DMatrix<f64>,
+}
+
+impl Linearisation {
+    /// The eigenvalues of [`a`](Self::a) (real parts are growth rates, imaginary
+    /// parts angular frequencies), in the order nalgebra's Schur form gives.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NoConvergence`] if the Schur iteration fails.
+    pub fn eigenvalues(&self) -> Result<Vec<Complex<f64>>, AnalysisError> {
+        let schur = nalgebra::linalg::Schur::try_new(self.a.clone(), f64::EPSILON, DECOMPOSITION_ITERATIONS)
+            .ok_or(AnalysisError::NoConvergence { decomposition: "Schur decomposition" })?;
+        Ok(schur.complex_eigenvalues().iter().copied().collect())
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+where
+    S: Scene<NB, NV, M>,
+    L: AppliedLoads<NB>,
+{
+    /// The linearised dynamics about `state` (which should satisfy the
+    /// constraints: assemble it first), with `inputs` the generalised-force
+    /// direction of each input (`NV × k`, columns laid out as `Q`: forces
+    /// inertial, torques in body components; `k = 0` for none).
+    ///
+    /// # Errors
+    /// [`AnalysisError::NoSecondOrder`] for a scene derived without
+    /// `second_order`; [`AnalysisError::BadOption`] if `inputs` does not have
+    /// `NV` rows; non-finite inputs; failures of the dynamics;
+    /// [`AnalysisError::NoConvergence`] if the SVD of J fails.
+    pub fn linearise(
+        &mut self,
+        state: &SystemState<NB>,
+        inputs: &DMatrix<f64>,
+    ) -> Result<Linearisation, AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)?;
+        if inputs.nrows() != NV {
+            return Err(AnalysisError::BadOption { name: "inputs (NV rows)" });
+        }
+        let mut rule = self.step_rule(state)?;
+        let needed = AnalysisError::NoSecondOrder { needed_by: "the linearisation" };
+        let t = self.tangent(state, &mut rule)?.ok_or(needed)?;
+        let v = velocity_vector::<NB, NV>(state);
+        let lambda = t.dynamics.lambda;
+        let second = self.scene.second_order(state, &lambda, &v).ok_or(needed)?;
+        let (a_q, a_v) = (t.accelerations(&t.r1q, &t.r2q), t.accelerations(&t.r1v, &t.r2v));
+        let full = full_matrix::<NB, NV>(&v, &a_q, &a_v);
+        let (null, pinv) = null_space(&DMatrix::from_column_slice(M, NV, t.j.as_slice()))?;
+        let n = null.ncols();
+        let moved = DMatrix::from_column_slice(M, NV, (second.jacobian_q + second.phi_t_q).as_slice());
+        let correction = -(&pinv * moved * &null);
+        let mut basis = DMatrix::zeros(2 * NV, 2 * n);
+        basis.view_mut((0, 0), (NV, n)).copy_from(&null);
+        basis.view_mut((NV, 0), (NV, n)).copy_from(&correction);
+        basis.view_mut((NV, n), (NV, n)).copy_from(&null);
+        // The left inverse: z = Nᵀ δq, w = Nᵀ (δv − V z).
+        let nt = null.transpose();
+        let mut left = DMatrix::zeros(2 * n, 2 * NV);
+        left.view_mut((0, 0), (n, NV)).copy_from(&nt);
+        left.view_mut((n, 0), (n, NV)).copy_from(&(-(&nt * &correction * &nt)));
+        left.view_mut((n, NV), (n, NV)).copy_from(&nt);
+        let a = &left * &full * &basis;
+        let mut forced = DMatrix::zeros(2 * NV, inputs.ncols());
+        for (k, column) in inputs.column_iter().enumerate() {
+            let g = SVector::<f64, NV>::from_iterator(column.iter().copied());
+            let da = t.accelerations(&g, &SVector::<f64, M>::zeros());
+            forced.view_mut((NV, k), (NV, 1)).copy_from(&da);
+        }
+        let b = &left * &forced;
+        if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
+            return Err(AnalysisError::NonFiniteOutput { quantity: "linearisation", row: None });
+        }
+        Ok(Linearisation { a, b, basis, freedoms: n, full, full_b: forced })
+    }
+}
+
+/// `[[Λ(v), I], [A_q, A_v]]`, `2 NV × 2 NV`.
+fn full_matrix<const NB: usize, const NV: usize>(
+    v: &SVector<f64, NV>,
+    a_q: &SMatrix<f64, NV, NV>,
+    a_v: &SMatrix<f64, NV, NV>,
+) -> DMatrix<f64> {
+    let mut full = DMatrix::zeros(2 * NV, 2 * NV);
+    full.view_mut((0, NV), (NV, NV)).fill_with_identity();
+    for b in 0..NB {
+        let o = 6 * b + 3;
+        if o + 3 > NV {
+            break;
+        }
+        let w = nalgebra::Vector3::new(v[o], v[o + 1], v[o + 2]);
+        full.view_mut((o, o), (3, 3)).copy_from(&(-w.cross_matrix()));
+    }
+    full.view_mut((NV, 0), (NV, NV)).copy_from(a_q);
+    full.view_mut((NV, NV), (NV, NV)).copy_from(a_v);
+    full
+}
+
+/// An orthonormal basis of J's null space (`NV × n`) and J's pseudo-inverse
+/// (`NV × M`), from one SVD (J padded with zero rows to at least `NV` rows, so
+/// that the SVD gives all of `V`).
+fn null_space(j: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>), AnalysisError> {
+    let (m, nv) = j.shape();
+    let mut padded = DMatrix::zeros(m.max(nv), nv);
+    padded.view_mut((0, 0), (m, nv)).copy_from(j);
+    let svd = nalgebra::linalg::SVD::try_new(padded, true, true, f64::EPSILON, DECOMPOSITION_ITERATIONS)
+        .ok_or(AnalysisError::NoConvergence { decomposition: "singular value decomposition of J" })?;
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Err(AnalysisError::NoConvergence { decomposition: "singular value decomposition of J" });
+    };
+    let largest = svd.singular_values.max();
+    let kept: Vec<bool> = svd.singular_values.iter().map(|&s| s > NULL_TOLERANCE * largest).collect();
+    let null_rows: Vec<usize> = (0..nv).filter(|&i| !kept.get(i).copied().unwrap_or(false)).collect();
+    let mut null = DMatrix::zeros(nv, null_rows.len());
+    for (c, &i) in null_rows.iter().enumerate() {
+        null.set_column(c, &v_t.row(i).transpose());
+    }
+    let mut pinv = DMatrix::zeros(nv, m);
+    for (i, &s) in svd.singular_values.iter().enumerate() {
+        if kept.get(i).copied().unwrap_or(false) {
+            pinv += v_t.row(i).transpose() * u.column(i).rows(0, m).transpose() / s;
+        }
+    }
+    Ok((null, pinv))
+}
