@@ -65,6 +65,7 @@
 
 // `AnalysisError` is returned by value (no allocator to box it).
 
+mod generalised_alpha;
 #[cfg(feature = "alloc")]
 mod linear;
 mod newton_matrix;
@@ -209,6 +210,10 @@ pub enum Integrator {
     /// Implicit midpoint rule on the Lie group (A-stable, symmetric), Newton on
     /// the index-1 equations.
     ImplicitMidpoint,
+    /// Index-3 generalised-α on the Lie group (second order, numerical damping
+    /// of high frequencies set by [`SimulationOptions::spectral_radius`]), Newton
+    /// with the exact iteration matrix (`dynamics/generalised_alpha.rs`).
+    GeneralisedAlpha,
 }
 
 /// The iteration matrix of the implicit integrator's Newton iteration.
@@ -256,6 +261,10 @@ pub struct SimulationOptions {
     pub newton_max_iterations: usize,
     /// Implicit integrator: how its iteration matrix is made.
     pub newton_matrix: NewtonMatrix,
+    /// Generalised-α: the spectral radius ρ∞ at infinite frequency, in
+    /// `[0, 1]` (1: no numerical damping; 0: the highest frequencies removed in
+    /// one step).
+    pub spectral_radius: f64,
 }
 
 impl Default for SimulationOptions {
@@ -268,6 +277,7 @@ impl Default for SimulationOptions {
             newton_tolerance: 1e-12,
             newton_max_iterations: 30,
             newton_matrix: NewtonMatrix::Generated,
+            spectral_radius: 0.9,
         }
     }
 }
@@ -298,6 +308,11 @@ impl SimulationOptions {
     /// Sets [`newton_tolerance`](Self::newton_tolerance).
     pub const fn with_newton_tolerance(mut self, newton_tolerance: f64) -> Self {
         self.newton_tolerance = newton_tolerance;
+        self
+    }
+    /// Sets [`spectral_radius`](Self::spectral_radius).
+    pub const fn with_spectral_radius(mut self, spectral_radius: f64) -> Self {
+        self.spectral_radius = spectral_radius;
         self
     }
     /// Sets [`newton_matrix`](Self::newton_matrix).
@@ -446,6 +461,8 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
     inertias: [BodyInertia; NB],
     inverse: [InverseMass; NB],
     gravity: Vector3<f64>,
+    /// What generalised-α's last step left for the next.
+    history: Option<generalised_alpha::AlphaHistory<NB, NV, M>>,
     /// The options (may be changed between steps).
     pub options: SimulationOptions,
 }
@@ -495,7 +512,7 @@ where
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
-        Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, options })
+        Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, history: None, options })
     }
 
     /// The scene.
@@ -768,6 +785,8 @@ where
             return Err(AnalysisError::BadOption { name: "step size" });
         }
         check_state::<S, NB, NV, M>(state, true)?;
+        // Generalised-α goes on from its last step only if handed back its state.
+        let continuing = self.history.is_some_and(|h| h.state == *state);
         let mut y = *state;
         normalise_orientations::<S, NB, NV, M>(&mut y)?;
         // Which redundant rows to drop is decided once, at the start of the step:
@@ -778,6 +797,7 @@ where
         let (newton_iterations, newton_matrices) = match self.options.integrator {
             Integrator::Rk4 => (self.step_rk4(&mut y, h, &mut rule)?, 0),
             Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,
+            Integrator::GeneralisedAlpha => self.step_alpha(&mut y, h, continuing, &mut rule)?,
         };
         let mut report = StepReport { newton_iterations, newton_matrices, ..StepReport::default() };
         if let Some(options) = self.options.projection {
@@ -793,6 +813,10 @@ where
             report.constraint_residual = self.scene.phi(state).norm();
             let phi_dot = self.scene.jacobian(state) * velocity_vector::<NB, NV>(state) + self.scene.phi_t(state);
             report.velocity_residual = phi_dot.norm();
+        }
+        match (&mut self.history, self.options.integrator) {
+            (Some(history), Integrator::GeneralisedAlpha) => history.state = *state,
+            _ => self.history = None,
         }
         Ok(report)
     }

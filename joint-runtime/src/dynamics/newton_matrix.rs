@@ -145,7 +145,10 @@ where
 
     /// `∂Q/∂q` (along the group increments) and `∂Q/∂v` at `state`, by central
     /// differences.
-    fn force_derivatives(&mut self, state: &SystemState<NB>) -> (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>) {
+    pub(super) fn force_derivatives(
+        &mut self,
+        state: &SystemState<NB>,
+    ) -> (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>) {
         let v = velocity_vector::<NB, NV>(state);
         let (mut dq, mut dv) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
         for c in 0..NV {
@@ -171,7 +174,7 @@ where
 /// `J_r(s ω')` per body (`p ⊗ q(φ)` moves by `J_r(φ) δφ` in body components);
 /// the translation blocks are the identity. Both are scaled by `s` in
 /// [`times_update`].
-fn update_blocks<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> [Matrix3<f64>; NB] {
+pub(super) fn update_blocks<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> [Matrix3<f64>; NB] {
     core::array::from_fn(|b| {
         let at = |k: usize| w.get(6 * b + 3 + k).copied().unwrap_or(0.0) * s;
         right_jacobian(&Vector3::new(at(0), at(1), at(2)))
@@ -180,7 +183,7 @@ fn update_blocks<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64)
 
 /// `A · s blockdiag(I, J_r,0, I, J_r,1, ...)`: `O(R · NV)` where a dense product
 /// would cost `O(R · NV²)`.
-fn times_update<const R: usize, const NB: usize, const NV: usize>(
+pub(super) fn times_update<const R: usize, const NB: usize, const NV: usize>(
     a: &SMatrix<f64, R, NV>,
     rotations: &[Matrix3<f64>; NB],
     s: f64,

@@ -302,3 +302,43 @@ fn loads_in_inertial_components() {
     moment.add_torque_inertial(&s, 0, &(body.rotation() * point).cross(&Vector3::x()));
     assert!((at_point.torque[0] - moment.torque[0]).norm() < 1e-15);
 }
+
+/// The double pendulum's state after `t_end` with `integrator` at step `h`.
+fn double_at(integrator: Integrator, matrix: NewtonMatrix, h: f64, t_end: f64) -> (SystemState<2>, usize, usize) {
+    let scene = DoublePendulum;
+    let o = options(integrator, true).with_newton_matrix(matrix).with_spectral_radius(0.8);
+    let mut sim = Simulation::new(&scene, NoLoads, &[], o).unwrap();
+    let mut s = double_start();
+    let (mut iterations, mut matrices) = (0, 0);
+    for _ in 0..(t_end / h).round() as usize {
+        let r = sim.step(&mut s, h).unwrap();
+        iterations += r.newton_iterations;
+        matrices += r.newton_matrices;
+    }
+    (s, iterations, matrices)
+}
+
+fn distance(a: &SystemState<2>, b: &SystemState<2>) -> f64 {
+    a.bodies.iter().zip(&b.bodies).map(|(x, y)| (x.r - y.r).norm() + (x.rdot - y.rdot).norm()).fold(0.0, f64::max)
+}
+
+/// Generalised-α converges at second order to the RK4 solution of a small
+/// step, keeps the constraints, and takes the same steps with the generated
+/// K as with K by differences, in no more iterations.
+#[test]
+fn generalised_alpha_is_second_order_and_keeps_the_constraints() {
+    let t_end = 0.5;
+    let (reference, _, _) = double_at(Integrator::Rk4, NewtonMatrix::Generated, 1e-4, t_end);
+    let errors: Vec<f64> = [4e-3, 2e-3, 1e-3]
+        .iter()
+        .map(|&h| distance(&double_at(Integrator::GeneralisedAlpha, NewtonMatrix::Generated, h, t_end).0, &reference))
+        .collect();
+    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
+    println!("generalised-α errors {errors:?}, observed orders {orders:?}");
+    assert!(orders.iter().all(|&p| (1.8..2.3).contains(&p)), "{orders:?}");
+    let (a, ia, ma) = double_at(Integrator::GeneralisedAlpha, NewtonMatrix::Generated, 2e-3, t_end);
+    let (b, ib, mb) = double_at(Integrator::GeneralisedAlpha, NewtonMatrix::FiniteDifferences, 2e-3, t_end);
+    println!("generated K: {ia} iterations, {ma} matrices; differences: {ib}, {mb}");
+    assert!(distance(&a, &b) < 1e-9 && ia <= ib);
+    assert!(DoublePendulum.phi(&a).norm() < 1e-10);
+}

@@ -1,0 +1,317 @@
+//! The index-3 generalised-α method on the rotation group (Chung & Hulbert
+//! 1993; Arnold & Brüls 2007; Brüls & Cardona 2010), with the exact iteration
+//! matrix.
+//!
+//! With the pseudo-acceleration `a` and the step's increment `Δq`:
+//!
+//! ```text
+//! q_{n+1} = q_n ⊕ h Δq,          Δq = v_n + h (½ − β) a_n + h β a_{n+1}
+//! v_{n+1} = v_n + h (1 − γ) a_n + h γ a_{n+1}
+//! (1 − α_m) a_{n+1} + α_m a_n = (1 − α_f) v̇_{n+1} + α_f v̇_n
+//! M v̇_{n+1} + Jᵀ λ_{n+1} = Q(q_{n+1}, v_{n+1}, t_{n+1}),     Φ(q_{n+1}, t_{n+1}) = 0
+//! ```
+//!
+//! The parameters come from the spectral radius at infinity ρ∞
+//! ([`SimulationOptions::spectral_radius`](super::SimulationOptions)):
+//! `α_m = (2ρ∞ − 1)/(ρ∞ + 1)`, `α_f = ρ∞/(ρ∞ + 1)`, `γ = ½ + α_f − α_m`,
+//! `β = ¼ (γ + ½)²`: second order, unconditionally stable, high frequencies
+//! damped to ρ∞ per step (1: none, 0: annihilated in one step).
+//!
+//! Newton corrects `Δq` by `x` and `λ` by `δλ`; then `δq = h T x` (`T` the
+//! right Jacobian of the rotation update), `δv = (γ/β) x`,
+//! `δv̇ = (1 − α_m)/((1 − α_f) h β) x`, and the iteration matrix is
+//!
+//! ```text
+//! [ S   Jᵀ ]   S = c₁ M + h (K − Q_q) T − c₂ Q_v,   K = ∂(Jᵀλ)/∂q (generated)
+//! [ J T  0 ]   c₁ = (1 − α_m)/((1 − α_f) h β),   c₂ = γ/β
+//! ```
+//!
+//! solved by its Schur complement `J T S⁻¹ Jᵀ` (`NV + M` is not a stable const
+//! generic), with the step's redundant rows held at `δλ = 0` (the rule of the
+//! other integrators, from `J M⁻¹ Jᵀ`). A scene without generated terms gets
+//! `K` by differences of `Jᵀλ`.
+
+use nalgebra::{SMatrix, SVector};
+
+use super::newton_matrix::{times_update, update_blocks};
+use super::{AppliedLoads, Simulation, StepRule, generalised_forces};
+use crate::analysis::{AnalysisError, apply_increment, check_output, set_velocities, velocity_vector};
+use crate::linalg::Lu;
+use crate::scene::{Scene, SystemState};
+
+/// What a step of generalised-α carries to the next: the acceleration, the
+/// pseudo-acceleration and the multipliers, with the state the step handed
+/// back (a step from any other state starts the method afresh).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize> {
+    pub(super) state: SystemState<NB>,
+    vdot: SVector<f64, NV>,
+    a: SVector<f64, NV>,
+    lambda: SVector<f64, M>,
+}
+
+/// The method's coefficients for ρ∞.
+#[derive(Clone, Copy)]
+struct Coefficients {
+    alpha_m: f64,
+    alpha_f: f64,
+    gamma: f64,
+    beta: f64,
+}
+
+impl Coefficients {
+    fn new(rho: f64) -> Self {
+        let alpha_m = (2.0 * rho - 1.0) / (rho + 1.0);
+        let alpha_f = rho / (rho + 1.0);
+        let gamma = 0.5 + alpha_f - alpha_m;
+        Coefficients { alpha_m, alpha_f, gamma, beta: 0.25 * (gamma + 0.5) * (gamma + 0.5) }
+    }
+}
+
+/// The unknowns of one step and what follows from them.
+struct Iterate<const NB: usize, const NV: usize, const M: usize> {
+    dq: SVector<f64, NV>,
+    a: SVector<f64, NV>,
+    v: SVector<f64, NV>,
+    vdot: SVector<f64, NV>,
+    lambda: SVector<f64, M>,
+    state: SystemState<NB>,
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+where
+    S: Scene<NB, NV, M>,
+    L: AppliedLoads<NB>,
+{
+    /// The history at `state`: the one the last step left if the step starts
+    /// where that one ended (`continuing`), otherwise accelerations and
+    /// multipliers from the dynamics.
+    fn alpha_history(
+        &mut self,
+        state: &SystemState<NB>,
+        continuing: bool,
+        rule: &mut StepRule<M>,
+    ) -> Result<AlphaHistory<NB, NV, M>, AnalysisError> {
+        if let (true, Some(h)) = (continuing, self.history) {
+            return Ok(h);
+        }
+        let d = self.solve(state, Some(rule))?;
+        Ok(AlphaHistory { state: *state, vdot: d.vdot, a: d.vdot, lambda: d.lambda })
+    }
+
+    /// One step of generalised-α; returns the Newton iterations and the
+    /// iteration matrices built.
+    pub(super) fn step_alpha(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        continuing: bool,
+        rule: &mut StepRule<M>,
+    ) -> Result<(usize, usize), AnalysisError> {
+        let rho = self.options.spectral_radius;
+        if !(0.0..=1.0).contains(&rho) {
+            return Err(AnalysisError::BadOption { name: "spectral_radius" });
+        }
+        let c = Coefficients::new(rho);
+        let y0 = *state;
+        let past = self.alpha_history(&y0, continuing, rule)?;
+        let v0 = velocity_vector::<NB, NV>(&y0);
+        // Predictor: v̇_{n+1} = v̇_n, λ_{n+1} = λ_n.
+        let a = (past.vdot - past.a * c.alpha_m) / (1.0 - c.alpha_m);
+        let mut it = self.iterate(&y0, &v0, &past, a, past.lambda, h, c);
+        let mut factor: Option<AlphaMatrix<NV, M>> = None;
+        let (mut iterations, mut matrices, mut last) = (0, 0, f64::INFINITY);
+        loop {
+            if iterations >= self.options.newton_max_iterations {
+                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
+            }
+            let (r1, r2, j) = self.alpha_residual(&it)?;
+            let m = match factor.take() {
+                Some(m) => m,
+                None => {
+                    matrices += 1;
+                    self.alpha_matrix(&it, &j, h, c, rule)?
+                }
+            };
+            let (x, dlambda) = m.solve(&j, &r1, &(r2 / h));
+            factor = Some(m);
+            it = self.iterate(&y0, &v0, &past, it.a - x / (h * c.beta), it.lambda - dlambda, h, c);
+            iterations += 1;
+            let size = x.norm();
+            if !size.is_finite() {
+                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
+            }
+            if size <= self.options.newton_tolerance * (1.0 + it.dq.norm()) {
+                break;
+            }
+            // Modified Newton: a new matrix when convergence is slow.
+            if size > 0.25 * last {
+                factor = None;
+            }
+            last = size;
+        }
+        *state = it.state;
+        self.history = Some(AlphaHistory { state: it.state, vdot: it.vdot, a: it.a, lambda: it.lambda });
+        Ok((iterations, matrices))
+    }
+
+    /// The state and rates that follow from the pseudo-acceleration `a`.
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &self,
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        past: &AlphaHistory<NB, NV, M>,
+        a: SVector<f64, NV>,
+        lambda: SVector<f64, M>,
+        h: f64,
+        c: Coefficients,
+    ) -> Iterate<NB, NV, M> {
+        let dq = v0 + past.a * (h * (0.5 - c.beta)) + a * (h * c.beta);
+        let v = v0 + past.a * (h * (1.0 - c.gamma)) + a * (h * c.gamma);
+        let vdot = (a * (1.0 - c.alpha_m) + past.a * c.alpha_m - past.vdot * c.alpha_f) / (1.0 - c.alpha_f);
+        let mut state = *y0;
+        apply_increment(&mut state, &dq, h);
+        set_velocities(&mut state, &v);
+        state.t = y0.t + h;
+        Iterate { dq, a, v, vdot, lambda, state }
+    }
+
+    /// `M v̇ + Jᵀ λ − Q`, `Φ` and `J` at the iterate.
+    #[allow(clippy::type_complexity)]
+    fn alpha_residual(
+        &mut self,
+        it: &Iterate<NB, NV, M>,
+    ) -> Result<(SVector<f64, NV>, SVector<f64, M>, SMatrix<f64, M, NV>), AnalysisError> {
+        let e = self.scene.evaluate(&it.state);
+        check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
+        check_output::<S, NB, NV, M, 1>("Φ", &e.phi)?;
+        let q = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, &it.state);
+        let r1 = self.mass_times(&it.vdot) + e.jacobian.transpose() * it.lambda - q;
+        if !r1.iter().all(|x| x.is_finite()) {
+            return Err(AnalysisError::NonFiniteOutput { quantity: "forces", row: None });
+        }
+        Ok((r1, e.phi, e.jacobian))
+    }
+
+    /// `M x`.
+    fn mass_times(&self, x: &SVector<f64, NV>) -> SVector<f64, NV> {
+        let mut y = *x;
+        for (b, inertia) in self.inertias.iter().enumerate() {
+            if 6 * b + 6 > NV {
+                break;
+            }
+            let w = nalgebra::Vector3::new(x[6 * b + 3], x[6 * b + 4], x[6 * b + 5]);
+            let r = inertia.inertia * w;
+            for k in 0..3 {
+                y[6 * b + k] = x[6 * b + k] * inertia.mass;
+                y[6 * b + 3 + k] = r[k];
+            }
+        }
+        y
+    }
+
+    /// The iteration matrix at the iterate, factorised.
+    fn alpha_matrix(
+        &mut self,
+        it: &Iterate<NB, NV, M>,
+        j: &SMatrix<f64, M, NV>,
+        h: f64,
+        c: Coefficients,
+        rule: &StepRule<M>,
+    ) -> Result<AlphaMatrix<NV, M>, AnalysisError> {
+        let stiffness = match (self.options.newton_matrix, self.scene.second_order(&it.state, &it.lambda, &it.v)) {
+            (super::NewtonMatrix::Generated, Some(second)) => second.stiffness,
+            _ => self.stiffness_by_differences(&it.state, &it.lambda, j),
+        };
+        let (force_q, force_v) = self.force_derivatives(&it.state);
+        let p = update_blocks::<NB, NV>(&it.dq, h);
+        let mut s = times_update(&(stiffness - force_q), &p, h) - force_v * (c.gamma / c.beta);
+        let c1 = (1.0 - c.alpha_m) / ((1.0 - c.alpha_f) * h * c.beta);
+        for k in 0..NV {
+            let column = self.mass_times(&SVector::<f64, NV>::from_fn(|i, _| if i == k { c1 } else { 0.0 }));
+            let mut target = s.column_mut(k);
+            target += column;
+        }
+        let jt = times_update(j, &p, 1.0);
+        AlphaMatrix::new(&s, &jt, j, rule)
+    }
+
+    /// `K = ∂(Jᵀλ)/∂q` by forward differences of the generated J.
+    fn stiffness_by_differences(
+        &self,
+        state: &SystemState<NB>,
+        lambda: &SVector<f64, M>,
+        j: &SMatrix<f64, M, NV>,
+    ) -> SMatrix<f64, NV, NV> {
+        let base = j.transpose() * lambda;
+        let mut k = SMatrix::<f64, NV, NV>::zeros();
+        for col in 0..NV {
+            let e = SVector::<f64, NV>::from_fn(|i, _| if i == col { 1.0 } else { 0.0 });
+            let mut s = *state;
+            apply_increment(&mut s, &e, 1e-7);
+            k.set_column(col, &((self.scene.jacobian(&s).transpose() * lambda - base) / 1e-7));
+        }
+        k
+    }
+}
+
+/// The factorised iteration matrix: `S` and the Schur complement `J T S⁻¹ Jᵀ`
+/// with the redundant rows replaced by identity rows.
+pub(super) struct AlphaMatrix<const NV: usize, const M: usize> {
+    s: Lu<NV>,
+    jt: SMatrix<f64, M, NV>,
+    schur: Lu<M>,
+    kept: [bool; M],
+}
+
+impl<const NV: usize, const M: usize> AlphaMatrix<NV, M> {
+    fn new(
+        s: &SMatrix<f64, NV, NV>,
+        jt: &SMatrix<f64, M, NV>,
+        j: &SMatrix<f64, M, NV>,
+        rule: &StepRule<M>,
+    ) -> Result<Self, AnalysisError> {
+        let lu = Lu::new(s)?;
+        let mut kept = [false; M];
+        for &row in rule.order.iter().take(rule.rank) {
+            if let Some(k) = kept.get_mut(row) {
+                *k = true;
+            }
+        }
+        let mut y = SMatrix::<f64, NV, M>::zeros();
+        for (r, row) in j.row_iter().enumerate() {
+            y.set_column(r, &lu.solve(&row.transpose()));
+        }
+        let mut schur = jt * y;
+        for (r, &keep) in kept.iter().enumerate() {
+            if !keep {
+                for c in 0..M {
+                    schur[(r, c)] = 0.0;
+                    schur[(c, r)] = 0.0;
+                }
+                schur[(r, r)] = 1.0;
+            }
+        }
+        Ok(AlphaMatrix { s: lu, jt: *jt, schur: Lu::new(&schur)?, kept })
+    }
+
+    /// The Newton correction `(x, δλ)` of `S x + Jᵀ δλ = r1`, `J T x = r2`.
+    fn solve(
+        &self,
+        j: &SMatrix<f64, M, NV>,
+        r1: &SVector<f64, NV>,
+        r2: &SVector<f64, M>,
+    ) -> (SVector<f64, NV>, SVector<f64, M>) {
+        let s_r1 = self.s.solve(r1);
+        let mut rhs = self.jt * s_r1 - r2;
+        for (x, &keep) in rhs.iter_mut().zip(self.kept.iter()) {
+            if !keep {
+                *x = 0.0;
+            }
+        }
+        let dlambda = self.schur.solve(&rhs);
+        let x = self.s.solve(&(r1 - j.transpose() * dlambda));
+        (x, dlambda)
+    }
+}
