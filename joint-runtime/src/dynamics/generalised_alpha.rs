@@ -46,7 +46,7 @@ use crate::scene::{Scene, SystemState};
 pub(super) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize> {
     pub(super) state: SystemState<NB>,
     vdot: SVector<f64, NV>,
-    a: SVector<f64, NV>,
+    pub(super) a: SVector<f64, NV>,
     lambda: SVector<f64, M>,
 }
 
@@ -57,6 +57,12 @@ struct Coefficients {
     alpha_f: f64,
     gamma: f64,
     beta: f64,
+}
+
+/// Newmark's β and γ of generalised-α for the spectral radius `rho`.
+pub(super) fn newmark(rho: f64) -> (f64, f64) {
+    let c = Coefficients::new(rho);
+    (c.beta, c.gamma)
 }
 
 impl Coefficients {

@@ -65,11 +65,13 @@
 
 // `AnalysisError` is returned by value (no allocator to box it).
 
+mod adaptive;
 mod generalised_alpha;
 #[cfg(feature = "alloc")]
 mod linear;
 mod newton_matrix;
 
+pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use linear::Linearisation;
@@ -426,9 +428,9 @@ pub(crate) fn rk4_weights<'r, const NB: usize, const NV: usize>(
 
 /// `y0 + h Σ c_k k_k`, with `p` renormalised, at time `t`.
 #[inline]
-pub(crate) fn advance<const NB: usize, const NV: usize>(
+pub(crate) fn advance<'r, const NB: usize, const NV: usize>(
     y0: &SystemState<NB>,
-    rates: &[(&Rate<NB, NV>, f64)],
+    rates: impl IntoIterator<Item = (&'r Rate<NB, NV>, f64)>,
     h: f64,
     t: f64,
 ) -> SystemState<NB> {
@@ -667,10 +669,10 @@ where
         let y0 = *state;
         let t0 = y0.t;
         let k1 = self.rate(&y0, rule)?;
-        let k2 = self.rate(&advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h), rule)?;
-        let k3 = self.rate(&advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h), rule)?;
-        let k4 = self.rate(&advance(&y0, &[(&k3, 1.0)], h, t0 + h), rule)?;
-        *state = advance(&y0, &rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
+        let k2 = self.rate(&advance(&y0, [(&k1, 0.5)], h, t0 + 0.5 * h), rule)?;
+        let k3 = self.rate(&advance(&y0, [(&k2, 0.5)], h, t0 + 0.5 * h), rule)?;
+        let k4 = self.rate(&advance(&y0, [(&k3, 1.0)], h, t0 + h), rule)?;
+        *state = advance(&y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
         Ok(0)
     }
 

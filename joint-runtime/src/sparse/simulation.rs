@@ -190,10 +190,10 @@ where
         self.rule.extend(self.solver.factor.rule());
         let t0 = y0.t;
         let k1 = Rate::new(&y0, d1.vdot);
-        let k2 = self.rate(&advance(&y0, &[(&k1, 0.5)], h, t0 + 0.5 * h))?;
-        let k3 = self.rate(&advance(&y0, &[(&k2, 0.5)], h, t0 + 0.5 * h))?;
-        let k4 = self.rate(&advance(&y0, &[(&k3, 1.0)], h, t0 + h))?;
-        let mut y = advance(&y0, &rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
+        let k2 = self.rate(&advance(&y0, [(&k1, 0.5)], h, t0 + 0.5 * h))?;
+        let k3 = self.rate(&advance(&y0, [(&k2, 0.5)], h, t0 + 0.5 * h))?;
+        let k4 = self.rate(&advance(&y0, [(&k3, 1.0)], h, t0 + h))?;
+        let mut y = advance(&y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
         let mut report = StepReport::default();
         match self.options.projection {
             Some(options) => {

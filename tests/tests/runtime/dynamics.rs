@@ -342,3 +342,31 @@ fn generalised_alpha_is_second_order_and_keeps_the_constraints() {
     assert!(distance(&a, &b) < 1e-9 && ia <= ib);
     assert!(DoublePendulum.phi(&a).norm() < 1e-10);
 }
+
+/// Error-controlled steps: the error at the end follows the tolerance asked
+/// in proportion, with fewer steps for looser ones,
+/// for the explicit Dormand–Prince pair and the implicit generalised-α.
+#[test]
+fn integrate_meets_the_tolerance() {
+    use joint_runtime::dynamics::{Adaptive, Tolerance};
+    let t_end = 0.5;
+    let (reference, _, _) = double_at(Integrator::Rk4, NewtonMatrix::Generated, 1e-4, t_end);
+    let scene = DoublePendulum;
+    // Global error over local tolerance: 2–6 for Dormand–Prince, about 14 for
+    // generalised-α (its estimate is of the leading local terms only).
+    for (method, tolerances, ratio) in
+        [(Adaptive::DormandPrince, [1e-4, 1e-6, 1e-8], 10.0), (Adaptive::GeneralisedAlpha, [1e-4, 1e-5, 1e-6], 30.0)]
+    {
+        let mut steps = Vec::new();
+        for tol in tolerances {
+            let mut sim = Simulation::new(&scene, NoLoads, &[], options(Integrator::Rk4, true)).unwrap();
+            let mut s = double_start();
+            let r = sim.integrate(&mut s, t_end, method, Tolerance { rtol: tol, atol: tol }).unwrap();
+            let error = distance(&s, &reference);
+            println!("{method:?} tol {tol:e}: error {error:.2e}, {r:?}");
+            assert!((s.t - t_end).abs() < 1e-12 && error < ratio * tol, "{error:e}");
+            steps.push(r.accepted);
+        }
+        assert!(steps.windows(2).all(|w| w[0] < w[1]), "{steps:?}");
+    }
+}
