@@ -7,6 +7,7 @@ pub mod cardan;
 pub mod double_cardan;
 pub mod four_bar;
 pub mod pendulum_chain;
+pub mod press;
 pub mod report;
 pub mod scaling;
 pub mod steering;

@@ -9,4 +9,5 @@
 pub mod counting;
 pub mod handwritten;
 pub mod simulation;
+pub mod stiff;
 pub mod variants;

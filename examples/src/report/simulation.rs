@@ -331,8 +331,13 @@ pub fn plot_work_precision(series: &[Series], group: &str, path: &std::path::Pat
     }
     let (title, error) = match group {
         "cardan" => ("Cardan shaft, driven (β = 30°, 2 turns)", "max |φ₂ − φ₂,closed| (rad)"),
+        "bricard" if series.iter().any(|s| s.name.ends_with("tolerance")) => {
+            ("Bricard mechanism, free under gravity (1 s)", "max |Δr| + |Δp| at the end")
+        }
         "bricard" => ("Bricard mechanism, free under gravity (2 s)", "|P3 − P3,ref| at the end (m)"),
         "pendulum" => ("double pendulum", "error"),
+        "press" => ("stiff press (k = 1e7 N/m, motor 20 rad/s, 0.5 s)", "max |Δr| + |Δp| at the end"),
+        "double-cardan" => ("double Cardan shaft, free (β = 30°, 1 s)", "max |Δr| + |Δp| at the end"),
         _ => (group, "error"),
     };
     let err = |e: &dyn std::fmt::Display| e.to_string();

@@ -95,6 +95,14 @@ pub enum AnalysisError {
         /// What needed them.
         needed_by: &'static str,
     },
+    /// Error-controlled steps shrank below `1e-14 (1 + |t|)`, or took ten
+    /// million steps: the tolerance cannot be met from here.
+    StepTooSmall {
+        /// The time reached.
+        t: f64,
+        /// The step size last tried.
+        step: f64,
+    },
     /// An eigenvalue or singular value iteration did not converge.
     NoConvergence {
         /// The decomposition.
@@ -142,6 +150,9 @@ impl fmt::Display for AnalysisError {
             ),
             AnalysisError::NoSecondOrder { needed_by } => {
                 write!(f, "{needed_by} needs the scene's second-order terms; derive it with `#[scene(second_order)]`")
+            }
+            AnalysisError::StepTooSmall { t, step } => {
+                write!(f, "error-controlled steps stopped at t = {t}: step {step:.3e} too small for the tolerance")
             }
             AnalysisError::NoConvergence { decomposition } => write!(f, "the {decomposition} did not converge"),
             // The factorisation's own message is `source()`'s (the API guidelines:

@@ -97,8 +97,8 @@ where
     /// # Errors
     /// [`AnalysisError::BadOption`] for tolerances that are not positive and
     /// finite or a `t_end` before the state's time; failures of the dynamics or
-    /// of the projection; [`AnalysisError::ImplicitNotConverged`] when the step
-    /// size falls below `1e-14 (1 + |t|)` or past ten million steps. On error
+    /// of the projection; [`AnalysisError::StepTooSmall`] when the step size
+    /// falls below `1e-14 (1 + |t|)` or past ten million steps. On error
     /// `state` holds the last accepted step.
     pub fn integrate(
         &mut self,
@@ -141,7 +141,7 @@ where
     ) -> Result<(), AnalysisError> {
         while state.t < t_end {
             if report.accepted + report.rejected >= MAX_STEPS || *h < 1e-14 * (1.0 + libm::fabs(state.t)) {
-                return Err(AnalysisError::ImplicitNotConverged { iterations: report.accepted, correction: *h });
+                return Err(AnalysisError::StepTooSmall { t: state.t, step: *h });
             }
             // The last step lands on t_end (and a step within 1 % of it is stretched to it).
             let step = if state.t + 1.01 * *h >= t_end { t_end - state.t } else { *h };

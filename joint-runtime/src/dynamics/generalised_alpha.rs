@@ -34,7 +34,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::newton_matrix::{times_update, update_blocks};
-use super::{AppliedLoads, Simulation, StepRule, generalised_forces};
+use super::{AppliedLoads, Simulation, StepRule, generalised_forces, newton_done};
 use crate::analysis::{AnalysisError, apply_increment, check_output, set_velocities, velocity_vector};
 use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
@@ -147,7 +147,7 @@ where
             if !size.is_finite() {
                 return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
             }
-            if size <= self.options.newton_tolerance * (1.0 + it.dq.norm()) {
+            if newton_done(size, last, 1.0 + it.dq.norm(), self.options.newton_tolerance) {
                 break;
             }
             // Modified Newton: a new matrix when convergence is slow.

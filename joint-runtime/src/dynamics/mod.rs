@@ -758,7 +758,7 @@ where
             if !size.is_finite() {
                 return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
             }
-            if size <= self.options.newton_tolerance * (1.0 + w.norm()) {
+            if newton_done(size, last, 1.0 + w.norm(), self.options.newton_tolerance) {
                 break;
             }
             // Modified Newton: refresh the iteration matrix when convergence is slow.
@@ -822,6 +822,14 @@ where
         }
         Ok(report)
     }
+}
+
+/// Whether a Newton correction of `size` ends an implicit integrator's
+/// iteration: below `tolerance × scale`, or stalled at the round-off floor
+/// (within 1000 times that and no longer halving from the `last` one: stiff
+/// springs make the residual's round-off larger than the tolerance allows).
+pub(crate) fn newton_done(size: f64, last: f64, scale: f64, tolerance: f64) -> bool {
+    size <= tolerance * scale || (size <= 1e3 * tolerance * scale && size > 0.5 * last)
 }
 
 /// What every simulation of a scene reads besides the scene: its inertias,
