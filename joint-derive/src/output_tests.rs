@@ -538,3 +538,23 @@ fn time_large_scene() {
         println!("N={n}: derive {:.2} s, {} bytes of tokens", t.elapsed().as_secs_f64(), out.to_string().len());
     }
 }
+
+// --- second-order terms ------------------------------------------------------
+
+/// A point on a body-fixed line, in `omega_body`, with its second-order terms:
+/// what `second_order` adds to the impl.
+#[test]
+fn point_on_line_second_order() {
+    check(
+        "point_on_line_second_order",
+        parse_quote! {
+            #[joint(point_on_line, formulation = omega_body, second_order)]
+            struct Rail<T> {
+                f: Vector3<T>,
+                g: Vector3<T>,
+                rho1: Vector3<T>,
+                rho2: Vector3<T>,
+            }
+        },
+    );
+}

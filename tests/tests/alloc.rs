@@ -12,7 +12,7 @@ use std::cell::Cell;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
-use joint_runtime::dynamics::{Integrator, Loads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{Adaptive, Integrator, Loads, Simulation, SimulationOptions, Tolerance};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
 
@@ -62,9 +62,10 @@ struct Motor<F> {
     theta: F,
 }
 
-/// A double pendulum with a driven first hinge and a spring-free second one.
+/// A double pendulum with a driven first hinge and a spring-free second one
+/// (with its second-order terms: the implicit integrators' exact matrices).
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(gravity = [0, 0, -9.81], second_order)]
 #[body(upper, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[body(lower, mass = 0.5, inertia = [0.05, 0.05, 0.005])]
 #[joint(top = revolute(ground, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
@@ -150,12 +151,19 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
         let rk4 = sim.step(&mut state, 1e-3);
         sim.options.integrator = Integrator::ImplicitMidpoint;
         let midpoint = sim.step(&mut state, 1e-3);
-        reports = Some((e.phi.len(), sparse.len(), a.map(|a| a.iterations), rk4.is_ok(), midpoint.is_ok()));
+        sim.options.integrator = Integrator::GeneralisedAlpha;
+        let alpha = sim.step(&mut state, 1e-3).is_ok() && sim.step(&mut state, 1e-3).is_ok();
+        let t = state.t + 0.01;
+        let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
+        let adaptive = sim.integrate(&mut state, t, Adaptive::DormandPrince, tolerance).is_ok()
+            && sim.integrate(&mut state, t + 0.01, Adaptive::GeneralisedAlpha, tolerance).is_ok();
+        let steps = rk4.is_ok() && midpoint.is_ok() && alpha && adaptive;
+        reports = Some((e.phi.len(), sparse.len(), a.map(|a| a.iterations), steps));
     });
     assert_eq!(n, 0, "a scene evaluation, assembly or step allocated");
-    let (rows, nnz, iterations, rk4, midpoint) = reports.expect("ran");
+    let (rows, nnz, iterations, steps) = reports.expect("ran");
     assert_eq!(rows, 10);
-    assert!(nnz > 0 && iterations.expect("assembled") > 0 && rk4 && midpoint);
+    assert!(nnz > 0 && iterations.expect("assembled") > 0 && steps);
     // The counter counts: a vector allocates.
     assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
 }

@@ -47,21 +47,30 @@
 //!   midpoint velocity `w`, `q_½ = q_n ⊕ (h/2) w` (`r += (h/2) ṙ`,
 //!   `p ← p ⊗ q((h/2) ω')`),
 //!   `w = v_n + (h/2) a(q_½, w, t_n + h/2)`, then `q_{n+1} = q_n ⊕ h w` and
-//!   `v_{n+1} = 2w − v_n`. The `NV` equations are solved by (modified) Newton with
-//!   a finite-difference iteration matrix `I − (h/2) ∂a/∂w` factorised by
-//!   [`Lu`].
+//!   `v_{n+1} = 2w − v_n`. The `NV` equations are solved by (modified) Newton
+//!   with the iteration matrix `I − (h/2) ∂a/∂w` factorised by [`Lu`]: exact,
+//!   from the scene's generated second-order terms (`#[scene(second_order)]`,
+//!   [`NewtonMatrix::Generated`], `newton_matrix.rs`: one factorisation of
+//!   `J M⁻¹ Jᵀ` and `NV` solves), or by forward differences of the residual
+//!   (`NV` evaluations of the dynamics) for a scene without them.
 //!
-//!   Why this one: it is A-stable (a stiff spring at any `h ω` stays bounded) and
-//!   symmetric, so it adds no numerical damping and conserves quadratic
-//!   invariants — for a mechanism, energy stays bounded instead of drifting — and
-//!   with constant `ω'` over the step the rotation update is exact. Its Newton
-//!   system has exactly `NV` unknowns, so it fits `SMatrix<f64, NV, NV>`; the
-//!   index-3 HHT-α/generalised-α schemes need `(NV + M)`-sized iteration matrices
-//!   (not expressible with stable const generics) and the tangent stiffness
-//!   `∂(Jᵀλ)/∂q`, which the generated code does not provide. It is not
-//!   L-stable: the stiffest modes are kept, not damped (use damping in the
-//!   spring-dampers, or Baumgarte, if they must decay). The index-1 form drifts
+//!   A-stable (a stiff spring at any `h ω` stays bounded) and symmetric: no
+//!   numerical damping, quadratic invariants conserved, energy bounded. Not
+//!   L-stable: the stiffest modes are kept, not damped. The index-1 form drifts
 //!   from Φ = 0 slowly; projection removes the drift.
+//! - [`Integrator::GeneralisedAlpha`]: the index-3 generalised-α method on the
+//!   Lie group (`generalised_alpha.rs`): `Φ(q) = 0` holds at every step, high
+//!   frequencies are damped to [`SimulationOptions::spectral_radius`] per step,
+//!   second order. Newton on `(Δq, λ)` with the exact iteration matrix
+//!   (`M`, the generated tangent stiffness `∂(Jᵀλ)/∂q`, the forces'
+//!   derivatives), solved through its Schur complement (`NV + M` is not a
+//!   stable const generic). The method of choice for stiff springs.
+//! - [`Simulation::integrate`]: error-controlled variable steps to a given
+//!   time, with the explicit Dormand–Prince 5(4) pair or generalised-α and its
+//!   local error estimate ([`Adaptive`], [`Tolerance`], `adaptive.rs`).
+//!
+//! [`Simulation::linearise`] (feature `alloc`) gives the linearised dynamics
+//! about a state, in minimal coordinates and in full (`linear.rs`).
 
 // `AnalysisError` is returned by value (no allocator to box it).
 
