@@ -14,6 +14,8 @@ use std::time::Instant;
 use joint_runtime::{Drive, EulerBody, Joint, OmegaBody, RelativeState, TwoBodies};
 use serde::Deserialize;
 
+use crate::trajectory::{BODY, Coords, Flat};
+
 /// `ε = 2⁻⁵²`.
 pub const EPS: f64 = f64::EPSILON;
 /// The test's tolerance in units of `ε · max(scale, floor)`.
@@ -127,6 +129,40 @@ pub struct State {
     pub relative: Option<Relative>,
     /// The time function at the evaluation time (drivers).
     pub drive: Option<DriveValues>,
+}
+
+impl State {
+    /// The state as flat coordinates ([`crate::trajectory::Coords`]): per body
+    /// `r, p, ṙ` and `ω` or `ṗ`; the relative formulations fill body 0 with
+    /// `δ, p_rel, δ̇, ω_rel`.
+    ///
+    /// # Errors
+    /// The state has neither a relative state nor both bodies.
+    pub fn coords(&self) -> Result<Coords<f64>, String> {
+        let mut c = Flat([0.0; 34]);
+        if let Some(rel) = &self.relative {
+            c.set(0, &rel.delta);
+            c.set(3, &rel.p);
+            c.set(7, &rel.delta_dot);
+            c.set(10, &rel.omega);
+            return Ok(c);
+        }
+        for (b, body) in [(0, &self.body1), (1, &self.body2)] {
+            let body = body.as_ref().ok_or_else(|| format!("missing `state.body{}`", b + 1))?;
+            let o = BODY * b;
+            c.set(o, &body.r);
+            c.set(o + 3, &body.p);
+            c.set(o + 7, &body.rdot);
+            // `omega` or `pdot`, whichever the formulation has.
+            if let Some(omega) = &body.omega {
+                c.set(o + 10, omega);
+            }
+            if let Some(pdot) = &body.pdot {
+                c.set(o + 13, pdot);
+            }
+        }
+        Ok(c)
+    }
 }
 
 /// One body's state: `pdot` for `euler`, `omega` (in the formulation's

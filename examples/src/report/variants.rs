@@ -34,7 +34,7 @@ use joint_runtime::Joint;
 use joint_runtime::nalgebra::{Const, SMatrix, SVector, SimdRealField, U1, Vector3, Vector4};
 use joint_tests::conformance::{self, EPS, Output, VectorFile, case_error};
 use joint_tests::joints;
-use joint_tests::trajectory::{BODY, Coords, Euler, Flat, Form, OmegaBodyF, OmegaInertial, RelB1, RelB2, Rot, along};
+use joint_tests::trajectory::{BODY, Coords, Euler, Form, OmegaBodyF, OmegaInertial, RelB1, RelB2, Rot, along};
 use joint_tests::trajectory::{lift, quat_mul};
 use num_dual::{Derivative, Dual2_64, DualSVec64};
 
@@ -130,38 +130,6 @@ impl Params<f64> {
     }
 }
 
-/// A case's state as flat coordinates ([`joint_tests::trajectory::Coords`]):
-/// per body `r, p, ṙ` and `ω` or `ṗ`; the relative formulations fill body 0
-/// with `δ, p_rel, δ̇, ω_rel`.
-///
-/// # Errors
-/// The state has neither a relative state nor both bodies.
-pub fn coords_from_state(state: &conformance::State) -> Result<Coords<f64>, String> {
-    let mut c = Flat([0.0; 34]);
-    if let Some(rel) = &state.relative {
-        c.set(0, &rel.delta);
-        c.set(3, &rel.p);
-        c.set(7, &rel.delta_dot);
-        c.set(10, &rel.omega);
-        return Ok(c);
-    }
-    for (b, body) in [(0, &state.body1), (1, &state.body2)] {
-        let body = body.as_ref().ok_or_else(|| format!("missing `state.body{}`", b + 1))?;
-        let o = BODY * b;
-        c.set(o, &body.r);
-        c.set(o + 3, &body.p);
-        c.set(o + 7, &body.rdot);
-        // `omega` or `pdot`, whichever the formulation has.
-        if let Some(omega) = &body.omega {
-            c.set(o + 10, omega);
-        }
-        if let Some(pdot) = &body.pdot {
-            c.set(o + 13, pdot);
-        }
-    }
-    Ok(c)
-}
-
 /// One conformance case, prepared for the variants.
 #[derive(Clone, Debug)]
 pub struct Case<'a> {
@@ -177,9 +145,9 @@ impl<'a> Case<'a> {
     /// Prepares `source`.
     ///
     /// # Errors
-    /// The state is incomplete (see [`coords_from_state`]).
+    /// The state is incomplete (see [`conformance::State::coords`]).
     pub fn new(source: &'a conformance::Case) -> Result<Self, String> {
-        let coords = coords_from_state(&source.state).map_err(|e| format!("{}: {e}", source.id))?;
+        let coords = source.state.coords().map_err(|e| format!("{}: {e}", source.id))?;
         Ok(Case { source, params: Params::from(&source.params), coords })
     }
 }

@@ -325,6 +325,46 @@ fn check_second_order<Fa: Family<R, C>, const R: usize, const C: usize>(c: &Coor
     Ok(max_abs(&want))
 }
 
+/// The generated second-order terms on every conformance state of these
+/// three joints (`vectors.json` and `hard.json`, the repository's copies).
+#[test]
+fn second_order_on_the_conformance_states() {
+    let mut checked = 0;
+    for file in ["vectors.json", "hard.json"] {
+        for case in joint_tests::conformance::vectors(file).cases {
+            let c = case.state.coords().unwrap_or_else(|e| panic!("{}: {e}", case.id));
+            let q = &case.params;
+            let mut p = Flat([0.0; 18]);
+            for (o, x) in [(0, q.s), (3, q.h), (6, q.b), (9, q.c), (12, q.rho1), (15, q.rho2)] {
+                p.set(o, &x.unwrap_or([0.0; 3]));
+            }
+            macro_rules! dispatch {
+                ($($joint:literal => [$e:ident, $oi:ident, $ob:ident, $r1:ident, $r2:ident; $r:literal]),*) => {
+                    match (case.joint.as_str(), case.formulation.as_str()) {
+                        $(
+                            ($joint, "euler") => check_second_order::<$e<f64>, $r, 14>(&c, &p),
+                            ($joint, "omega_inertial") => check_second_order::<$oi<f64>, $r, 12>(&c, &p),
+                            ($joint, "omega_body") => check_second_order::<$ob<f64>, $r, 12>(&c, &p),
+                            ($joint, "relative_b1") => check_second_order::<$r1<f64>, $r, 6>(&c, &p),
+                            ($joint, "relative_b2") => check_second_order::<$r2<f64>, $r, 6>(&c, &p),
+                        )*
+                        _ => continue,
+                    }
+                };
+            }
+            let result = dispatch!(
+                "spherical" => [SphEuler, SphOmegaI, SphOmegaB, SphRelB1, SphRelB2; 3],
+                "universal" => [UniEuler, UniOmegaI, UniOmegaB, UniRelB1, UniRelB2; 4],
+                "universal_translational" => [UtEuler, UtOmegaI, UtOmegaB, UtRelB1, UtRelB2; 3]
+            );
+            result.unwrap_or_else(|e| panic!("{}: {e}", case.id));
+            checked += 1;
+        }
+    }
+    println!("second-order terms checked on {checked} conformance states");
+    assert!(checked >= 15, "{checked} cases");
+}
+
 macro_rules! properties {
     ($module:ident, $fam:ty, $r:literal, $c:literal, unit = $unit:literal) => {
         mod $module {
