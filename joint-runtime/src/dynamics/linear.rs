@@ -1,6 +1,8 @@
-//! Linearisation of a scene's constrained dynamics about a state (feature
-//! `alloc`: the number of freedoms is known only at run time), from the
-//! generated second-order terms (`#[scene(second_order)]`).
+//! Linearisation of a scene's constrained dynamics about a state, and the
+//! state-transition Jacobian of an implicit midpoint step (feature `alloc`:
+//! the number of freedoms is known only at run time, and `2 NV` is not a
+//! stable const generic), from the generated second-order terms
+//! (`#[scene(second_order)]`).
 //!
 //! About a state `(q, v)`, increments `δq` (on the group: `δr` inertial, `δθ'`
 //! in body components, `p ⊗ q(δθ')`) and `δv` obey
@@ -27,8 +29,11 @@ use alloc::vec::Vec;
 
 use nalgebra::{Complex, DMatrix, SMatrix, SVector};
 
+use super::newton_matrix::{times_update, update_blocks};
 use super::{AppliedLoads, Simulation};
-use crate::analysis::{AnalysisError, check_state, velocity_vector};
+use crate::analysis::{
+    AnalysisError, apply_increment, check_state, normalise_orientations, set_velocities, velocity_vector,
+};
 use crate::scene::{Scene, SystemState};
 
 /// Singular values of J below this fraction of the largest count as zero.
@@ -176,4 +181,87 @@ fn null_space(j: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>), Analysis
         }
     }
     Ok((null, pinv))
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+where
+    S: Scene<NB, NV, M>,
+    L: AppliedLoads<NB>,
+{
+    /// One step of the implicit midpoint rule from `state` (without
+    /// projection, whatever the options say) and its state-transition
+    /// Jacobian, exact: `(δq₁, δv₁) = Φ (δq₀, δv₀)` in the increments of
+    /// [`Linearisation`] (`2 NV × 2 NV`), what an extended Kalman filter or an
+    /// MPC propagates. By the implicit function theorem on the midpoint
+    /// residual `R(w; q₀, v₀) = 0`: `∂w/∂(q₀, v₀) = −R_w⁻¹ R_{(q₀, v₀)}`, with
+    /// `R_w` the exact Newton matrix; then `δq₁ = Ad δq₀ + h J_r(h ω') δw`
+    /// (`Ad = R(h ω')ᵀ` carries a body increment across the step's turn) and
+    /// `δv₁ = 2 δw − δv₀`.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NoSecondOrder`] for a scene derived without
+    /// `second_order`; as [`Simulation::step`] otherwise. On error `state` is
+    /// unchanged.
+    pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(AnalysisError::BadOption { name: "step size" });
+        }
+        check_state::<S, NB, NV, M>(state, true)?;
+        let mut y0 = *state;
+        normalise_orientations::<S, NB, NV, M>(&mut y0)?;
+        let mut rule = self.step_rule(&y0)?;
+        let mut y1 = y0;
+        self.step_midpoint(&mut y1, h, &mut rule)?;
+        let (v0, v1) = (velocity_vector::<NB, NV>(&y0), velocity_vector::<NB, NV>(&y1));
+        let w = (v0 + v1) * 0.5;
+        let needed = AnalysisError::NoSecondOrder { needed_by: "the state-transition Jacobian" };
+        let r_w = self.generated_midpoint_matrix(&y0, &w, h, &mut rule)?.ok_or(needed)?;
+        let mut mid = y0;
+        apply_increment(&mut mid, &w, 0.5 * h);
+        set_velocities(&mut mid, &w);
+        mid.t = y0.t + 0.5 * h;
+        let t = self.tangent(&mid, &mut rule)?.ok_or(needed)?;
+        let a_q = t.accelerations(&t.r1q, &t.r2q);
+        // R_{q₀} = −(h/2) A_q Ad(−(h/2) ω'), R_{v₀} = −I.
+        let r_q0 = a_q * transport::<NB, NV>(&w, 0.5 * h) * (-0.5 * h);
+        let lu = crate::linalg::Lu::new(&r_w)?;
+        let solve = |m: &SMatrix<f64, NV, NV>| {
+            let mut out = SMatrix::<f64, NV, NV>::zeros();
+            for (k, column) in m.column_iter().enumerate() {
+                out.set_column(k, &lu.solve(&(-column.into_owned())));
+            }
+            out
+        };
+        let dw_dq = solve(&r_q0);
+        let dw_dv = solve(&(-SMatrix::<f64, NV, NV>::identity()));
+        // h J_r(h ω') per body (h I for the translation).
+        let turn = times_update(&SMatrix::<f64, NV, NV>::identity(), &update_blocks::<NB, NV>(&w, h), h);
+        let mut phi = DMatrix::zeros(2 * NV, 2 * NV);
+        phi.view_mut((0, 0), (NV, NV)).copy_from(&(transport::<NB, NV>(&w, h) + turn * dw_dq));
+        phi.view_mut((0, NV), (NV, NV)).copy_from(&(turn * dw_dv));
+        phi.view_mut((NV, 0), (NV, NV)).copy_from(&(dw_dq * 2.0));
+        phi.view_mut((NV, NV), (NV, NV)).copy_from(&(dw_dv * 2.0 - SMatrix::<f64, NV, NV>::identity()));
+        if !phi.iter().all(|x| x.is_finite()) {
+            return Err(AnalysisError::NonFiniteOutput { quantity: "state-transition Jacobian", row: None });
+        }
+        *state = y1;
+        self.history = None;
+        Ok(phi)
+    }
+}
+
+/// `blockdiag(I, R(s ω'_0)ᵀ, I, ...)`: a body increment at `q` as one at
+/// `q ⊕ s w` (`p ⊗ q(δθ) ⊗ q(φ) = p ⊗ q(φ) ⊗ q(R(φ)ᵀ δθ)`).
+fn transport<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> SMatrix<f64, NV, NV> {
+    let mut t = SMatrix::<f64, NV, NV>::identity();
+    for b in 0..NB {
+        let o = 6 * b + 3;
+        if o + 3 > NV {
+            break;
+        }
+        let phi = nalgebra::Vector3::new(w[o], w[o + 1], w[o + 2]) * s;
+        let r = nalgebra::Rotation3::new(phi);
+        t.fixed_view_mut::<3, 3>(o, o).copy_from(&r.matrix().transpose());
+    }
+    t
 }

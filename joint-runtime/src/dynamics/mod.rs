@@ -70,7 +70,9 @@
 //!   local error estimate ([`Adaptive`], [`Tolerance`], `adaptive.rs`).
 //!
 //! [`Simulation::linearise`] (feature `alloc`) gives the linearised dynamics
-//! about a state, in minimal coordinates and in full (`linear.rs`).
+//! about a state, in minimal coordinates and in full, and
+//! [`Simulation::transition`] a midpoint step with its state-transition
+//! Jacobian (`linear.rs`).
 
 // `AnalysisError` is returned by value (no allocator to box it).
 

@@ -241,7 +241,7 @@ fn sparse_transpose_times<const M: usize, const NV: usize, const K: usize>(
 
 /// The right Jacobian of SO(3): `I − (1 − cos θ)/θ² φ̃ + (θ − sin θ)/θ³ φ̃²`,
 /// with the series of its coefficients near θ = 0.
-fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub(super) fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta2 = phi.norm_squared();
     let (a, b) = if theta2 < 1e-8 {
         (0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0)

@@ -163,3 +163,54 @@ fn linearise_without_second_order_is_an_error() {
     let e = sim.linearise(&swung(0.0), &DMatrix::zeros(6, 0)).unwrap_err();
     assert!(e.to_string().contains("#[scene(second_order)]"), "{e}");
 }
+
+/// The state-transition Jacobian of an implicit midpoint step against central
+/// differences of the step itself (no projection), increments in and out.
+#[test]
+fn transition_jacobian_matches_differences_of_the_step() {
+    use joint_runtime::dynamics::Integrator;
+    let scene = DoublePendulum;
+    let options = SimulationOptions::default()
+        .with_integrator(Integrator::ImplicitMidpoint)
+        .with_projection(None)
+        .with_newton_tolerance(1e-15);
+    let mut sim = Simulation::new(&scene, NoLoads, &[], options).unwrap();
+    let (start, h) = (double_start(), 5e-3);
+    let mut end = start;
+    let phi = sim.transition(&mut end, h).unwrap();
+    let mut stepped = start;
+    sim.step(&mut stepped, h).unwrap();
+    assert!((stepped.bodies[1].r - end.bodies[1].r).norm() < 1e-12, "transition takes the step");
+    // An increment of the end state: δr, the body rotation vector, δv.
+    let increment = |s: &SystemState<2>| -> Vec<f64> {
+        let mut out = vec![0.0; 24];
+        for (b, (x, y)) in s.bodies.iter().zip(&end.bodies).enumerate() {
+            let turn = (y.rotation().inverse() * x.rotation()).scaled_axis();
+            for i in 0..3 {
+                out[6 * b + i] = x.r[i] - y.r[i];
+                out[6 * b + 3 + i] = turn[i];
+                out[12 + 6 * b + i] = x.rdot[i] - y.rdot[i];
+                out[12 + 6 * b + 3 + i] = x.omega[i] - y.omega[i];
+            }
+        }
+        out
+    };
+    let eps = 1e-5;
+    let mut worst = 0.0f64;
+    for k in 0..24 {
+        let mut e = [0.0; 24];
+        e[k] = 1.0;
+        let mut column = |sign: f64| {
+            let mut s = moved(&start, &e[..12], &e[12..], sign * eps);
+            sim.step(&mut s, h).unwrap();
+            increment(&s)
+        };
+        let (plus, minus) = (column(1.0), column(-1.0));
+        for i in 0..24 {
+            let fd = (plus[i] - minus[i]) / (2.0 * eps);
+            worst = worst.max((phi[(i, k)] - fd).abs() / (1.0 + phi.column(k).amax()));
+        }
+    }
+    println!("state-transition Jacobian against differences of the step: worst {worst:e}");
+    assert!(worst < 1e-7, "{worst:e}");
+}
