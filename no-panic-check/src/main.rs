@@ -20,7 +20,8 @@
 //!   (`Scene<3, 18, 19>`, a redundant row) and free (`Scene<3, 18, 18>`): the
 //!   system Φ, Φ_t, J, γ, `evaluate` and the sparse J values; `assemble`,
 //!   `velocities`, `accelerations`; `Simulation::new`, `step`, `dynamics`,
-//!   `project`, `reactions` and `energy` ([`scenes`]). The integrator,
+//!   `project`, `reactions` and `energy`; the free shaft's `second_order` and
+//!   `integrate` ([`scenes`]). The integrator,
 //!   stabilisation, projection and springs are run-time options, so every one of
 //!   them is inside the checked `step`.
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`

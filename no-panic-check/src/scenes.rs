@@ -5,7 +5,9 @@
 //! - [`driven`]: `DoubleCardan`, four joints and a motor, 19 rows of which one is
 //!   redundant (`Scene<3, 18, 19>`).
 //! - [`free`]: `FreeDoubleCardan`, no motor, 18 rows, one degree of freedom
-//!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`.
+//!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`,
+//!   derived with `second_order`: its `step` checks the implicit integrators'
+//!   exact Newton matrices, and `integrate` the error-controlled steps.
 //!
 //! Every branch the options select at run time (integrator, stabilisation,
 //! projection, springs) is part of the checked code: the options are arguments.
@@ -14,10 +16,10 @@ use joint_runtime::analysis::{
     AccelerationAnalysis, AnalysisError, Assembly, AssemblyOptions, VelocityAnalysis, accelerations,
     accelerations_with, assemble, velocities, velocities_with,
 };
+use joint_runtime::dynamics::{Adaptive, IntegrationReport, SpringDamper, StepReport, Tolerance};
 use joint_runtime::dynamics::{AppliedLoads, Dynamics, Energy, Loads, Reaction, Simulation, SimulationOptions};
-use joint_runtime::dynamics::{SpringDamper, StepReport};
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
-use joint_runtime::{Evaluation, RowBlock, Scene, SparseJacobian, SystemState};
+use joint_runtime::{Evaluation, RowBlock, Scene, SecondOrder, SparseJacobian, SystemState};
 
 /// Applied loads of the checked simulations: a torque on the input shaft and a
 /// force at a point of the output shaft (through `Loads::add_force_at`).
@@ -135,6 +137,23 @@ pub mod free {
         }
         fn step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
             sim.step(state, h)
+        }
+        fn second_order(
+            scene: &FreeDoubleCardan,
+            state: &SystemState<3>,
+            lambda: &SVector<f64, 18>,
+            u: &SVector<f64, 18>,
+        ) -> Option<SecondOrder<f64, 18, 18>> {
+            scene.second_order(state, lambda, u)
+        }
+        fn integrate(
+            sim: &mut Sim<'_>,
+            state: &mut SystemState<3>,
+            t_end: f64,
+            method: Adaptive,
+            tolerance: Tolerance,
+        ) -> Result<IntegrationReport, AnalysisError> {
+            sim.integrate(state, t_end, method, tolerance)
         }
     }
 }

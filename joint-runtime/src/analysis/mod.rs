@@ -33,7 +33,9 @@ pub use error::{Analysis, AnalysisError};
 pub(crate) use motion::{
     apply_increment, normalise_orientations, quat_mul, rotate_body, set_velocities, velocity_vector,
 };
-pub(crate) use newton::{damped_newton, newton};
+#[cfg(feature = "alloc")]
+pub(crate) use newton::damped_newton;
+pub(crate) use newton::newton;
 pub(crate) use solve::{InverseMass, Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
 
 use crate::linalg::DEFAULT_RANK_TOLERANCE;

@@ -54,7 +54,8 @@ pub(super) struct Tangent<const NB: usize, const NV: usize, const M: usize> {
     /// `J M⁻¹ Jᵀ` under the step's rule for redundant rows.
     chol: PivotedCholesky<M>,
     inverse: [InverseMass; NB],
-    /// The accelerations and multipliers at the state.
+    /// The accelerations and multipliers at the state (the linearisation's λ).
+    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
     pub(super) dynamics: Dynamics<NV, M>,
 }
 
