@@ -77,12 +77,14 @@
 // `AnalysisError` is returned by value (no allocator to box it).
 
 mod adaptive;
+mod force_derivatives;
 mod generalised_alpha;
 #[cfg(feature = "alloc")]
 mod linear;
 mod newton_matrix;
 
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
+pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use linear::Linearisation;
@@ -145,6 +147,16 @@ impl<const NB: usize> Loads<NB> {
 pub trait AppliedLoads<const NB: usize> {
     /// Adds this evaluation's loads.
     fn apply(&mut self, state: &SystemState<NB>, loads: &mut Loads<NB>);
+
+    /// Adds the derivative of the loads [`apply`](Self::apply) gives at
+    /// `state` along `direction` (per body `[δr, δθ', δṙ, δω']`, `δθ'` a turn
+    /// in body components) to `loads`, and returns `true`; the default returns
+    /// `false`, and the implicit integrators and the linearisation then take
+    /// central differences of `apply` instead.
+    fn derivative(&mut self, state: &SystemState<NB>, direction: &Direction<NB>, loads: &mut Loads<NB>) -> bool {
+        let _ = (state, direction, loads);
+        false
+    }
 }
 
 impl<const NB: usize, F: FnMut(&SystemState<NB>, &mut Loads<NB>)> AppliedLoads<NB> for F {
@@ -159,6 +171,10 @@ pub struct NoLoads;
 
 impl<const NB: usize> AppliedLoads<NB> for NoLoads {
     fn apply(&mut self, _state: &SystemState<NB>, _loads: &mut Loads<NB>) {}
+
+    fn derivative(&mut self, _state: &SystemState<NB>, _direction: &Direction<NB>, _loads: &mut Loads<NB>) -> bool {
+        true
+    }
 }
 
 /// One end of a [`SpringDamper`].

@@ -15,9 +15,8 @@
 //! and `δv = δw`; then `∂R/∂w = I − (h/2) ∂a/∂w`. One factorisation of
 //! `J M⁻¹ Jᵀ` (under the step's rule for redundant rows, as the accelerations
 //! themselves) serves every column. `K`, `∂(J a)/∂q`, `γ_q` and `γ_v` are
-//! generated; `Q_q` and `Q_v` (gravity, gyroscopic terms, springs, user loads)
-//! are central differences of the forces, exact for the gyroscopic term (a
-//! quadratic) and for gravity, `O(ε²)` for springs and user loads.
+//! generated; `Q_q` and `Q_v` come from `force_derivatives.rs` (exact but for
+//! user loads that give no derivative of their own).
 //!
 //! With Baumgarte stabilisation `γ − 2α (J v + Φ_t) − β² Φ`, the matrix adds
 //! `−2α (∂(J v)/∂q + ∂Φ_t/∂q) − β² J` in `δq` and `−2α J` in `δv`.
@@ -26,15 +25,12 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Dynamics, Simulation, Stabilisation, StepRule, generalised_forces};
+use super::{AppliedLoads, Dynamics, Simulation, Stabilisation, StepRule};
 use crate::analysis::{
     AnalysisError, InverseMass, apply_increment, check_output, jacobian_times_metric, set_velocities, velocity_vector,
 };
 use crate::linalg::PivotedCholesky;
 use crate::scene::{Scene, SystemState};
-
-/// Relative step of the central differences of the forces.
-const FORCE_STEP: f64 = 1e-6;
 
 /// The linearised equations of motion at one state: `δa` for any direction
 /// `(δq, δv)` is [`Tangent::accelerations`] of `R1 = R1q δq + R1v δv` and
@@ -142,32 +138,6 @@ where
             return Err(AnalysisError::NonFiniteOutput { quantity: "Newton matrix", row: None });
         }
         Ok(Some(matrix))
-    }
-
-    /// `∂Q/∂q` (along the group increments) and `∂Q/∂v` at `state`, by central
-    /// differences.
-    pub(super) fn force_derivatives(
-        &mut self,
-        state: &SystemState<NB>,
-    ) -> (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>) {
-        let v = velocity_vector::<NB, NV>(state);
-        let (mut dq, mut dv) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
-        for c in 0..NV {
-            let e = SVector::<f64, NV>::from_fn(|i, _| if i == c { 1.0 } else { 0.0 });
-            let step = FORCE_STEP * (1.0 + libm::fabs(v[c]));
-            let mut q_at = |sign: f64, velocity: bool| {
-                let mut s = *state;
-                if velocity {
-                    set_velocities(&mut s, &(v + e * (sign * step)));
-                } else {
-                    apply_increment(&mut s, &e, sign * FORCE_STEP);
-                }
-                generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, &s)
-            };
-            dq.set_column(c, &((q_at(1.0, false) - q_at(-1.0, false)) / (2.0 * FORCE_STEP)));
-            dv.set_column(c, &((q_at(1.0, true) - q_at(-1.0, true)) / (2.0 * step)));
-        }
-        (dq, dv)
     }
 }
 

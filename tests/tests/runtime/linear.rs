@@ -8,7 +8,9 @@
 
 #![allow(missing_docs)]
 
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{
+    AppliedLoads, Attachment, Direction, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper,
+};
 use joint_runtime::nalgebra::{Complex, DMatrix, Matrix2, SVector, Vector3};
 use joint_runtime::{Scene, SystemState};
 use joint_tests::scenes::hanging_rods;
@@ -84,10 +86,42 @@ fn moved(s: &SystemState<2>, dq: &[f64], dv: &[f64], scale: f64) -> SystemState<
     s
 }
 
+/// A viscous torque `−c ω'` on the upper rod, with its own derivative.
+struct Drag;
+
+impl AppliedLoads<2> for Drag {
+    fn apply(&mut self, state: &SystemState<2>, loads: &mut Loads<2>) {
+        loads.torque[0] -= state.bodies[0].omega * 0.3;
+    }
+    fn derivative(&mut self, _: &SystemState<2>, direction: &Direction<2>, loads: &mut Loads<2>) -> bool {
+        loads.torque[0] -= direction[0][3] * 0.3;
+        true
+    }
+}
+
+/// A spring-damper from the lower rod's tip to a ground point.
+fn tip_spring() -> [SpringDamper; 1] {
+    [SpringDamper {
+        a: Attachment::Body { body: 1, point: Vector3::new(0.0, 0.1, -0.5) },
+        b: Attachment::Ground(Vector3::new(0.4, 0.3, -1.2)),
+        stiffness: 300.0,
+        damping: 2.0,
+        rest_length: 0.2,
+    }]
+}
+
 #[test]
 fn full_linearisation_at_a_swinging_state_matches_differences_of_the_dynamics() {
+    check_full(NoLoads, &[]);
+    // Springs (exact derivatives), user loads with their own derivative and
+    // without (central differences of the loads).
+    check_full(Drag, &tip_spring());
+    check_full(|s: &SystemState<2>, l: &mut Loads<2>| l.force[1] += s.bodies[1].rdot * -0.5, &tip_spring());
+}
+
+fn check_full<L: AppliedLoads<2>>(loads: L, springs: &[SpringDamper]) {
     let scene = DoublePendulum;
-    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = Simulation::new(&scene, loads, springs, SimulationOptions::default()).unwrap();
     let state = double_start();
     // A load input: a horizontal force on the lower rod's centre.
     let mut inputs = DMatrix::zeros(12, 1);
@@ -118,10 +152,13 @@ fn full_linearisation_at_a_swinging_state_matches_differences_of_the_dynamics() 
             }
         }
         // Lower block: δa against central differences of the dynamics.
-        let eps = 1e-5;
-        let plus = sim.dynamics(&moved(&state, dq, dv, eps)).unwrap().vdot;
-        let minus = sim.dynamics(&moved(&state, dq, dv, -eps)).unwrap().vdot;
-        let fd: SVector<f64, 12> = (plus - minus) / (2.0 * eps);
+        // Central differences, Richardson-extrapolated (error O(ε⁴)).
+        let mut central = |eps: f64| -> SVector<f64, 12> {
+            let plus = sim.dynamics(&moved(&state, dq, dv, eps)).unwrap().vdot;
+            let minus = sim.dynamics(&moved(&state, dq, dv, -eps)).unwrap().vdot;
+            (plus - minus) / (2.0 * eps)
+        };
+        let fd = (central(5e-4) * 4.0 - central(1e-3)) / 3.0;
         for i in 0..12 {
             worst = worst.max((image[12 + i] - fd[i]).abs() / (1.0 + fd.amax()));
         }
@@ -131,11 +168,12 @@ fn full_linearisation_at_a_swinging_state_matches_differences_of_the_dynamics() 
     // The input: a unit force on the lower rod's centre, against a difference
     // of the dynamics under that load.
     let pushed = |f: f64| {
-        let load = move |_: &SystemState<2>, l: &mut joint_runtime::dynamics::Loads<2>| l.force[1].x += f;
+        let load = move |_: &SystemState<2>, l: &mut Loads<2>| l.force[1].x += f;
         let mut sim = Simulation::new(&scene, load, &[], SimulationOptions::default()).unwrap();
         sim.dynamics(&state).unwrap().vdot
     };
     let fd = (pushed(1e-3) - pushed(-1e-3)) / 2e-3;
+
     for i in 0..12 {
         assert!((lin.full_b[(12 + i, 0)] - fd[i]).abs() < 1e-8 * (1.0 + fd.amax()), "{i}");
     }
