@@ -1,9 +1,11 @@
 //! The implicit midpoint rule with the generated iteration matrix
 //! (`NewtonMatrix::Generated`, from `#[scene(second_order)]`) against the
-//! finite-difference one it replaces, on three closed-loop mechanisms with
-//! redundant rows: the IFToMM N-four-bar (A02, 4 loops, 9 bodies, 65 rows,
-//! 54 columns), the Bricard mechanism (5 bodies, 30 × 30) and the free double
-//! Cardan shaft (3 bodies). Projection on, `h = 1 ms`, `STEPS` steps from the
+//! finite-difference one it replaces, on four closed-loop mechanisms with
+//! redundant rows: the IFToMM N-four-bar (A02) with 4 loops (9 bodies, 65
+//! rows, 54 columns) and with 3 (7 bodies, ten spatial revolute joints, 50 ×
+//! 42, 9 redundant rows: the size of the seven-body planar linkage),
+//! the Bricard mechanism (5 bodies, 30 × 30) and the free double Cardan shaft
+//! (3 bodies). Projection on, `h = 1 ms`, `STEPS` steps from the
 //! same start; the two matrices alternate round by round (`ROUNDS` rounds) and
 //! each row gives the median over rounds of µs per step, with Newton
 //! iterations and iteration matrices per step and how far apart the two runs
@@ -21,6 +23,17 @@ use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, Sim
 use joint_runtime::{Scene, SystemState};
 
 const STEPS: usize = 500;
+
+/// The N-four-bar with three loops (`joint_examples::scaling::ladder_scene!`
+/// with `second_order`).
+#[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, -9.81, 0], second_order)]
+#[body(crank[4], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
+#[body(coupler[3], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
+#[joint(pin[i in 0..4] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [i, 0, 0], rho2 = [0, -0.5, 0])]
+#[joint(left[i in 0..3] = revolute(crank[i], coupler[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [-0.5, 0, 0])]
+#[joint(right[i in 0..3] = revolute(crank[i + 1], coupler[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [0.5, 0, 0])]
+struct Ladder3;
 const ROUNDS: usize = 7;
 const H: f64 = 1e-3;
 
@@ -87,6 +100,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     row("N-four-bar, 4 loops", &four_bar::scene(), &four_bar::initial_state())?;
+    row("N-four-bar, 3 loops", &Ladder3, &joint_examples::scaling::ladder_start::<7>())?;
     row("Bricard (falls from rest)", &bricard::scene(), &bricard::initial_state())?;
     let geometry = Geometry::new(30f64.to_radians(), Arrangement::Z, Phasing::InPhase).ok_or("geometry")?;
     let start = DoubleCardan::new(geometry, 10.0).initial_state()?;

@@ -547,7 +547,7 @@ impl Kinematics {
         let base = self.body_view().unwrap_or_else(|| self.rules.clone());
         let mut rules = base.along(&mut self.g, &self.coords, &map);
         for (p, w, body) in self.spins.clone() {
-            let d = w.map(|x| map.get(&self.g.as_var(x).expect("velocities are variables")).copied().unwrap_or(x));
+            let d = w.map(|x| self.g.as_var(x).and_then(|v| map.get(&v).copied()).unwrap_or(x));
             let half = self.g.constant(0.5);
             let spin = [self.g.zero(), d[0], d[1], d[2]];
             let product = if body { quat_mul(&mut self.g, p, spin) } else { quat_mul(&mut self.g, spin, p) };

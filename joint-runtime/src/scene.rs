@@ -85,7 +85,7 @@ pub trait Scene<const NB: usize, const NV: usize, const M: usize> {
     /// Φ, J and γ from one shared computation.
     fn evaluate(&self, state: &SystemState<NB>) -> Evaluation<f64, M, NV>;
     /// The second-order terms at `state` ([`SecondOrder`]: `∂(Jᵀλ)/∂q`,
-    /// `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v`, with `δr` inertial and `δθ'` in body
+    /// `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q`, with `δr` inertial and `δθ'` in body
     /// components, `p ⊕ δθ' = p ⊗ q(δθ')`): `Some` for a scene derived with
     /// `#[scene(second_order)]`, `None` (the default) otherwise. The implicit
     /// integrators build their Newton matrix from it when it is there.

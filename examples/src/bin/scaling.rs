@@ -178,8 +178,9 @@ fn run() -> Result<(), String> {
     md += &table("Ladder (N-four-bar, A02)", &ladder, "loops");
     md += &table("Tree (a spine with a rib on every bar)", &tree, "ribs");
     md += &format!("A 500-body chain in a thread with a 2 MiB stack: {big:.0} µs per step.\n\n");
-    md += "The implicit midpoint rule still runs on the dense path only (its Newton matrix is a dense \
-           finite-difference `NV × NV`); its sparse form is not built yet.\n\n";
+    md += "The implicit integrators (midpoint, generalised-α) still run on the dense path only (their \
+           Newton matrices are dense `NV × NV`, exact from the generated second-order terms); their sparse \
+           form is not built yet.\n\n";
     md += "### The chain beside the peers (µs per step)\n\nThe peers ran the same chain on this machine on \
            2026-12-01 (Exudyn: `exudyn_chain.py N --steps 200 --solver sparse`; MuJoCo: `mujoco_make_chain.py N` \
            and its C timer `bench_step chain.xml 200 3`), one after the other, not beside this program. \

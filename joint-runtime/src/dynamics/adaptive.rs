@@ -12,14 +12,19 @@
 //!   [`Integrator::GeneralisedAlpha`](super::Integrator) with the local error
 //!   estimate of Géradin & Cardona (*Flexible Multibody Dynamics*, 2001, §7.4),
 //!   `e = (β − 1/6) h² (a_{n+1} − a_n)`, the leading term of its position error,
-//!   with `(γ − ½) h (a_{n+1} − a_n)` for the velocities. The global error
-//!   follows the tolerance in proportion, at about 14 × it on the double
-//!   pendulum over 0.5 s (Dormand–Prince: 2–6 ×).
+//!   with `(γ − ½) h (a_{n+1} − a_n)` for the velocities. That velocity term
+//!   is `O(h²)` (the α-relation cancels it over the steps, which a local
+//!   estimate cannot see), so it dominates at small steps and the step size
+//!   follows `err^(-1/2)`. The global error follows the tolerance in
+//!   proportion, at about 14 × it on the double pendulum over 0.5 s
+//!   (Dormand–Prince: 2–6 ×).
 //!
 //! The error norm is the root mean square of `e_i / (atol + rtol · |y_i|)`
 //! over positions and (Dormand–Prince) velocities; a step is accepted when it
 //! is at most 1, and the next step is `h (0.9 / err)^(1/(p+1))`, between 0.2
-//! and 5 times the last (`p` the order of the estimate: 4, or 2).
+//! and 5 times the last (`p + 1` the order of the estimate in `h`: 5, or 2).
+//! A step whose stages, Newton iteration or projection fail, or whose
+//! estimate is not finite, is retried at a quarter of its size.
 
 use nalgebra::{SVector, Vector3};
 
@@ -119,7 +124,8 @@ where
         let mut h = (1e-3 * (t_end - state.t).max(1e-3)).min(t_end - state.t);
         let (order, integrator) = match method {
             Adaptive::DormandPrince => (4.0, self.options.integrator),
-            Adaptive::GeneralisedAlpha => (2.0, Integrator::GeneralisedAlpha),
+            // The estimate's velocity part is O(h²) (see the module docs).
+            Adaptive::GeneralisedAlpha => (1.0, Integrator::GeneralisedAlpha),
         };
         let saved = self.options.integrator;
         self.options.integrator = integrator;
@@ -144,40 +150,63 @@ where
                 return Err(AnalysisError::StepTooSmall { t: state.t, step: *h });
             }
             // The last step lands on t_end (and a step within 1 % of it is stretched to it).
-            let step = if state.t + 1.01 * *h >= t_end { t_end - state.t } else { *h };
+            let last = state.t + 1.01 * *h >= t_end;
+            let step = if last { t_end - state.t } else { *h };
             let trial = match method {
                 Adaptive::DormandPrince => self.dormand_prince(state, step, tolerance, report),
                 Adaptive::GeneralisedAlpha => self.alpha_with_estimate(state, step, tolerance, report),
             };
-            let (next, err) = match trial {
-                Ok(x) => x,
-                // A failed Newton iteration or stage: a smaller step.
-                Err(AnalysisError::ImplicitNotConverged { .. } | AnalysisError::Linalg(_)) => {
+            let accepted = match trial {
+                Ok((next, err)) if err <= 1.0 => self.accept(next, method).map(|next| (next, err)),
+                Ok((_, err)) if err.is_finite() => {
                     report.rejected += 1;
-                    *h = 0.25 * step;
+                    let factor = (0.9 * libm::pow(err, -1.0 / (order + 1.0))).clamp(0.2, 1.0);
+                    *h = step * factor;
                     continue;
                 }
-                Err(e) => return Err(e),
+                other => other.and(Err(AnalysisError::NonFiniteOutput { quantity: "error estimate", row: None })),
             };
-            let factor = (0.9 * libm::pow(err.max(1e-10), -1.0 / (order + 1.0))).clamp(0.2, 5.0);
-            if err <= 1.0 {
-                let mut next = next;
-                if let Some(options) = self.options.projection {
-                    self.project(&mut next, &options)?;
+            match accepted {
+                Ok((next, err)) => {
+                    *state = next;
+                    if last {
+                        state.t = t_end;
+                    }
+                    report.accepted += 1;
+                    report.last_step = step;
+                    *h = step * (0.9 * libm::pow(err.max(1e-10), -1.0 / (order + 1.0))).clamp(0.2, 5.0);
                 }
-                if let Some(history) = &mut self.history {
-                    history.state = next;
+                // A failed Newton iteration, stage or projection, or a
+                // non-finite estimate: a smaller step.
+                Err(
+                    AnalysisError::ImplicitNotConverged { .. }
+                    | AnalysisError::Linalg(_)
+                    | AnalysisError::NonFiniteOutput { .. }
+                    | AnalysisError::NotConverged { .. }
+                    | AnalysisError::NoProgress { .. },
+                ) => {
+                    report.rejected += 1;
+                    *h = 0.25 * step;
                 }
-                *state = next;
-                report.accepted += 1;
-                report.last_step = step;
-                *h = step * factor;
-            } else {
-                report.rejected += 1;
-                *h = step * factor.min(1.0);
+                Err(e) => return Err(e),
             }
         }
         Ok(())
+    }
+
+    /// An accepted step's state, projected if the options say so; the
+    /// history of generalised-α follows it (and is dropped by Dormand–Prince,
+    /// whose steps leave it stale).
+    fn accept(&mut self, next: SystemState<NB>, method: Adaptive) -> Result<SystemState<NB>, AnalysisError> {
+        let mut next = next;
+        if let Some(options) = self.options.projection {
+            self.project(&mut next, &options)?;
+        }
+        match (&mut self.history, method) {
+            (Some(history), Adaptive::GeneralisedAlpha) => history.state = next,
+            _ => self.history = None,
+        }
+        Ok(next)
     }
 
     /// One Dormand–Prince step: the fifth-order state and the error norm.

@@ -50,7 +50,8 @@ where
     fn load_differences(&mut self, state: &SystemState<NB>, c: usize, velocity: bool) -> Loads<NB> {
         let v = velocity_vector::<NB, NV>(state);
         let e = SVector::<f64, NV>::from_fn(|i, _| if i == c { 1.0 } else { 0.0 });
-        let step = LOAD_STEP * (1.0 + if velocity { libm::fabs(v[c]) } else { 0.0 });
+        let speed = if velocity { v.get(c).copied().map_or(0.0, libm::fabs) } else { 0.0 };
+        let step = LOAD_STEP * (1.0 + speed);
         let mut at = |sign: f64| {
             let mut s = *state;
             if velocity {

@@ -226,9 +226,13 @@ where
         c: Coefficients,
         rule: &StepRule<M>,
     ) -> Result<AlphaMatrix<NV, M>, AnalysisError> {
-        let stiffness = match (self.options.newton_matrix, self.scene.second_order(&it.state, &it.lambda, &it.v)) {
-            (super::NewtonMatrix::Generated, Some(second)) => second.stiffness,
-            _ => self.stiffness_by_differences(&it.state, &it.lambda, j),
+        let generated = match self.options.newton_matrix {
+            super::NewtonMatrix::Generated => self.scene.second_order(&it.state, &it.lambda, &it.v),
+            _ => None,
+        };
+        let stiffness = match generated {
+            Some(second) => second.stiffness,
+            None => self.stiffness_by_differences(&it.state, &it.lambda, j),
         };
         let (force_q, force_v) = self.force_derivatives(&it.state);
         let p = update_blocks::<NB, NV>(&it.dq, h);

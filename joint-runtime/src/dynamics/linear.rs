@@ -31,9 +31,7 @@ use nalgebra::{Complex, DMatrix, SMatrix, SVector};
 
 use super::newton_matrix::{times_update, update_blocks};
 use super::{AppliedLoads, Simulation};
-use crate::analysis::{
-    AnalysisError, apply_increment, check_state, normalise_orientations, set_velocities, velocity_vector,
-};
+use crate::analysis::{AnalysisError, check_state, normalise_orientations, velocity_vector};
 use crate::scene::{Scene, SystemState};
 
 /// Singular values of J below this fraction of the largest count as zero.
@@ -215,12 +213,7 @@ where
         let (v0, v1) = (velocity_vector::<NB, NV>(&y0), velocity_vector::<NB, NV>(&y1));
         let w = (v0 + v1) * 0.5;
         let needed = AnalysisError::NoSecondOrder { needed_by: "the state-transition Jacobian" };
-        let r_w = self.generated_midpoint_matrix(&y0, &w, h, &mut rule)?.ok_or(needed)?;
-        let mut mid = y0;
-        apply_increment(&mut mid, &w, 0.5 * h);
-        set_velocities(&mut mid, &w);
-        mid.t = y0.t + 0.5 * h;
-        let t = self.tangent(&mid, &mut rule)?.ok_or(needed)?;
+        let (r_w, t) = self.midpoint_tangent(&y0, &w, h, &mut rule)?.ok_or(needed)?;
         let a_q = t.accelerations(&t.r1q, &t.r2q);
         // R_{q₀} = −(h/2) A_q Ad(−(h/2) ω'), R_{v₀} = −I.
         let r_q0 = a_q * transport::<NB, NV>(&w, 0.5 * h) * (-0.5 * h);

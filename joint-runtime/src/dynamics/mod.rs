@@ -1,6 +1,8 @@
 //! Forward dynamics of any [`Scene`]: constrained accelerations, Lagrange
-//! multipliers and joint reactions, constraint stabilisation, and two fixed-step
-//! integrators on the rotation group. Allocation-free and panic-free.
+//! multipliers and joint reactions, constraint stabilisation, three fixed-step
+//! integrators on the rotation group and error-controlled steps; all
+//! allocation-free and panic-free (the linearisation, behind `alloc`, allocates
+//! its run-time-sized matrices).
 //!
 //! # Equations and sign convention
 //!
@@ -257,7 +259,10 @@ pub enum NewtonMatrix {
     /// scene derived without them.
     #[default]
     Generated,
-    /// Forward differences of the residual: `NV` evaluations of the dynamics.
+    /// Differences: for the implicit midpoint rule, forward differences of its
+    /// residual (`NV` evaluations of the dynamics); for generalised-α, the
+    /// tangent stiffness `∂(Jᵀλ)/∂q` by forward differences of `Jᵀλ` (the
+    /// forces' derivatives stay exact).
     FiniteDifferences,
 }
 
@@ -496,6 +501,15 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
     pub options: SimulationOptions,
 }
 
+/// The accelerations at a state with `J`, `J M⁻¹` and the factorisation of
+/// `J M⁻¹ Jᵀ` they were solved with.
+struct Factored<const NV: usize, const M: usize> {
+    dynamics: Dynamics<NV, M>,
+    jacobian: SMatrix<f64, M, NV>,
+    jw: SMatrix<f64, M, NV>,
+    chol: PivotedCholesky<M>,
+}
+
 /// What the stages of one step share, decided at the step's start: which rows
 /// of `J M⁻¹ Jᵀ` to drop as redundant (its pivot order and rank), so that every
 /// stage drops the same ones, and whether the start was checked for
@@ -582,6 +596,16 @@ where
         state: &SystemState<NB>,
         rule: Option<&mut StepRule<M>>,
     ) -> Result<Dynamics<NV, M>, AnalysisError> {
+        self.solve_factored(state, rule).map(|f| f.dynamics)
+    }
+
+    /// [`solve`](Self::solve), with the factorisation it used (what the exact
+    /// Newton matrices are built on).
+    fn solve_factored(
+        &mut self,
+        state: &SystemState<NB>,
+        rule: Option<&mut StepRule<M>>,
+    ) -> Result<Factored<NV, M>, AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
         let e = self.scene.evaluate(state);
         check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
@@ -629,7 +653,8 @@ where
             None => true,
         };
         check_redundant::<S, NB, NV, M>(&r, chol.dropped(), scale, check_dropped)?;
-        Ok(Dynamics { vdot, lambda, forces, redundant: RowList::from_rows::<S, NB, NV>(chol.dropped()) })
+        let dynamics = Dynamics { vdot, lambda, forces, redundant: RowList::from_rows::<S, NB, NV>(chol.dropped()) };
+        Ok(Factored { dynamics, jacobian: e.jacobian, jw, chol })
     }
 
     /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every body,
@@ -712,10 +737,7 @@ where
         h: f64,
         rule: &mut StepRule<M>,
     ) -> Result<SVector<f64, NV>, AnalysisError> {
-        let mut mid = *y0;
-        apply_increment(&mut mid, w, 0.5 * h);
-        set_velocities(&mut mid, w);
-        mid.t = y0.t + 0.5 * h;
+        let mid = midpoint_state(y0, w, h);
         let a = self.solve(&mid, Some(rule))?.vdot;
         Ok(w - v0 - a * (0.5 * h))
     }
@@ -849,6 +871,20 @@ where
         }
         Ok(report)
     }
+}
+
+/// The implicit midpoint rule's midpoint: `q_n ⊕ (h/2) w` with velocities
+/// `w`, at `t_n + h/2`.
+pub(crate) fn midpoint_state<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    w: &SVector<f64, NV>,
+    h: f64,
+) -> SystemState<NB> {
+    let mut mid = *y0;
+    apply_increment(&mut mid, w, 0.5 * h);
+    set_velocities(&mut mid, w);
+    mid.t = y0.t + 0.5 * h;
+    mid
 }
 
 /// Whether a Newton correction of `size` ends an implicit integrator's

@@ -21,14 +21,12 @@
 //! With Baumgarte stabilisation `γ − 2α (J v + Φ_t) − β² Φ`, the matrix adds
 //! `−2α (∂(J v)/∂q + ∂Φ_t/∂q) − β² J` in `δq` and `−2α J` in `δv`.
 //! [`Tangent`] holds these pieces at one state; the linearisation
-//! (`crate::linear`) uses them too.
+//! (`dynamics/linear.rs`) uses them too.
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Dynamics, Simulation, Stabilisation, StepRule};
-use crate::analysis::{
-    AnalysisError, InverseMass, apply_increment, check_output, jacobian_times_metric, set_velocities, velocity_vector,
-};
+use super::{AppliedLoads, Dynamics, Simulation, Stabilisation, StepRule, midpoint_state};
+use crate::analysis::{AnalysisError, InverseMass, jacobian_times_metric, velocity_vector};
 use crate::linalg::PivotedCholesky;
 use crate::scene::{Scene, SystemState};
 
@@ -86,7 +84,8 @@ where
         state: &SystemState<NB>,
         rule: &mut StepRule<M>,
     ) -> Result<Option<Tangent<NB, NV, M>>, AnalysisError> {
-        let d = self.solve(state, Some(rule))?;
+        let f = self.solve_factored(state, Some(rule))?;
+        let d = f.dynamics;
         let (alpha, beta) = match self.options.stabilisation {
             Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
             Stabilisation::None => (0.0, 0.0),
@@ -95,13 +94,9 @@ where
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
         let u = d.vdot + v * (2.0 * alpha);
         let Some(second) = self.scene.second_order(state, &d.lambda, &u) else { return Ok(None) };
-        let j = self.scene.jacobian(state);
-        check_output::<S, NB, NV, M, NV>("J", &j)?;
+        let (j, jw, chol) = (f.jacobian, f.jw, f.chol);
         let (force_q, force_v) = self.force_derivatives(state);
         let r2q = second.gamma_q - second.jacobian_q - second.phi_t_q * (2.0 * alpha) - j * (beta * beta);
-        let jw = jacobian_times_metric(Some(&self.inverse), &j);
-        let chol =
-            PivotedCholesky::with_order(&(jw * j.transpose()), &rule.order, rule.rank, self.options.rank_tolerance)?;
         Ok(Some(Tangent {
             r1q: force_q - second.stiffness,
             r1v: force_v,
@@ -124,10 +119,20 @@ where
         h: f64,
         rule: &mut StepRule<M>,
     ) -> Result<Option<SMatrix<f64, NV, NV>>, AnalysisError> {
-        let mut mid = *y0;
-        apply_increment(&mut mid, w, 0.5 * h);
-        set_velocities(&mut mid, w);
-        mid.t = y0.t + 0.5 * h;
+        Ok(self.midpoint_tangent(y0, w, h, rule)?.map(|(matrix, _)| matrix))
+    }
+
+    /// [`generated_midpoint_matrix`](Self::generated_midpoint_matrix) and the
+    /// linearised equations at the midpoint it was built from.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn midpoint_tangent(
+        &mut self,
+        y0: &SystemState<NB>,
+        w: &SVector<f64, NV>,
+        h: f64,
+        rule: &mut StepRule<M>,
+    ) -> Result<Option<(SMatrix<f64, NV, NV>, Tangent<NB, NV, M>)>, AnalysisError> {
+        let mid = midpoint_state(y0, w, h);
         let Some(t) = self.tangent(&mid, rule)? else { return Ok(None) };
         // δq = (h/2) T δw, δv = δw.
         let p = update_blocks::<NB, NV>(w, 0.5 * h);
@@ -137,7 +142,7 @@ where
         if !matrix.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFiniteOutput { quantity: "Newton matrix", row: None });
         }
-        Ok(Some(matrix))
+        Ok(Some((matrix, t)))
     }
 }
 
