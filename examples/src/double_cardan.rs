@@ -160,7 +160,7 @@ impl Geometry {
 /// `input_bearing`, `output_bearing` (revolute to the ground), `first`, `second`
 /// (universal) and `motor` (rotational driver of the input, `θ = ω₁ t`).
 #[derive(Scene, Clone, Copy, Debug)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(gravity = [0, 0, -9.81], second_order)]
 #[body(input, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(middle, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(output, mass = 2.0, inertia = [0.001, 0.17, 0.17])]

@@ -3,7 +3,8 @@
 //! fixed sizes.
 //!
 //! - [`driven`]: `DoubleCardan`, four joints and a motor, 19 rows of which one is
-//!   redundant (`Scene<3, 18, 19>`).
+//!   redundant (`Scene<3, 18, 19>`), derived with `second_order`: its `step`
+//!   checks the exact Newton matrices with a redundant row held.
 //! - [`free`]: `FreeDoubleCardan`, no motor, 18 rows, one degree of freedom
 //!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`,
 //!   derived with `second_order`: its `step` checks the implicit integrators'
