@@ -49,46 +49,24 @@ pub fn derive(d: &mut Derived) -> SecondOrderNodes {
     let u = k.argument("u", nv);
     let (directions, mut along) = k.direction_rules();
     let velocities = k.velocities.clone();
-    let j = &d.jacobian;
+    let (j, gamma, phi_t) = (&d.jacobian, &d.gamma, &d.phi_t);
+    let mut q = |k: &mut Kinematics, n: usize, root: &dyn Fn(&mut Kinematics, usize) -> Id| {
+        let rows: Vec<Vec<Id>> = (0..n)
+            .map(|i| {
+                let f = root(k, i);
+                let df = along.dt(&mut k.g, f);
+                grad(&mut k.g, df, &directions)
+            })
+            .collect();
+        column_major(&rows, nv)
+    };
     // Row c of K: the gradient in δ of the derivative of (Jᵀλ)_c along δ.
-    let stiffness_rows: Vec<Vec<Id>> = (0..nv)
-        .map(|c| {
-            let f = weighted(k, (0..m).map(|i| (lambda[i], j[i][c])));
-            let df = along.dt(&mut k.g, f);
-            grad(&mut k.g, df, &directions)
-        })
-        .collect();
-    let jacobian_q_rows: Vec<Vec<Id>> = (0..m)
-        .map(|i| {
-            let f = weighted(k, (0..nv).map(|c| (u[c], j[i][c])));
-            let df = along.dt(&mut k.g, f);
-            grad(&mut k.g, df, &directions)
-        })
-        .collect();
-    let gamma_q_rows: Vec<Vec<Id>> = d
-        .gamma
-        .iter()
-        .map(|&gamma| {
-            let dg = along.dt(&mut k.g, gamma);
-            grad(&mut k.g, dg, &directions)
-        })
-        .collect();
-    let gamma_v_rows: Vec<Vec<Id>> = d.gamma.iter().map(|&gamma| grad(&mut k.g, gamma, &velocities)).collect();
-    let phi_t_q_rows: Vec<Vec<Id>> = d
-        .phi_t
-        .iter()
-        .map(|&phi_t| {
-            let dp = along.dt(&mut k.g, phi_t);
-            grad(&mut k.g, dp, &directions)
-        })
-        .collect();
-    SecondOrderNodes {
-        stiffness: column_major(&stiffness_rows, nv),
-        jacobian_q: column_major(&jacobian_q_rows, nv),
-        gamma_q: column_major(&gamma_q_rows, nv),
-        gamma_v: column_major(&gamma_v_rows, nv),
-        phi_t_q: column_major(&phi_t_q_rows, nv),
-    }
+    let stiffness = q(k, nv, &|k, c| weighted(k, (0..m).map(|i| (lambda[i], j[i][c]))));
+    let jacobian_q = q(k, m, &|k, i| weighted(k, (0..nv).map(|c| (u[c], j[i][c]))));
+    let gamma_q = q(k, m, &|_, i| gamma[i]);
+    let gamma_v_rows: Vec<Vec<Id>> = gamma.iter().map(|&g| grad(&mut k.g, g, &velocities)).collect();
+    let phi_t_q = q(k, m, &|_, i| phi_t[i]);
+    SecondOrderNodes { stiffness, jacobian_q, gamma_q, gamma_v: column_major(&gamma_v_rows, nv), phi_t_q }
 }
 
 /// `Σ w_i x_i` over the pairs whose `x` is not a structural zero.

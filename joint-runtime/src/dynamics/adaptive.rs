@@ -29,7 +29,7 @@
 use nalgebra::{SVector, Vector3};
 
 use super::{AppliedLoads, Integrator, Rate, Simulation, advance};
-use crate::analysis::{AnalysisError, check_state, normalise_orientations, velocity_vector};
+use crate::analysis::{AnalysisError, check_state, velocity_vector};
 use crate::scene::{Scene, SystemState};
 
 /// The error-controlled integrators of [`Simulation::integrate`].
@@ -217,9 +217,7 @@ where
         tolerance: Tolerance,
         report: &mut IntegrationReport,
     ) -> Result<(SystemState<NB>, f64), AnalysisError> {
-        let mut y = *y0;
-        normalise_orientations::<S, NB, NV, M>(&mut y)?;
-        let mut rule = self.step_rule(&y)?;
+        let (y, mut rule) = self.step_start(y0, h)?;
         let t0 = y.t;
         let first = self.rate(&y, &mut rule)?;
         let mut k = [first; 7];
@@ -244,15 +242,14 @@ where
         report: &mut IntegrationReport,
     ) -> Result<(SystemState<NB>, f64), AnalysisError> {
         let continuing = self.history.is_some_and(|past| past.state == *y0);
-        let mut y = *y0;
-        normalise_orientations::<S, NB, NV, M>(&mut y)?;
-        let mut rule = self.step_rule(&y)?;
+        let (mut y, mut rule) = self.step_start(y0, h)?;
         let saved = self.history;
-        let before = match (continuing, saved) {
-            (true, Some(past)) => past.a,
-            _ => self.solve(&y, Some(&mut rule))?.vdot,
-        };
-        let result = self.step_alpha(&mut y, h, continuing, &mut rule);
+        // The history the step starts from (fresh from the dynamics unless it
+        // goes on from the last step), kept for the estimate and handed over.
+        let past = self.alpha_history(&y, continuing, &mut rule)?;
+        let before = past.a;
+        self.history = Some(past);
+        let result = self.step_alpha(&mut y, h, true, &mut rule);
         let (iterations, matrices) = match result {
             Ok(x) => x,
             Err(e) => {

@@ -92,7 +92,7 @@ where
     /// The history at `state`: the one the last step left if the step starts
     /// where that one ended (`continuing`), otherwise accelerations and
     /// multipliers from the dynamics.
-    fn alpha_history(
+    pub(super) fn alpha_history(
         &mut self,
         state: &SystemState<NB>,
         continuing: bool,

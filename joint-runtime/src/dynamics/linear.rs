@@ -31,7 +31,7 @@ use nalgebra::{Complex, DMatrix, SMatrix, SVector};
 
 use super::newton_matrix::{times_update, update_blocks};
 use super::{AppliedLoads, Simulation};
-use crate::analysis::{AnalysisError, check_state, normalise_orientations, velocity_vector};
+use crate::analysis::{AnalysisError, check_state, velocity_vector};
 use crate::scene::{Scene, SystemState};
 
 /// Singular values of J below this fraction of the largest count as zero.
@@ -201,19 +201,13 @@ where
     /// `second_order`; as [`Simulation::step`] otherwise. On error `state` is
     /// unchanged.
     pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
-        if !(h > 0.0 && h.is_finite()) {
-            return Err(AnalysisError::BadOption { name: "step size" });
-        }
-        check_state::<S, NB, NV, M>(state, true)?;
-        let mut y0 = *state;
-        normalise_orientations::<S, NB, NV, M>(&mut y0)?;
-        let mut rule = self.step_rule(&y0)?;
+        let (y0, mut rule) = self.step_start(state, h)?;
         let mut y1 = y0;
         self.step_midpoint(&mut y1, h, &mut rule)?;
         let (v0, v1) = (velocity_vector::<NB, NV>(&y0), velocity_vector::<NB, NV>(&y1));
         let w = (v0 + v1) * 0.5;
         let needed = AnalysisError::NoSecondOrder { needed_by: "the state-transition Jacobian" };
-        let (r_w, t) = self.midpoint_tangent(&y0, &w, h, &mut rule)?.ok_or(needed)?;
+        let (r_w, t) = self.midpoint_tangent(&y0, &w, h, &mut rule, None)?.ok_or(needed)?;
         let a_q = t.accelerations(&t.r1q, &t.r2q);
         // R_{q₀} = −(h/2) A_q Ad(−(h/2) ω'), R_{v₀} = −I.
         let r_q0 = a_q * transport::<NB, NV>(&w, 0.5 * h) * (-0.5 * h);

@@ -503,6 +503,7 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
 
 /// The accelerations at a state with `J`, `J M⁻¹` and the factorisation of
 /// `J M⁻¹ Jᵀ` they were solved with.
+#[derive(Clone, Copy)]
 struct Factored<const NV: usize, const M: usize> {
     dynamics: Dynamics<NV, M>,
     jacobian: SMatrix<f64, M, NV>,
@@ -576,6 +577,22 @@ where
         let jw = jacobian_times_metric(Some(&self.inverse), &j);
         let chol = PivotedCholesky::new(&(jw * j.transpose()), self.options.rank_tolerance)?;
         Ok(StepRule { order: *chol.permutation(), rank: chol.rank(), checked: false })
+    }
+
+    /// The start of a step `h` from `state`: `h` and `state` checked, the
+    /// normalised copy the step advances, and its rule for redundant rows.
+    /// The rule is decided once, here: off the constraint manifold (at the
+    /// stages) redundant rows disagree by O(h²), and a choice that switched
+    /// between stages would cost the method its order.
+    fn step_start(&self, state: &SystemState<NB>, h: f64) -> Result<(SystemState<NB>, StepRule<M>), AnalysisError> {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(AnalysisError::BadOption { name: "step size" });
+        }
+        check_state::<S, NB, NV, M>(state, true)?;
+        let mut y = *state;
+        normalise_orientations::<S, NB, NV, M>(&mut y)?;
+        let rule = self.step_rule(&y)?;
+        Ok((y, rule))
     }
 
     /// Constrained accelerations and Lagrange multipliers at `state` (with the
@@ -728,7 +745,9 @@ where
         Ok(0)
     }
 
-    /// `w − v_n − (h/2) a(q_n ⊕ (h/2) w, w, t_n + h/2)`.
+    /// `w − v_n − (h/2) a(q_n ⊕ (h/2) w, w, t_n + h/2)`, with the
+    /// factorisation the accelerations were solved with (the generated Newton
+    /// matrix at this `w` is built on it).
     fn midpoint_residual(
         &mut self,
         y0: &SystemState<NB>,
@@ -736,25 +755,27 @@ where
         w: &SVector<f64, NV>,
         h: f64,
         rule: &mut StepRule<M>,
-    ) -> Result<SVector<f64, NV>, AnalysisError> {
+    ) -> Result<(SVector<f64, NV>, Factored<NV, M>), AnalysisError> {
         let mid = midpoint_state(y0, w, h);
-        let a = self.solve(&mid, Some(rule))?.vdot;
-        Ok(w - v0 - a * (0.5 * h))
+        let f = self.solve_factored(&mid, Some(rule))?;
+        Ok((w - v0 - f.dynamics.vdot * (0.5 * h), f))
     }
 
-    /// The iteration matrix `∂R/∂w` at `w`: generated, or forward differences
-    /// of the residual `r` at `w`.
+    /// The iteration matrix `∂R/∂w` at `w`: generated (from `at`, the
+    /// residual's factorisation there), or forward differences of the
+    /// residual `r` at `w`.
+    #[allow(clippy::too_many_arguments)]
     fn midpoint_matrix(
         &mut self,
         y0: &SystemState<NB>,
         v0: &SVector<f64, NV>,
         w: &SVector<f64, NV>,
-        r: &SVector<f64, NV>,
+        (r, at): &(SVector<f64, NV>, Factored<NV, M>),
         h: f64,
         rule: &mut StepRule<M>,
     ) -> Result<SMatrix<f64, NV, NV>, AnalysisError> {
         if self.options.newton_matrix == NewtonMatrix::Generated
-            && let Some(m) = self.generated_midpoint_matrix(y0, w, h, rule)?
+            && let Some((m, _)) = self.midpoint_tangent(y0, w, h, rule, Some(at))?
         {
             return Ok(m);
         }
@@ -763,7 +784,7 @@ where
             let eps = 1e-7 * (1.0 + libm::fabs(w[c]));
             let mut wc = *w;
             wc[c] += eps;
-            let rc = self.midpoint_residual(y0, v0, &wc, h, rule)?;
+            let (rc, _) = self.midpoint_residual(y0, v0, &wc, h, rule)?;
             jac.set_column(c, &((rc - r) / eps));
         }
         Ok(jac)
@@ -799,7 +820,7 @@ where
                     f
                 }
             };
-            let dw = factor.solve(&(-r));
+            let dw = factor.solve(&(-r.0));
             w += dw;
             r = self.midpoint_residual(&y0, &v0, &w, h, rule)?;
             iterations += 1;
@@ -832,19 +853,9 @@ where
     /// non-finite inputs; failures of the dynamics, of the implicit iteration or
     /// of the projection. On error `state` is unchanged.
     pub fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
-        if !(h > 0.0 && h.is_finite()) {
-            return Err(AnalysisError::BadOption { name: "step size" });
-        }
-        check_state::<S, NB, NV, M>(state, true)?;
+        let (mut y, mut rule) = self.step_start(state, h)?;
         // Generalised-α goes on from its last step only if handed back its state.
         let continuing = self.history.is_some_and(|h| h.state == *state);
-        let mut y = *state;
-        normalise_orientations::<S, NB, NV, M>(&mut y)?;
-        // Which redundant rows to drop is decided once, at the start of the step:
-        // off the constraint manifold (at the stages) redundant rows disagree by
-        // O(h²), and a choice that switched between stages would cost the method
-        // its order.
-        let mut rule = self.step_rule(&y)?;
         let (newton_iterations, newton_matrices) = match self.options.integrator {
             Integrator::Rk4 => (self.step_rk4(&mut y, h, &mut rule)?, 0),
             Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,

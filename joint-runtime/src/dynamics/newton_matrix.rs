@@ -25,7 +25,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Dynamics, Simulation, Stabilisation, StepRule, midpoint_state};
+use super::{AppliedLoads, Dynamics, Factored, Simulation, Stabilisation, StepRule, midpoint_state};
 use crate::analysis::{AnalysisError, InverseMass, jacobian_times_metric, velocity_vector};
 use crate::linalg::PivotedCholesky;
 use crate::scene::{Scene, SystemState};
@@ -85,6 +85,15 @@ where
         rule: &mut StepRule<M>,
     ) -> Result<Option<Tangent<NB, NV, M>>, AnalysisError> {
         let f = self.solve_factored(state, Some(rule))?;
+        self.tangent_on(state, f)
+    }
+
+    /// [`tangent`](Self::tangent) on the accelerations `f` already solved at `state`.
+    fn tangent_on(
+        &mut self,
+        state: &SystemState<NB>,
+        f: Factored<NV, M>,
+    ) -> Result<Option<Tangent<NB, NV, M>>, AnalysisError> {
         let d = f.dynamics;
         let (alpha, beta) = match self.options.stabilisation {
             Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
@@ -112,18 +121,10 @@ where
 
     /// `∂R/∂w` of the midpoint residual at `w`, exact; `None` when the scene
     /// has no generated second-order terms.
-    pub(super) fn generated_midpoint_matrix(
-        &mut self,
-        y0: &SystemState<NB>,
-        w: &SVector<f64, NV>,
-        h: f64,
-        rule: &mut StepRule<M>,
-    ) -> Result<Option<SMatrix<f64, NV, NV>>, AnalysisError> {
-        Ok(self.midpoint_tangent(y0, w, h, rule)?.map(|(matrix, _)| matrix))
-    }
-
-    /// [`generated_midpoint_matrix`](Self::generated_midpoint_matrix) and the
-    /// linearised equations at the midpoint it was built from.
+    /// `∂R/∂w` of the midpoint residual at `w`, exact, and the linearised
+    /// equations at the midpoint it was built from (on `at`, the
+    /// accelerations already solved there, if given); `None` when the scene
+    /// has no generated second-order terms.
     #[allow(clippy::type_complexity)]
     pub(super) fn midpoint_tangent(
         &mut self,
@@ -131,9 +132,14 @@ where
         w: &SVector<f64, NV>,
         h: f64,
         rule: &mut StepRule<M>,
+        at: Option<&Factored<NV, M>>,
     ) -> Result<Option<(SMatrix<f64, NV, NV>, Tangent<NB, NV, M>)>, AnalysisError> {
         let mid = midpoint_state(y0, w, h);
-        let Some(t) = self.tangent(&mid, rule)? else { return Ok(None) };
+        let tangent = match at {
+            Some(f) => self.tangent_on(&mid, *f)?,
+            None => self.tangent(&mid, rule)?,
+        };
+        let Some(t) = tangent else { return Ok(None) };
         // δq = (h/2) T δw, δv = δw.
         let p = update_blocks::<NB, NV>(w, 0.5 * h);
         let r1 = times_update(&t.r1q, &p, 0.5 * h) + t.r1v;

@@ -71,7 +71,7 @@ where
     /// # Errors
     /// As [`Simulation::new`](crate::dynamics::Simulation::new);
     /// [`AnalysisError::BadOption`] for an integrator other than RK4 (the
-    /// implicit one still runs on the dense path).
+    /// implicit ones still run on the dense path only).
     pub fn new(
         scene: &'a S,
         loads: L,
