@@ -26,13 +26,14 @@ use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
-/// Declares the chain of `$n` bars.
+/// Declares the chain of `$n` bars (`second_order` after the size for the
+/// terms generalised-α needs).
 #[macro_export]
 macro_rules! chain_scene {
-    ($name:ident, $n:tt) => {
+    ($name:ident, $n:tt $(, $option:ident)?) => {
         /// A chain of bars on spherical joints (see the module docs).
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81])]
+        #[scene(gravity = [0, 0, -9.81] $(, $option)?)]
         #[body(bar[$n], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
         #[joint(ball[i in 1..$n] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
@@ -43,10 +44,10 @@ macro_rules! chain_scene {
 /// Declares the ladder of `$n` four-bar loops (`$cranks = $n + 1`).
 #[macro_export]
 macro_rules! ladder_scene {
-    ($name:ident, $n:tt, $cranks:tt) => {
+    ($name:ident, $n:tt, $cranks:tt $(, $option:ident)?) => {
         /// The N-four-bar: cranks pinned to the ground, couplers between them.
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, -9.81, 0])]
+        #[scene(gravity = [0, -9.81, 0] $(, $option)?)]
         #[body(crank[$cranks], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
         #[body(coupler[$n], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
         #[joint(pin[i in 0..$cranks] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [i, 0, 0], rho2 = [0, -0.5, 0])]
@@ -59,10 +60,10 @@ macro_rules! ladder_scene {
 /// Declares the tree of a `$k`-bar spine with a rib on each.
 #[macro_export]
 macro_rules! tree_scene {
-    ($name:ident, $k:tt) => {
+    ($name:ident, $k:tt $(, $option:ident)?) => {
         /// A spine of bars with a rib hanging from each.
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81])]
+        #[scene(gravity = [0, 0, -9.81] $(, $option)?)]
         #[body(spine[$k], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[body(rib[$k], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(pivot = spherical(ground, spine[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]

@@ -2,10 +2,11 @@
 //! example scene: the same accelerations and the same steps to round-off, the
 //! same number of redundant rows (Bricard's one, the Cardan shafts' bearings).
 
-use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, scaling, steering};
-use joint_runtime::analysis::{AssemblyOptions, accelerations, assemble, velocities};
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
-use joint_runtime::sparse::{SparseAnalysis, SparseSimulation};
+use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
+use joint_runtime::analysis::{AnalysisError, AssemblyOptions, accelerations, assemble, velocities};
+use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper};
+use joint_runtime::nalgebra::{DMatrix, SVector};
+use joint_runtime::sparse::{RowTerm, SecondOrderLayout, SparseAnalysis, SparseSimulation};
 use joint_runtime::{Ramp, Scene, SparseJacobian, SystemState};
 
 /// `|a − b| ≤ tol (1 + |b|)` entry by entry.
@@ -87,8 +88,8 @@ fn steering_column() {
     same(&column, state, 50, 1e-3);
 }
 
-joint_examples::chain_scene!(Chain200, 200);
-joint_examples::ladder_scene!(Ladder40, 40, 41);
+joint_examples::chain_scene!(Chain200, 200, second_order);
+joint_examples::ladder_scene!(Ladder40, 40, 41, second_order);
 
 /// The dense path's stack for 200 bodies: `J` alone is 600 × 1200.
 const BIG_STACK: usize = 512 << 20;
@@ -199,4 +200,194 @@ fn reactions_match_the_dense_ones() {
         };
         close(block.name, &flat(&b), &flat(&a), 1e-9);
     }
+}
+
+/// `steps` generalised-α steps both ways, with `springs`: the sparse
+/// saddle-point factor against the dense Schur complement, to round-off.
+fn same_alpha<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    scene: &S,
+    state: SystemState<NB>,
+    springs: &[SpringDamper],
+    steps: usize,
+    h: f64,
+) where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let mut options = SimulationOptions::default();
+    options.integrator = Integrator::GeneralisedAlpha;
+    let mut dense = Simulation::new(scene, NoLoads, springs, options).expect("dense");
+    let mut sparse = SparseSimulation::new(scene, NoLoads, springs, options).expect("sparse");
+    let (mut a, mut b) = (state, state);
+    let (mut dense_iterations, mut sparse_iterations) = (0, 0);
+    for _ in 0..steps {
+        dense_iterations += dense.step(&mut a, h).expect("dense step").newton_iterations;
+        sparse_iterations += sparse.step(&mut b, h).expect("sparse step").newton_iterations;
+    }
+    close("state", &flat(&b), &flat(&a), 1e-9);
+    // Equal but where a step stops at the round-off floor, which the two
+    // factorisations reach in different last digits.
+    assert!(
+        sparse_iterations.abs_diff(dense_iterations) * 20 <= dense_iterations,
+        "Newton iterations: sparse {sparse_iterations}, dense {dense_iterations}"
+    );
+}
+
+#[test]
+fn generalised_alpha_on_the_four_bar() {
+    same_alpha(&four_bar::scene(), four_bar::initial_state(), &[], 50, 1e-3);
+}
+
+#[test]
+fn generalised_alpha_on_bricard_with_its_redundant_row() {
+    same_alpha(&bricard::scene(), bricard::initial_state(), &[], 50, 1e-3);
+}
+
+#[test]
+fn generalised_alpha_on_the_double_cardan_with_its_bearings() {
+    let geometry = double_cardan::Geometry::new(0.4, double_cardan::Arrangement::W, double_cardan::Phasing::InPhase)
+        .expect("valid bend");
+    let shaft = double_cardan::DoubleCardan::new(geometry, 10.0);
+    same_alpha(&shaft, shaft.initial_state().expect("consistent start"), &[], 50, 1e-3);
+}
+
+#[test]
+fn generalised_alpha_on_the_stiff_press() {
+    let state = press::initial_state().expect("assembled press");
+    same_alpha(&press::scene(), state, &press::springs(), 100, 1e-3);
+}
+
+/// The sparse second-order blocks against the dense matrices (themselves
+/// checked against differences in `tests/runtime/second_order.rs`), entry by
+/// entry, and zero wherever the layout has no entry.
+fn same_terms<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(scene: &S, state: &SystemState<NB>)
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let lambda = SVector::<f64, M>::from_fn(|i, _| (i as f64 * 0.7).sin());
+    let u = SVector::<f64, NV>::from_fn(|i, _| (i as f64 * 1.3).cos());
+    let dense = scene.second_order(state, &lambda, &u).expect("dense terms");
+    let layout = SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES);
+    let mut values = vec![0.0; layout.len()];
+    assert!(!scene.second_order_values(state, &lambda, &u, &mut values[1..]), "a wrong length is refused");
+    assert!(scene.second_order_values(state, &lambda, &u, &mut values), "sparse terms");
+    let mut k = DMatrix::<f64>::zeros(NV, NV);
+    for (bodies, block) in layout.stiffness(&values) {
+        let cols: Vec<usize> = bodies.iter().flat_map(|b| 6 * b..6 * b + 6).collect();
+        for (i, &r) in cols.iter().enumerate() {
+            for (j, &c) in cols.iter().enumerate() {
+                k[(r, c)] += block[i * cols.len() + j];
+            }
+        }
+    }
+    close("K", k.as_slice(), dense.stiffness.as_slice(), 1e-13);
+    for (term, matrix) in [
+        (RowTerm::JacobianQ, &dense.jacobian_q),
+        (RowTerm::GammaQ, &dense.gamma_q),
+        (RowTerm::GammaV, &dense.gamma_v),
+        (RowTerm::PhiTQ, &dense.phi_t_q),
+    ] {
+        let mut m = DMatrix::<f64>::zeros(M, NV);
+        for r in 0..M {
+            let (bodies, row) = layout.row(&values, term, r).expect("every row");
+            for (i, c) in bodies.iter().flat_map(|b| 6 * b..6 * b + 6).enumerate() {
+                m[(r, c)] = row[i];
+            }
+        }
+        close(&format!("{term:?}"), m.as_slice(), matrix.as_slice(), 1e-13);
+    }
+}
+
+#[test]
+fn sparse_second_order_terms_match_the_dense_ones() {
+    same_terms(&four_bar::scene(), &four_bar::initial_state());
+    same_terms(&bricard::scene(), &bricard::perturbed_state(3.0));
+    same_terms(&press::scene(), &press::initial_state().expect("assembled press"));
+    let geometry = double_cardan::Geometry::new(0.4, double_cardan::Arrangement::W, double_cardan::Phasing::InPhase)
+        .expect("valid bend");
+    let shaft = double_cardan::DoubleCardan::new(geometry, 10.0);
+    same_terms(&shaft, &shaft.initial_state().expect("consistent start"));
+}
+
+/// Generalised-α options with spectral radius `rho`.
+fn alpha_options(rho: f64) -> SimulationOptions {
+    let mut options = SimulationOptions::default();
+    options.integrator = Integrator::GeneralisedAlpha;
+    options.spectral_radius = rho;
+    options
+}
+
+/// The 200-body chain on the sparse generalised-α converges to the sparse RK4
+/// solution (fourth order, so exact to the figures compared) at second order:
+/// halving the step quarters the error.
+#[test]
+fn generalised_alpha_on_a_200_body_chain_converges_at_second_order() {
+    let start = scaling::chain_start::<200>();
+    let run = |options: SimulationOptions, h: f64| {
+        let mut sim = SparseSimulation::new(&Chain200, NoLoads, &[], options).expect("sparse");
+        let mut state = start;
+        let steps = (0.02 / h).round() as usize;
+        for _ in 0..steps {
+            let r = sim.step(&mut state, h).expect("steps");
+            assert!(r.constraint_residual < 1e-10, "{r:?}");
+        }
+        flat(&state)
+    };
+    let reference = run(SimulationOptions::default(), 1e-4);
+    let error = |h: f64| {
+        let y = run(alpha_options(0.9), h);
+        y.iter().zip(&reference).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+    };
+    let (coarse, fine) = (error(4e-4), error(2e-4));
+    let order = (coarse / fine).log2();
+    println!("200-body chain, generalised-α: errors {coarse:.2e}, {fine:.2e}, order {order:.2}");
+    assert!(fine < 1e-4 && coarse > fine, "errors {coarse:e}, {fine:e}");
+    assert!((1.8..2.3).contains(&order), "observed order {order}");
+}
+
+/// The 40-loop ladder on the sparse generalised-α (its 120 redundant rows held):
+/// through its singular positions as with RK4, every crank with the first,
+/// energy kept by the undamped method (ρ∞ = 1).
+#[test]
+fn generalised_alpha_takes_the_40_loop_ladder_through_its_singular_positions() {
+    let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], alpha_options(1.0)).expect("sparse");
+    let mut state = scaling::ladder_start::<81>();
+    let e0 = sim.energy(&state).total();
+    let (mut passages, mut last, mut worst_branch, mut worst_energy) =
+        (0, crank_angle(&state, 0).sin(), 0.0f64, 0.0f64);
+    for _ in 0..4000 {
+        let r = sim.step(&mut state, 1e-3).expect("steps through the singular positions");
+        assert!(r.constraint_residual <= 1e-10, "{r:?}");
+        let s = crank_angle(&state, 0).sin();
+        passages += usize::from(s * last <= 0.0);
+        last = s;
+        let a0 = crank_angle(&state, 0);
+        for i in 1..41 {
+            worst_branch = worst_branch.max((crank_angle(&state, i) - a0).sin().abs());
+        }
+        worst_energy = worst_energy.max((sim.energy(&state).total() - e0).abs() / e0.abs());
+    }
+    assert_eq!(sim.factor().dropped().len(), 3 * 40);
+    println!(
+        "40-loop ladder, generalised-α, 4 s: {passages} passages, cranks apart {worst_branch:.1e}, energy {worst_energy:.1e}"
+    );
+    assert!(passages >= 3, "{passages} passages through the horizontal (singular) position in 4 s");
+    assert!(worst_branch < 1e-8, "cranks apart by {worst_branch:e}");
+    assert!(worst_energy < 1e-4, "energy {worst_energy:e}");
+}
+
+#[test]
+fn generalised_alpha_without_second_order_terms_says_so() {
+    let start = scaling::chain_start::<5>();
+    joint_examples::chain_scene!(Plain5, 5);
+    let mut sim = SparseSimulation::new(&Plain5, NoLoads, &[], alpha_options(0.9)).expect("sparse");
+    let mut state = start;
+    let error = sim.step(&mut state, 1e-3).expect_err("no terms");
+    assert!(matches!(error, AnalysisError::NoSecondOrder { .. }), "{error}");
+    assert_eq!(state, start, "unchanged on error");
+    let mut options = SimulationOptions::default();
+    options.integrator = Integrator::ImplicitMidpoint;
+    assert!(matches!(
+        SparseSimulation::new(&Plain5, NoLoads, &[], options),
+        Err(AnalysisError::BadOption { name: "integrator" })
+    ));
 }

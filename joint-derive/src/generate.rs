@@ -144,6 +144,45 @@ pub fn second_order_method(sig: &Signature, printed: &Printed, nodes: &SecondOrd
     (method, ops)
 }
 
+/// A scene's `second_order_values` (the `Scene` default returns `false`): the
+/// sparse blocks of [`second_order::derive`](crate::second_order::derive),
+/// written entry by entry into the caller's slice (a large scene's blocks would
+/// not fit in a returned array on the stack); `false` when the slice is not
+/// exactly their length.
+pub fn second_order_values_method(sig: &Signature, printed: &Printed, nodes: &[Id]) -> (TokenStream, usize) {
+    let (body, outs, ops) = printed.emit(nodes);
+    let (k, state, prelude) = (krate(), &sig.state, &sig.prelude);
+    let (r, c, len) = (
+        Literal::usize_unsuffixed(sig.rows),
+        Literal::usize_unsuffixed(sig.cols),
+        Literal::usize_unsuffixed(nodes.len()),
+    );
+    let writes = outs.iter().enumerate().map(|(i, e)| {
+        let i = Literal::usize_unsuffixed(i);
+        quote!(out[#i] = #e;)
+    });
+    let method = quote! {
+        #[inline]
+        fn second_order_values(
+            &self,
+            state: &#state,
+            lambda: &#k::__private::SVector<f64, #r>,
+            u: &#k::__private::SVector<f64, #c>,
+            out: &mut [f64],
+        ) -> bool {
+            let out: &mut [f64; #len] = match ::core::convert::TryFrom::try_from(out) {
+                ::core::result::Result::Ok(out) => out,
+                ::core::result::Result::Err(_) => return false,
+            };
+            #prelude
+            #body
+            #(#writes)*
+            true
+        }
+    };
+    (method, ops)
+}
+
 /// `const OPS: Ops = Ops { phi: .., .. }`, zero for a stub.
 pub fn ops_const(printed: Option<&Printed>) -> TokenStream {
     let k = krate();

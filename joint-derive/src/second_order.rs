@@ -11,7 +11,9 @@
 //! rotation matrices and the rows' intermediates across the columns, where
 //! `NV` products would rebuild them `NV` times.
 
-use crate::engine::{Id, grad};
+use std::ops::Range;
+
+use crate::engine::{Id, TimeRules, grad};
 use crate::kinematics::Kinematics;
 use crate::lower::Derived;
 
@@ -40,22 +42,70 @@ impl SecondOrderNodes {
     }
 }
 
-/// Derives the second-order terms of `d`, reading `λ` from `lambda` and `u`
-/// from `u` (arguments of the generated method).
-pub fn derive(d: &mut Derived) -> SecondOrderNodes {
+/// What every second-order term is taken with: the method's arguments `λ`
+/// and `u`, a direction variable per velocity column and the rules of the
+/// derivative along it.
+struct Along {
+    lambda: Vec<Id>,
+    u: Vec<Id>,
+    directions: Vec<Id>,
+    rules: TimeRules,
+    velocities: Vec<Id>,
+}
+
+impl Along {
+    /// Reads `λ` from `lambda` and `u` from `u` (arguments of the generated method).
+    fn new(d: &mut Derived) -> Self {
+        let (m, nv) = (d.phi.len(), d.kinematics.velocities.len());
+        let k = &mut d.kinematics;
+        let lambda = k.argument("lambda", m);
+        let u = k.argument("u", nv);
+        let (directions, rules) = k.direction_rules();
+        Along { lambda, u, directions, rules, velocities: k.velocities.clone() }
+    }
+
+    /// The gradient in the directions of columns `cols` of the derivative of
+    /// `f` along `δ`: row `f` of a `∂/∂q`.
+    fn q(&mut self, k: &mut Kinematics, f: Id, cols: &[usize]) -> Vec<Id> {
+        let df = self.rules.dt(&mut k.g, f);
+        grad(&mut k.g, df, &pick(&self.directions, cols))
+    }
+}
+
+/// `all[c]` for each `c` of `cols`.
+fn pick(all: &[Id], cols: &[usize]) -> Vec<Id> {
+    cols.iter().map(|&c| all[c]).collect()
+}
+
+/// The terms a declaration asked for: dense matrices, sparse blocks or both.
+pub struct Terms {
+    /// The dense matrices (`second_order`).
+    pub dense: Option<SecondOrderNodes>,
+    /// A scene's sparse blocks ([`derive_sparse`]'s layout).
+    pub sparse: Option<Vec<Id>>,
+}
+
+/// Derives the second-order terms of `d`: dense when `dense`, and in the
+/// sparse layout for `joints` (each joint's rows and bodies) when given.
+pub fn derive(d: &mut Derived, dense: bool, joints: Option<&[(Range<usize>, Vec<usize>)]>) -> Terms {
+    let mut along = Along::new(d);
+    Terms {
+        dense: dense.then(|| derive_dense(d, &mut along)),
+        sparse: joints.map(|joints| derive_sparse(d, &mut along, joints)),
+    }
+}
+
+fn derive_dense(d: &mut Derived, along: &mut Along) -> SecondOrderNodes {
     let (m, nv) = (d.phi.len(), d.kinematics.velocities.len());
+    let all: Vec<usize> = (0..nv).collect();
     let k = &mut d.kinematics;
-    let lambda = k.argument("lambda", m);
-    let u = k.argument("u", nv);
-    let (directions, mut along) = k.direction_rules();
-    let velocities = k.velocities.clone();
     let (j, gamma, phi_t) = (&d.jacobian, &d.gamma, &d.phi_t);
+    let (lambda, u, velocities) = (along.lambda.clone(), along.u.clone(), along.velocities.clone());
     let mut q = |k: &mut Kinematics, n: usize, root: &dyn Fn(&mut Kinematics, usize) -> Id| {
         let rows: Vec<Vec<Id>> = (0..n)
             .map(|i| {
                 let f = root(k, i);
-                let df = along.dt(&mut k.g, f);
-                grad(&mut k.g, df, &directions)
+                along.q(k, f, &all)
             })
             .collect();
         column_major(&rows, nv)
@@ -64,8 +114,8 @@ pub fn derive(d: &mut Derived) -> SecondOrderNodes {
     let stiffness = q(k, nv, &|k, c| weighted(k, (0..m).map(|i| (lambda[i], j[i][c]))));
     let jacobian_q = q(k, m, &|k, i| weighted(k, (0..nv).map(|c| (u[c], j[i][c]))));
     let gamma_q = q(k, m, &|_, i| gamma[i]);
-    let gamma_v_rows: Vec<Vec<Id>> = gamma.iter().map(|&g| grad(&mut k.g, g, &velocities)).collect();
     let phi_t_q = q(k, m, &|_, i| phi_t[i]);
+    let gamma_v_rows: Vec<Vec<Id>> = gamma.iter().map(|&g| grad(&mut k.g, g, &velocities)).collect();
     SecondOrderNodes { stiffness, jacobian_q, gamma_q, gamma_v: column_major(&gamma_v_rows, nv), phi_t_q }
 }
 
@@ -83,4 +133,33 @@ fn weighted(k: &mut Kinematics, pairs: impl Iterator<Item = (Id, Id)>) -> Id {
 /// Rows of `cols` entries, column by column.
 fn column_major(rows: &[Vec<Id>], cols: usize) -> Vec<Id> {
     (0..cols).flat_map(|c| rows.iter().map(move |r| r[c])).collect()
+}
+
+/// The second-order terms of a scene in its sparse layout (the runtime's
+/// `sparse::SecondOrderLayout`): each joint's stiffness block over the columns
+/// of the bodies it connects (row-major, `6n × 6n` for `n` bodies), then, row
+/// by row, `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v` and `∂Φ_t/∂q` over the columns of the
+/// row's joint. A row touches only its joint's bodies, so nothing outside these
+/// blocks can be nonzero: entries grow with the rows, not with `M × NV`, and
+/// each gradient is taken over its joint's directions only.
+fn derive_sparse(d: &mut Derived, along: &mut Along, joints: &[(Range<usize>, Vec<usize>)]) -> Vec<Id> {
+    let k = &mut d.kinematics;
+    let (j, gamma, phi_t) = (&d.jacobian, &d.gamma, &d.phi_t);
+    let mut stiffness = Vec::new();
+    let mut rows: [Vec<Id>; 4] = Default::default();
+    for (range, bodies) in joints {
+        let cols: Vec<usize> = bodies.iter().flat_map(|b| 6 * b..6 * b + 6).collect();
+        for &c in &cols {
+            let f = weighted(k, range.clone().map(|i| (along.lambda[i], j[i][c])));
+            stiffness.extend(along.q(k, f, &cols));
+        }
+        for i in range.clone() {
+            let ju = weighted(k, cols.iter().map(|&c| (along.u[c], j[i][c])));
+            rows[0].extend(along.q(k, ju, &cols));
+            rows[1].extend(along.q(k, gamma[i], &cols));
+            rows[2].extend(grad(&mut k.g, gamma[i], &pick(&along.velocities, &cols)));
+            rows[3].extend(along.q(k, phi_t[i], &cols));
+        }
+    }
+    stiffness.into_iter().chain(rows.into_iter().flatten()).collect()
 }

@@ -98,6 +98,24 @@ pub trait Scene<const NB: usize, const NV: usize, const M: usize> {
         let _ = (state, lambda, u);
         None
     }
+    /// The second-order terms at `state` in the sparse layout of
+    /// [`SecondOrderLayout`](crate::sparse::SecondOrderLayout) (each joint's
+    /// stiffness block over its bodies' columns, then each row's `∂(J u)/∂q`,
+    /// `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q` over them), written into `out`: what the
+    /// sparse path's implicit integrator needs, in entries that grow with the
+    /// rows rather than with `M × NV`. Returns `false` (and writes nothing) for
+    /// a scene derived without `second_order` (the default) or when `out` is
+    /// not exactly the layout's length.
+    fn second_order_values(
+        &self,
+        state: &SystemState<NB>,
+        lambda: &SVector<f64, M>,
+        u: &SVector<f64, NV>,
+        out: &mut [f64],
+    ) -> bool {
+        let _ = (state, lambda, u, out);
+        false
+    }
     /// Mass properties of each body.
     fn inertias(&self) -> [BodyInertia; NB];
     /// Gravity, inertial components.

@@ -17,7 +17,7 @@ pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     match joint::parse(input) {
         Ok(decl) => match lower::derive_rows(&decl) {
             Ok(mut derived) => {
-                let second = decl.second_order.then(|| second_order::derive(&mut derived));
+                let second = decl.second_order.then(|| second_order::derive(&mut derived, true, None).dense).flatten();
                 print(&decl, &derived, second.as_ref())
             }
             Err(e) => stub(input, e, Some(&decl)),

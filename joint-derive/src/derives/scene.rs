@@ -11,31 +11,38 @@ use crate::front::resolve::Source;
 use crate::front::scene::{self, BodyName, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape};
 use crate::generate::{self, Printed, Signature, krate, lints};
 use crate::lower::{self, Block, Derived};
-use crate::second_order::{self, SecondOrderNodes};
+use crate::second_order::{self, Terms};
 
 /// The derive's entry point.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     let derived = scene::parse(input).and_then(|s| lower::derive_scene(&s).map(|d| (s, d)));
-    let with_second = derived.and_then(|(s, (mut d, blocks))| {
-        let second = match s.second_order {
-            Some(span) if d.phi.len() * d.kinematics.velocities.len() > DENSE_LIMIT => {
-                let message = format!(
-                    "`second_order` gives dense matrices, and this scene's J has {} × {} entries, above {DENSE_LIMIT}; \
-                     expected a scene of fewer bodies or rows",
-                    d.phi.len(),
-                    d.kinematics.velocities.len()
-                );
-                return Err(syn::Error::new(span, message));
-            }
-            Some(_) => Some(second_order::derive(&mut d)),
-            None => None,
-        };
-        Ok((s, d, blocks, second))
+    let with_second = derived.map(|(s, (mut d, blocks))| {
+        let second = s.second_order.map(|_| {
+            // Above the limit only the sparse blocks: a dense K of a large scene
+            // would not fit on a stack.
+            let dense = d.phi.len() * d.kinematics.velocities.len() <= DENSE_LIMIT;
+            second_order::derive(&mut d, dense, Some(&joint_columns(&s, &blocks)))
+        });
+        (s, d, blocks, second)
     });
     match with_second {
         Ok((s, d, blocks, second)) => print(input, &s, &d, &blocks, second.as_ref()),
         Err(e) => stub(input, e, scene::shape(input)),
     }
+}
+
+/// Each joint's rows and the bodies it connects (the ground left out, each
+/// body once): the sparse second-order layout.
+fn joint_columns(s: &SceneDecl, blocks: &[Block]) -> Vec<(std::ops::Range<usize>, Vec<usize>)> {
+    s.joints
+        .iter()
+        .zip(blocks)
+        .map(|(j, b)| {
+            let mut bodies: Vec<usize> = j.bodies.iter().flatten().copied().collect();
+            bodies.dedup();
+            (b.start..b.start + b.rows, bodies)
+        })
+        .collect()
 }
 
 /// The sizes every impl of a scene shares.
@@ -114,7 +121,7 @@ fn print(
     s: &SceneDecl,
     d: &Derived,
     blocks: &[Block],
-    second: Option<&SecondOrderNodes>,
+    second: Option<&Terms>,
 ) -> TokenStream {
     let k = krate();
     let z = sizes(s.bodies.len(), d.phi.len());
@@ -142,11 +149,20 @@ fn print(
         wc.predicates.push(syn::parse_quote!(#ty: #k::TimeFunction));
     }
     let (ig, tg, wc) = generics.split_for_impl();
-    let (second_method, second_ops) = match second {
+    let (mut second_method, second_ops) = match second.and_then(|t| t.dense.as_ref()) {
         Some(nodes) => generate::second_order_method(&z.signature, &printed, nodes),
         None => (TokenStream::new(), 0),
     };
-    let second_text = if second.is_some() { format!(", second_order {second_ops}") } else { String::new() };
+    let (values, values_ops) = match second.and_then(|t| t.sparse.as_ref()) {
+        Some(nodes) => generate::second_order_values_method(&z.signature, &printed, nodes),
+        None => (TokenStream::new(), 0),
+    };
+    second_method.extend(values);
+    let second_text = match second {
+        Some(t) if t.dense.is_some() => format!(", second_order {second_ops}, second_order_values {values_ops}"),
+        Some(_) => format!(", second_order_values {values_ops}"),
+        None => String::new(),
+    };
     let doc = format!(
         " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}{second_text}.",
         s.bodies.len(),

@@ -179,6 +179,21 @@ fn spring_derivatives<const NB: usize>(
     }
 }
 
+/// One spring-damper's share of column `c` of `∂Q/∂q` (`velocity` false) or
+/// `∂Q/∂v`: the derivative of its loads on each body (the sparse path's
+/// iteration matrix, which visits only the columns of the spring's bodies).
+#[cfg(feature = "alloc")]
+pub(crate) fn spring_column<const NB: usize>(
+    spring: &SpringDamper,
+    state: &SystemState<NB>,
+    c: usize,
+    velocity: bool,
+) -> Loads<NB> {
+    let mut loads = Loads::<NB>::default();
+    spring_derivatives(core::slice::from_ref(spring), state, &unit::<NB>(c, velocity), &mut loads);
+    loads
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

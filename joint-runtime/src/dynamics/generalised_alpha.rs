@@ -43,20 +43,20 @@ use crate::scene::{Scene, SystemState};
 /// pseudo-acceleration and the multipliers, with the state the step handed
 /// back (a step from any other state starts the method afresh).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize> {
-    pub(super) state: SystemState<NB>,
-    vdot: SVector<f64, NV>,
-    pub(super) a: SVector<f64, NV>,
-    lambda: SVector<f64, M>,
+pub(crate) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize> {
+    pub(crate) state: SystemState<NB>,
+    pub(crate) vdot: SVector<f64, NV>,
+    pub(crate) a: SVector<f64, NV>,
+    pub(crate) lambda: SVector<f64, M>,
 }
 
 /// The method's coefficients for ρ∞.
 #[derive(Clone, Copy)]
-struct Coefficients {
-    alpha_m: f64,
-    alpha_f: f64,
-    gamma: f64,
-    beta: f64,
+pub(crate) struct Coefficients {
+    pub(crate) alpha_m: f64,
+    pub(crate) alpha_f: f64,
+    pub(crate) gamma: f64,
+    pub(crate) beta: f64,
 }
 
 /// Newmark's β and γ of generalised-α for the spectral radius `rho`.
@@ -66,6 +66,30 @@ pub(super) fn newmark(rho: f64) -> (f64, f64) {
 }
 
 impl Coefficients {
+    /// The coefficients for ρ∞ = `rho`.
+    ///
+    /// # Errors
+    /// [`AnalysisError::BadOption`] for `rho` outside `[0, 1]`.
+    pub(crate) fn checked(rho: f64) -> Result<Self, AnalysisError> {
+        if !(0.0..=1.0).contains(&rho) {
+            return Err(AnalysisError::BadOption { name: "spectral_radius" });
+        }
+        Ok(Coefficients::new(rho))
+    }
+
+    /// `c₁ = (1 − α_m)/((1 − α_f) h β)`, the mass's factor in the iteration matrix.
+    pub(crate) fn mass_factor(&self, h: f64) -> f64 {
+        (1.0 - self.alpha_m) / ((1.0 - self.alpha_f) * h * self.beta)
+    }
+
+    /// The predictor's pseudo-acceleration (`v̇_{n+1} = v̇_n`).
+    pub(crate) fn predicted<const NB: usize, const NV: usize, const M: usize>(
+        &self,
+        past: &AlphaHistory<NB, NV, M>,
+    ) -> SVector<f64, NV> {
+        (past.vdot - past.a * self.alpha_m) / (1.0 - self.alpha_m)
+    }
+
     fn new(rho: f64) -> Self {
         let alpha_m = (2.0 * rho - 1.0) / (rho + 1.0);
         let alpha_f = rho / (rho + 1.0);
@@ -75,13 +99,56 @@ impl Coefficients {
 }
 
 /// The unknowns of one step and what follows from them.
-struct Iterate<const NB: usize, const NV: usize, const M: usize> {
-    dq: SVector<f64, NV>,
-    a: SVector<f64, NV>,
-    v: SVector<f64, NV>,
-    vdot: SVector<f64, NV>,
-    lambda: SVector<f64, M>,
-    state: SystemState<NB>,
+pub(crate) struct Iterate<const NB: usize, const NV: usize, const M: usize> {
+    pub(crate) dq: SVector<f64, NV>,
+    pub(crate) a: SVector<f64, NV>,
+    pub(crate) v: SVector<f64, NV>,
+    pub(crate) vdot: SVector<f64, NV>,
+    pub(crate) lambda: SVector<f64, M>,
+    pub(crate) state: SystemState<NB>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
+    /// The state and rates that follow from the pseudo-acceleration `a`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn new(
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        past: &AlphaHistory<NB, NV, M>,
+        a: SVector<f64, NV>,
+        lambda: SVector<f64, M>,
+        h: f64,
+        c: Coefficients,
+    ) -> Self {
+        let dq = v0 + past.a * (h * (0.5 - c.beta)) + a * (h * c.beta);
+        let v = v0 + past.a * (h * (1.0 - c.gamma)) + a * (h * c.gamma);
+        let vdot = (a * (1.0 - c.alpha_m) + past.a * c.alpha_m - past.vdot * c.alpha_f) / (1.0 - c.alpha_f);
+        let mut state = *y0;
+        apply_increment(&mut state, &dq, h);
+        set_velocities(&mut state, &v);
+        state.t = y0.t + h;
+        Iterate { dq, a, v, vdot, lambda, state }
+    }
+
+    /// The iterate after the Newton correction `(x, δλ)`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn corrected(
+        &self,
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        past: &AlphaHistory<NB, NV, M>,
+        x: &SVector<f64, NV>,
+        dlambda: &SVector<f64, M>,
+        h: f64,
+        c: Coefficients,
+    ) -> Self {
+        Iterate::new(y0, v0, past, self.a - x / (h * c.beta), self.lambda - dlambda, h, c)
+    }
+
+    /// What the next step starts from.
+    pub(crate) fn history(&self) -> AlphaHistory<NB, NV, M> {
+        AlphaHistory { state: self.state, vdot: self.vdot, a: self.a, lambda: self.lambda }
+    }
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
@@ -114,17 +181,12 @@ where
         continuing: bool,
         rule: &mut StepRule<M>,
     ) -> Result<(usize, usize), AnalysisError> {
-        let rho = self.options.spectral_radius;
-        if !(0.0..=1.0).contains(&rho) {
-            return Err(AnalysisError::BadOption { name: "spectral_radius" });
-        }
-        let c = Coefficients::new(rho);
+        let c = Coefficients::checked(self.options.spectral_radius)?;
         let y0 = *state;
         let past = self.alpha_history(&y0, continuing, rule)?;
         let v0 = velocity_vector::<NB, NV>(&y0);
         // Predictor: v̇_{n+1} = v̇_n, λ_{n+1} = λ_n.
-        let a = (past.vdot - past.a * c.alpha_m) / (1.0 - c.alpha_m);
-        let mut it = self.iterate(&y0, &v0, &past, a, past.lambda, h, c);
+        let mut it = Iterate::new(&y0, &v0, &past, c.predicted(&past), past.lambda, h, c);
         let mut factor: Option<AlphaMatrix<NV, M>> = None;
         let (mut iterations, mut matrices, mut last) = (0, 0, f64::INFINITY);
         loop {
@@ -141,7 +203,7 @@ where
             };
             let (x, dlambda) = m.solve(&j, &r1, &(r2 / h));
             factor = Some(m);
-            it = self.iterate(&y0, &v0, &past, it.a - x / (h * c.beta), it.lambda - dlambda, h, c);
+            it = it.corrected(&y0, &v0, &past, &x, &dlambda, h, c);
             iterations += 1;
             let size = x.norm();
             if !size.is_finite() {
@@ -157,30 +219,8 @@ where
             last = size;
         }
         *state = it.state;
-        self.history = Some(AlphaHistory { state: it.state, vdot: it.vdot, a: it.a, lambda: it.lambda });
+        self.history = Some(it.history());
         Ok((iterations, matrices))
-    }
-
-    /// The state and rates that follow from the pseudo-acceleration `a`.
-    #[allow(clippy::too_many_arguments)]
-    fn iterate(
-        &self,
-        y0: &SystemState<NB>,
-        v0: &SVector<f64, NV>,
-        past: &AlphaHistory<NB, NV, M>,
-        a: SVector<f64, NV>,
-        lambda: SVector<f64, M>,
-        h: f64,
-        c: Coefficients,
-    ) -> Iterate<NB, NV, M> {
-        let dq = v0 + past.a * (h * (0.5 - c.beta)) + a * (h * c.beta);
-        let v = v0 + past.a * (h * (1.0 - c.gamma)) + a * (h * c.gamma);
-        let vdot = (a * (1.0 - c.alpha_m) + past.a * c.alpha_m - past.vdot * c.alpha_f) / (1.0 - c.alpha_f);
-        let mut state = *y0;
-        apply_increment(&mut state, &dq, h);
-        set_velocities(&mut state, &v);
-        state.t = y0.t + h;
-        Iterate { dq, a, v, vdot, lambda, state }
     }
 
     /// `M v̇ + Jᵀ λ − Q`, `Φ` and `J` at the iterate.
@@ -193,28 +233,11 @@ where
         check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
         check_output::<S, NB, NV, M, 1>("Φ", &e.phi)?;
         let q = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, &it.state);
-        let r1 = self.mass_times(&it.vdot) + e.jacobian.transpose() * it.lambda - q;
+        let r1 = mass_times(&self.inertias, &it.vdot) + e.jacobian.transpose() * it.lambda - q;
         if !r1.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFiniteOutput { quantity: "forces", row: None });
         }
         Ok((r1, e.phi, e.jacobian))
-    }
-
-    /// `M x`.
-    fn mass_times(&self, x: &SVector<f64, NV>) -> SVector<f64, NV> {
-        let mut y = *x;
-        for (b, inertia) in self.inertias.iter().enumerate() {
-            if 6 * b + 6 > NV {
-                break;
-            }
-            let w = nalgebra::Vector3::new(x[6 * b + 3], x[6 * b + 4], x[6 * b + 5]);
-            let r = inertia.inertia * w;
-            for k in 0..3 {
-                y[6 * b + k] = x[6 * b + k] * inertia.mass;
-                y[6 * b + 3 + k] = r[k];
-            }
-        }
-        y
     }
 
     /// The iteration matrix at the iterate, factorised.
@@ -237,9 +260,9 @@ where
         let (force_q, force_v) = self.force_derivatives(&it.state);
         let p = update_blocks::<NB, NV>(&it.dq, h);
         let mut s = times_update(&(stiffness - force_q), &p, h) - force_v * (c.gamma / c.beta);
-        let c1 = (1.0 - c.alpha_m) / ((1.0 - c.alpha_f) * h * c.beta);
+        let c1 = c.mass_factor(h);
         for k in 0..NV {
-            let column = self.mass_times(&SVector::<f64, NV>::from_fn(|i, _| if i == k { c1 } else { 0.0 }));
+            let column = mass_times(&self.inertias, &SVector::<f64, NV>::from_fn(|i, _| if i == k { c1 } else { 0.0 }));
             let mut target = s.column_mut(k);
             target += column;
         }
@@ -264,6 +287,26 @@ where
         }
         k
     }
+}
+
+/// `M x`.
+pub(crate) fn mass_times<const NB: usize, const NV: usize>(
+    inertias: &[crate::scene::BodyInertia; NB],
+    x: &SVector<f64, NV>,
+) -> SVector<f64, NV> {
+    let mut y = *x;
+    for (b, inertia) in inertias.iter().enumerate() {
+        if 6 * b + 6 > NV {
+            break;
+        }
+        let w = nalgebra::Vector3::new(x[6 * b + 3], x[6 * b + 4], x[6 * b + 5]);
+        let r = inertia.inertia * w;
+        for k in 0..3 {
+            y[6 * b + k] = x[6 * b + k] * inertia.mass;
+            y[6 * b + 3 + k] = r[k];
+        }
+    }
+    y
 }
 
 /// The factorised iteration matrix: `S` and the Schur complement `J T S⁻¹ Jᵀ`

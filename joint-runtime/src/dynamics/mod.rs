@@ -88,8 +88,14 @@ mod newton_matrix;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
+pub(crate) use force_derivatives::spring_column;
+#[cfg(feature = "alloc")]
+pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times};
+#[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use linear::Linearisation;
+#[cfg(feature = "alloc")]
+pub(crate) use newton_matrix::update_blocks;
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector4};
 
@@ -900,11 +906,19 @@ pub(crate) fn midpoint_state<const NB: usize, const NV: usize>(
 
 /// Whether a Newton correction of `size` ends an implicit integrator's
 /// iteration: below `tolerance × scale`, or stalled at the round-off floor
-/// (within 1000 times that and no longer halving from the `last` one: stiff
-/// springs make the residual's round-off larger than the tolerance allows).
+/// (no longer halving from the `last` one, and within 1000 times that or
+/// `√ε × scale`, whichever is larger). Stiff springs make the residual's
+/// round-off larger than the tolerance allows; so does a large closed-loop
+/// mechanism near a singular position, whose multipliers the iteration matrix
+/// then determines only to about 1e-3 (the 40-loop ladder's corrections stall
+/// at 4e-9 relative there).
 pub(crate) fn newton_done(size: f64, last: f64, scale: f64, tolerance: f64) -> bool {
-    size <= tolerance * scale || (size <= 1e3 * tolerance * scale && size > 0.5 * last)
+    let floor = (1e3 * tolerance).max(STALLED);
+    size <= tolerance * scale || (size <= floor * scale && size > 0.5 * last)
 }
+
+/// `√ε`: a correction that stops shrinking below this (relative) is round-off.
+const STALLED: f64 = 1.4901161193847656e-8;
 
 /// What every simulation of a scene reads besides the scene: its inertias,
 /// their inverses and gravity, checked together with the springs.

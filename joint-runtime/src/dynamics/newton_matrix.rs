@@ -156,7 +156,7 @@ where
 /// `J_r(s ω')` per body (`p ⊗ q(φ)` moves by `J_r(φ) δφ` in body components);
 /// the translation blocks are the identity. Both are scaled by `s` in
 /// [`times_update`].
-pub(super) fn update_blocks<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> [Matrix3<f64>; NB] {
+pub(crate) fn update_blocks<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> [Matrix3<f64>; NB] {
     core::array::from_fn(|b| {
         let at = |k: usize| w.get(6 * b + 3 + k).copied().unwrap_or(0.0) * s;
         right_jacobian(&Vector3::new(at(0), at(1), at(2)))

@@ -23,13 +23,22 @@
 //! the dense [`Simulation`](crate::dynamics::Simulation), and [`SparseAnalysis`]
 //! assembles and runs velocity and acceleration analysis, reading only Φ, Φ_t,
 //! γ and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
-//! Not sparse yet: the implicit midpoint rule (its Newton matrix).
+//! With [`Integrator::GeneralisedAlpha`](crate::dynamics::Integrator) the
+//! simulation runs index-3 generalised-α with the exact iteration matrix, a
+//! saddle-point matrix over bodies and joints factorised on a pattern fixed
+//! once (`kkt.rs`: minimum degree, each joint after its bodies), from the
+//! scene's sparse second-order terms ([`SecondOrderLayout`]). Not sparse yet:
+//! the implicit midpoint rule (its Newton matrix `I − (h/2) ∂a/∂w` is dense).
 
+mod alpha;
 mod analysis;
 mod factor;
+mod kkt;
+mod second_order;
 mod simulation;
 mod solver;
 
 pub use analysis::SparseAnalysis;
 pub use factor::BlockFactor;
+pub use second_order::{RowTerm, SecondOrderLayout};
 pub use simulation::{SparseDynamics, SparseSimulation};

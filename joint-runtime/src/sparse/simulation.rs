@@ -7,6 +7,7 @@ use alloc::vec::Vec;
 use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
+use super::alpha::AlphaWorkspace;
 use super::solver::{Solver, j_mul, jt_mul, non_finite};
 use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, RowList, apply_metric, check_output, check_state,
@@ -34,16 +35,19 @@ pub struct SparseDynamics<const NV: usize, const M: usize> {
 /// The workspace is allocated once, in [`SparseSimulation::new`]; a step
 /// allocates nothing.
 pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
-    scene: &'a S,
-    loads: L,
-    springs: &'a [SpringDamper],
-    inertias: [BodyInertia; NB],
+    pub(super) scene: &'a S,
+    pub(super) loads: L,
+    pub(super) springs: &'a [SpringDamper],
+    pub(super) inertias: [BodyInertia; NB],
     inverse: [InverseMass; NB],
-    gravity: Vector3<f64>,
-    solver: Solver<S, NB, NV, M, NNZ>,
+    pub(super) gravity: Vector3<f64>,
+    pub(super) solver: Solver<S, NB, NV, M, NNZ>,
     /// The pivots of the step's start, kept by its stages.
     rule: Vec<([usize; 6], usize)>,
-    /// The options (the integrator must be RK4).
+    /// Generalised-α's pattern, factor and history (that integrator only).
+    pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
+    /// The options (RK4 or generalised-α; the integrator is fixed at
+    /// [`SparseSimulation::new`], which builds its workspace).
     pub options: SimulationOptions,
 }
 
@@ -70,21 +74,23 @@ where
     ///
     /// # Errors
     /// As [`Simulation::new`](crate::dynamics::Simulation::new);
-    /// [`AnalysisError::BadOption`] for an integrator other than RK4 (the
-    /// implicit ones still run on the dense path only).
+    /// [`AnalysisError::BadOption`] for the implicit midpoint rule (dense path
+    /// only).
     pub fn new(
         scene: &'a S,
         loads: L,
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        if options.integrator != Integrator::Rk4 {
-            return Err(AnalysisError::BadOption { name: "integrator" });
-        }
+        let alpha = match options.integrator {
+            Integrator::Rk4 => None,
+            Integrator::GeneralisedAlpha => Some(AlphaWorkspace::new::<S, NNZ>(springs)?),
+            Integrator::ImplicitMidpoint => return Err(AnalysisError::BadOption { name: "integrator" }),
+        };
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
         let rule = Vec::with_capacity(S::BLOCKS.len());
-        Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, solver, rule, options })
+        Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, solver, rule, alpha, options })
     }
 
     /// Kinetic, gravitational and elastic energy at `state`.
@@ -95,6 +101,12 @@ where
     /// The block factor (its size, and the rows the last factorisation dropped).
     pub fn factor(&self) -> &BlockFactor {
         &self.solver.factor
+    }
+
+    /// The 6 × 6 blocks generalised-α's iteration matrix stores (its memory,
+    /// fill included); `None` for RK4.
+    pub fn iteration_blocks(&self) -> Option<usize> {
+        self.alpha.as_ref().map(AlphaWorkspace::blocks)
     }
 
     /// Constrained accelerations and multipliers at `state`; redundant rows get
@@ -172,11 +184,14 @@ where
         Ok(Rate::new(state, self.solve(state, true, false)?.vdot))
     }
 
-    /// Advances `state` by one RK4 step `h`, then projects onto the
-    /// constraints if configured. On error `state` is unchanged.
+    /// Advances `state` by one step `h` of the configured integrator (RK4 or
+    /// generalised-α), then projects onto the constraints if configured. On
+    /// error `state` is unchanged.
     ///
     /// # Errors
-    /// As [`Simulation::step`](crate::dynamics::Simulation::step).
+    /// As [`Simulation::step`](crate::dynamics::Simulation::step);
+    /// [`AnalysisError::NoSecondOrder`] for generalised-α on a scene derived
+    /// without `second_order`.
     pub fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
@@ -188,13 +203,16 @@ where
         let d1 = self.solve(&y0, false, true)?;
         self.rule.clear();
         self.rule.extend(self.solver.factor.rule());
-        let t0 = y0.t;
-        let k1 = Rate::new(&y0, d1.vdot);
-        let k2 = self.rate(&advance(&y0, [(&k1, 0.5)], h, t0 + 0.5 * h))?;
-        let k3 = self.rate(&advance(&y0, [(&k2, 0.5)], h, t0 + 0.5 * h))?;
-        let k4 = self.rate(&advance(&y0, [(&k3, 1.0)], h, t0 + h))?;
-        let mut y = advance(&y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h);
         let mut report = StepReport::default();
+        let mut y = if self.alpha.is_some() {
+            // Generalised-α goes on from its last step only if handed back its state.
+            let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
+            let (y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
+            (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
+            y
+        } else {
+            self.step_rk4(&y0, d1.vdot, h)?
+        };
         match self.options.projection {
             Some(options) => {
                 let (it, c, v) = self.project(&mut y, &options)?;
@@ -208,7 +226,27 @@ where
             }
         }
         *state = y;
+        if let Some(w) = self.alpha.as_mut()
+            && let Some(history) = w.history.as_mut()
+        {
+            history.state = *state;
+        }
         Ok(report)
+    }
+
+    /// One RK4 step from `y0` (its accelerations `vdot`), under the rule of its start.
+    fn step_rk4(
+        &mut self,
+        y0: &SystemState<NB>,
+        vdot: SVector<f64, NV>,
+        h: f64,
+    ) -> Result<SystemState<NB>, AnalysisError> {
+        let t0 = y0.t;
+        let k1 = Rate::new(y0, vdot);
+        let k2 = self.rate(&advance(y0, [(&k1, 0.5)], h, t0 + 0.5 * h))?;
+        let k3 = self.rate(&advance(y0, [(&k2, 0.5)], h, t0 + 0.5 * h))?;
+        let k4 = self.rate(&advance(y0, [(&k3, 1.0)], h, t0 + h))?;
+        Ok(advance(y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h))
     }
 
     /// Projects `state` onto Φ = 0 (damped minimum-norm Newton in the mass

@@ -1,0 +1,317 @@
+//! Generalised-α on the sparse path: the dense method's equations
+//! (`dynamics/generalised_alpha.rs`) with its iteration matrix
+//!
+//! ```text
+//! [ S    Jᵀ ]   S = c₁ M + h (K − Q_q) T − c₂ Q_v
+//! [ J T  0  ]
+//! ```
+//!
+//! assembled block by block on the pattern the scene fixes (bodies, joints,
+//! springs) and factorised by [`Kkt`]: time and memory in proportion to the
+//! scene. `K` comes from the scene's sparse second-order terms
+//! ([`Scene::second_order_values`]); `Q_q`, `Q_v` are the gyroscopic terms and
+//! the spring-dampers', exact. User loads are left out of the matrix (their
+//! derivative along every column would cost `O(N²)`): a stiff user load slows
+//! Newton to linear convergence, and a stiff spring belongs in a
+//! [`SpringDamper`](crate::dynamics::SpringDamper). Redundant rows are held at
+//! `δλ = 0` as identity rows, the rule of the step's start.
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use nalgebra::{Matrix3, SVector, Vector3};
+
+use super::SparseSimulation;
+use super::kkt::{Block, Kkt};
+use super::second_order::SecondOrderLayout;
+use super::solver::{jt_mul, non_finite};
+use crate::analysis::{AnalysisError, check_output, velocity_vector};
+use crate::dynamics::{
+    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, generalised_forces, mass_times, newton_done,
+    spring_column, update_blocks,
+};
+use crate::scene::{Scene, SparseJacobian, SystemState};
+
+/// What the sparse generalised-α keeps between steps: the pattern and its
+/// factor, the layout of the second-order terms and scratch, all allocated
+/// once.
+#[derive(Clone, Debug)]
+pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usize> {
+    kkt: Kkt,
+    layout: SecondOrderLayout,
+    terms: Vec<f64>,
+    rhs: Vec<f64>,
+    /// Per row: its joint node and the row within the joint.
+    row_joint: Vec<(usize, usize)>,
+    /// Body-body blocks of `S` (the diagonal included), for `T`'s product.
+    body_pairs: Vec<(usize, usize)>,
+    pub(super) history: Option<AlphaHistory<NB, NV, M>>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M> {
+    /// The pattern of `scene` with `springs`.
+    pub(super) fn new<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>, const NNZ: usize>(
+        springs: &[crate::dynamics::SpringDamper],
+    ) -> Result<Self, AnalysisError> {
+        let bad = |_| non_finite("scene structure");
+        let rows: Vec<usize> = S::BLOCKS.iter().map(|b| b.rows).collect();
+        let mut pairs: Vec<(usize, usize)> = (0..NB).map(|b| (b, b)).collect();
+        for pair in S::BLOCK_BODIES {
+            if let [Some(a), Some(b)] = *pair {
+                pairs.extend([(a, b), (b, a)]);
+            }
+        }
+        for s in springs {
+            if let (Attachment::Body { body: a, .. }, Attachment::Body { body: b, .. }) = (s.a, s.b) {
+                pairs.extend([(a, b), (b, a)]);
+            }
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        let couplings: Vec<(usize, usize)> = pairs.iter().copied().filter(|(a, b)| a < b).collect();
+        let kkt = Kkt::new(NB, &rows, S::BLOCK_BODIES, &couplings).map_err(bad)?;
+        let mut row_joint = vec![(0, 0); M];
+        for (k, block) in S::BLOCKS.iter().enumerate() {
+            for r in 0..block.rows {
+                if let Some(x) = row_joint.get_mut(block.start + r) {
+                    *x = (NB + k, r);
+                }
+            }
+        }
+        let layout = SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES);
+        Ok(AlphaWorkspace {
+            kkt,
+            terms: vec![0.0; layout.len()],
+            layout,
+            rhs: vec![0.0; NV + M],
+            row_joint,
+            body_pairs: pairs,
+            history: None,
+        })
+    }
+
+    /// Blocks of the factor (its memory, in 6 × 6 blocks).
+    pub(super) fn blocks(&self) -> usize {
+        self.kkt.blocks()
+    }
+}
+
+/// `block (6 × 6) += s · x` for the 3 × 3 `x` at `(r, c)`.
+fn add3(block: &mut Block, r: usize, c: usize, x: &Matrix3<f64>, s: f64) {
+    for i in 0..3 {
+        for j in 0..3 {
+            block[6 * (r + i) + c + j] += s * x[(i, j)];
+        }
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    L: AppliedLoads<NB>,
+{
+    /// One step of generalised-α from `y0` (normalised, its rule of redundant
+    /// rows just factorised); returns the state, Newton iterations and
+    /// iteration matrices built.
+    pub(super) fn step_alpha(
+        &mut self,
+        y0: &SystemState<NB>,
+        h: f64,
+        continuing: bool,
+        start: (SVector<f64, NV>, SVector<f64, M>),
+    ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
+        let c = Coefficients::checked(self.options.spectral_radius)?;
+        let past = match (continuing, self.alpha.as_ref().and_then(|w| w.history)) {
+            (true, Some(past)) => past,
+            _ => AlphaHistory { state: *y0, vdot: start.0, a: start.0, lambda: start.1 },
+        };
+        let v0 = velocity_vector::<NB, NV>(y0);
+        let mut it = Iterate::new(y0, &v0, &past, c.predicted(&past), past.lambda, h, c);
+        let (mut iterations, mut matrices, mut last, mut fresh) = (0, 0, f64::INFINITY, false);
+        loop {
+            if iterations >= self.options.newton_max_iterations {
+                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
+            }
+            let (values, r2) = self.alpha_residual(&it)?;
+            if !fresh {
+                self.alpha_matrix(&it, &values, h, c)?;
+                matrices += 1;
+                fresh = true;
+            }
+            let (x, dlambda) = self.alpha_solve(&r2, h)?;
+            it = it.corrected(y0, &v0, &past, &x, &dlambda, h, c);
+            iterations += 1;
+            let size = x.norm();
+            if !size.is_finite() {
+                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
+            }
+            if newton_done(size, last, 1.0 + it.dq.norm(), self.options.newton_tolerance) {
+                break;
+            }
+            // Modified Newton: a new matrix when convergence is slow.
+            if size > 0.25 * last {
+                fresh = false;
+            }
+            last = size;
+        }
+        if let Some(w) = self.alpha.as_mut() {
+            w.history = Some(it.history());
+        }
+        Ok((it.state, iterations, matrices))
+    }
+
+    /// `M v̇ + Jᵀ λ − Q` into the workspace's right-hand side; returns the
+    /// Jacobian's values and `Φ` at the iterate.
+    fn alpha_residual(&mut self, it: &Iterate<NB, NV, M>) -> Result<([f64; NNZ], SVector<f64, M>), AnalysisError> {
+        let values = self.scene.jacobian_values(&it.state);
+        if !values.iter().all(|x| x.is_finite()) {
+            return Err(non_finite("J"));
+        }
+        let phi = self.scene.phi(&it.state);
+        check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
+        let q = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, &it.state);
+        let r1 = mass_times(&self.inertias, &it.vdot) + jt_mul::<S, NB, NNZ, NV, M>(&values, &it.lambda) - q;
+        if !r1.iter().all(|x| x.is_finite()) {
+            return Err(non_finite("forces"));
+        }
+        let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        w.rhs[..NV].copy_from_slice(r1.as_slice());
+        Ok((values, phi))
+    }
+
+    /// Solves the iteration matrix for the residual in the workspace and
+    /// `r2 = Φ`: the correction `(x, δλ)`.
+    fn alpha_solve(
+        &mut self,
+        r2: &SVector<f64, M>,
+        h: f64,
+    ) -> Result<(SVector<f64, NV>, SVector<f64, M>), AnalysisError> {
+        let dropped = self.solver.factor.dropped();
+        let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        for (r, x) in r2.iter().enumerate() {
+            w.rhs[NV + r] = if dropped.binary_search(&r).is_ok() { 0.0 } else { x / h };
+        }
+        w.kkt.solve(&mut w.rhs);
+        let x = SVector::<f64, NV>::from_column_slice(&w.rhs[..NV]);
+        let dlambda = SVector::<f64, M>::from_column_slice(&w.rhs[NV..]);
+        Ok((x, dlambda))
+    }
+
+    /// Assembles and factorises the iteration matrix at the iterate.
+    fn alpha_matrix(
+        &mut self,
+        it: &Iterate<NB, NV, M>,
+        values: &[f64; NNZ],
+        h: f64,
+        c: Coefficients,
+    ) -> Result<(), AnalysisError> {
+        let t = update_blocks::<NB, NV>(&it.dq, h);
+        let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        if !self.scene.second_order_values(&it.state, &it.lambda, &it.v, &mut w.terms) {
+            return Err(AnalysisError::NoSecondOrder { needed_by: "generalised-α on the sparse path" });
+        }
+        w.kkt.clear();
+        // h (K − Q_q), then times T on the right.
+        for (bodies, block) in w.layout.stiffness(&w.terms) {
+            let n = 6 * bodies.len();
+            for (i, &a) in bodies.iter().enumerate() {
+                for (j, &b) in bodies.iter().enumerate() {
+                    let out = w.kkt.block_mut(a, b).ok_or(non_finite("scene structure"))?;
+                    for r in 0..6 {
+                        for col in 0..6 {
+                            out[6 * r + col] += h * block[(6 * i + r) * n + 6 * j + col];
+                        }
+                    }
+                }
+            }
+        }
+        for s in self.springs {
+            spring_blocks(&mut w.kkt, s, &it.state, false, -h)?;
+        }
+        for &(a, b) in &w.body_pairs {
+            let out = w.kkt.block_mut(a, b).ok_or(non_finite("scene structure"))?;
+            let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
+            for r in 0..6 {
+                let row = [3, 4, 5].map(|k| out[6 * r + k]);
+                for k in 0..3 {
+                    out[6 * r + 3 + k] = row[0] * jr[(0, k)] + row[1] * jr[(1, k)] + row[2] * jr[(2, k)];
+                }
+            }
+        }
+        // c₁ M − c₂ Q_v.
+        for s in self.springs {
+            spring_blocks(&mut w.kkt, s, &it.state, true, -c.gamma / c.beta)?;
+        }
+        let c1 = c.mass_factor(h);
+        for (b, (inertia, body)) in self.inertias.iter().zip(state_bodies(&it.state)).enumerate() {
+            let out = w.kkt.block_mut(b, b).ok_or(non_finite("scene structure"))?;
+            add3(out, 0, 0, &Matrix3::identity(), c1 * inertia.mass);
+            add3(out, 3, 3, &inertia.inertia, c1);
+            // ∂(−ω' × J ω')/∂ω' = (J ω')~ − ω̃' J.
+            let (jw, wx) = ((inertia.inertia * body).cross_matrix(), body.cross_matrix());
+            add3(out, 3, 3, &(jw - wx * inertia.inertia), -c.gamma / c.beta);
+        }
+        // J T and Jᵀ, the held rows as identity rows.
+        let dropped = self.solver.factor.dropped();
+        for (r, window) in S::ROW_STARTS.windows(2).enumerate().take(M) {
+            let (joint, local) = w.row_joint[r];
+            if dropped.binary_search(&r).is_ok() {
+                let d = w.kkt.block_mut(joint, joint).ok_or(non_finite("scene structure"))?;
+                d[6 * local + local] = 1.0;
+                continue;
+            }
+            for (&col, &v) in S::COLUMNS.iter().zip(values.iter()).take(window[1]).skip(window[0]) {
+                let (b, k) = (col / 6, col % 6);
+                w.kkt.block_mut(b, joint).ok_or(non_finite("scene structure"))?[6 * k + local] = v;
+                let row = w.kkt.block_mut(joint, b).ok_or(non_finite("scene structure"))?;
+                if k < 3 {
+                    row[6 * local + k] = v;
+                } else {
+                    let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
+                    for l in 0..3 {
+                        row[6 * local + 3 + l] += v * jr[(k - 3, l)];
+                    }
+                }
+            }
+        }
+        w.kkt.factor().map_err(AnalysisError::from)
+    }
+}
+
+/// Each body's `ω'`.
+fn state_bodies<const NB: usize>(state: &SystemState<NB>) -> impl Iterator<Item = Vector3<f64>> + '_ {
+    state.bodies.iter().map(|b| b.omega)
+}
+
+/// Adds `scale ×` a spring-damper's `∂Q/∂q` (`velocity` false) or `∂Q/∂v`
+/// on the blocks of its bodies.
+fn spring_blocks<const NB: usize>(
+    kkt: &mut Kkt,
+    spring: &crate::dynamics::SpringDamper,
+    state: &SystemState<NB>,
+    velocity: bool,
+    scale: f64,
+) -> Result<(), AnalysisError> {
+    let mut ends: [Option<usize>; 2] = [spring.a, spring.b].map(|e| match e {
+        Attachment::Body { body, .. } => Some(body),
+        Attachment::Ground(_) => None,
+    });
+    if ends[0] == ends[1] {
+        ends[1] = None;
+    }
+    for &b in ends.iter().flatten() {
+        for k in 0..6 {
+            let loads = spring_column::<NB>(spring, state, 6 * b + k, velocity);
+            for &a in ends.iter().flatten() {
+                let (Some(f), Some(t)) = (loads.force.get(a), loads.torque.get(a)) else { continue };
+                let out = kkt.block_mut(a, b).ok_or(non_finite("scene structure"))?;
+                for i in 0..3 {
+                    out[6 * i + k] += scale * f[i];
+                    out[6 * (3 + i) + k] += scale * t[i];
+                }
+            }
+        }
+    }
+    Ok(())
+}
