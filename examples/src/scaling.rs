@@ -1,7 +1,7 @@
 //! Scenes that scale: µs per step against the number of bodies for a chain, a
 //! ladder of closed loops and a branched tree, on the sparse path
 //! ([`joint_runtime::sparse`]) and, where it still fits, the dense one; the
-//! program `cargo run --release -p joint-examples --bin scaling` writes
+//! program `cargo run --release -p joint-scaling` writes
 //! `report/scaling.md` and `report/scaling.svg`.
 //!
 //! Every scene is declared with rows of bodies and joints (`#[body(bar[40], ..)]`,
@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use joint_runtime::analysis::AnalysisError;
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
@@ -143,8 +143,15 @@ fn median_us<const NB: usize>(
     Ok(times[times.len() / 2])
 }
 
-/// µs per RK4 step with projection (`SimulationOptions::default()`, h = 1 ms)
-/// on the sparse path.
+/// The options of a measured run: the defaults (projection on) with `integrator`.
+pub fn options(integrator: Integrator) -> SimulationOptions {
+    let mut options = SimulationOptions::default();
+    options.integrator = integrator;
+    options
+}
+
+/// µs per step with projection (h = 1 ms) of `integrator` on the sparse path,
+/// and the 6 × 6 blocks of generalised-α's iteration matrix (its memory).
 ///
 /// # Errors
 /// The simulation's.
@@ -152,12 +159,14 @@ pub fn sparse_step_us<S, const NB: usize, const NV: usize, const M: usize, const
     scene: &S,
     start: &SystemState<NB>,
     steps: usize,
-) -> Result<f64, AnalysisError>
+    integrator: Integrator,
+) -> Result<(f64, Option<usize>), AnalysisError>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let mut sim = SparseSimulation::new(scene, NoLoads, &[], SimulationOptions::default())?;
-    median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))
+    let mut sim = SparseSimulation::new(scene, NoLoads, &[], options(integrator))?;
+    let us = median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))?;
+    Ok((us, sim.iteration_blocks()))
 }
 
 /// The same on the dense path, in a thread with a stack of `stack` bytes (its
@@ -170,13 +179,14 @@ pub fn dense_step_us<S, const NB: usize, const NV: usize, const M: usize>(
     start: &SystemState<NB>,
     steps: usize,
     stack: usize,
+    integrator: Integrator,
 ) -> Result<f64, AnalysisError>
 where
     S: Scene<NB, NV, M> + Sync,
 {
     std::thread::scope(|scope| {
         let run = move || {
-            let mut sim = Simulation::new(scene, NoLoads, &[], SimulationOptions::default())?;
+            let mut sim = Simulation::new(scene, NoLoads, &[], options(integrator))?;
             median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))
         };
         match std::thread::Builder::new().stack_size(stack).spawn_scoped(scope, run) {

@@ -114,6 +114,7 @@ where
     /// One step of generalised-α from `y0` (normalised, its rule of redundant
     /// rows just factorised); returns the state, Newton iterations and
     /// iteration matrices built.
+    #[inline(never)]
     pub(super) fn step_alpha(
         &mut self,
         y0: &SystemState<NB>,

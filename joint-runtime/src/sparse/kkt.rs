@@ -113,7 +113,7 @@ impl Kkt {
         }
         let mut sizes = vec![6; bodies];
         sizes.extend_from_slice(joint_rows);
-        let order = elimination_order(&graph, bodies, joint_bodies);
+        let (order, later) = elimination_order(graph, bodies, joint_bodies);
         let mut position = vec![0; n];
         for (k, &node) in order.iter().enumerate() {
             position[node] = k;
@@ -131,30 +131,22 @@ impl Kkt {
             up: Vec::new(),
             x: vec![[0.0; 6]; n],
         };
-        kkt.symbolic(graph);
+        kkt.symbolic(later);
         Ok(kkt)
     }
 
-    /// The fill pattern and the update schedule of the order.
-    fn symbolic(&mut self, mut graph: Vec<BTreeSet<usize>>) {
+    /// The fill pattern (each position's later neighbours, by node, from the
+    /// elimination) and the update schedule of the order.
+    fn symbolic(&mut self, later: Vec<Vec<usize>>) {
         let n = self.order.len();
-        // Eliminate in order on the node graph, by position.
-        let mut later: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for k in 0..n {
-            let node = self.order[k];
-            let neighbours: Vec<usize> = graph[node].iter().copied().collect();
-            for &a in &neighbours {
-                graph[a].remove(&node);
-                for &b in &neighbours {
-                    if a != b {
-                        graph[a].insert(b);
-                    }
-                }
-            }
-            let mut ps: Vec<usize> = neighbours.iter().map(|&x| self.position[x]).collect();
-            ps.sort_unstable();
-            later[k] = ps;
-        }
+        let later: Vec<Vec<usize>> = later
+            .into_iter()
+            .map(|nodes| {
+                let mut ps: Vec<usize> = nodes.iter().map(|&x| self.position[x]).collect();
+                ps.sort_unstable();
+                ps
+            })
+            .collect();
         self.adj_start = vec![0];
         for ps in &later {
             self.adj.extend_from_slice(ps);
@@ -269,11 +261,8 @@ impl Kkt {
                 let i = self.adj[s];
                 let ni = self.sizes[self.order[i]];
                 for r in 0..ni {
-                    let mut sum = 0.0;
-                    for c in 0..nk {
-                        sum += self.low[s][6 * r + c] * yk[c];
-                    }
-                    self.x[i][r] -= sum;
+                    let row = &self.low[s][6 * r..6 * r + nk];
+                    self.x[i][r] -= row.iter().zip(&yk).map(|(a, y)| a * y).sum::<f64>();
                 }
             }
         }
@@ -318,12 +307,17 @@ impl Kkt {
 
 /// Minimum degree on `graph` (bodies are nodes `0..bodies`, joint `j` node
 /// `bodies + j`), a joint eligible only once its bodies are eliminated; ties
-/// go to the lower node, so the order is deterministic.
-fn elimination_order(graph: &[BTreeSet<usize>], bodies: usize, joint_bodies: &[[Option<usize>; 2]]) -> Vec<usize> {
+/// go to the lower node, so the order is deterministic. Returns the order and,
+/// for each step, the nodes still in the graph that the eliminated one reached
+/// (fill included): the factor's pattern.
+fn elimination_order(
+    mut graph: Vec<BTreeSet<usize>>,
+    bodies: usize,
+    joint_bodies: &[[Option<usize>; 2]],
+) -> (Vec<usize>, Vec<Vec<usize>>) {
     let n = graph.len();
-    let mut graph: Vec<BTreeSet<usize>> = graph.to_vec();
     let mut done = vec![false; n];
-    let mut order = Vec::with_capacity(n);
+    let (mut order, mut later) = (Vec::with_capacity(n), Vec::with_capacity(n));
     while order.len() < n {
         let eligible = |x: usize| {
             !done[x]
@@ -341,8 +335,9 @@ fn elimination_order(graph: &[BTreeSet<usize>], bodies: usize, joint_bodies: &[[
         }
         done[next] = true;
         order.push(next);
+        later.push(neighbours);
     }
-    order
+    (order, later)
 }
 
 /// `a (r × k) · b (k × c)`.
@@ -465,7 +460,7 @@ mod tests {
             graph[a].insert(b);
             graph[b].insert(a);
         }
-        let order = elimination_order(&graph, 2, &[[None, Some(0)], [Some(0), Some(1)]]);
+        let (order, _) = elimination_order(graph, 2, &[[None, Some(0)], [Some(0), Some(1)]]);
         let at = |x: usize| order.iter().position(|&y| y == x).expect("every node");
         assert!(at(2) > at(0) && at(3) > at(0) && at(3) > at(1), "{order:?}");
     }

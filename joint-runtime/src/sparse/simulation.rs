@@ -235,6 +235,9 @@ where
     }
 
     /// One RK4 step from `y0` (its accelerations `vdot`), under the rule of its start.
+    // Not inlined (nor is generalised-α's step): each keeps its stages' states
+    // in its own frame, so a 500-body step fits a 2 MiB stack.
+    #[inline(never)]
     fn step_rk4(
         &mut self,
         y0: &SystemState<NB>,
