@@ -212,77 +212,114 @@ where
         if !self.scene.second_order_values(&it.state, &it.lambda, &it.v, &mut w.terms) {
             return Err(AnalysisError::NoSecondOrder { needed_by: "generalised-α on the sparse path" });
         }
-        w.kkt.clear();
-        // h (K − Q_q), then times T on the right.
-        for (bodies, block) in w.layout.stiffness(&w.terms) {
-            let n = 6 * bodies.len();
-            for (i, &a) in bodies.iter().enumerate() {
-                for (j, &b) in bodies.iter().enumerate() {
-                    let out = w.kkt.block_mut(a, b).ok_or(non_finite("scene structure"))?;
-                    for r in 0..6 {
-                        for col in 0..6 {
-                            out[6 * r + col] += h * block[(6 * i + r) * n + 6 * j + col];
-                        }
-                    }
-                }
-            }
-        }
+        let kkt = &mut w.kkt;
+        kkt.clear();
+        // h (K − Q_q), then times T on the right; then c₁ M − c₂ Q_v; then J T and Jᵀ.
+        add_stiffness(kkt, &w.layout, &w.terms, h)?;
         for s in self.springs {
-            spring_blocks(&mut w.kkt, s, &it.state, false, -h)?;
+            spring_blocks(kkt, s, &it.state, false, -h)?;
         }
-        for &(a, b) in &w.body_pairs {
-            let out = w.kkt.block_mut(a, b).ok_or(non_finite("scene structure"))?;
-            let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
-            for r in 0..6 {
-                let row = [3, 4, 5].map(|k| out[6 * r + k]);
-                for k in 0..3 {
-                    out[6 * r + 3 + k] = row[0] * jr[(0, k)] + row[1] * jr[(1, k)] + row[2] * jr[(2, k)];
-                }
-            }
-        }
-        // c₁ M − c₂ Q_v.
+        times_update(kkt, &w.body_pairs, &t)?;
         for s in self.springs {
-            spring_blocks(&mut w.kkt, s, &it.state, true, -c.gamma / c.beta)?;
+            spring_blocks(kkt, s, &it.state, true, -c.gamma / c.beta)?;
         }
-        let c1 = c.mass_factor(h);
-        for (b, (inertia, body)) in self.inertias.iter().zip(state_bodies(&it.state)).enumerate() {
-            let out = w.kkt.block_mut(b, b).ok_or(non_finite("scene structure"))?;
-            add3(out, 0, 0, &Matrix3::identity(), c1 * inertia.mass);
-            add3(out, 3, 3, &inertia.inertia, c1);
-            // ∂(−ω' × J ω')/∂ω' = (J ω')~ − ω̃' J.
-            let (jw, wx) = ((inertia.inertia * body).cross_matrix(), body.cross_matrix());
-            add3(out, 3, 3, &(jw - wx * inertia.inertia), -c.gamma / c.beta);
-        }
-        // J T and Jᵀ, the held rows as identity rows.
-        let dropped = self.solver.factor.dropped();
-        for (r, window) in S::ROW_STARTS.windows(2).enumerate().take(M) {
-            let (joint, local) = w.row_joint[r];
-            if dropped.binary_search(&r).is_ok() {
-                let d = w.kkt.block_mut(joint, joint).ok_or(non_finite("scene structure"))?;
-                d[6 * local + local] = 1.0;
-                continue;
-            }
-            for (&col, &v) in S::COLUMNS.iter().zip(values.iter()).take(window[1]).skip(window[0]) {
-                let (b, k) = (col / 6, col % 6);
-                w.kkt.block_mut(b, joint).ok_or(non_finite("scene structure"))?[6 * k + local] = v;
-                let row = w.kkt.block_mut(joint, b).ok_or(non_finite("scene structure"))?;
-                if k < 3 {
-                    row[6 * local + k] = v;
-                } else {
-                    let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
-                    for l in 0..3 {
-                        row[6 * local + 3 + l] += v * jr[(k - 3, l)];
-                    }
-                }
-            }
-        }
+        add_mass(kkt, &self.inertias, &it.state, c.mass_factor(h), c.gamma / c.beta)?;
+        add_rows::<S, NB, NNZ>(kkt, values, &w.row_joint, self.solver.factor.dropped(), &t)?;
         w.kkt.factor().map_err(AnalysisError::from)
     }
 }
 
-/// Each body's `ω'`.
-fn state_bodies<const NB: usize>(state: &SystemState<NB>) -> impl Iterator<Item = Vector3<f64>> + '_ {
-    state.bodies.iter().map(|b| b.omega)
+/// A pattern the scene's structure should have had.
+fn missing() -> AnalysisError {
+    non_finite("scene structure")
+}
+
+/// `h K`: each joint's stiffness block onto its body pairs.
+fn add_stiffness(kkt: &mut Kkt, layout: &SecondOrderLayout, terms: &[f64], h: f64) -> Result<(), AnalysisError> {
+    for (bodies, block) in layout.stiffness(terms) {
+        let n = 6 * bodies.len();
+        for (i, &a) in bodies.iter().enumerate() {
+            for (j, &b) in bodies.iter().enumerate() {
+                let out = kkt.block_mut(a, b).ok_or_else(missing)?;
+                for r in 0..6 {
+                    for col in 0..6 {
+                        out[6 * r + col] += h * block[(6 * i + r) * n + 6 * j + col];
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every body-body block `(a, b)` times `T_b` on the right (`T_b` the right
+/// Jacobian of body `b`'s rotation update on its rotation columns).
+fn times_update<const NB: usize>(
+    kkt: &mut Kkt,
+    pairs: &[(usize, usize)],
+    t: &[Matrix3<f64>; NB],
+) -> Result<(), AnalysisError> {
+    for &(a, b) in pairs {
+        let out = kkt.block_mut(a, b).ok_or_else(missing)?;
+        let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
+        for r in 0..6 {
+            let row = [3, 4, 5].map(|k| out[6 * r + k]);
+            for k in 0..3 {
+                out[6 * r + 3 + k] = row[0] * jr[(0, k)] + row[1] * jr[(1, k)] + row[2] * jr[(2, k)];
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `c₁ M − c₂ Q_v` of the gyroscopic term, body by body.
+fn add_mass<const NB: usize>(
+    kkt: &mut Kkt,
+    inertias: &[crate::scene::BodyInertia; NB],
+    state: &SystemState<NB>,
+    c1: f64,
+    c2: f64,
+) -> Result<(), AnalysisError> {
+    for (b, (inertia, body)) in inertias.iter().zip(&state.bodies).enumerate() {
+        let out = kkt.block_mut(b, b).ok_or_else(missing)?;
+        add3(out, 0, 0, &Matrix3::identity(), c1 * inertia.mass);
+        add3(out, 3, 3, &inertia.inertia, c1);
+        // ∂(−ω' × J ω')/∂ω' = (J ω')~ − ω̃' J.
+        let w: Vector3<f64> = body.omega;
+        add3(out, 3, 3, &((inertia.inertia * w).cross_matrix() - w.cross_matrix() * inertia.inertia), -c2);
+    }
+    Ok(())
+}
+
+/// `J T` (the joints' rows) and `Jᵀ` (their columns) from the Jacobian's
+/// values, the `dropped` rows held as identity rows.
+fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+    kkt: &mut Kkt,
+    values: &[f64; NNZ],
+    row_joint: &[(usize, usize)],
+    dropped: &[usize],
+    t: &[Matrix3<f64>; NB],
+) -> Result<(), AnalysisError> {
+    for (r, (window, &(joint, local))) in S::ROW_STARTS.windows(2).zip(row_joint).enumerate() {
+        if dropped.binary_search(&r).is_ok() {
+            kkt.block_mut(joint, joint).ok_or_else(missing)?[6 * local + local] = 1.0;
+            continue;
+        }
+        for (&col, &v) in S::COLUMNS.iter().zip(values.iter()).take(window[1]).skip(window[0]) {
+            let (b, k) = (col / 6, col % 6);
+            kkt.block_mut(b, joint).ok_or_else(missing)?[6 * k + local] = v;
+            let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
+            if k < 3 {
+                row[6 * local + k] = v;
+            } else {
+                let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
+                for l in 0..3 {
+                    row[6 * local + 3 + l] += v * jr[(k - 3, l)];
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Adds `scale ×` a spring-damper's `∂Q/∂q` (`velocity` false) or `∂Q/∂v`
@@ -306,7 +343,7 @@ fn spring_blocks<const NB: usize>(
             let loads = spring_column::<NB>(spring, state, 6 * b + k, velocity);
             for &a in ends.iter().flatten() {
                 let (Some(f), Some(t)) = (loads.force.get(a), loads.torque.get(a)) else { continue };
-                let out = kkt.block_mut(a, b).ok_or(non_finite("scene structure"))?;
+                let out = kkt.block_mut(a, b).ok_or_else(missing)?;
                 for i in 0..3 {
                     out[6 * i + k] += scale * f[i];
                     out[6 * (3 + i) + k] += scale * t[i];
