@@ -131,13 +131,17 @@ fn crank_angle<const NB: usize>(state: &SystemState<NB>, i: usize) -> f64 {
     a.y.atan2(a.x)
 }
 
-#[test]
-fn the_40_loop_ladder_runs_through_its_singular_positions() {
-    let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], SimulationOptions::default()).expect("sparse");
-    let mut state = scaling::ladder_start::<81>();
-    // Upright: three redundant rows per planar loop, found by joint.
-    sim.dynamics(&state).expect("dynamics");
-    assert_eq!(sim.factor().dropped().len(), 3 * 40);
+/// 4 s of the 40-loop ladder from `state`, every step projected to 1e-10:
+/// the passages of crank 0 through the horizontal (singular) position, how
+/// far any crank strays from the first (one degree of freedom) and the worst
+/// relative energy change.
+fn through_singular_positions<const NV: usize, const M: usize, const NNZ: usize>(
+    sim: &mut SparseSimulation<'_, Ladder40, NoLoads, 81, NV, M, NNZ>,
+    mut state: SystemState<81>,
+) -> (usize, f64, f64)
+where
+    Ladder40: Scene<81, NV, M> + SparseJacobian<81, NNZ>,
+{
     let e0 = sim.energy(&state).total();
     let (mut passages, mut last, mut worst_branch, mut worst_energy) =
         (0, crank_angle(&state, 0).sin(), 0.0f64, 0.0f64);
@@ -147,14 +151,23 @@ fn the_40_loop_ladder_runs_through_its_singular_positions() {
         let s = crank_angle(&state, 0).sin();
         passages += usize::from(s * last <= 0.0);
         last = s;
-        // Every crank turns with the first (one degree of freedom).
         let a0 = crank_angle(&state, 0);
         for i in 1..41 {
-            let d = (crank_angle(&state, i) - a0).sin().abs();
-            worst_branch = worst_branch.max(d);
+            worst_branch = worst_branch.max((crank_angle(&state, i) - a0).sin().abs());
         }
         worst_energy = worst_energy.max((sim.energy(&state).total() - e0).abs() / e0.abs());
     }
+    (passages, worst_branch, worst_energy)
+}
+
+#[test]
+fn the_40_loop_ladder_runs_through_its_singular_positions() {
+    let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    let state = scaling::ladder_start::<81>();
+    // Upright: three redundant rows per planar loop, found by joint.
+    sim.dynamics(&state).expect("dynamics");
+    assert_eq!(sim.factor().dropped().len(), 3 * 40);
+    let (passages, worst_branch, worst_energy) = through_singular_positions(&mut sim, state);
     println!("40-loop ladder, 4 s: {passages} passages, cranks apart {worst_branch:.1e}, energy {worst_energy:.1e}");
     assert!(passages >= 3, "{passages} passages through the horizontal (singular) position in 4 s");
     assert!(worst_branch < 1e-8, "cranks apart by {worst_branch:e}");
@@ -350,22 +363,8 @@ fn generalised_alpha_on_a_200_body_chain_converges_at_second_order() {
 #[test]
 fn generalised_alpha_takes_the_40_loop_ladder_through_its_singular_positions() {
     let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], alpha_options(1.0)).expect("sparse");
-    let mut state = scaling::ladder_start::<81>();
-    let e0 = sim.energy(&state).total();
-    let (mut passages, mut last, mut worst_branch, mut worst_energy) =
-        (0, crank_angle(&state, 0).sin(), 0.0f64, 0.0f64);
-    for _ in 0..4000 {
-        let r = sim.step(&mut state, 1e-3).expect("steps through the singular positions");
-        assert!(r.constraint_residual <= 1e-10, "{r:?}");
-        let s = crank_angle(&state, 0).sin();
-        passages += usize::from(s * last <= 0.0);
-        last = s;
-        let a0 = crank_angle(&state, 0);
-        for i in 1..41 {
-            worst_branch = worst_branch.max((crank_angle(&state, i) - a0).sin().abs());
-        }
-        worst_energy = worst_energy.max((sim.energy(&state).total() - e0).abs() / e0.abs());
-    }
+    let state = scaling::ladder_start::<81>();
+    let (passages, worst_branch, worst_energy) = through_singular_positions(&mut sim, state);
     assert_eq!(sim.factor().dropped().len(), 3 * 40);
     println!(
         "40-loop ladder, generalised-α, 4 s: {passages} passages, cranks apart {worst_branch:.1e}, energy {worst_energy:.1e}"
