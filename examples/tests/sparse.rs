@@ -4,7 +4,7 @@
 
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
 use joint_runtime::analysis::{AnalysisError, AssemblyOptions, accelerations, assemble, velocities};
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper};
+use joint_runtime::dynamics::{Adaptive, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance};
 use joint_runtime::nalgebra::{DMatrix, SVector};
 use joint_runtime::sparse::{RowTerm, SecondOrderLayout, SparseAnalysis, SparseSimulation};
 use joint_runtime::{Ramp, Scene, SparseJacobian, SystemState};
@@ -27,6 +27,21 @@ fn flat<const NB: usize>(s: &SystemState<NB>) -> Vec<f64> {
         .collect()
 }
 
+/// Runs `f` in a thread with a 16 MiB stack: the dense path keeps its `M × NV`
+/// and `M × M` matrices on the stack, and a 65-row scene (the four-bar of nine
+/// bodies) beside the sparse path in one test function needs about 2 MiB, the
+/// default test thread's whole stack.
+fn on_dense_stack<T: Send>(f: impl FnOnce() -> T + Send) -> T {
+    std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .stack_size(16 << 20)
+            .spawn_scoped(s, f)
+            .expect("thread")
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e))
+    })
+}
+
 /// The dynamics at `state`, then `steps` RK4 steps with projection, both ways.
 fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
@@ -34,20 +49,23 @@ fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     steps: usize,
     h: f64,
 ) where
-    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ> + Sync,
 {
-    let options = SimulationOptions::default();
-    let mut dense = Simulation::new(scene, NoLoads, &[], options).expect("dense");
-    let mut sparse = SparseSimulation::new(scene, NoLoads, &[], options).expect("sparse");
-    let (d, s) = (dense.dynamics(&state).expect("dense dynamics"), sparse.dynamics(&state).expect("sparse dynamics"));
-    close("v̇", s.vdot.as_slice(), d.vdot.as_slice(), 1e-9);
-    assert_eq!(sparse.redundant().len(), d.redundant.len(), "redundant rows");
-    let (mut a, mut b) = (state, state);
-    for _ in 0..steps {
-        dense.step(&mut a, h).expect("dense step");
-        sparse.step(&mut b, h).expect("sparse step");
-    }
-    close("state", &flat(&b), &flat(&a), 1e-8);
+    on_dense_stack(|| {
+        let options = SimulationOptions::default();
+        let mut dense = Simulation::new(scene, NoLoads, &[], options).expect("dense");
+        let mut sparse = SparseSimulation::new(scene, NoLoads, &[], options).expect("sparse");
+        let (d, s) =
+            (dense.dynamics(&state).expect("dense dynamics"), sparse.dynamics(&state).expect("sparse dynamics"));
+        close("v̇", s.vdot.as_slice(), d.vdot.as_slice(), 1e-9);
+        assert_eq!(sparse.redundant().len(), d.redundant.len(), "redundant rows");
+        let (mut a, mut b) = (state, state);
+        for _ in 0..steps {
+            dense.step(&mut a, h).expect("dense step");
+            sparse.step(&mut b, h).expect("sparse step");
+        }
+        close("state", &flat(&b), &flat(&a), 1e-8);
+    });
 }
 
 #[test]
@@ -224,25 +242,27 @@ fn same_alpha<S, const NB: usize, const NV: usize, const M: usize, const NNZ: us
     steps: usize,
     h: f64,
 ) where
-    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ> + Sync,
 {
-    let mut options = SimulationOptions::default();
-    options.integrator = Integrator::GeneralisedAlpha;
-    let mut dense = Simulation::new(scene, NoLoads, springs, options).expect("dense");
-    let mut sparse = SparseSimulation::new(scene, NoLoads, springs, options).expect("sparse");
-    let (mut a, mut b) = (state, state);
-    let (mut dense_iterations, mut sparse_iterations) = (0, 0);
-    for _ in 0..steps {
-        dense_iterations += dense.step(&mut a, h).expect("dense step").newton_iterations;
-        sparse_iterations += sparse.step(&mut b, h).expect("sparse step").newton_iterations;
-    }
-    close("state", &flat(&b), &flat(&a), 1e-9);
-    // Equal but where a step stops at the round-off floor, which the two
-    // factorisations reach in different last digits.
-    assert!(
-        sparse_iterations.abs_diff(dense_iterations) * 20 <= dense_iterations,
-        "Newton iterations: sparse {sparse_iterations}, dense {dense_iterations}"
-    );
+    on_dense_stack(|| {
+        let mut options = SimulationOptions::default();
+        options.integrator = Integrator::GeneralisedAlpha;
+        let mut dense = Simulation::new(scene, NoLoads, springs, options).expect("dense");
+        let mut sparse = SparseSimulation::new(scene, NoLoads, springs, options).expect("sparse");
+        let (mut a, mut b) = (state, state);
+        let (mut dense_iterations, mut sparse_iterations) = (0, 0);
+        for _ in 0..steps {
+            dense_iterations += dense.step(&mut a, h).expect("dense step").newton_iterations;
+            sparse_iterations += sparse.step(&mut b, h).expect("sparse step").newton_iterations;
+        }
+        close("state", &flat(&b), &flat(&a), 1e-9);
+        // Equal but where a step stops at the round-off floor, which the two
+        // factorisations reach in different last digits.
+        assert!(
+            sparse_iterations.abs_diff(dense_iterations) * 20 <= dense_iterations,
+            "Newton iterations: sparse {sparse_iterations}, dense {dense_iterations}"
+        );
+    });
 }
 
 #[test]
@@ -389,4 +409,83 @@ fn generalised_alpha_without_second_order_terms_says_so() {
         SparseSimulation::new(&Plain5, NoLoads, &[], options),
         Err(AnalysisError::BadOption { name: "integrator" })
     ));
+}
+
+/// Error-controlled integration both ways with `springs`: the one driver over
+/// the dense and the sparse steps takes the same steps (accepted and rejected)
+/// to the same state.
+fn same_integrate<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    scene: &S,
+    state: SystemState<NB>,
+    springs: &[SpringDamper],
+    t_end: f64,
+    method: Adaptive,
+) where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ> + Sync,
+{
+    on_dense_stack(|| {
+        let options = SimulationOptions::default();
+        let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
+        let mut dense = Simulation::new(scene, NoLoads, springs, options).expect("dense");
+        let mut sparse = SparseSimulation::new(scene, NoLoads, springs, options).expect("sparse");
+        let (mut a, mut b) = (state, state);
+        let d = dense.integrate(&mut a, t_end, method, tolerance).expect("dense integrate");
+        let s = sparse.integrate(&mut b, t_end, method, tolerance).expect("sparse integrate");
+        println!("{method:?}: dense {d:?}\n    sparse {s:?}");
+        assert_eq!((b.t, a.t), (t_end, t_end));
+        assert!(d.accepted > 3, "{d:?}");
+        assert_eq!((s.accepted, s.rejected), (d.accepted, d.rejected), "steps");
+        assert_eq!(s.evaluations, d.evaluations, "stages");
+        close("state", &flat(&b), &flat(&a), 1e-8);
+        // Back to fixed steps: RK4 again, whatever integrate ran.
+        let report = sparse.step(&mut b, 1e-4).expect("a fixed step after integrate");
+        assert_eq!(report.newton_iterations, 0, "RK4 after integrate: {report:?}");
+    });
+}
+
+#[test]
+fn dormand_prince_on_bricard_and_the_double_cardan() {
+    same_integrate(&bricard::scene(), bricard::initial_state(), &[], 0.2, Adaptive::DormandPrince);
+    let geometry = double_cardan::Geometry::new(0.4, double_cardan::Arrangement::W, double_cardan::Phasing::InPhase)
+        .expect("valid bend");
+    let shaft = double_cardan::DoubleCardan::new(geometry, 10.0);
+    same_integrate(&shaft, shaft.initial_state().expect("consistent start"), &[], 0.1, Adaptive::DormandPrince);
+}
+
+#[test]
+fn adaptive_generalised_alpha_on_the_four_bar_and_the_stiff_press() {
+    same_integrate(&four_bar::scene(), four_bar::initial_state(), &[], 0.2, Adaptive::GeneralisedAlpha);
+    let state = press::initial_state().expect("assembled press");
+    same_integrate(&press::scene(), state, &press::springs(), 0.05, Adaptive::GeneralisedAlpha);
+}
+
+/// The 200-body chain with error-controlled steps, against the sparse RK4
+/// at a step 20 times below Dormand–Prince's: the error follows the
+/// tolerance, and the implicit method with its estimate gets there too.
+#[test]
+fn error_controlled_steps_on_a_200_body_chain() {
+    let start = scaling::chain_start::<200>();
+    let t_end = 0.02;
+    let mut reference = start;
+    let mut sim = SparseSimulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    for _ in 0..200 {
+        sim.step(&mut reference, t_end / 200.0).expect("reference steps");
+    }
+    let worst =
+        |y: &SystemState<200>| flat(y).iter().zip(flat(&reference)).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let mut errors = Vec::new();
+    for (method, tol) in
+        [(Adaptive::DormandPrince, 1e-6), (Adaptive::DormandPrince, 1e-9), (Adaptive::GeneralisedAlpha, 1e-5)]
+    {
+        let mut state = start;
+        let report = sim.integrate(&mut state, t_end, method, Tolerance { rtol: tol, atol: tol }).expect("integrate");
+        let error = worst(&state);
+        println!("{method:?}, tolerance {tol:e}: error {error:.2e}, {report:?}");
+        assert_eq!(state.t, t_end);
+        assert!(error < 100.0 * tol, "{method:?} at {tol:e}: error {error:e}");
+        errors.push((error, report));
+    }
+    // A tighter tolerance costs more steps and gives a smaller error.
+    assert!(errors[1].1.accepted > errors[0].1.accepted && errors[1].0 < errors[0].0, "{errors:?}");
+    assert!(errors[2].1.newton_iterations > 0 && errors[2].1.evaluations == 0, "{:?}", errors[2]);
 }

@@ -13,7 +13,7 @@ use crate::engine::emit::{self, ScalarTy};
 use crate::engine::graph::VarId;
 use crate::front::resolve::FieldShape;
 use crate::lower::{Derived, Read};
-use crate::second_order::SecondOrderNodes;
+use crate::second_order::{SecondOrderNodes, SparseNodes};
 
 /// What a generated method returns.
 #[derive(Clone, Copy)]
@@ -148,39 +148,90 @@ pub fn second_order_method(sig: &Signature, printed: &Printed, nodes: &SecondOrd
 /// sparse blocks of [`second_order::derive`](crate::second_order::derive),
 /// written entry by entry into the caller's slice (a large scene's blocks would
 /// not fit in a returned array on the stack); `false` when the slice is not
-/// exactly their length.
-pub fn second_order_values_method(sig: &Signature, printed: &Printed, nodes: &[Id]) -> (TokenStream, usize) {
-    let (body, outs, ops) = printed.emit(nodes);
+/// exactly their length. Returns the method, the inherent helpers it calls
+/// (its parts, when there are several; see [`PART_OPS`]) and its operation count.
+pub fn second_order_values_method(
+    sig: &Signature,
+    printed: &Printed,
+    sparse: &SparseNodes,
+) -> (TokenStream, TokenStream, usize) {
     let (k, state, prelude) = (krate(), &sig.state, &sig.prelude);
     let (r, c, len) = (
         Literal::usize_unsuffixed(sig.rows),
         Literal::usize_unsuffixed(sig.cols),
-        Literal::usize_unsuffixed(nodes.len()),
+        Literal::usize_unsuffixed(sparse.nodes.len()),
     );
-    let writes = outs.iter().enumerate().map(|(i, e)| {
-        let i = Literal::usize_unsuffixed(i);
-        quote!(out[#i] = #e;)
+    let args = quote! {
+        state: &#state,
+        lambda: &#k::__private::SVector<f64, #r>,
+        u: &#k::__private::SVector<f64, #c>,
+    };
+    let parts = parts(&printed.d.kinematics.g, sparse);
+    let mut total = 0;
+    let mut bodies = parts.iter().map(|part| {
+        let (body, outs, ops) = printed.emit(&part.iter().map(|&i| sparse.nodes[i]).collect::<Vec<_>>());
+        total += ops;
+        let writes = part.iter().zip(outs).map(|(&i, e)| {
+            let i = Literal::usize_unsuffixed(i);
+            quote!(out[#i] = #e;)
+        });
+        quote!(#prelude #body #(#writes)*)
     });
+    let (calls, helpers) = if parts.len() == 1 {
+        (bodies.next().unwrap_or_default(), TokenStream::new())
+    } else {
+        let (mut calls, mut helpers) = (TokenStream::new(), TokenStream::new());
+        for (i, body) in bodies.enumerate() {
+            let name = format_ident!("__second_order_values_{}", i);
+            calls.extend(quote!(self.#name(state, lambda, u, out);));
+            helpers.extend(quote! {
+                #[doc(hidden)]
+                #[inline(never)]
+                fn #name(&self, #args out: &mut [f64; #len]) { #body }
+            });
+        }
+        (calls, helpers)
+    };
     let method = quote! {
         #[inline]
-        fn second_order_values(
-            &self,
-            state: &#state,
-            lambda: &#k::__private::SVector<f64, #r>,
-            u: &#k::__private::SVector<f64, #c>,
-            out: &mut [f64],
-        ) -> bool {
+        fn second_order_values(&self, #args out: &mut [f64]) -> bool {
             let out: &mut [f64; #len] = match ::core::convert::TryFrom::try_from(out) {
                 ::core::result::Result::Ok(out) => out,
                 ::core::result::Result::Err(_) => return false,
             };
-            #prelude
-            #body
-            #(#writes)*
+            #calls
             true
         }
     };
-    (method, ops)
+    (method, helpers, total)
+}
+
+/// About the most operations one generated function of a scene's second-order
+/// terms holds: past it they are split, joint by joint, into functions of
+/// about this size. rustc's MIR passes and LLVM grow faster than linearly in
+/// one straight-line function whose values live across all of it (a 160-body
+/// tree's terms in one function: 104 s and 3 GB of rustc); apart, each part
+/// rebuilds only its own bodies' rotation matrices.
+const PART_OPS: usize = 8_000;
+
+/// The entries of `sparse` in parts of about [`PART_OPS`] operations, whole
+/// joints each, in joint order.
+fn parts(g: &crate::engine::graph::Graph, sparse: &SparseNodes) -> Vec<Vec<usize>> {
+    let mut parts = Vec::new();
+    let (mut part, mut count, mut ops) = (Vec::new(), emit::OpCount::new(g), 0);
+    for joint in &sparse.joints {
+        let nodes: Vec<Id> = joint.iter().map(|&i| sparse.nodes[i]).collect();
+        if !part.is_empty() && ops + count.extra(&nodes) > PART_OPS {
+            parts.push(std::mem::take(&mut part));
+            count = emit::OpCount::new(g);
+        }
+        ops = count.add(&nodes);
+        part.extend(joint);
+    }
+    if !part.is_empty() || parts.is_empty() {
+        parts.push(part);
+    }
+    parts
 }
 
 /// `const OPS: Ops = Ops { phi: .., .. }`, zero for a stub.

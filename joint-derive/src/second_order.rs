@@ -82,7 +82,17 @@ pub struct Terms {
     /// The dense matrices (`second_order`).
     pub dense: Option<SecondOrderNodes>,
     /// A scene's sparse blocks ([`derive_sparse`]'s layout).
-    pub sparse: Option<Vec<Id>>,
+    pub sparse: Option<SparseNodes>,
+}
+
+/// A scene's second-order terms in the sparse layout, with the entries that
+/// belong to each joint: a joint's entries depend only on its own bodies, so
+/// they can be computed apart from the other joints'.
+pub struct SparseNodes {
+    /// Every entry, in the layout's order.
+    pub nodes: Vec<Id>,
+    /// Each joint's entries: positions in `nodes`.
+    pub joints: Vec<Vec<usize>>,
 }
 
 /// Derives the second-order terms of `d`: dense when `dense`, and in the
@@ -142,24 +152,30 @@ fn column_major(rows: &[Vec<Id>], cols: usize) -> Vec<Id> {
 /// row's joint. A row touches only its joint's bodies, so nothing outside these
 /// blocks can be nonzero: entries grow with the rows, not with `M × NV`, and
 /// each gradient is taken over its joint's directions only.
-fn derive_sparse(d: &mut Derived, along: &mut Along, joints: &[(Range<usize>, Vec<usize>)]) -> Vec<Id> {
+fn derive_sparse(d: &mut Derived, along: &mut Along, joints: &[(Range<usize>, Vec<usize>)]) -> SparseNodes {
     let k = &mut d.kinematics;
     let (j, gamma, phi_t) = (&d.jacobian, &d.gamma, &d.phi_t);
     let mut stiffness = Vec::new();
-    let mut rows: [Vec<Id>; 4] = Default::default();
-    for (range, bodies) in joints {
+    let mut rows: [Vec<(usize, Id)>; 4] = Default::default();
+    for (joint, (range, bodies)) in joints.iter().enumerate() {
         let cols: Vec<usize> = bodies.iter().flat_map(|b| 6 * b..6 * b + 6).collect();
         for &c in &cols {
             let f = weighted(k, range.clone().map(|i| (along.lambda[i], j[i][c])));
-            stiffness.extend(along.q(k, f, &cols));
+            stiffness.extend(along.q(k, f, &cols).into_iter().map(|n| (joint, n)));
         }
         for i in range.clone() {
             let ju = weighted(k, cols.iter().map(|&c| (along.u[c], j[i][c])));
-            rows[0].extend(along.q(k, ju, &cols));
-            rows[1].extend(along.q(k, gamma[i], &cols));
-            rows[2].extend(grad(&mut k.g, gamma[i], &pick(&along.velocities, &cols)));
-            rows[3].extend(along.q(k, phi_t[i], &cols));
+            let tagged = |v: Vec<Id>| v.into_iter().map(move |n| (joint, n));
+            rows[0].extend(tagged(along.q(k, ju, &cols)));
+            rows[1].extend(tagged(along.q(k, gamma[i], &cols)));
+            rows[2].extend(tagged(grad(&mut k.g, gamma[i], &pick(&along.velocities, &cols))));
+            rows[3].extend(tagged(along.q(k, phi_t[i], &cols)));
         }
     }
-    stiffness.into_iter().chain(rows.into_iter().flatten()).collect()
+    let mut out = SparseNodes { nodes: Vec::new(), joints: vec![Vec::new(); joints.len()] };
+    for (joint, n) in stiffness.into_iter().chain(rows.into_iter().flatten()) {
+        out.joints[joint].push(out.nodes.len());
+        out.nodes.push(n);
+    }
+    out
 }

@@ -25,14 +25,11 @@ ladder_scene!(Ladder4, 4, 5, second_order);
 ladder_scene!(Ladder10, 10, 11, second_order);
 ladder_scene!(Ladder20, 20, 21, second_order);
 ladder_scene!(Ladder40, 40, 41, second_order);
-// Without `second_order`: the tree's terms take rustc minutes at 160 bodies
-// (157 s and 3 GB for `Tree80` alone, against 11 s for a 160-body chain; not
-// yet understood), so the tree runs RK4 only.
-tree_scene!(Tree5, 5);
-tree_scene!(Tree10, 10);
-tree_scene!(Tree20, 20);
-tree_scene!(Tree40, 40);
-tree_scene!(Tree80, 80);
+tree_scene!(Tree5, 5, second_order);
+tree_scene!(Tree10, 10, second_order);
+tree_scene!(Tree20, 20, second_order);
+tree_scene!(Tree40, 40, second_order);
+tree_scene!(Tree80, 80, second_order);
 
 /// One measured size: µs per step of RK4 and generalised-α, sparse and dense,
 /// and the blocks of the sparse iteration matrix.
@@ -138,11 +135,17 @@ fn what_of(title: &str, bodies: usize) -> String {
 }
 
 /// Release build time (s) and peak memory (MB, when `/usr/bin/time` is there)
-/// of a crate holding one chain scene of `n` bodies and a simulation of it,
+/// of a crate holding one chain scene of `n` bodies and a simulation of it
+/// (with `second`: the scene's second-order terms and a generalised-α step),
 /// rebuilt after its dependencies are built.
-fn build_time(n: usize) -> Result<(f64, Option<f64>), String> {
+fn build_time(n: usize, second: bool) -> Result<(f64, Option<f64>), String> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/scaling-build");
-    let dir = root.join(format!("chain{n}"));
+    let dir = root.join(format!("chain{n}{}", if second { "_alpha" } else { "" }));
+    let (option, integrator) = if second {
+        (", second_order", "options.integrator = joint_runtime::dynamics::Integrator::GeneralisedAlpha;")
+    } else {
+        ("", "options.integrator = joint_runtime::dynamics::Integrator::Rk4;")
+    };
     std::fs::create_dir_all(dir.join("src")).map_err(|e| e.to_string())?;
     let runtime = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../joint-runtime");
     let manifest = format!(
@@ -152,13 +155,14 @@ fn build_time(n: usize) -> Result<(f64, Option<f64>), String> {
     std::fs::write(dir.join("Cargo.toml"), manifest).map_err(|e| e.to_string())?;
     let main = format!(
         "use joint_runtime::dynamics::{{NoLoads, SimulationOptions}};\nuse joint_runtime::sparse::SparseSimulation;\n\
-         #[derive(joint_runtime::Scene)]\n#[scene(gravity = [0, 0, -9.81])]\n\
+         #[derive(joint_runtime::Scene)]\n#[scene(gravity = [0, 0, -9.81]{option})]\n\
          #[body(bar[{n}], mass = 1.0, inertia = [0.00125, 0.084, 0.084])]\n\
          #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]\n\
          #[joint(ball[i in 1..{n}] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]\n\
          struct Chain;\n\
          fn main() {{\n    let mut state = joint_runtime::SystemState {{ bodies: [joint_runtime::OmegaBody::default(); {n}], t: 0.0 }};\n    \
-         if let Ok(mut sim) = SparseSimulation::new(&Chain, NoLoads, &[], SimulationOptions::default()) {{ let _ = sim.step(&mut state, 1e-3); }}\n}}\n"
+         let mut options = SimulationOptions::default();\n    {integrator}\n    \
+         if let Ok(mut sim) = SparseSimulation::new(&Chain, NoLoads, &[], options) {{ let _ = sim.step(&mut state, 1e-3); }}\n}}\n"
     );
     std::fs::write(dir.join("src/main.rs"), main).map_err(|e| e.to_string())?;
     let target = root.join("target");
@@ -258,15 +262,24 @@ fn run() -> Result<(), String> {
         md += "\n";
     }
     if builds {
-        md += "\n### Release build time of a crate holding one chain scene (the derive, then rustc)\n\n| N | build s | peak rustc memory MB |\n|---|---|---|\n";
-        let mut points = Vec::new();
+        md += "\n### Release build time of a crate holding one chain scene (the derive, then rustc)\n\n\
+               With `second_order`, the crate also runs a generalised-α step, so that the terms are compiled.\n\n\
+               | N | build s | peak rustc memory MB | with `second_order`: build s | peak MB |\n|---|---|---|---|---|\n";
+        let (mut points, mut second) = (Vec::new(), Vec::new());
+        let mb = |m: Option<f64>| m.map_or("—".into(), |m| format!("{m:.0}"));
         for n in [10, 20, 40, 80, 160, 200] {
-            let (s, mb) = build_time(n)?;
-            eprintln!("build N={n}: {s:.2} s {mb:?} MB");
-            md += &format!("| {n} | {s:.2} | {} |\n", mb.map_or("—".into(), |m| format!("{m:.0}")));
+            let (s, m) = build_time(n, false)?;
+            let (s2, m2) = build_time(n, true)?;
+            eprintln!("build N={n}: {s:.2} s {m:?} MB; second order {s2:.2} s {m2:?} MB");
+            md += &format!("| {n} | {s:.2} | {} | {s2:.2} | {} |\n", mb(m), mb(m2));
             points.push((n as f64, s));
+            second.push((n as f64, s2));
         }
-        md += &format!("\nBuild-time exponent over N = 40 … 200: {:.2}.\n", exponent(&points[2..]));
+        md += &format!(
+            "\nBuild-time exponents over N = 40 … 200: {:.2}, with `second_order` {:.2}.\n",
+            exponent(&points[2..]),
+            exponent(&second[2..])
+        );
     }
     std::fs::create_dir_all("report").map_err(|e| e.to_string())?;
     std::fs::write("report/scaling.md", md).map_err(|e| e.to_string())?;
@@ -280,6 +293,7 @@ fn run() -> Result<(), String> {
         ("ladder, sparse".into(), log(&ladder, &|r| Some(r.sparse))),
         ("tree, sparse".into(), log(&tree, &|r| Some(r.sparse))),
         ("ladder, generalised-α, sparse".into(), log(&ladder, &|r| r.alpha)),
+        ("tree, generalised-α, sparse".into(), log(&tree, &|r| r.alpha)),
     ];
     for (name, p) in PEERS {
         let pts = chain.iter().zip(p).map(|(r, y)| ((r.bodies as f64).log10(), y.log10())).collect();

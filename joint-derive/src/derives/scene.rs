@@ -153,9 +153,9 @@ fn print(
         Some(nodes) => generate::second_order_method(&z.signature, &printed, nodes),
         None => (TokenStream::new(), 0),
     };
-    let (values, values_ops) = match second.and_then(|t| t.sparse.as_ref()) {
+    let (values, helpers, values_ops) = match second.and_then(|t| t.sparse.as_ref()) {
         Some(nodes) => generate::second_order_values_method(&z.signature, &printed, nodes),
-        None => (TokenStream::new(), 0),
+        None => (TokenStream::new(), TokenStream::new(), 0),
     };
     second_method.extend(values);
     let second_text = match second {
@@ -192,7 +192,7 @@ fn print(
         /// The scene's sizes and its bodies by name, without spelling out
         /// `Scene<NB, NV, ROWS>`.
         #lints
-        impl #ig #ident #tg #wc { #inherent }
+        impl #ig #ident #tg #wc { #inherent #helpers }
 
         #lints
         impl #ig #k::SparseJacobian<#nb, #nnz> for #ident #tg #wc { #sparse }

@@ -91,6 +91,27 @@ const C: [f64; 6] = [1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
 const E: [f64; 7] =
     [71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0];
 
+/// What the error-controlled driver needs of a simulation, dense or sparse
+/// ([`integrate`] is written once over it).
+pub(crate) trait AdaptiveSteps<const NB: usize, const NV: usize> {
+    /// The state is one the scene can be evaluated at.
+    fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError>;
+    /// One trial step of `method` from `y0`: the state reached and its error
+    /// norm. A step whose error exceeds 1 leaves the integrator's history as
+    /// it was.
+    fn trial(
+        &mut self,
+        y0: &SystemState<NB>,
+        h: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+        report: &mut IntegrationReport,
+    ) -> Result<(SystemState<NB>, f64), AnalysisError>;
+    /// An accepted step's state, projected if the options say so, with
+    /// generalised-α's history following it (dropped by Dormand–Prince).
+    fn accept(&mut self, next: SystemState<NB>, method: Adaptive) -> Result<SystemState<NB>, AnalysisError>;
+}
+
 impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
@@ -112,91 +133,62 @@ where
         method: Adaptive,
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
-        let ok = |x: f64| x > 0.0 && x.is_finite();
-        if !(ok(tolerance.rtol) && ok(tolerance.atol)) {
-            return Err(AnalysisError::BadOption { name: "tolerance" });
-        }
-        if !(t_end.is_finite() && t_end >= state.t) {
-            return Err(AnalysisError::BadOption { name: "t_end" });
-        }
-        check_state::<S, NB, NV, M>(state, true)?;
-        let mut report = IntegrationReport::default();
-        let mut h = (1e-3 * (t_end - state.t).max(1e-3)).min(t_end - state.t);
-        let (order, integrator) = match method {
-            Adaptive::DormandPrince => (4.0, self.options.integrator),
-            // The estimate's velocity part is O(h²) (see the module docs).
-            Adaptive::GeneralisedAlpha => (1.0, Integrator::GeneralisedAlpha),
-        };
         let saved = self.options.integrator;
-        self.options.integrator = integrator;
-        let result = self.adaptive_loop(state, t_end, method, tolerance, order, &mut h, &mut report);
+        if method == Adaptive::GeneralisedAlpha {
+            self.options.integrator = Integrator::GeneralisedAlpha;
+        }
+        let result = integrate(self, state, t_end, method, tolerance);
         self.options.integrator = saved;
-        result.map(|()| report)
+        result
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> AdaptiveSteps<NB, NV> for Simulation<'_, S, L, NB, NV, M>
+where
+    S: Scene<NB, NV, M>,
+    L: AppliedLoads<NB>,
+{
+    fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn adaptive_loop(
+    fn trial(
         &mut self,
-        state: &mut SystemState<NB>,
-        t_end: f64,
+        y0: &SystemState<NB>,
+        h: f64,
         method: Adaptive,
         tolerance: Tolerance,
-        order: f64,
-        h: &mut f64,
         report: &mut IntegrationReport,
-    ) -> Result<(), AnalysisError> {
-        while state.t < t_end {
-            if report.accepted + report.rejected >= MAX_STEPS || *h < 1e-14 * (1.0 + libm::fabs(state.t)) {
-                return Err(AnalysisError::StepTooSmall { t: state.t, step: *h });
+    ) -> Result<(SystemState<NB>, f64), AnalysisError> {
+        match method {
+            Adaptive::DormandPrince => {
+                let (y, mut rule) = self.step_start(y0, h)?;
+                let first = self.rate(&y, &mut rule)?;
+                dormand_prince(&y, first, h, tolerance, report, |stage| self.rate(stage, &mut rule))
             }
-            // The last step lands on t_end (and a step within 1 % of it is stretched to it).
-            let last = state.t + 1.01 * *h >= t_end;
-            let step = if last { t_end - state.t } else { *h };
-            let trial = match method {
-                Adaptive::DormandPrince => self.dormand_prince(state, step, tolerance, report),
-                Adaptive::GeneralisedAlpha => self.alpha_with_estimate(state, step, tolerance, report),
-            };
-            let accepted = match trial {
-                Ok((next, err)) if err <= 1.0 => self.accept(next, method).map(|next| (next, err)),
-                Ok((_, err)) if err.is_finite() => {
-                    report.rejected += 1;
-                    let factor = (0.9 * libm::pow(err, -1.0 / (order + 1.0))).clamp(0.2, 1.0);
-                    *h = step * factor;
-                    continue;
+            Adaptive::GeneralisedAlpha => {
+                let continuing = self.history.is_some_and(|past| past.state == *y0);
+                let (mut y, mut rule) = self.step_start(y0, h)?;
+                let saved = self.history;
+                // The history the step starts from (fresh from the dynamics
+                // unless it goes on from the last step), kept for the estimate.
+                let past = self.alpha_history(&y, continuing, &mut rule)?;
+                let before = past.a;
+                self.history = Some(past);
+                let (iterations, matrices) = self.step_alpha(&mut y, h, true, &mut rule).inspect_err(|_| {
+                    self.history = saved;
+                })?;
+                let after = self.history.map_or(before, |past| past.a);
+                let rho = self.options.spectral_radius;
+                let err = alpha_estimate(y0, &y, &(after - before), h, rho, tolerance, report, (iterations, matrices));
+                if err > 1.0 {
+                    self.history = saved;
                 }
-                other => other.and(Err(AnalysisError::NonFiniteOutput { quantity: "error estimate", row: None })),
-            };
-            match accepted {
-                Ok((next, err)) => {
-                    *state = next;
-                    if last {
-                        state.t = t_end;
-                    }
-                    report.accepted += 1;
-                    report.last_step = step;
-                    *h = step * (0.9 * libm::pow(err.max(1e-10), -1.0 / (order + 1.0))).clamp(0.2, 5.0);
-                }
-                // A failed Newton iteration, stage or projection, or a
-                // non-finite estimate: a smaller step.
-                Err(
-                    AnalysisError::ImplicitNotConverged { .. }
-                    | AnalysisError::Linalg(_)
-                    | AnalysisError::NonFiniteOutput { .. }
-                    | AnalysisError::NotConverged { .. }
-                    | AnalysisError::NoProgress { .. },
-                ) => {
-                    report.rejected += 1;
-                    *h = 0.25 * step;
-                }
-                Err(e) => return Err(e),
+                Ok((y, err))
             }
         }
-        Ok(())
     }
 
-    /// An accepted step's state, projected if the options say so; the
-    /// history of generalised-α follows it (and is dropped by Dormand–Prince,
-    /// whose steps leave it stale).
     fn accept(&mut self, next: SystemState<NB>, method: Adaptive) -> Result<SystemState<NB>, AnalysisError> {
         let mut next = next;
         if let Some(options) = self.options.projection {
@@ -208,67 +200,135 @@ where
         }
         Ok(next)
     }
+}
 
-    /// One Dormand–Prince step: the fifth-order state and the error norm.
-    fn dormand_prince(
-        &mut self,
-        y0: &SystemState<NB>,
-        h: f64,
-        tolerance: Tolerance,
-        report: &mut IntegrationReport,
-    ) -> Result<(SystemState<NB>, f64), AnalysisError> {
-        let (y, mut rule) = self.step_start(y0, h)?;
-        let t0 = y.t;
-        let first = self.rate(&y, &mut rule)?;
-        let mut k = [first; 7];
-        for (i, row) in A.iter().enumerate() {
-            let stage = advance(&y, k.iter().zip(row.iter().copied()), h, t0 + C[i] * h);
-            if let Some(slot) = k.get_mut(i + 1) {
-                *slot = self.rate(&stage, &mut rule)?;
-            }
-        }
-        report.evaluations += 7;
-        let y5 = advance(&y, k.iter().zip(A[5].iter().copied()), h, t0 + h);
-        let err = dormand_prince_error(&y, &y5, &k, h, tolerance);
-        Ok((y5, err))
+/// [`Simulation::integrate`] on any simulation: the checks, the first step
+/// size and the loop of trial steps.
+pub(crate) fn integrate<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
+    sim: &mut T,
+    state: &mut SystemState<NB>,
+    t_end: f64,
+    method: Adaptive,
+    tolerance: Tolerance,
+) -> Result<IntegrationReport, AnalysisError> {
+    let ok = |x: f64| x > 0.0 && x.is_finite();
+    if !(ok(tolerance.rtol) && ok(tolerance.atol)) {
+        return Err(AnalysisError::BadOption { name: "tolerance" });
     }
+    if !(t_end.is_finite() && t_end >= state.t) {
+        return Err(AnalysisError::BadOption { name: "t_end" });
+    }
+    sim.check_start(state)?;
+    let mut report = IntegrationReport::default();
+    let h = (1e-3 * (t_end - state.t).max(1e-3)).min(t_end - state.t);
+    adaptive_loop(sim, state, t_end, method, tolerance, h, &mut report).map(|()| report)
+}
 
-    /// One generalised-α step and its error estimate.
-    fn alpha_with_estimate(
-        &mut self,
-        y0: &SystemState<NB>,
-        h: f64,
-        tolerance: Tolerance,
-        report: &mut IntegrationReport,
-    ) -> Result<(SystemState<NB>, f64), AnalysisError> {
-        let continuing = self.history.is_some_and(|past| past.state == *y0);
-        let (mut y, mut rule) = self.step_start(y0, h)?;
-        let saved = self.history;
-        // The history the step starts from (fresh from the dynamics unless it
-        // goes on from the last step), kept for the estimate and handed over.
-        let past = self.alpha_history(&y, continuing, &mut rule)?;
-        let before = past.a;
-        self.history = Some(past);
-        let result = self.step_alpha(&mut y, h, true, &mut rule);
-        let (iterations, matrices) = match result {
-            Ok(x) => x,
-            Err(e) => {
-                self.history = saved;
-                return Err(e);
+fn adaptive_loop<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
+    sim: &mut T,
+    state: &mut SystemState<NB>,
+    t_end: f64,
+    method: Adaptive,
+    tolerance: Tolerance,
+    mut h: f64,
+    report: &mut IntegrationReport,
+) -> Result<(), AnalysisError> {
+    // The estimate's order in h: Dormand–Prince's 4, generalised-α's
+    // velocity part O(h²) (see the module docs).
+    let order = match method {
+        Adaptive::DormandPrince => 4.0,
+        Adaptive::GeneralisedAlpha => 1.0,
+    };
+    while state.t < t_end {
+        if report.accepted + report.rejected >= MAX_STEPS || h < 1e-14 * (1.0 + libm::fabs(state.t)) {
+            return Err(AnalysisError::StepTooSmall { t: state.t, step: h });
+        }
+        // The last step lands on t_end (and a step within 1 % of it is stretched to it).
+        let last = state.t + 1.01 * h >= t_end;
+        let step = if last { t_end - state.t } else { h };
+        let accepted = match sim.trial(state, step, method, tolerance, report) {
+            Ok((next, err)) if err <= 1.0 => sim.accept(next, method).map(|next| (next, err)),
+            Ok((_, err)) if err.is_finite() => {
+                report.rejected += 1;
+                let factor = (0.9 * libm::pow(err, -1.0 / (order + 1.0))).clamp(0.2, 1.0);
+                h = step * factor;
+                continue;
             }
+            other => other.and(Err(AnalysisError::NonFiniteOutput { quantity: "error estimate", row: None })),
         };
-        report.newton_iterations += iterations;
-        report.newton_matrices += matrices;
-        let after = self.history.map_or(before, |past| past.a);
-        let (beta, gamma) = super::generalised_alpha::newmark(self.options.spectral_radius);
-        let e = (after - before) * ((beta - 1.0 / 6.0) * h * h);
-        let ev = (after - before) * ((gamma - 0.5) * h);
-        let err = alpha_error(y0, &y, &e, &ev, tolerance);
-        if err > 1.0 {
-            self.history = saved;
+        match accepted {
+            Ok((next, err)) => {
+                *state = next;
+                if last {
+                    state.t = t_end;
+                }
+                report.accepted += 1;
+                report.last_step = step;
+                h = step * (0.9 * libm::pow(err.max(1e-10), -1.0 / (order + 1.0))).clamp(0.2, 5.0);
+            }
+            // A failed Newton iteration, stage or projection, or a
+            // non-finite estimate: a smaller step.
+            Err(
+                AnalysisError::ImplicitNotConverged { .. }
+                | AnalysisError::Linalg(_)
+                | AnalysisError::NonFiniteOutput { .. }
+                | AnalysisError::NotConverged { .. }
+                | AnalysisError::NoProgress { .. },
+            ) => {
+                report.rejected += 1;
+                h = 0.25 * step;
+            }
+            Err(e) => return Err(e),
         }
-        Ok((y, err))
     }
+    Ok(())
+}
+
+/// One Dormand–Prince step from the normalised `y` (its rate `first`; `rate`
+/// evaluates a stage under the step's rule of redundant rows): the
+/// fifth-order state and the error norm.
+pub(crate) fn dormand_prince<const NB: usize, const NV: usize>(
+    y: &SystemState<NB>,
+    first: Rate<NB, NV>,
+    h: f64,
+    tolerance: Tolerance,
+    report: &mut IntegrationReport,
+    mut rate: impl FnMut(&SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError>,
+) -> Result<(SystemState<NB>, f64), AnalysisError> {
+    let t0 = y.t;
+    let mut k = [first; 7];
+    for (i, row) in A.iter().enumerate() {
+        let stage = advance(y, k.iter().zip(row.iter().copied()), h, t0 + C[i] * h);
+        if let Some(slot) = k.get_mut(i + 1) {
+            *slot = rate(&stage)?;
+        }
+    }
+    report.evaluations += 7;
+    let y5 = advance(y, k.iter().zip(A[5].iter().copied()), h, t0 + h);
+    let err = dormand_prince_error(y, &y5, &k, h, tolerance);
+    Ok((y5, err))
+}
+
+/// Generalised-α's error norm for a step from `y0` to `y1` whose
+/// accelerations changed by `da` (Géradin & Cardona's estimate, see the
+/// module docs); adds the step's Newton work to `report`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn alpha_estimate<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    y1: &SystemState<NB>,
+    da: &SVector<f64, NV>,
+    h: f64,
+    spectral_radius: f64,
+    tolerance: Tolerance,
+    report: &mut IntegrationReport,
+    (iterations, matrices): (usize, usize),
+) -> f64 {
+    report.newton_iterations += iterations;
+    report.newton_matrices += matrices;
+    let (beta, gamma) = super::generalised_alpha::newmark(spectral_radius);
+    let e = da * ((beta - 1.0 / 6.0) * h * h);
+    let ev = da * ((gamma - 0.5) * h);
+    alpha_error(y0, y1, &e, &ev, tolerance)
 }
 
 /// Dormand–Prince's error norm over `r`, `p` and the velocities.

@@ -249,13 +249,7 @@ impl BlockFactor {
             self.jb[s][o] = v;
         }
         self.times_metric(w);
-        let scale = (0..self.joints.len())
-            .flat_map(|k| {
-                let a = self.gram(self.col_start[k], k);
-                (0..self.joints[k].rows).map(move |r| a[7 * r])
-            })
-            .fold(0.0, f64::max);
-        let tolerance = if tolerance > 0.0 { tolerance * scale } else { 0.0 };
+        let tolerance = if tolerance > 0.0 { tolerance * self.largest_diagonal() } else { 0.0 };
         self.dropped.clear();
         for k in 0..self.joints.len() {
             let rule = keep.and_then(|r| r.get(k)).copied();
@@ -289,6 +283,28 @@ impl BlockFactor {
                 }
             }
         }
+    }
+
+    /// The largest diagonal entry of `A`, the scale of the rank tolerance: row
+    /// by row, without the off-diagonal entries of the blocks (a third of the
+    /// diagonal blocks' cost for a spherical joint's three rows).
+    fn largest_diagonal(&self) -> f64 {
+        let mut largest = 0.0f64;
+        for (k, joint) in self.joints.iter().enumerate() {
+            let s = self.col_start[k];
+            let shared = &self.shared[self.shared_start[s]..self.shared_start[s + 1]];
+            for r in 0..joint.rows {
+                let entry: f64 = shared
+                    .iter()
+                    .map(|&(si, sk, _)| {
+                        let (jw, jb) = (&self.jw[2 * k + si], &self.jb[2 * k + sk]);
+                        (0..6).map(|c| jw[6 * r + c] * jb[6 * r + c]).sum::<f64>()
+                    })
+                    .sum();
+                largest = largest.max(entry);
+            }
+        }
+        largest
     }
 
     /// `A_ik = Σ_b (J W)_i,b J_k,bᵀ` for slot `s = (i, k)`.
@@ -335,7 +351,8 @@ impl BlockFactor {
         for s in self.col_start[k] + 1..self.col_start[k + 1] {
             let b = self.updated(s, k);
             let ri = self.joints[self.col[s]].rows;
-            let mut out = ZERO;
+            let out = &mut self.l[s];
+            *out = ZERO;
             for x in 0..ri {
                 // T y = B[x, perm[..rank]], T[a][c] = L_kk[perm[a]][c].
                 for a in 0..rank {
@@ -343,7 +360,6 @@ impl BlockFactor {
                     out[6 * x + a] = (b[6 * x + perm[a]] - sum) / l[6 * perm[a] + a];
                 }
             }
-            self.l[s] = out;
         }
     }
 

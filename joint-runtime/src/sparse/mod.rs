@@ -27,9 +27,13 @@
 //! simulation runs index-3 generalised-α with the exact iteration matrix, a
 //! saddle-point matrix over bodies and joints factorised on a pattern fixed
 //! once (`kkt.rs`: minimum degree, each joint after its bodies), from the
-//! scene's sparse second-order terms ([`SecondOrderLayout`]). Not sparse yet:
-//! the implicit midpoint rule (its Newton matrix `I − (h/2) ∂a/∂w` is dense).
+//! scene's sparse second-order terms ([`SecondOrderLayout`]).
+//! [`SparseSimulation::integrate`] runs the dense path's error-controlled
+//! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
+//! Not sparse yet: the implicit midpoint rule (its Newton matrix
+//! `I − (h/2) ∂a/∂w` is dense).
 
+mod adaptive;
 mod alpha;
 mod analysis;
 mod factor;

@@ -180,7 +180,7 @@ where
     }
 
     /// One RK4 stage: the rate at `state` under the step's rule.
-    fn rate(&mut self, state: &SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError> {
+    pub(super) fn rate(&mut self, state: &SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError> {
         Ok(Rate::new(state, self.solve(state, true, false)?.vdot))
     }
 
@@ -196,22 +196,22 @@ where
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
-        check_state::<S, NB, NV, M>(state, true)?;
-        let mut y0 = *state;
-        normalise_orientations::<S, NB, NV, M>(&mut y0)?;
-        // The start chooses which rows to drop; every stage drops the same.
-        let d1 = self.solve(&y0, false, true)?;
-        self.rule.clear();
-        self.rule.extend(self.solver.factor.rule());
         let mut report = StepReport::default();
-        let mut y = if self.alpha.is_some() {
-            // Generalised-α goes on from its last step only if handed back its state.
-            let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
-            let (y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
-            (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
-            y
-        } else {
-            self.step_rk4(&y0, d1.vdot, h)?
+        let mut y = match self.options.integrator {
+            Integrator::Rk4 => {
+                let (y0, d1) = self.step_start(state)?;
+                self.step_rk4(&y0, d1.vdot, h)?
+            }
+            Integrator::GeneralisedAlpha => {
+                self.alpha_workspace()?;
+                // Generalised-α goes on from its last step only if handed back its state.
+                let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
+                let (y0, d1) = self.step_start(state)?;
+                let (y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
+                (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
+                y
+            }
+            Integrator::ImplicitMidpoint => return Err(AnalysisError::BadOption { name: "integrator" }),
         };
         match self.options.projection {
             Some(options) => {
@@ -232,6 +232,31 @@ where
             history.state = *state;
         }
         Ok(report)
+    }
+
+    /// A step's start: `state` checked and normalised, its dynamics, and the
+    /// rule of redundant rows every stage of the step keeps.
+    pub(super) fn step_start(
+        &mut self,
+        state: &SystemState<NB>,
+    ) -> Result<(SystemState<NB>, SparseDynamics<NV, M>), AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)?;
+        let mut y0 = *state;
+        normalise_orientations::<S, NB, NV, M>(&mut y0)?;
+        let d1 = self.solve(&y0, false, true)?;
+        self.rule.clear();
+        self.rule.extend(self.solver.factor.rule());
+        Ok((y0, d1))
+    }
+
+    /// Generalised-α's workspace, built at its first use if
+    /// [`SparseSimulation::new`] did not (another integrator, then
+    /// [`integrate`](Self::integrate) with it): allocated once.
+    pub(super) fn alpha_workspace(&mut self) -> Result<(), AnalysisError> {
+        if self.alpha.is_none() {
+            self.alpha = Some(AlphaWorkspace::new::<S, NNZ>(self.springs)?);
+        }
+        Ok(())
     }
 
     /// One RK4 step from `y0` (its accelerations `vdot`), under the rule of its start.

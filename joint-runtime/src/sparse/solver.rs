@@ -24,9 +24,8 @@ pub(crate) fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usiz
     x: &SVector<f64, NV>,
 ) -> SVector<f64, M> {
     let mut out = SVector::<f64, M>::zeros();
-    for (o, w) in out.iter_mut().zip(S::ROW_STARTS.windows(2)) {
-        let &[a, b] = w else { break };
-        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+    for (row, o) in out.iter_mut().enumerate() {
+        for (v, &c) in row_entries::<S, NB, NNZ>(values, row) {
             *o += v * x.get(c).copied().unwrap_or(0.0);
         }
     }
@@ -39,15 +38,29 @@ pub(crate) fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usi
     y: &SVector<f64, M>,
 ) -> SVector<f64, NV> {
     let mut out = SVector::<f64, NV>::zeros();
-    for (&yr, w) in y.iter().zip(S::ROW_STARTS.windows(2)) {
-        let &[a, b] = w else { break };
-        for (v, &c) in values.iter().zip(S::COLUMNS.iter()).take(b).skip(a) {
+    for (row, &yr) in y.iter().enumerate() {
+        for (v, &c) in row_entries::<S, NB, NNZ>(values, row) {
             if let Some(o) = out.get_mut(c) {
                 *o += v * yr;
             }
         }
     }
     out
+}
+
+/// Row `row`'s entries and their columns (none for a row outside the pattern).
+// Slices of the row, not `skip(start)` over all entries: that was 12 % of a
+// 160-body RK4 step's instructions.
+fn row_entries<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+    values: &[f64; NNZ],
+    row: usize,
+) -> impl Iterator<Item = (&f64, &'static usize)> {
+    let range = match (S::ROW_STARTS.get(row), S::ROW_STARTS.get(row + 1)) {
+        (Some(&a), Some(&b)) => a..b,
+        _ => 0..0,
+    };
+    let values = values.get(range.clone()).unwrap_or(&[]);
+    values.iter().zip(S::COLUMNS.get(range).unwrap_or(&[]))
 }
 
 pub(crate) fn non_finite(quantity: &'static str) -> AnalysisError {

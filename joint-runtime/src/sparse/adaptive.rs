@@ -1,0 +1,131 @@
+//! Error-controlled variable steps on the sparse path: the dense
+//! [`Simulation::integrate`](crate::dynamics::Simulation::integrate)'s driver
+//! (`dynamics/adaptive.rs`, written once for both paths) over this path's
+//! stages, generalised-α step and projection.
+
+use super::SparseSimulation;
+use crate::analysis::{AnalysisError, check_state};
+use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
+use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Rate, Tolerance};
+use crate::scene::{Scene, SparseJacobian, SystemState};
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    L: AppliedLoads<NB>,
+{
+    /// Advances `state` to time `t_end` with error-controlled steps of
+    /// `method`, projecting after every accepted step if the options say so:
+    /// [`Simulation::integrate`](crate::dynamics::Simulation::integrate) in
+    /// time and memory proportional to the scene. Generalised-α needs a scene
+    /// derived with `second_order`; its workspace is allocated here if
+    /// [`SparseSimulation::new`] did not (once, not per step).
+    ///
+    /// # Errors
+    /// As the dense `integrate`; [`AnalysisError::NoSecondOrder`] for
+    /// generalised-α on a scene without second-order terms.
+    ///
+    /// # Examples
+    /// ```
+    /// use joint_runtime::dynamics::{Adaptive, NoLoads, SimulationOptions, Tolerance};
+    /// use joint_runtime::sparse::SparseSimulation;
+    /// use joint_runtime::{OmegaBody, Scene, SystemState};
+    /// use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+    ///
+    /// /// A bar hanging from a spherical joint at the origin.
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81])]
+    /// #[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
+    /// #[joint(pivot = spherical(ground, bar), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    /// struct Pendulum;
+    ///
+    /// let level = UnitQuaternion::identity();
+    /// let bar = OmegaBody::from_rotation(Vector3::new(0.5, 0.0, 0.0), &level, Vector3::zeros(), Vector3::zeros());
+    /// let mut state = SystemState { bodies: [bar], t: 0.0 };
+    /// let mut sim = SparseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default())?;
+    /// let tolerance = Tolerance { rtol: 1e-8, atol: 1e-8 };
+    /// let report = sim.integrate(&mut state, 0.5, Adaptive::DormandPrince, tolerance)?;
+    /// assert_eq!(state.t, 0.5);
+    /// assert!(report.accepted > 0);
+    /// // The bar's end is still at the origin.
+    /// let end = state.bodies[0].r - state.bodies[0].rotation() * Vector3::new(0.5, 0.0, 0.0);
+    /// assert!(end.norm() < 1e-9);
+    /// # Ok::<(), joint_runtime::analysis::AnalysisError>(())
+    /// ```
+    pub fn integrate(
+        &mut self,
+        state: &mut SystemState<NB>,
+        t_end: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+    ) -> Result<IntegrationReport, AnalysisError> {
+        if method == Adaptive::GeneralisedAlpha {
+            self.alpha_workspace()?;
+        }
+        integrate(self, state, t_end, method, tolerance)
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AdaptiveSteps<NB, NV>
+    for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    L: AppliedLoads<NB>,
+{
+    fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)
+    }
+
+    fn trial(
+        &mut self,
+        y0: &SystemState<NB>,
+        h: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+        report: &mut IntegrationReport,
+    ) -> Result<(SystemState<NB>, f64), AnalysisError> {
+        let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|past| past.state == *y0);
+        let (y, d) = self.step_start(y0)?;
+        match method {
+            Adaptive::DormandPrince => {
+                dormand_prince(&y, Rate::new(&y, d.vdot), h, tolerance, report, |stage| self.rate(stage))
+            }
+            Adaptive::GeneralisedAlpha => {
+                let saved = self.alpha.as_ref().and_then(|w| w.history);
+                let before = match (continuing, saved) {
+                    (true, Some(past)) => past.a,
+                    _ => d.vdot,
+                };
+                let restore = |sim: &mut Self| {
+                    if let Some(w) = sim.alpha.as_mut() {
+                        w.history = saved;
+                    }
+                };
+                let (y1, iterations, matrices) =
+                    self.step_alpha(&y, h, continuing, (d.vdot, d.lambda)).inspect_err(|_| restore(self))?;
+                let after = self.alpha.as_ref().and_then(|w| w.history).map_or(before, |past| past.a);
+                let rho = self.options.spectral_radius;
+                let err = alpha_estimate(y0, &y1, &(after - before), h, rho, tolerance, report, (iterations, matrices));
+                if err > 1.0 {
+                    restore(self);
+                }
+                Ok((y1, err))
+            }
+        }
+    }
+
+    fn accept(&mut self, next: SystemState<NB>, method: Adaptive) -> Result<SystemState<NB>, AnalysisError> {
+        let mut next = next;
+        if let Some(options) = self.options.projection {
+            self.project(&mut next, &options)?;
+        }
+        if let Some(w) = self.alpha.as_mut() {
+            match (&mut w.history, method) {
+                (Some(history), Adaptive::GeneralisedAlpha) => history.state = next,
+                _ => w.history = None,
+            }
+        }
+        Ok(next)
+    }
+}
