@@ -9,7 +9,9 @@
 //! same start; the two matrices alternate round by round (`ROUNDS` rounds) and
 //! each row gives the median over rounds of µs per step, with Newton
 //! iterations and iteration matrices per step and how far apart the two runs
-//! end.
+//! end. A third run in each round takes the sparse path
+//! (`SparseSimulation`), whose exact Newton matrix is a saddle-point matrix
+//! over bodies and joints.
 //!
 //! ```text
 //! cargo run --release --example implicit_bench
@@ -19,8 +21,9 @@ use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::{bricard, four_bar};
-use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions};
-use joint_runtime::{Scene, SystemState};
+use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, StepReport};
+use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 const STEPS: usize = 500;
 
@@ -38,18 +41,18 @@ const ROUNDS: usize = 7;
 const H: f64 = 1e-3;
 
 /// One run: µs per step, Newton iterations and matrices per step, the end state.
-fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
-    scene: &S,
+type Run<const NB: usize> = (f64, f64, f64, SystemState<NB>);
+
+/// `STEPS` steps of `step` from `start`, timed.
+fn timed<const NB: usize>(
     start: &SystemState<NB>,
-    matrix: NewtonMatrix,
-) -> Result<(f64, f64, f64, SystemState<NB>), Box<dyn std::error::Error>> {
-    let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint).with_newton_matrix(matrix);
-    let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
+    mut step: impl FnMut(&mut SystemState<NB>) -> Result<StepReport, joint_runtime::analysis::AnalysisError>,
+) -> Result<Run<NB>, Box<dyn std::error::Error>> {
     let mut state = *start;
     let (mut iterations, mut matrices) = (0, 0);
     let clock = Instant::now();
     for _ in 0..STEPS {
-        let report = sim.step(&mut state, H)?;
+        let report = step(&mut state)?;
         iterations += report.newton_iterations;
         matrices += report.newton_matrices;
     }
@@ -57,35 +60,69 @@ fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     Ok((us, iterations as f64 / STEPS as f64, matrices as f64 / STEPS as f64, state))
 }
 
+fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    start: &SystemState<NB>,
+    matrix: NewtonMatrix,
+) -> Result<Run<NB>, Box<dyn std::error::Error>> {
+    let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint).with_newton_matrix(matrix);
+    let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
+    timed(start, |state| sim.step(state, H))
+}
+
+fn run_sparse<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    scene: &S,
+    start: &SystemState<NB>,
+) -> Result<Run<NB>, Box<dyn std::error::Error>>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint);
+    let mut sim = SparseSimulation::new(scene, NoLoads, &[], options)?;
+    timed(start, |state| sim.step(state, H))
+}
+
 fn median(mut x: Vec<f64>) -> f64 {
     x.sort_by(f64::total_cmp);
     x[x.len() / 2]
 }
 
-fn row<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+fn row<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     name: &str,
     scene: &S,
     start: &SystemState<NB>,
-) -> Result<(), Box<dyn std::error::Error>> {
-    let (mut generated, mut differences) = (Vec::new(), Vec::new());
-    let (mut g, mut d) = ((0.0, 0.0, *start), (0.0, 0.0, *start));
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let (mut generated, mut differences, mut sparse) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut g, mut d, mut sp) = ((0.0, 0.0, *start), (0.0, 0.0, *start), (0.0, 0.0, *start));
     for _ in 0..ROUNDS {
         let a = run(scene, start, NewtonMatrix::Generated)?;
         let b = run(scene, start, NewtonMatrix::FiniteDifferences)?;
+        let c = run_sparse(scene, start)?;
         generated.push(a.0);
         differences.push(b.0);
+        sparse.push(c.0);
         g = (a.1, a.2, a.3);
         d = (b.1, b.2, b.3);
+        sp = (c.1, c.2, c.3);
     }
-    let apart = g.2.bodies.iter().zip(&d.2.bodies).map(|(x, y)| (x.r - y.r).norm()).fold(0.0, f64::max);
-    let (tg, td) = (median(generated), median(differences));
+    let apart =
+        |x: &SystemState<NB>| x.bodies.iter().zip(&d.2.bodies).map(|(x, y)| (x.r - y.r).norm()).fold(0.0, f64::max);
+    let (tg, td, ts) = (median(generated), median(differences), median(sparse));
     println!(
-        "| {name} | {NB} | {M} × {NV} | {td:.1} | {tg:.1} | {:.1} | {:.2} / {:.2} | {:.2} / {:.2} | {apart:.1e} |",
+        "| {name} | {NB} | {M} × {NV} | {td:.1} | {tg:.1} | {:.1} | {ts:.1} | {:.1} | {:.2} / {:.2} / {:.2} | {:.2} / {:.2} / {:.2} | {:.1e} / {:.1e} |",
         td / tg,
+        td / ts,
         d.0,
         g.0,
+        sp.0,
         d.1,
-        g.1
+        g.1,
+        sp.1,
+        apart(&g.2),
+        apart(&sp.2)
     );
     Ok(())
 }
@@ -96,9 +133,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         H * 1e3
     );
     println!(
-        "| mechanism | bodies | J | differences µs/step | generated µs/step | speed-up | iterations/step (diff / gen) | matrices/step (diff / gen) | end states apart (m) |"
+        "| mechanism | bodies | J | differences µs/step | generated µs/step | speed-up | sparse generated µs/step | speed-up | iterations/step (diff / gen / sparse) | matrices/step (diff / gen / sparse) | end states apart from diff (gen / sparse, m) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     row("N-four-bar, 4 loops", &four_bar::scene(), &four_bar::initial_state())?;
     row("N-four-bar, 3 loops", &Ladder3, &joint_examples::scaling::ladder_start::<7>())?;
     row("Bricard (falls from rest)", &bricard::scene(), &bricard::initial_state())?;

@@ -242,8 +242,8 @@ fn run() -> Result<(), String> {
     md += &table("Ladder (N-four-bar, A02)", &ladder, "loops");
     md += &table("Tree (a spine with a rib on every bar)", &tree, "ribs");
     md += &format!("A 500-body chain in a thread with a 2 MiB stack: {big:.0} µs per step.\n\n");
-    md += "The implicit midpoint rule still runs on the dense path only (its Newton matrix \
-           `I − (h/2) ∂a/∂w` is dense).\n\n";
+    md += "The implicit midpoint rule runs on the sparse path too (its Newton matrix in the same saddle-point \
+           form as generalised-α's); it is not in these tables.\n\n";
     md += "### The chain beside the peers (µs per step)\n\nThe peers ran the same chain on this machine on \
            2026-12-01 (Exudyn: `exudyn_chain.py N --steps 200 --solver sparse`; MuJoCo: `mujoco_make_chain.py N` \
            and its C timer `bench_step chain.xml 200 3`), one after the other, not beside this program. \

@@ -12,8 +12,9 @@ use std::cell::Cell;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
-use joint_runtime::dynamics::{Adaptive, Integrator, Loads, Simulation, SimulationOptions, Tolerance};
+use joint_runtime::dynamics::{Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, Tolerance};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
 
 thread_local! {
@@ -164,6 +165,25 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     let (rows, nnz, iterations, steps) = reports.expect("ran");
     assert_eq!(rows, 10);
     assert!(nnz > 0 && iterations.expect("assembled") > 0 && steps);
+    // The sparse path: its workspace allocated in `new` (generalised-α's,
+    // shared by the midpoint rule), then no step or `integrate` allocates.
+    let options = SimulationOptions::default().with_integrator(Integrator::GeneralisedAlpha);
+    let mut sparse = SparseSimulation::new(&scene, NoLoads, &[], options).expect("valid options");
+    let mut ok = false;
+    let n = allocations(|| {
+        let alpha = sparse.step(&mut state, 1e-3).is_ok();
+        sparse.options.integrator = Integrator::ImplicitMidpoint;
+        let midpoint = sparse.step(&mut state, 1e-3).is_ok();
+        sparse.options.integrator = Integrator::Rk4;
+        let rk4 = sparse.step(&mut state, 1e-3).is_ok();
+        let t = state.t + 0.01;
+        let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
+        let adaptive = sparse.integrate(&mut state, t, Adaptive::DormandPrince, tolerance).is_ok()
+            && sparse.integrate(&mut state, t + 0.01, Adaptive::GeneralisedAlpha, tolerance).is_ok();
+        ok = alpha && midpoint && rk4 && adaptive;
+    });
+    assert_eq!(n, 0, "a sparse step or integrate allocated");
+    assert!(ok, "the sparse steps ran");
     // The counter counts: a vector allocates.
     assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
 }

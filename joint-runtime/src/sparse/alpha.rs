@@ -32,19 +32,20 @@ use crate::dynamics::{
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
-/// What the sparse generalised-α keeps between steps: the pattern and its
-/// factor, the layout of the second-order terms and scratch, all allocated
-/// once.
+/// What the sparse implicit integrators keep between steps (generalised-α
+/// here, the midpoint rule in `midpoint.rs`, on the same pattern): the
+/// pattern and its factor, the layout of the second-order terms and scratch,
+/// all allocated once.
 #[derive(Clone, Debug)]
 pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usize> {
-    kkt: Kkt,
-    layout: SecondOrderLayout,
-    terms: Vec<f64>,
-    rhs: Vec<f64>,
+    pub(super) kkt: Kkt,
+    pub(super) layout: SecondOrderLayout,
+    pub(super) terms: Vec<f64>,
+    pub(super) rhs: Vec<f64>,
     /// Per row: its joint node and the row within the joint.
-    row_joint: Vec<(usize, usize)>,
+    pub(super) row_joint: Vec<(usize, usize)>,
     /// Body-body blocks of `S` (the diagonal included), for `T`'s product.
-    body_pairs: Vec<(usize, usize)>,
+    pub(super) body_pairs: Vec<(usize, usize)>,
     pub(super) history: Option<AlphaHistory<NB, NV, M>>,
 }
 
@@ -230,12 +231,17 @@ where
 }
 
 /// A pattern the scene's structure should have had.
-fn missing() -> AnalysisError {
+pub(super) fn missing() -> AnalysisError {
     non_finite("scene structure")
 }
 
 /// `h K`: each joint's stiffness block onto its body pairs.
-fn add_stiffness(kkt: &mut Kkt, layout: &SecondOrderLayout, terms: &[f64], h: f64) -> Result<(), AnalysisError> {
+pub(super) fn add_stiffness(
+    kkt: &mut Kkt,
+    layout: &SecondOrderLayout,
+    terms: &[f64],
+    h: f64,
+) -> Result<(), AnalysisError> {
     for (bodies, block) in layout.stiffness(terms) {
         let n = 6 * bodies.len();
         for (i, &a) in bodies.iter().enumerate() {
@@ -254,7 +260,7 @@ fn add_stiffness(kkt: &mut Kkt, layout: &SecondOrderLayout, terms: &[f64], h: f6
 
 /// Every body-body block `(a, b)` times `T_b` on the right (`T_b` the right
 /// Jacobian of body `b`'s rotation update on its rotation columns).
-fn times_update<const NB: usize>(
+pub(super) fn times_update<const NB: usize>(
     kkt: &mut Kkt,
     pairs: &[(usize, usize)],
     t: &[Matrix3<f64>; NB],
@@ -273,7 +279,7 @@ fn times_update<const NB: usize>(
 }
 
 /// `c₁ M − c₂ Q_v` of the gyroscopic term, body by body.
-fn add_mass<const NB: usize>(
+pub(super) fn add_mass<const NB: usize>(
     kkt: &mut Kkt,
     inertias: &[crate::scene::BodyInertia; NB],
     state: &SystemState<NB>,
@@ -293,7 +299,7 @@ fn add_mass<const NB: usize>(
 
 /// `J T` (the joints' rows) and `Jᵀ` (their columns) from the Jacobian's
 /// values, the `dropped` rows held as identity rows.
-fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+pub(super) fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
     kkt: &mut Kkt,
     values: &[f64; NNZ],
     row_joint: &[(usize, usize)],
@@ -324,7 +330,7 @@ fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
 
 /// Adds `scale ×` a spring-damper's `∂Q/∂q` (`velocity` false) or `∂Q/∂v`
 /// on the blocks of its bodies.
-fn spring_blocks<const NB: usize>(
+pub(super) fn spring_blocks<const NB: usize>(
     kkt: &mut Kkt,
     spring: &crate::dynamics::SpringDamper,
     state: &SystemState<NB>,

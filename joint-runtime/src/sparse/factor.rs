@@ -261,8 +261,10 @@ impl BlockFactor {
 
     /// Each block's pivots and rank: the rule that makes a later factorisation
     /// drop the same rows.
-    pub(crate) fn rule(&self) -> Vec<([usize; 6], usize)> {
-        self.perm.iter().copied().zip(self.rank.iter().copied()).collect()
+    // An iterator, not a `Vec`: the step copies it into its own buffer,
+    // allocated once.
+    pub(crate) fn rule(&self) -> impl Iterator<Item = ([usize; 6], usize)> + '_ {
+        self.perm.iter().copied().zip(self.rank.iter().copied())
     }
 
     /// `J W` per joint and side.

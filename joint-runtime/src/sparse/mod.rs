@@ -30,14 +30,15 @@
 //! scene's sparse second-order terms ([`SecondOrderLayout`]).
 //! [`SparseSimulation::integrate`] runs the dense path's error-controlled
 //! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
-//! Not sparse yet: the implicit midpoint rule (its Newton matrix
-//! `I − (h/2) ∂a/∂w` is dense).
+//! The implicit midpoint rule runs there too, its Newton matrix in the same
+//! saddle-point form (`midpoint.rs`; the dense `I − (h/2) ∂a/∂w` is full).
 
 mod adaptive;
 mod alpha;
 mod analysis;
 mod factor;
 mod kkt;
+mod midpoint;
 mod second_order;
 mod simulation;
 mod solver;

@@ -30,10 +30,12 @@ pub struct SparseDynamics<const NV: usize, const M: usize> {
 }
 
 /// A scene with loads, springs and options, integrated on the sparse block
-/// factor of `J M⁻¹ Jᵀ` (see the [module docs](super)): RK4 with the
-/// mass-metric projection of [`Simulation`](crate::dynamics::Simulation).
-/// The workspace is allocated once, in [`SparseSimulation::new`]; a step
-/// allocates nothing.
+/// factor of `J M⁻¹ Jᵀ` (see the [module docs](super)): RK4, generalised-α
+/// or the implicit midpoint rule (the implicit ones with their exact
+/// iteration matrices in saddle-point form), with the mass-metric projection
+/// of [`Simulation`](crate::dynamics::Simulation). The workspace is
+/// allocated once, in [`SparseSimulation::new`] (or at the first implicit
+/// step of a simulation made for RK4); a step allocates nothing.
 pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
     pub(super) scene: &'a S,
     pub(super) loads: L,
@@ -73,9 +75,7 @@ where
     /// factor's schedule is built here, once.
     ///
     /// # Errors
-    /// As [`Simulation::new`](crate::dynamics::Simulation::new);
-    /// [`AnalysisError::BadOption`] for the implicit midpoint rule (dense path
-    /// only).
+    /// As [`Simulation::new`](crate::dynamics::Simulation::new).
     pub fn new(
         scene: &'a S,
         loads: L,
@@ -84,8 +84,9 @@ where
     ) -> Result<Self, AnalysisError> {
         let alpha = match options.integrator {
             Integrator::Rk4 => None,
-            Integrator::GeneralisedAlpha => Some(AlphaWorkspace::new::<S, NNZ>(springs)?),
-            Integrator::ImplicitMidpoint => return Err(AnalysisError::BadOption { name: "integrator" }),
+            Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => {
+                Some(AlphaWorkspace::new::<S, NNZ>(springs)?)
+            }
         };
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
@@ -121,7 +122,7 @@ where
 
     /// The dynamics; `keep` factorises under the step's rule, `check` holds the
     /// dropped rows to [`REDUNDANT_TOLERANCE`].
-    fn solve(
+    pub(super) fn solve(
         &mut self,
         state: &SystemState<NB>,
         keep: bool,
@@ -184,14 +185,14 @@ where
         Ok(Rate::new(state, self.solve(state, true, false)?.vdot))
     }
 
-    /// Advances `state` by one step `h` of the configured integrator (RK4 or
-    /// generalised-α), then projects onto the constraints if configured. On
-    /// error `state` is unchanged.
+    /// Advances `state` by one step `h` of the configured integrator (RK4,
+    /// generalised-α or the implicit midpoint rule), then projects onto the
+    /// constraints if configured. On error `state` is unchanged.
     ///
     /// # Errors
     /// As [`Simulation::step`](crate::dynamics::Simulation::step);
-    /// [`AnalysisError::NoSecondOrder`] for generalised-α on a scene derived
-    /// without `second_order`.
+    /// [`AnalysisError::NoSecondOrder`] for the implicit integrators on a
+    /// scene derived without `second_order`.
     pub fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
@@ -211,7 +212,13 @@ where
                 (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
                 y
             }
-            Integrator::ImplicitMidpoint => return Err(AnalysisError::BadOption { name: "integrator" }),
+            Integrator::ImplicitMidpoint => {
+                self.alpha_workspace()?;
+                let (y0, d1) = self.step_start(state)?;
+                let (y, iterations, matrices) = self.step_midpoint(&y0, &d1.vdot, h)?;
+                (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
+                y
+            }
         };
         match self.options.projection {
             Some(options) => {
