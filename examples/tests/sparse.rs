@@ -567,3 +567,24 @@ fn implicit_midpoint_takes_the_40_loop_ladder_through_its_singular_positions() {
     assert!(worst_branch < 1e-8, "cranks apart by {worst_branch:e}");
     assert!(worst_energy < 1e-4, "energy {worst_energy:e}");
 }
+
+/// Switching integrators between steps: generalised-α starts afresh after a
+/// step of another one (its history would be stale), exactly as a new
+/// simulation would from that state.
+#[test]
+fn generalised_alpha_starts_afresh_after_another_integrator() {
+    let scene = four_bar::scene();
+    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], alpha_options(0.9)).expect("sparse");
+    let mut state = four_bar::initial_state();
+    for _ in 0..3 {
+        sim.step(&mut state, 1e-3).expect("generalised-α");
+    }
+    sim.options.integrator = Integrator::ImplicitMidpoint;
+    sim.step(&mut state, 1e-3).expect("midpoint");
+    let mut fresh = SparseSimulation::new(&scene, NoLoads, &[], alpha_options(0.9)).expect("sparse");
+    let mut other = state;
+    sim.options.integrator = Integrator::GeneralisedAlpha;
+    sim.step(&mut state, 1e-3).expect("generalised-α again");
+    fresh.step(&mut other, 1e-3).expect("a fresh generalised-α");
+    assert_eq!(flat(&state), flat(&other));
+}

@@ -233,10 +233,13 @@ where
             }
         }
         *state = y;
-        if let Some(w) = self.alpha.as_mut()
-            && let Some(history) = w.history.as_mut()
-        {
-            history.state = *state;
+        // Generalised-α's history follows its own steps; another integrator's
+        // step leaves it stale, so it is dropped (as on the dense path).
+        if let Some(w) = self.alpha.as_mut() {
+            match (&mut w.history, self.options.integrator) {
+                (Some(history), Integrator::GeneralisedAlpha) => history.state = *state,
+                _ => w.history = None,
+            }
         }
         Ok(report)
     }
