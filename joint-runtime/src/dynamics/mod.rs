@@ -614,10 +614,6 @@ where
 
     /// [`dynamics`](Self::dynamics) on its own (`rule` `None`: the rows to drop
     /// chosen here, all checked), or at a stage of a step under its rule.
-    // Not inlined: its `M × NV` and `M × M` temporaries stay in its own frame
-    // instead of adding to every caller's (a test calling `dynamics` beside a
-    // step of a 65-row scene went past a 2 MiB thread stack).
-    #[inline(never)]
     fn solve(
         &mut self,
         state: &SystemState<NB>,
