@@ -13,10 +13,10 @@
 //!   reports the numerical rank and which indices were dropped as dependent, and
 //!   solves consistent systems `A x = b` with the basic solution (`x` zero at the
 //!   dropped indices).
-//! - [`Lu`]: LU with partial (row) pivoting of a general square matrix, for the
-//!   Newton iterations of the implicit integrator.
+//! - [`Lu`]: LU with partial (row) pivoting of a general square matrix, real or
+//!   complex, for the Newton iterations of the implicit integrators.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{ComplexField, SMatrix, SVector};
 
 /// Default relative pivot tolerance of [`PivotedCholesky`]: a pivot below
 /// `1e-10 ×` the largest one counts as zero. On a Gram matrix `J Jᵀ` this treats
@@ -239,29 +239,32 @@ impl<const N: usize> PivotedCholesky<N> {
     }
 }
 
-/// LU factorisation with partial pivoting, `P A = L U`, of a general square matrix.
+/// LU factorisation with partial pivoting, `P A = L U`, of a general square
+/// matrix of real (`T = f64`, the default) or complex (`Complex<f64>`, for
+/// Radau IIA's complex stage system) entries.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lu<const N: usize> {
+pub struct Lu<const N: usize, T = f64> {
     /// `L` (unit diagonal, strictly below) and `U` (on and above the diagonal).
-    lu: SMatrix<f64, N, N>,
+    lu: SMatrix<T, N, N>,
     /// `perm[k]` is the original row at position `k`.
     perm: [usize; N],
 }
 
-impl<const N: usize> Lu<N> {
+impl<const N: usize, T: ComplexField<RealField = f64> + Copy> Lu<N, T> {
     /// Factorises `a`. Errors on a non-finite entry, or when a pivot is at most
     /// `1e-14 ×` the largest entry of `a` in magnitude (singular to working precision).
-    pub fn new(a: &SMatrix<f64, N, N>) -> Result<Self, LinalgError> {
-        if !all_finite(a) {
+    pub fn new(a: &SMatrix<T, N, N>) -> Result<Self, LinalgError> {
+        if !a.iter().all(|x| x.is_finite()) {
             return Err(LinalgError::NonFinite);
         }
-        let scale = a.iter().fold(0.0f64, |m, x| m.max(libm::fabs(*x)));
+        // |re| + |im| for complex pivots: as good a choice as the modulus, without its hypot.
+        let scale = a.iter().fold(0.0f64, |m, x| m.max(x.norm1()));
         let mut w = *a;
         let mut perm: [usize; N] = core::array::from_fn(|i| i);
         for k in 0..N {
-            let (mut best_at, mut best) = (k, libm::fabs(w[(k, k)]));
+            let (mut best_at, mut best) = (k, w[(k, k)].norm1());
             for i in k + 1..N {
-                let v = libm::fabs(w[(i, k)]);
+                let v = w[(i, k)].norm1();
                 if v > best {
                     best_at = i;
                     best = v;
@@ -279,7 +282,8 @@ impl<const N: usize> Lu<N> {
                 let f = w[(i, k)] / pivot;
                 w[(i, k)] = f;
                 for j in k + 1..N {
-                    w[(i, j)] -= f * w[(k, j)];
+                    let u = w[(k, j)];
+                    w[(i, j)] -= f * u;
                 }
             }
         }
@@ -287,17 +291,19 @@ impl<const N: usize> Lu<N> {
     }
 
     /// Solves `A x = b`.
-    pub fn solve(&self, b: &SVector<f64, N>) -> SVector<f64, N> {
+    pub fn solve(&self, b: &SVector<T, N>) -> SVector<T, N> {
         // `perm` is a permutation of `0..N`: `get` never misses.
-        let mut x = SVector::<f64, N>::from_fn(|i, _| b.get(self.perm[i]).copied().unwrap_or(0.0));
+        let mut x = SVector::<T, N>::from_fn(|i, _| b.get(self.perm[i]).copied().unwrap_or_else(T::zero));
         for i in 0..N {
             for j in 0..i {
-                x[i] -= self.lu[(i, j)] * x[j];
+                let xj = x[j];
+                x[i] -= self.lu[(i, j)] * xj;
             }
         }
         for i in (0..N).rev() {
             for j in i + 1..N {
-                x[i] -= self.lu[(i, j)] * x[j];
+                let xj = x[j];
+                x[i] -= self.lu[(i, j)] * xj;
             }
             x[i] /= self.lu[(i, i)];
         }
@@ -403,5 +409,21 @@ mod tests {
             let lu = Lu::new(&a).unwrap();
             assert!((lu.solve(&(a * x)) - x).norm() < 1e-9);
         }
+    }
+
+    #[test]
+    fn lu_solves_random_complex_systems() {
+        use nalgebra::Complex;
+        let mut rng = Rng(13);
+        for _ in 0..50 {
+            let mut z = || Complex::new(rng.next(), rng.next());
+            let a = SMatrix::<Complex<f64>, 6, 6>::from_fn(|_, _| z());
+            let x = SVector::<Complex<f64>, 6>::from_fn(|_, _| z());
+            let lu = Lu::new(&a).unwrap();
+            assert!((lu.solve(&(a * x)) - x).norm() < 1e-9);
+        }
+        let mut n = SMatrix::<Complex<f64>, 3, 3>::identity();
+        n[(1, 2)] = Complex::new(0.0, f64::NAN);
+        assert_eq!(Lu::new(&n).unwrap_err(), LinalgError::NonFinite);
     }
 }

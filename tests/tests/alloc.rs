@@ -154,11 +154,14 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
         let midpoint = sim.step(&mut state, 1e-3);
         sim.options.integrator = Integrator::GeneralisedAlpha;
         let alpha = sim.step(&mut state, 1e-3).is_ok() && sim.step(&mut state, 1e-3).is_ok();
+        sim.options.integrator = Integrator::RadauIIA;
+        let radau = sim.step(&mut state, 1e-3).is_ok() && sim.step(&mut state, 1e-3).is_ok();
         let t = state.t + 0.01;
         let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
         let adaptive = sim.integrate(&mut state, t, Adaptive::DormandPrince, tolerance).is_ok()
-            && sim.integrate(&mut state, t + 0.01, Adaptive::GeneralisedAlpha, tolerance).is_ok();
-        let steps = rk4.is_ok() && midpoint.is_ok() && alpha && adaptive;
+            && sim.integrate(&mut state, t + 0.01, Adaptive::GeneralisedAlpha, tolerance).is_ok()
+            && sim.integrate(&mut state, t + 0.02, Adaptive::RadauIIA, tolerance).is_ok();
+        let steps = rk4.is_ok() && midpoint.is_ok() && alpha && radau && adaptive;
         reports = Some((e.phi.len(), sparse.len(), a.map(|a| a.iterations), steps));
     });
     assert_eq!(n, 0, "a scene evaluation, assembly or step allocated");

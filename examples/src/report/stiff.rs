@@ -9,10 +9,10 @@
 //! - **double-cardan**: the free double Cardan shaft (β = 30°, Z, in phase),
 //!   spinning at 10 rad/s under gravity, 1 s.
 //!
-//! Integrators: fixed steps of RK4, the implicit midpoint rule and
-//! generalised-α (ρ∞ = 0.8), both implicit ones with the generated iteration
-//! matrix; and the error-controlled Dormand–Prince 5(4) and generalised-α
-//! over a range of tolerances (`rtol = atol`). Every run projects after each
+//! Integrators: fixed steps of RK4, the implicit midpoint rule,
+//! generalised-α (ρ∞ = 0.8) and Radau IIA, the implicit ones with the
+//! generated iteration matrix; and the error-controlled Dormand–Prince 5(4),
+//! generalised-α and Radau IIA over a range of tolerances (`rtol = atol`). Every run projects after each
 //! step (the default options). The error is the largest `|r − r_ref| +
 //! |p − p_ref|` of a body at the end (metres and Euler parameters, `p` up to
 //! its sign), the reference being Dormand–Prince at `rtol = atol = 1e-12`;
@@ -116,13 +116,16 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
             ("RK4", Integrator::Rk4),
             ("implicit midpoint", Integrator::ImplicitMidpoint),
             ("generalised-α", Integrator::GeneralisedAlpha),
+            ("Radau IIA", Integrator::RadauIIA),
         ]
         .into_iter()
         .map(|(name, i)| (format!("{name}, fixed h"), steps.iter().map(|&n| Run::Fixed(i, n)).collect()))
         .collect();
-        for (name, method) in
-            [("Dormand–Prince 5(4)", Adaptive::DormandPrince), ("generalised-α", Adaptive::GeneralisedAlpha)]
-        {
+        for (name, method) in [
+            ("Dormand–Prince 5(4)", Adaptive::DormandPrince),
+            ("generalised-α", Adaptive::GeneralisedAlpha),
+            ("Radau IIA 5(3)", Adaptive::RadauIIA),
+        ] {
             lines.push((format!("{name}, tolerance"), tolerances.iter().map(|&t| Run::Adaptive(method, t)).collect()));
         }
         let mut out = Vec::new();

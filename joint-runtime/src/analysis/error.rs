@@ -103,6 +103,12 @@ pub enum AnalysisError {
         /// The step size last tried.
         step: f64,
     },
+    /// What was asked for runs on the dense path ([`Simulation`](crate::dynamics::Simulation))
+    /// only, not on a `SparseSimulation`.
+    DenseOnly {
+        /// What was asked for.
+        what: &'static str,
+    },
     /// An eigenvalue or singular value iteration did not converge.
     NoConvergence {
         /// The decomposition.
@@ -153,6 +159,9 @@ impl fmt::Display for AnalysisError {
             }
             AnalysisError::StepTooSmall { t, step } => {
                 write!(f, "error-controlled steps stopped at t = {t}: step {step:.3e} too small for the tolerance")
+            }
+            AnalysisError::DenseOnly { what } => {
+                write!(f, "{what} runs on the dense path only; use `dynamics::Simulation`")
             }
             AnalysisError::NoConvergence { decomposition } => write!(f, "the {decomposition} did not converge"),
             // The factorisation's own message is `source()`'s (the API guidelines:

@@ -42,6 +42,9 @@ pub enum Adaptive {
     DormandPrince,
     /// Implicit generalised-α with its local error estimate, for stiff ones.
     GeneralisedAlpha,
+    /// Implicit Radau IIA of order 5 with RADAU5's error estimate, for stiff
+    /// problems at tight tolerances (`radau.rs`; dense path only).
+    RadauIIA,
 }
 
 /// The local error asked of each step.
@@ -186,6 +189,14 @@ where
                 }
                 Ok((y, err))
             }
+            Adaptive::RadauIIA => {
+                let (mut y, mut rule) = self.step_start(y0, h)?;
+                let step = self.step_radau(&mut y, h, &mut rule, Some(tolerance))?;
+                report.newton_iterations += step.iterations;
+                report.newton_matrices += step.matrices;
+                report.evaluations += step.evaluations;
+                Ok((y, step.error))
+            }
         }
     }
 
@@ -194,10 +205,12 @@ where
         if let Some(options) = self.options.projection {
             self.project(&mut next, &options)?;
         }
-        match (&mut self.history, method) {
-            (Some(history), Adaptive::GeneralisedAlpha) => history.state = next,
-            _ => self.history = None,
-        }
+        let integrator = match method {
+            Adaptive::DormandPrince => Integrator::Rk4,
+            Adaptive::GeneralisedAlpha => Integrator::GeneralisedAlpha,
+            Adaptive::RadauIIA => Integrator::RadauIIA,
+        };
+        self.follow(next, integrator);
         Ok(next)
     }
 }
@@ -234,10 +247,11 @@ fn adaptive_loop<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
     report: &mut IntegrationReport,
 ) -> Result<(), AnalysisError> {
     // The estimate's order in h: Dormand–Prince's 4, generalised-α's
-    // velocity part O(h²) (see the module docs).
+    // velocity part O(h²) (see the module docs), Radau IIA's embedded 3.
     let order = match method {
         Adaptive::DormandPrince => 4.0,
         Adaptive::GeneralisedAlpha => 1.0,
+        Adaptive::RadauIIA => 3.0,
     };
     while state.t < t_end {
         if report.accepted + report.rejected >= MAX_STEPS || h < 1e-14 * (1.0 + libm::fabs(state.t)) {
@@ -328,7 +342,7 @@ pub(crate) fn alpha_estimate<const NB: usize, const NV: usize>(
     let (beta, gamma) = super::generalised_alpha::newmark(spectral_radius);
     let e = da * ((beta - 1.0 / 6.0) * h * h);
     let ev = da * ((gamma - 0.5) * h);
-    alpha_error(y0, y1, &e, &ev, tolerance)
+    increment_error(y0, y1, &e, &ev, tolerance)
 }
 
 /// Dormand–Prince's error norm over `r`, `p` and the velocities.
@@ -370,9 +384,9 @@ fn dormand_prince_error<const NB: usize, const NV: usize>(
     libm::sqrt(sum / count.max(1) as f64)
 }
 
-/// Generalised-α's error norm over the position increments `e` (translations
+/// The error norm of generalised-α and Radau IIA over the position increments `e` (translations
 /// scaled by the positions, rotations by one radian) and the velocities `ev`.
-fn alpha_error<const NB: usize, const NV: usize>(
+pub(super) fn increment_error<const NB: usize, const NV: usize>(
     y0: &SystemState<NB>,
     y1: &SystemState<NB>,
     e: &SVector<f64, NV>,

@@ -1,5 +1,5 @@
 //! Forward dynamics of any [`Scene`]: constrained accelerations, Lagrange
-//! multipliers and joint reactions, constraint stabilisation, three fixed-step
+//! multipliers and joint reactions, constraint stabilisation, four fixed-step
 //! integrators on the rotation group and error-controlled steps; all
 //! allocation-free and panic-free (the linearisation, behind `alloc`, allocates
 //! its run-time-sized matrices).
@@ -67,9 +67,17 @@
 //!   (`M`, the generated tangent stiffness `∂(Jᵀλ)/∂q`, the forces'
 //!   derivatives), solved through its Schur complement (`NV + M` is not a
 //!   stable const generic). The method of choice for stiff springs.
+//! - [`Integrator::RadauIIA`]: Radau IIA of order 5 on the Lie group
+//!   (`radau.rs`): three implicit stages on the index-1 equations, L-stable
+//!   and stiffly accurate, simplified Newton with the generated Jacobian
+//!   `[[0, I], [∂a/∂q, ∂a/∂v]]` split by RADAU5's transformation into one real
+//!   and one complex `NV × NV` system. Fifth order where the stiff motion is
+//!   not followed; on the index-1 equations the iteration converges only for
+//!   steps over which stiff springs turn little (see `radau.rs`).
 //! - [`Simulation::integrate`]: error-controlled variable steps to a given
-//!   time, with the explicit Dormand–Prince 5(4) pair or generalised-α and its
-//!   local error estimate ([`Adaptive`], [`Tolerance`], `adaptive.rs`).
+//!   time, with the explicit Dormand–Prince 5(4) pair, generalised-α and its
+//!   local error estimate, or Radau IIA and RADAU5's estimate ([`Adaptive`],
+//!   [`Tolerance`], `adaptive.rs`).
 //!
 //! [`Simulation::linearise`] (feature `alloc`) gives the linearised dynamics
 //! about a state, in minimal coordinates and in full, and
@@ -84,6 +92,7 @@ mod generalised_alpha;
 #[cfg(feature = "alloc")]
 mod linear;
 mod newton_matrix;
+mod radau;
 
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
@@ -251,6 +260,10 @@ pub enum Integrator {
     /// of high frequencies set by [`SimulationOptions::spectral_radius`]), Newton
     /// with the exact iteration matrix (`dynamics/generalised_alpha.rs`).
     GeneralisedAlpha,
+    /// Radau IIA of order 5 on the Lie group (three implicit stages, L-stable,
+    /// stiffly accurate), simplified Newton with the generated Jacobian of the
+    /// index-1 equations (`dynamics/radau.rs`). Dense path only.
+    RadauIIA,
 }
 
 /// The iteration matrix of the implicit integrator's Newton iteration.
@@ -503,6 +516,8 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
     gravity: Vector3<f64>,
     /// What generalised-α's last step left for the next.
     history: Option<generalised_alpha::AlphaHistory<NB, NV, M>>,
+    /// Radau IIA's last stages (the next step's starting values).
+    radau: Option<radau::RadauHistory<NB, NV>>,
     /// The options (may be changed between steps).
     pub options: SimulationOptions,
 }
@@ -562,7 +577,7 @@ where
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
-        Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, history: None, options })
+        Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, history: None, radau: None, options })
     }
 
     /// The scene.
@@ -866,6 +881,10 @@ where
             Integrator::Rk4 => (self.step_rk4(&mut y, h, &mut rule)?, 0),
             Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,
             Integrator::GeneralisedAlpha => self.step_alpha(&mut y, h, continuing, &mut rule)?,
+            Integrator::RadauIIA => {
+                let step = self.step_radau(&mut y, h, &mut rule, None)?;
+                (step.iterations, step.matrices)
+            }
         };
         let mut report = StepReport { newton_iterations, newton_matrices, ..StepReport::default() };
         if let Some(options) = self.options.projection {
@@ -882,11 +901,23 @@ where
             let phi_dot = self.scene.jacobian(state) * velocity_vector::<NB, NV>(state) + self.scene.phi_t(state);
             report.velocity_residual = phi_dot.norm();
         }
-        match (&mut self.history, self.options.integrator) {
-            (Some(history), Integrator::GeneralisedAlpha) => history.state = *state,
+        self.follow(*state, self.options.integrator);
+        Ok(report)
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M> {
+    /// The histories after a step of `integrator` was accepted at `state`:
+    /// its own follows the state, the others are dropped.
+    fn follow(&mut self, state: SystemState<NB>, integrator: Integrator) {
+        match (&mut self.history, integrator) {
+            (Some(history), Integrator::GeneralisedAlpha) => history.state = state,
             _ => self.history = None,
         }
-        Ok(report)
+        match (&mut self.radau, integrator) {
+            (Some(radau), Integrator::RadauIIA) => radau.end = Some(state),
+            _ => self.radau = None,
+        }
     }
 }
 

@@ -89,7 +89,7 @@ where
     }
 
     /// [`tangent`](Self::tangent) on the accelerations `f` already solved at `state`.
-    fn tangent_on(
+    pub(super) fn tangent_on(
         &mut self,
         state: &SystemState<NB>,
         f: Factored<NV, M>,

@@ -60,8 +60,10 @@ where
         method: Adaptive,
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
-        if method == Adaptive::GeneralisedAlpha {
-            self.alpha_workspace()?;
+        match method {
+            Adaptive::GeneralisedAlpha => self.alpha_workspace()?,
+            Adaptive::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
+            Adaptive::DormandPrince => {}
         }
         integrate(self, state, t_end, method, tolerance)
     }
@@ -112,6 +114,7 @@ where
                 }
                 Ok((y1, err))
             }
+            Adaptive::RadauIIA => Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
         }
     }
 

@@ -83,7 +83,7 @@ where
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
         let alpha = match options.integrator {
-            Integrator::Rk4 => None,
+            Integrator::Rk4 | Integrator::RadauIIA => None,
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => {
                 Some(AlphaWorkspace::new::<S, NNZ>(springs)?)
             }
@@ -212,6 +212,8 @@ where
                 (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
                 y
             }
+            // Its complex stage system would need a complex saddle-point factor.
+            Integrator::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
             Integrator::ImplicitMidpoint => {
                 self.alpha_workspace()?;
                 let (y0, d1) = self.step_start(state)?;

@@ -1,0 +1,566 @@
+//! Radau IIA of order 5 on the Lie group ([`Integrator::RadauIIA`] and
+//! [`Adaptive::RadauIIA`]): three implicit stages, stiffly accurate and
+//! L-stable, so a stiff spring's mode is damped out at any `h ω` while the
+//! slow motion is followed to fifth order (Hairer & Wanner, *Solving ODEs II*,
+//! IV.5 and IV.8; the transformation and the error estimate are those of
+//! their RADAU5).
+//!
+//! # The equations
+//!
+//! On the index-1 equations `q̇ = v` (on the group), `v̇ = a(q, v, t)`, the
+//! stage unknowns are increments from the step's start `(q_n, v_n)`: per
+//! stage `i` a position increment `U_i` (`q_i = q_n ⊕ U_i`: `r += U_r`,
+//! `p ← p ⊗ q(U_θ)`, as every integrator here) and a velocity increment
+//! `W_i` (`v_i = v_n + W_i`). On the group the position increments obey
+//! `U̇ = J_r(U)⁻¹ v` per body (the rotation's right Jacobian, so that
+//! `d/dt (p_n ⊗ q(U)) = p ⊗ (0, ω')/2`; Munthe-Kaas's method), which keeps the
+//! order. The collocation equations are `Z = h (A ⊗ I) F(Z)` with
+//! `Z_i = (U_i, W_i)`, `F(Z_i) = (J_r(U_i)⁻¹ v_i, a(q_i, v_i, t_n + c_i h))`.
+//!
+//! # Newton
+//!
+//! Simplified Newton with the Jacobian `[[0, I], [A_q, A_v]]` of the first-order
+//! system at the step's start (`A_q = ∂a/∂q`, `A_v = ∂a/∂v` from the
+//! generated second-order terms, `newton_matrix.rs`, or forward differences
+//! for a scene without them). The transformation `T⁻¹ A⁻¹ T =
+//! diag(γ̂, [[α, −β], [β, α]])` splits the `6 NV` equations into one real and
+//! one complex system, and the structure of a second-order system reduces
+//! each to `NV` unknowns:
+//! `(μ − [[0, I], [A_q, A_v]]) (x, y) = (r, s)` is
+//! `(μ² I − μ A_v − A_q) x = s + (μ − A_v) r`, `y = μ x − r`, for
+//! `μ = γ̂/h` (real, [`Lu`]) and `μ = (α + iβ)/h` (complex `Lu`). Two `NV × NV`
+//! factorisations a step, three evaluations of the dynamics a Newton
+//! iteration. The step ends at the last stage (`c₃ = 1`); projection follows,
+//! as for every integrator.
+//!
+//! # Error estimate
+//!
+//! RADAU5's: `e = (γ̂/h − J)⁻¹ (f(y_n) + Σ d_i Z_i / h)` (an embedded
+//! third-order solution, `e = O(h⁴)`), and when `‖e‖ > 1` the estimate again
+//! with `f(y_n + e)` in place of `f(y_n)`, which removes the stiff
+//! components' overestimate. Its norm is the root mean square over the
+//! position increments (translations scaled by the positions, rotations by
+//! one radian) and the velocities, as generalised-α's.
+//!
+//! As in RADAU5 the tolerance is mapped to `rtol' = 0.1 rtol^(2/3)`,
+//! `atol' = rtol' atol / rtol`: the estimate is the embedded third-order
+//! solution's error, far above the fifth-order solution's at tight
+//! tolerances, and the mapping makes the global error follow the tolerance
+//! asked for.
+//!
+//! Newton starts from the last step's collocation polynomial extrapolated
+//! (when the step starts where the last one was accepted), and stops when the
+//! correction, or the remaining error its contraction `θ` predicts,
+//! `θ/(1 − θ) ‖ΔZ‖`, is within the bound: at fixed steps
+//! [`SimulationOptions::newton_tolerance`](super::SimulationOptions) relative
+//! to `1 + ‖Z‖` (as the other implicit integrators); at error-controlled
+//! steps `κ = max(10 ε / rtol', min(0.03, √rtol'))` in the error norm
+//! (Hairer's choice): the iteration need not be more exact than the step. A
+//! contraction `θ ≥ 1` fails the step (the error control retries smaller).
+//! The Jacobian is evaluated again at each step unless the step retries from
+//! the same state or the last iteration contracted by `θ ≤ 10⁻³` (RADAU5's
+//! rule); the two factorisations are made at every step.
+//!
+//! # Limits
+//!
+//! The index-1 equations leave the stage positions free to leave `Φ = 0`
+//! during the iteration. A stiff spring on a link that turns over the step
+//! couples that drift, through the turned spring direction, to its stiff
+//! mode, and no single Jacobian serves all three stages: on the stiff press
+//! of `report/stiff.md` (10⁷ N/m rams on links turning at up to 20 rad/s)
+//! Newton takes 7–16 iterations a step at h = 5 ms and does not converge at
+//! 10 ms, where it converges in 4–6 with the springs removed. Neither a
+//! Jacobian at a later stage nor a first-order drift stabilisation of the
+//! positions changed that; the index-2 (GGL) form would, at the price of a
+//! complex saddle-point system. The error control shrinks such steps until
+//! Newton converges.
+
+use nalgebra::{Complex, SMatrix, SVector, Vector3};
+
+use super::adaptive::{Tolerance, increment_error};
+use super::{AppliedLoads, Factored, NewtonMatrix, Simulation, StepRule, newton_done};
+use crate::analysis::{AnalysisError, apply_increment, set_velocities, velocity_vector};
+use crate::linalg::Lu;
+use crate::scene::{Scene, SystemState};
+
+#[cfg(doc)]
+use super::{Adaptive, Integrator};
+
+/// The stages' times `c_i = (4 ∓ √6)/10, 1`.
+const C: [f64; 3] = [0.1550510257216822, 0.6449489742783178, 1.0];
+/// Radau IIA(5)'s matrix `A` (for the tests; the step uses its transformation).
+#[cfg(test)]
+const A: [[f64; 3]; 3] = [
+    [0.19681547722366044, -0.06553542585019839, 0.02377097434822015],
+    [0.3944243147390873, 0.29207341166522843, -0.04154875212599793],
+    [0.37640306270046725, 0.5124858261884216, 0.1111111111111111],
+];
+/// `T`: `T⁻¹ A⁻¹ T = diag(γ̂, [[α, −β], [β, α]])` (RADAU5's; 40-digit
+/// eigenvectors of `A⁻¹`, checked by a test).
+const T: [[f64; 3]; 3] = [
+    [0.09123239487089294, -0.1412552950209542, -0.030029194105147424],
+    [0.241717932707107, 0.20412935229379994, 0.3829421127572619],
+    [0.966048182615093, 1.0, 0.0],
+];
+/// `T⁻¹`.
+const TI: [[f64; 3]; 3] = [
+    [4.325579890063155, 0.3391992518158099, 0.5417705399358749],
+    [-4.178718591551905, -0.3276828207610624, 0.47662355450055044],
+    [-0.5028726349457869, 2.571926949855605, -0.5960392048282249],
+];
+/// The real eigenvalue of `A⁻¹`.
+const GAMMA: f64 = 3.637834252744496;
+/// The complex pair `α ± iβ` of `A⁻¹`.
+const ALPHA: f64 = 2.681082873627752;
+const BETA: f64 = 3.0504301992474105;
+/// The error estimate's weights `d_i = −(13 + 7√6)/3, (−13 + 7√6)/3, −1/3`.
+const D: [f64; 3] = [-10.048809399827416, 1.382142733160749, -1.0 / 3.0];
+
+type Stages<const NV: usize> = [SVector<f64, NV>; 3];
+
+/// What one Radau step did.
+pub(super) struct RadauStep {
+    pub(super) iterations: usize,
+    pub(super) matrices: usize,
+    pub(super) evaluations: usize,
+    /// The error norm (0 at fixed steps).
+    pub(super) error: f64,
+}
+
+/// The last step's stages, from which the next step's Newton iteration starts
+/// (the collocation polynomial extrapolated, as RADAU5), if the next step
+/// starts where this one was accepted; and the Jacobian it used.
+#[derive(Clone, Copy)]
+pub(super) struct RadauHistory<const NB: usize, const NV: usize> {
+    /// The accepted (projected) end of the step; `None` until accepted.
+    pub(super) end: Option<SystemState<NB>>,
+    h: f64,
+    zu: Stages<NV>,
+    zv: Stages<NV>,
+    jacobian: Jacobian<NB, NV>,
+}
+
+/// `A_q`, `A_v` at the state `at`, and the largest contraction of the last
+/// Newton iteration that used them (infinite after a failure).
+#[derive(Clone, Copy)]
+struct Jacobian<const NB: usize, const NV: usize> {
+    at: SystemState<NB>,
+    aq: SMatrix<f64, NV, NV>,
+    av: SMatrix<f64, NV, NV>,
+    theta: f64,
+}
+
+/// RADAU5's bound on the contraction below which the next step keeps the
+/// Jacobian: the iteration barely notices the change of state.
+const KEEP_JACOBIAN: f64 = 1e-3;
+
+/// When the simplified Newton iteration stops (see the module documentation).
+enum Stop<const NB: usize> {
+    /// Fixed steps: the correction relative to `1 + ‖Z‖`.
+    Relative(f64),
+    /// Error-controlled steps: `κ` in the error norm at the step's start.
+    Scaled { kappa: f64, tolerance: Tolerance, start: SystemState<NB> },
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+where
+    S: Scene<NB, NV, M>,
+    L: AppliedLoads<NB>,
+{
+    /// One Radau IIA step from the normalised `state` under `rule`; with a
+    /// `tolerance`, Newton stops as the error control needs and the step's
+    /// error norm is estimated. The stages are kept in `self.radau` (not yet
+    /// accepted).
+    pub(super) fn step_radau(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        rule: &mut StepRule<M>,
+        tolerance: Option<Tolerance>,
+    ) -> Result<RadauStep, AnalysisError> {
+        let y0 = *state;
+        let v0 = velocity_vector::<NB, NV>(&y0);
+        let start = self.solve_factored(&y0, Some(rule))?;
+        let a0 = start.dynamics.vdot;
+        let z = self.starting_values(&y0, &v0, h);
+        let mut step = RadauStep { iterations: 0, matrices: 1, evaluations: 1, error: 0.0 };
+        let jacobian = match self.radau {
+            // A retry from the same state, or a last iteration that converged fast.
+            Some(past) if past.jacobian.at == y0 || past.jacobian.theta <= KEEP_JACOBIAN => past.jacobian,
+            _ => {
+                let (aq, av, evaluations) = self.radau_jacobian(&y0, start, rule)?;
+                step.evaluations += evaluations;
+                Jacobian { at: y0, aq, av, theta: f64::INFINITY }
+            }
+        };
+        // Kept before Newton runs: a step that fails retries on it.
+        self.radau = Some(RadauHistory { end: None, h, zu: z.0, zv: z.1, jacobian });
+        let factors = Factors::new(&jacobian.aq, &jacobian.av, h)?;
+        // RADAU5's mapping: the estimate is of the embedded third-order
+        // solution, far above the fifth-order one's error at tight tolerances.
+        let tolerance = tolerance.map(|t| {
+            let rtol = 0.1 * libm::pow(t.rtol, 2.0 / 3.0);
+            Tolerance { rtol, atol: rtol * t.atol / t.rtol }
+        });
+        let stop = match tolerance {
+            Some(t) => {
+                let kappa = (10.0 * f64::EPSILON / t.rtol).max(libm::sqrt(t.rtol).min(0.03));
+                Stop::Scaled { kappa, tolerance: t, start: y0 }
+            }
+            None => Stop::Relative(self.options.newton_tolerance),
+        };
+        let (zu, zv, theta) = self.radau_newton(&y0, &v0, z, &factors, rule, &stop, &mut step)?;
+        self.radau = Some(RadauHistory { end: None, h, zu, zv, jacobian: Jacobian { theta, ..jacobian } });
+        let y1 = stage(&y0, &zu[2], &(v0 + zv[2]), y0.t + h);
+        if let Some(tol) = tolerance {
+            step.error = self.radau_estimate(&y0, &y1, (&v0, &a0), (&zu, &zv), &factors, rule, tol, &mut step)?;
+        }
+        *state = y1;
+        Ok(step)
+    }
+
+    /// The stages Newton starts from: the last accepted step's collocation
+    /// polynomial extrapolated to this step if it ended at `y0`, else
+    /// positions moving at the start's velocities.
+    fn starting_values(&self, y0: &SystemState<NB>, v0: &SVector<f64, NV>, h: f64) -> (Stages<NV>, Stages<NV>) {
+        match self.radau {
+            Some(past) if past.end.as_ref() == Some(y0) => {
+                let grow = h / past.h;
+                let at = |z: &Stages<NV>, i: usize| {
+                    let w = collocation_weights(1.0 + C[i] * grow);
+                    z[0] * w[0] + z[1] * w[1] + z[2] * (w[2] - 1.0)
+                };
+                ([0, 1, 2].map(|i| at(&past.zu, i)), [0, 1, 2].map(|i| at(&past.zv, i)))
+            }
+            _ => (C.map(|c| v0 * (c * h)), [SVector::zeros(); 3]),
+        }
+    }
+
+    /// Simplified Newton on the transformed stage equations from the stages
+    /// `z`; returns the converged stages and the largest contraction seen.
+    #[allow(clippy::too_many_arguments)]
+    fn radau_newton(
+        &mut self,
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        (mut zu, mut zv): (Stages<NV>, Stages<NV>),
+        factors: &Factors<NV>,
+        rule: &mut StepRule<M>,
+        stop: &Stop<NB>,
+        step: &mut RadauStep,
+    ) -> Result<(Stages<NV>, Stages<NV>, f64), AnalysisError> {
+        let h = factors.h;
+        let (mut wu, mut wv) = (mix(&TI, &zu), mix(&TI, &zv));
+        let (mut last, mut contraction) = (f64::INFINITY, 0.0f64);
+        loop {
+            if step.iterations >= self.options.newton_max_iterations {
+                if let Some(past) = self.radau.as_mut() {
+                    past.jacobian.theta = f64::INFINITY;
+                }
+                return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: last });
+            }
+            // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z).
+            let mut fu: Stages<NV> = [SVector::zeros(); 3];
+            let mut fv: Stages<NV> = [SVector::zeros(); 3];
+            for i in 0..3 {
+                let v = v0 + zv[i];
+                fv[i] = self.solve(&stage(y0, &zu[i], &v, y0.t + C[i] * h), Some(rule))?.vdot;
+                fu[i] = position_rates::<NV>(&zu[i], &v);
+            }
+            step.evaluations += 3;
+            let (gu, gv) = (mix(&TI, &fu), mix(&TI, &fv));
+            // Residuals G − h⁻¹ Λ W, solved block by block.
+            let residual = |g: &Stages<NV>, w: &Stages<NV>| {
+                [
+                    g[0] - w[0] * (GAMMA / h),
+                    g[1] - (w[1] * ALPHA - w[2] * BETA) / h,
+                    g[2] - (w[1] * BETA + w[2] * ALPHA) / h,
+                ]
+            };
+            let (ru, rv) = (residual(&gu, &wu), residual(&gv, &wv));
+            let (du0, dv0) = factors.solve_real(&ru[0], &rv[0]);
+            let ((du1, du2), (dv1, dv2)) = factors.solve_complex((&ru[1], &ru[2]), (&rv[1], &rv[2]));
+            let (du, dv) = ([du0, du1, du2], [dv0, dv1, dv2]);
+            for k in 0..3 {
+                wu[k] += du[k];
+                wv[k] += dv[k];
+            }
+            (zu, zv) = (mix(&T, &wu), mix(&T, &wv));
+            step.iterations += 1;
+            let (dzu, dzv) = (mix(&T, &du), mix(&T, &dv));
+            let (size, bound) = match stop {
+                Stop::Relative(tolerance) => (euclidean(&dzu, &dzv), tolerance * (1.0 + euclidean(&zu, &zv))),
+                Stop::Scaled { kappa, tolerance, start } => (stage_norm(start, &dzu, &dzv, *tolerance), *kappa),
+            };
+            let theta = size / last;
+            if !size.is_finite() || (step.iterations >= 2 && theta >= 1.0) {
+                if let Some(past) = self.radau.as_mut() {
+                    past.jacobian.theta = f64::INFINITY;
+                }
+                return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: size });
+            }
+            if step.iterations >= 2 {
+                contraction = contraction.max(theta);
+            }
+            // Converged when the correction, or the remaining error its
+            // contraction predicts (θ/(1 − θ) of it), is within the bound; at
+            // fixed steps also at the round-off floor.
+            let floor = match stop {
+                Stop::Relative(tolerance) => newton_done(size, last, bound / tolerance, *tolerance),
+                Stop::Scaled { .. } => size <= 1e-2 * bound,
+            };
+            if floor || (step.iterations >= 2 && theta / (1.0 - theta) * size <= bound) {
+                return Ok((zu, zv, contraction));
+            }
+            last = size;
+        }
+    }
+
+    /// RADAU5's error norm of the step from `y0` (its rates `f0`) to `y1`
+    /// with the stage increments `z` (see the module documentation).
+    #[allow(clippy::too_many_arguments)]
+    fn radau_estimate(
+        &mut self,
+        y0: &SystemState<NB>,
+        y1: &SystemState<NB>,
+        (v0, a0): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (zu, zv): (&Stages<NV>, &Stages<NV>),
+        factors: &Factors<NV>,
+        rule: &mut StepRule<M>,
+        tolerance: Tolerance,
+        step: &mut RadauStep,
+    ) -> Result<f64, AnalysisError> {
+        let h = factors.h;
+        let weigh = |z: &Stages<NV>| (z[0] * D[0] + z[1] * D[1] + z[2] * D[2]) / h;
+        let (pu, pv) = (weigh(zu), weigh(zv));
+        let (eu, ev) = factors.solve_real(&(v0 + pu), &(a0 + pv));
+        let err = increment_error(y0, y1, &eu, &ev, tolerance);
+        if err <= 1.0 {
+            return Ok(err);
+        }
+        // The stiff components' overestimate removed: f at y_n + e.
+        let v = v0 + ev;
+        let a = self.solve(&stage(y0, &eu, &v, y0.t), Some(rule))?.vdot;
+        step.evaluations += 1;
+        let (eu, ev) = factors.solve_real(&(position_rates::<NV>(&eu, &v) + pu), &(a + pv));
+        Ok(increment_error(y0, y1, &eu, &ev, tolerance))
+    }
+
+    /// `A_q = ∂a/∂q` (increments at the state) and `A_v = ∂a/∂v` at `y0`,
+    /// whose accelerations `start` solved, and the dynamics evaluations spent.
+    #[allow(clippy::type_complexity)]
+    fn radau_jacobian(
+        &mut self,
+        y0: &SystemState<NB>,
+        start: Factored<NV, M>,
+        rule: &mut StepRule<M>,
+    ) -> Result<(SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>, usize), AnalysisError> {
+        let a0 = start.dynamics.vdot;
+        if self.options.newton_matrix == NewtonMatrix::Generated
+            && let Some(t) = self.tangent_on(y0, start)?
+        {
+            return Ok((t.accelerations(&t.r1q, &t.r2q), t.accelerations(&t.r1v, &t.r2v), 0));
+        }
+        let v0 = velocity_vector::<NB, NV>(y0);
+        let (mut aq, mut av) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
+        for (c, (mut q, mut v)) in aq.column_iter_mut().zip(av.column_iter_mut()).enumerate() {
+            let unit = |size: f64| SVector::<f64, NV>::from_fn(|i, _| if i == c { size } else { 0.0 });
+            let a = self.solve(&stage(y0, &unit(1e-7), &v0, y0.t), Some(rule))?.vdot;
+            q.copy_from(&((a - a0) / 1e-7));
+            let eps = 1e-7 * (1.0 + libm::fabs(v0.get(c).copied().unwrap_or(0.0)));
+            let a = self.solve(&stage(y0, &SVector::zeros(), &(v0 + unit(eps)), y0.t), Some(rule))?.vdot;
+            v.copy_from(&((a - a0) / eps));
+        }
+        Ok((aq, av, 2 * NV))
+    }
+}
+
+/// The two factorised systems of a step `h`: `K(μ) = μ² I − μ A_v − A_q` at
+/// `μ = γ̂/h` and at `μ = (α + iβ)/h`.
+struct Factors<const NV: usize> {
+    h: f64,
+    real: Lu<NV>,
+    complex: Lu<NV, Complex<f64>>,
+    av: SMatrix<f64, NV, NV>,
+}
+
+impl<const NV: usize> Factors<NV> {
+    fn new(aq: &SMatrix<f64, NV, NV>, av: &SMatrix<f64, NV, NV>, h: f64) -> Result<Self, AnalysisError> {
+        let mu = GAMMA / h;
+        let real = Lu::new(&(SMatrix::<f64, NV, NV>::identity() * (mu * mu) - av * mu - aq))?;
+        let mu = Complex::new(ALPHA, BETA) / h;
+        let complex =
+            SMatrix::<Complex<f64>, NV, NV>::identity() * (mu * mu) - av.map(real_part) * mu - aq.map(real_part);
+        Ok(Factors { h, real, complex: Lu::new(&complex)?, av: *av })
+    }
+
+    /// `(μ − [[0, I], [A_q, A_v]])⁻¹ (r, s)` at the real `μ = γ̂/h`.
+    fn solve_real(&self, r: &SVector<f64, NV>, s: &SVector<f64, NV>) -> (SVector<f64, NV>, SVector<f64, NV>) {
+        let mu = GAMMA / self.h;
+        let x = self.real.solve(&(s + r * mu - self.av * r));
+        (x, x * mu - r)
+    }
+
+    /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
+    /// imaginary parts of `x`, then of `y`.
+    #[allow(clippy::type_complexity)]
+    fn solve_complex(
+        &self,
+        (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),
+    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
+        let mu = Complex::new(ALPHA, BETA) / self.h;
+        let r = r2.zip_map(r3, Complex::new);
+        let ar = (self.av * r2).zip_map(&(self.av * r3), Complex::new);
+        let x = self.complex.solve(&(s2.zip_map(s3, Complex::new) + r * mu - ar));
+        let y = x * mu - r;
+        ((x.map(|z| z.re), x.map(|z| z.im)), (y.map(|z| z.re), y.map(|z| z.im)))
+    }
+}
+
+/// `x + 0i`.
+fn real_part(x: f64) -> Complex<f64> {
+    Complex::new(x, 0.0)
+}
+
+/// The weights of the stages in the collocation polynomial at `s` (in
+/// units of the step, 0 at its start where the polynomial is 0):
+/// `u(s) = Σ_k ℓ_k(s) Z_k` over the nodes `0, c₁, c₂, 1`.
+fn collocation_weights(s: f64) -> [f64; 3] {
+    let [c1, c2, c3] = C;
+    [
+        s * (s - c2) * (s - c3) / (c1 * (c1 - c2) * (c1 - c3)),
+        s * (s - c1) * (s - c3) / (c2 * (c2 - c1) * (c2 - c3)),
+        s * (s - c1) * (s - c2) / (c3 * (c3 - c1) * (c3 - c2)),
+    ]
+}
+
+/// `Σ_j m_ij x_j` for each `i`.
+fn mix<const NV: usize>(m: &[[f64; 3]; 3], x: &Stages<NV>) -> Stages<NV> {
+    m.map(|row| x[0] * row[0] + x[1] * row[1] + x[2] * row[2])
+}
+
+/// `q_n ⊕ u` with velocities `v` at time `t`.
+fn stage<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    u: &SVector<f64, NV>,
+    v: &SVector<f64, NV>,
+    t: f64,
+) -> SystemState<NB> {
+    let mut s = *y0;
+    apply_increment(&mut s, u, 1.0);
+    set_velocities(&mut s, v);
+    s.t = t;
+    s
+}
+
+/// `U̇` at the increment `u` with velocities `v`: `ṙ` for the translations,
+/// `J_r(u_θ)⁻¹ ω'` for the rotations.
+fn position_rates<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>) -> SVector<f64, NV> {
+    let mut out = *v;
+    for b in 0..NV / 6 {
+        let at = |x: &SVector<f64, NV>, k: usize| x.get(6 * b + 3 + k).copied().unwrap_or(0.0);
+        let phi = Vector3::new(at(u, 0), at(u, 1), at(u, 2));
+        let omega = Vector3::new(at(v, 0), at(v, 1), at(v, 2));
+        let rate = inverse_right_jacobian_times(&phi, &omega);
+        for k in 0..3 {
+            if let Some(o) = out.get_mut(6 * b + 3 + k) {
+                *o = rate[k];
+            }
+        }
+    }
+    out
+}
+
+/// `J_r(φ)⁻¹ ω = ω + ½ φ × ω + c(θ) φ × (φ × ω)`, `c = (1 − (θ/2) cot(θ/2))/θ²`,
+/// by its series below `θ = 0.1` (where the closed form cancels).
+pub(super) fn inverse_right_jacobian_times(phi: &Vector3<f64>, omega: &Vector3<f64>) -> Vector3<f64> {
+    let t2 = phi.norm_squared();
+    let c = if t2 < 1e-2 {
+        1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30_240.0 + t2 / 1_209_600.0))
+    } else {
+        let t = libm::sqrt(t2);
+        (1.0 - 0.5 * t * libm::cos(0.5 * t) / libm::sin(0.5 * t)) / t2
+    };
+    let pw = phi.cross(omega);
+    omega + pw * 0.5 + phi.cross(&pw) * c
+}
+
+/// The error norm of the three stages' increments, from `y0`.
+fn stage_norm<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    u: &Stages<NV>,
+    v: &Stages<NV>,
+    tolerance: Tolerance,
+) -> f64 {
+    let sum: f64 = (0..3).map(|i| libm::pow(increment_error(y0, y0, &u[i], &v[i], tolerance), 2.0)).sum();
+    libm::sqrt(sum / 3.0)
+}
+
+/// `‖(u, v)‖₂` over the three stages.
+fn euclidean<const NV: usize>(u: &Stages<NV>, v: &Stages<NV>) -> f64 {
+    libm::sqrt(u.iter().chain(v.iter()).map(|x| x.norm_squared()).sum::<f64>())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+
+    fn matrix(m: &[[f64; 3]; 3]) -> Matrix3<f64> {
+        Matrix3::from_fn(|i, j| m[i][j])
+    }
+
+    #[test]
+    fn transformation_diagonalises_the_inverse_of_a() {
+        let lambda = matrix(&TI) * matrix(&A).try_inverse().unwrap() * matrix(&T);
+        let want = Matrix3::new(GAMMA, 0.0, 0.0, 0.0, ALPHA, -BETA, 0.0, BETA, ALPHA);
+        assert!((lambda - want).abs().max() < 1e-13, "{lambda}");
+        assert!((matrix(&T) * matrix(&TI) - Matrix3::identity()).abs().max() < 1e-15);
+    }
+
+    #[test]
+    fn coefficients_are_radau_iia() {
+        let s6 = 6f64.sqrt();
+        assert!((C[0] - (4.0 - s6) / 10.0).abs() < 1e-16);
+        assert!((C[1] - (4.0 + s6) / 10.0).abs() < 1e-16);
+        // Row sums are c; the last row is b (stiffly accurate), whose moments are 1/k.
+        for (row, c) in A.iter().zip(C) {
+            assert!((row.iter().sum::<f64>() - c).abs() < 1e-16);
+        }
+        for k in 1..=5 {
+            let moment: f64 = A[2].iter().zip(C).map(|(b, c)| b * c.powi(k - 1)).sum();
+            assert!((moment - 1.0 / f64::from(k)).abs() < 1e-15, "k = {k}");
+        }
+        assert!((D[0] + (13.0 + 7.0 * s6) / 3.0).abs() < 1e-14 && (D[1] - (-13.0 + 7.0 * s6) / 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn collocation_weights_interpolate_at_the_nodes() {
+        assert_eq!(collocation_weights(0.0), [0.0; 3]);
+        for (i, c) in C.iter().enumerate() {
+            let w = collocation_weights(*c);
+            for (k, wk) in w.iter().enumerate() {
+                assert!((wk - f64::from(u8::from(i == k))).abs() < 1e-14, "node {i}, weight {k}: {wk}");
+            }
+        }
+        // Exact for a cubic through 0: u(s) = s³ − s at s = 1.4.
+        let u = C.map(|c| c * c * c - c);
+        let w = collocation_weights(1.4);
+        assert!((w[0] * u[0] + w[1] * u[1] + w[2] * u[2] - (1.4f64.powi(3) - 1.4)).abs() < 1e-13);
+    }
+
+    #[test]
+    fn inverse_right_jacobian_inverts_the_right_jacobian() {
+        let omega = Vector3::new(0.3, -1.2, 0.7);
+        for phi in [Vector3::new(1e-9, 0.0, 0.0), Vector3::new(0.03, -0.05, 0.08), Vector3::new(0.9, 0.4, -1.1)] {
+            let back = super::super::newton_matrix::right_jacobian(&phi) * inverse_right_jacobian_times(&phi, &omega);
+            assert!((back - omega).norm() < 1e-15, "{phi}: {}", (back - omega).norm());
+        }
+        // Both branches of c(θ) agree where they meet.
+        let (a, b) = (Vector3::new(0.0999999, 0.0, 0.0), Vector3::new(0.1000001, 0.0, 0.0));
+        let w = Vector3::new(0.0, 1.0, 0.0);
+        let (ca, cb) = (inverse_right_jacobian_times(&a, &w), inverse_right_jacobian_times(&b, &w));
+        assert!((ca - cb).norm() < 1e-6);
+    }
+}
