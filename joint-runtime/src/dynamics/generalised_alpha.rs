@@ -34,7 +34,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::newton_matrix::{times_update, update_blocks};
-use super::{AppliedLoads, Simulation, StepRule, generalised_forces, newton_done};
+use super::{AppliedLoads, ModifiedNewton, Simulation, StepRule, generalised_forces};
 use crate::analysis::{AnalysisError, apply_increment, check_output, set_velocities, velocity_vector};
 use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
@@ -188,39 +188,27 @@ where
         // Predictor: v̇_{n+1} = v̇_n, λ_{n+1} = λ_n.
         let mut it = Iterate::new(&y0, &v0, &past, c.predicted(&past), past.lambda, h, c);
         let mut factor: Option<AlphaMatrix<NV, M>> = None;
-        let (mut iterations, mut matrices, mut last) = (0, 0, f64::INFINITY);
+        let mut newton = ModifiedNewton::new(&self.options);
         loop {
-            if iterations >= self.options.newton_max_iterations {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
-            }
+            newton.next()?;
             let (r1, r2, j) = self.alpha_residual(&it)?;
             let m = match factor.take() {
-                Some(m) => m,
-                None => {
-                    matrices += 1;
+                Some(m) if !newton.stale() => m,
+                _ => {
+                    newton.built();
                     self.alpha_matrix(&it, &j, h, c, rule)?
                 }
             };
             let (x, dlambda) = m.solve(&j, &r1, &(r2 / h));
             factor = Some(m);
             it = it.corrected(&y0, &v0, &past, &x, &dlambda, h, c);
-            iterations += 1;
-            let size = x.norm();
-            if !size.is_finite() {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
-            }
-            if newton_done(size, last, 1.0 + it.dq.norm(), self.options.newton_tolerance) {
+            if newton.converged(x.norm(), 1.0 + it.dq.norm())? {
                 break;
             }
-            // Modified Newton: a new matrix when convergence is slow.
-            if size > 0.25 * last {
-                factor = None;
-            }
-            last = size;
         }
         *state = it.state;
         self.history = Some(it.history());
-        Ok((iterations, matrices))
+        Ok(newton.counts())
     }
 
     /// `M v̇ + Jᵀ λ − Q`, `Φ` and `J` at the iterate.

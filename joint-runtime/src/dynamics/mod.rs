@@ -825,18 +825,14 @@ where
         let mut w = v0 + self.solve(&y0, Some(rule))?.vdot * (0.5 * h);
         let mut r = self.midpoint_residual(&y0, &v0, &w, h, rule)?;
         let mut lu: Option<Lu<NV>> = None;
-        let mut last = f64::INFINITY;
-        let max = self.options.newton_max_iterations;
-        let (mut iterations, mut matrices) = (0, 0);
+        let mut newton = ModifiedNewton::new(&self.options);
         loop {
-            if iterations >= max {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
-            }
+            newton.next()?;
             let factor = match lu {
-                Some(f) => f,
-                None => {
+                Some(f) if !newton.stale() => f,
+                _ => {
                     let f = Lu::new(&self.midpoint_matrix(&y0, &v0, &w, &r, h, rule)?)?;
-                    matrices += 1;
+                    newton.built();
                     lu = Some(f);
                     f
                 }
@@ -844,26 +840,16 @@ where
             let dw = factor.solve(&(-r.0));
             w += dw;
             r = self.midpoint_residual(&y0, &v0, &w, h, rule)?;
-            iterations += 1;
-            let size = dw.norm();
-            if !size.is_finite() {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
-            }
-            if newton_done(size, last, 1.0 + w.norm(), self.options.newton_tolerance) {
+            if newton.converged(dw.norm(), 1.0 + w.norm())? {
                 break;
             }
-            // Modified Newton: refresh the iteration matrix when convergence is slow.
-            if size > 0.25 * last {
-                lu = None;
-            }
-            last = size;
         }
         let mut y = y0;
         apply_increment(&mut y, &w, h);
         set_velocities(&mut y, &(w * 2.0 - v0));
         y.t = y0.t + h;
         *state = y;
-        Ok((iterations, matrices))
+        Ok(newton.counts())
     }
 
     /// Advances `state` by one step `h` with the configured integrator, then
@@ -950,6 +936,75 @@ pub(crate) fn newton_done(size: f64, last: f64, scale: f64, tolerance: f64) -> b
 
 /// `√ε`: a correction that stops shrinking below this (relative) is round-off.
 const STALLED: f64 = 1.4901161193847656e-8;
+
+/// The bookkeeping of the modified Newton iterations of the implicit midpoint
+/// rule and generalised-α, dense and sparse: the iteration cap, when the
+/// iteration matrix is rebuilt (at the start, and when a correction shrank by
+/// less than a factor 4: convergence is slow) and when the iteration stops
+/// ([`newton_done`]).
+pub(crate) struct ModifiedNewton {
+    iterations: usize,
+    matrices: usize,
+    last: f64,
+    stale: bool,
+    max_iterations: usize,
+    tolerance: f64,
+}
+
+impl ModifiedNewton {
+    pub(crate) fn new(options: &SimulationOptions) -> Self {
+        ModifiedNewton {
+            iterations: 0,
+            matrices: 0,
+            last: f64::INFINITY,
+            stale: true,
+            max_iterations: options.newton_max_iterations,
+            tolerance: options.newton_tolerance,
+        }
+    }
+
+    /// Another iteration, or the error when the cap is reached.
+    pub(crate) fn next(&self) -> Result<(), AnalysisError> {
+        if self.iterations >= self.max_iterations {
+            return Err(AnalysisError::ImplicitNotConverged { iterations: self.iterations, correction: self.last });
+        }
+        Ok(())
+    }
+
+    /// Whether the iteration matrix must be built before this iteration.
+    pub(crate) fn stale(&self) -> bool {
+        self.stale
+    }
+
+    /// The iteration matrix was built.
+    pub(crate) fn built(&mut self) {
+        self.matrices += 1;
+        self.stale = false;
+    }
+
+    /// After a correction of norm `size` to an iterate of norm about `scale`:
+    /// whether the iteration has converged; an error for a correction that
+    /// is not finite.
+    pub(crate) fn converged(&mut self, size: f64, scale: f64) -> Result<bool, AnalysisError> {
+        self.iterations += 1;
+        if !size.is_finite() {
+            return Err(AnalysisError::ImplicitNotConverged { iterations: self.iterations, correction: size });
+        }
+        if newton_done(size, self.last, scale, self.tolerance) {
+            return Ok(true);
+        }
+        if size > 0.25 * self.last {
+            self.stale = true;
+        }
+        self.last = size;
+        Ok(false)
+    }
+
+    /// Newton iterations and matrices built.
+    pub(crate) fn counts(&self) -> (usize, usize) {
+        (self.iterations, self.matrices)
+    }
+}
 
 /// What every simulation of a scene reads besides the scene: its inertias,
 /// their inverses and gravity, checked together with the springs.

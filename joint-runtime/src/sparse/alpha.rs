@@ -27,7 +27,7 @@ use super::second_order::SecondOrderLayout;
 use super::solver::{jt_mul, non_finite};
 use crate::analysis::{AnalysisError, check_output, velocity_vector};
 use crate::dynamics::{
-    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, generalised_forces, mass_times, newton_done,
+    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, generalised_forces, mass_times,
     spring_column, update_blocks,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
@@ -130,36 +130,24 @@ where
         };
         let v0 = velocity_vector::<NB, NV>(y0);
         let mut it = Iterate::new(y0, &v0, &past, c.predicted(&past), past.lambda, h, c);
-        let (mut iterations, mut matrices, mut last, mut fresh) = (0, 0, f64::INFINITY, false);
+        let mut newton = ModifiedNewton::new(&self.options);
         loop {
-            if iterations >= self.options.newton_max_iterations {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
-            }
+            newton.next()?;
             let (values, r2) = self.alpha_residual(&it)?;
-            if !fresh {
+            if newton.stale() {
                 self.alpha_matrix(&it, &values, h, c)?;
-                matrices += 1;
-                fresh = true;
+                newton.built();
             }
             let (x, dlambda) = self.alpha_solve(&r2, h)?;
             it = it.corrected(y0, &v0, &past, &x, &dlambda, h, c);
-            iterations += 1;
-            let size = x.norm();
-            if !size.is_finite() {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
-            }
-            if newton_done(size, last, 1.0 + it.dq.norm(), self.options.newton_tolerance) {
+            if newton.converged(x.norm(), 1.0 + it.dq.norm())? {
                 break;
             }
-            // Modified Newton: a new matrix when convergence is slow.
-            if size > 0.25 * last {
-                fresh = false;
-            }
-            last = size;
         }
         if let Some(w) = self.alpha.as_mut() {
             w.history = Some(it.history());
         }
+        let (iterations, matrices) = newton.counts();
         Ok((it.state, iterations, matrices))
     }
 

@@ -30,7 +30,7 @@ use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::SparseDynamics;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, apply_increment, set_velocities, velocity_vector};
-use crate::dynamics::{AppliedLoads, mass_times, midpoint_state, newton_done, update_blocks};
+use crate::dynamics::{AppliedLoads, ModifiedNewton, mass_times, midpoint_state, update_blocks};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The midpoint's state, its dynamics and its Jacobian's values at one `w`.
@@ -60,37 +60,25 @@ where
         // Explicit predictor.
         let mut w = v0 + vdot * (0.5 * h);
         let (mut r, mut mid) = self.midpoint_residual(y0, &v0, &w, h)?;
-        let (mut iterations, mut matrices, mut last, mut fresh) = (0, 0, f64::INFINITY, false);
+        let mut newton = ModifiedNewton::new(&self.options);
         loop {
-            if iterations >= self.options.newton_max_iterations {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: last });
-            }
-            if !fresh {
+            newton.next()?;
+            if newton.stale() {
                 self.midpoint_matrix(&mid, &w, h)?;
-                matrices += 1;
-                fresh = true;
+                newton.built();
             }
             let dw = self.midpoint_solve(&mid.values, &r)?;
             w += dw;
             (r, mid) = self.midpoint_residual(y0, &v0, &w, h)?;
-            iterations += 1;
-            let size = dw.norm();
-            if !size.is_finite() {
-                return Err(AnalysisError::ImplicitNotConverged { iterations, correction: size });
-            }
-            if newton_done(size, last, 1.0 + w.norm(), self.options.newton_tolerance) {
+            if newton.converged(dw.norm(), 1.0 + w.norm())? {
                 break;
             }
-            // Modified Newton: a new matrix when convergence is slow.
-            if size > 0.25 * last {
-                fresh = false;
-            }
-            last = size;
         }
         let mut y = *y0;
         apply_increment(&mut y, &w, h);
         set_velocities(&mut y, &(w * 2.0 - v0));
         y.t = y0.t + h;
+        let (iterations, matrices) = newton.counts();
         Ok((y, iterations, matrices))
     }
 

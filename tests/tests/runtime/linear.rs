@@ -4,16 +4,20 @@
 //! frequencies from its textbook 2 × 2 eigenproblem, and, at a swinging
 //! state of the double pendulum, `T A = F T` (the full linearisation `F`
 //! leaves the constraints' tangent space invariant) with `F`'s acceleration
-//! rows against central differences of `Simulation::dynamics`.
+//! rows against central differences of `Simulation::dynamics` and against
+//! dual numbers through a hand-written model of the same pendulum; the
+//! midpoint step's state-transition Jacobian against differences of the step
+//! and against dual numbers through the same step of that model.
 
 #![allow(missing_docs)]
 
 use joint_runtime::dynamics::{
     AppliedLoads, Attachment, Direction, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper,
 };
-use joint_runtime::nalgebra::{Complex, DMatrix, Matrix2, SVector, Vector3};
+use joint_runtime::nalgebra::{Complex, DMatrix, Matrix2, Matrix3, RealField, SMatrix, SVector, Vector3, Vector4};
 use joint_runtime::{Scene, SystemState};
 use joint_tests::scenes::hanging_rods;
+use num_dual::Dual64;
 
 use super::dynamics::{DoublePendulum, double_start, pendulum, swung};
 
@@ -202,20 +206,30 @@ fn linearise_without_second_order_is_an_error() {
     assert!(e.to_string().contains("#[scene(second_order)]"), "{e}");
 }
 
-/// The state-transition Jacobian of an implicit midpoint step against central
-/// differences of the step itself (no projection), increments in and out.
-#[test]
-fn transition_jacobian_matches_differences_of_the_step() {
+/// A midpoint simulation of the double pendulum (no projection, Newton to
+/// round-off), the end of its step `h` from `start` and the step's
+/// state-transition Jacobian.
+fn midpoint_transition(
+    start: &SystemState<2>,
+    h: f64,
+) -> (Simulation<'static, DoublePendulum, NoLoads, 2, 12, 6>, SystemState<2>, DMatrix<f64>) {
     use joint_runtime::dynamics::Integrator;
-    let scene = DoublePendulum;
     let options = SimulationOptions::default()
         .with_integrator(Integrator::ImplicitMidpoint)
         .with_projection(None)
         .with_newton_tolerance(1e-15);
-    let mut sim = Simulation::new(&scene, NoLoads, &[], options).unwrap();
-    let (start, h) = (double_start(), 5e-3);
-    let mut end = start;
+    let mut sim = Simulation::new(&DoublePendulum, NoLoads, &[], options).unwrap();
+    let mut end = *start;
     let phi = sim.transition(&mut end, h).unwrap();
+    (sim, end, phi)
+}
+
+/// The state-transition Jacobian of an implicit midpoint step against central
+/// differences of the step itself (no projection), increments in and out.
+#[test]
+fn transition_jacobian_matches_differences_of_the_step() {
+    let (start, h) = (double_start(), 5e-3);
+    let (mut sim, end, phi) = midpoint_transition(&start, h);
     let mut stepped = start;
     sim.step(&mut stepped, h).unwrap();
     assert!((stepped.bodies[1].r - end.bodies[1].r).norm() < 1e-12, "transition takes the step");
@@ -251,4 +265,188 @@ fn transition_jacobian_matches_differences_of_the_step() {
     }
     println!("state-transition Jacobian against differences of the step: worst {worst:e}");
     assert!(worst < 1e-7, "{worst:e}");
+}
+
+/// The double pendulum's constrained accelerations written out by hand, over
+/// any scalar (here dual numbers): two ball joints as point constraints, their
+/// Jacobian rows `[I, −A ρ̃]` per body and `γ = −Σ ± A (ω' × (ω' × ρ))`, the
+/// forces `m g` and `−ω' × J' ω'`, and `M v̇ + Jᵀ λ = Q`, `J v̇ = γ` solved by
+/// `J M⁻¹ Jᵀ`. Nothing in it comes from the derive or the runtime.
+fn hand_accelerations<T: RealField + Copy>(
+    a: [Matrix3<T>; 2],
+    r: [Vector3<T>; 2],
+    v: &SVector<T, 12>,
+) -> SVector<T, 12> {
+    let c = |x: f64| T::from_f64(x).unwrap_or_else(T::zero);
+    let _ = r; // Ball joints: the accelerations do not depend on where the bodies are, only on A.
+    let inertia = Matrix3::from_diagonal(&Vector3::new(c(1.0 / 12.0), c(1.0 / 12.0), c(1e-3)));
+    let omega = [Vector3::new(v[3], v[4], v[5]), Vector3::new(v[9], v[10], v[11])];
+    // (body, point, sign) of each joint's two ends: shoulder = upper's top at
+    // the origin, elbow = upper's bottom at the lower's top.
+    let ends: [&[(usize, f64, f64)]; 2] = [&[(0, 0.5, 1.0)], &[(0, -0.5, 1.0), (1, 0.5, -1.0)]];
+    let mut j = SMatrix::<T, 6, 12>::zeros();
+    let mut gamma = SVector::<T, 6>::zeros();
+    for (joint, ends) in ends.iter().enumerate() {
+        for &(body, z, sign) in ends.iter() {
+            let rho = Vector3::new(c(0.0), c(0.0), c(z));
+            let s = c(sign);
+            let arm = -(a[body] * rho.cross_matrix()) * s;
+            for i in 0..3 {
+                j[(3 * joint + i, 6 * body + i)] += s;
+                for k in 0..3 {
+                    j[(3 * joint + i, 6 * body + 3 + k)] += arm[(i, k)];
+                }
+            }
+            let centripetal = a[body] * omega[body].cross(&omega[body].cross(&rho)) * s;
+            for i in 0..3 {
+                gamma[3 * joint + i] -= centripetal[i];
+            }
+        }
+    }
+    let mut q = SVector::<T, 12>::zeros();
+    let mut minv = SVector::<T, 12>::zeros();
+    for b in 0..2 {
+        q[6 * b + 2] = c(-G);
+        let gyro = -omega[b].cross(&(inertia * omega[b]));
+        for i in 0..3 {
+            minv[6 * b + i] = c(1.0);
+            minv[6 * b + 3 + i] = c(1.0) / inertia[(i, i)];
+            q[6 * b + 3 + i] = gyro[i];
+        }
+    }
+    let jw = SMatrix::<T, 6, 12>::from_fn(|i, k| j[(i, k)] * minv[k]);
+    let minv_q = q.component_mul(&minv);
+    let lambda = (jw * j.transpose()).lu().solve(&(j * minv_q - gamma)).expect("J M⁻¹ Jᵀ is regular");
+    minv_q - jw.transpose() * lambda
+}
+
+/// The rotation matrices, positions and velocities of `state` in dual
+/// numbers, moved along increment `k` (`0..12` positions: `r ← r + ε e`, or
+/// `A ← A (I + ε ẽ)` for a turn; `12..24` velocities: `v ← v + ε e`).
+#[allow(clippy::type_complexity)]
+fn perturbed(state: &SystemState<2>, k: usize) -> ([Matrix3<Dual64>; 2], [Vector3<Dual64>; 2], SVector<Dual64, 12>) {
+    let eps = Dual64::from_re(0.0).derivative();
+    let mut a: [Matrix3<Dual64>; 2] = core::array::from_fn(|b| rotation(&state.bodies[b].p));
+    let mut r: [Vector3<Dual64>; 2] = core::array::from_fn(|b| state.bodies[b].r.map(Dual64::from_re));
+    let mut v = SVector::<Dual64, 12>::from_fn(|i, _| {
+        let b = &state.bodies[i / 6];
+        Dual64::from_re(if i % 6 < 3 { b.rdot[i % 6] } else { b.omega[i % 6 - 3] })
+    });
+    let (b, c) = ((k % 12) / 6, k % 6);
+    match (k < 12, c < 3) {
+        (true, true) => r[b][c] += eps,
+        (true, false) => {
+            let mut turn = Vector3::zeros();
+            turn[c - 3] = eps;
+            a[b] *= Matrix3::identity() + turn.cross_matrix();
+        }
+        (false, _) => v[k - 12] += eps,
+    }
+    (a, r, v)
+}
+
+/// `A(p)` of Euler parameters `(e₀, e)`: `(e₀² − e·e) I + 2 e eᵀ + 2 e₀ ẽ`.
+fn rotation<T: RealField + Copy>(p: &Vector4<f64>) -> Matrix3<T> {
+    let p = p.map(|x| T::from_f64(x).unwrap_or_else(T::zero));
+    let (e0, e) = (p[0], Vector3::new(p[1], p[2], p[3]));
+    let two = T::one() + T::one();
+    Matrix3::identity() * (e0 * e0 - e.dot(&e)) + e * e.transpose() * two + e.cross_matrix() * (e0 * two)
+}
+
+/// The linearisation's acceleration rows `[A_q, A_v]` at the swinging state
+/// against dual-number derivatives of [`hand_accelerations`] along every
+/// increment (`A ← A (I + ε ẽ_k)` for a turn, `v ← v + ε e_k`): exact to
+/// round-off, where differences agree only to 1e-8.
+#[test]
+fn full_linearisation_matches_dual_numbers_through_a_hand_written_model() {
+    let scene = DoublePendulum;
+    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let state = double_start();
+    let lin = sim.linearise(&state, &DMatrix::zeros(12, 0)).unwrap();
+    let a0: [Matrix3<f64>; 2] = core::array::from_fn(|b| rotation(&state.bodies[b].p));
+    let v0 = SVector::<f64, 12>::from_fn(|i, _| {
+        let b = &state.bodies[i / 6];
+        if i % 6 < 3 { b.rdot[i % 6] } else { b.omega[i % 6 - 3] }
+    });
+    // The hand model agrees with the runtime's dynamics at the state itself.
+    let plain = hand_accelerations::<f64>(a0, [state.bodies[0].r, state.bodies[1].r], &v0);
+    let runtime = sim.dynamics(&state).unwrap().vdot;
+    assert!((plain - runtime).amax() < 1e-12 * (1.0 + runtime.amax()), "{:e}", (plain - runtime).amax());
+    let mut worst = 0.0f64;
+    for k in 0..24 {
+        let (a, r, v) = perturbed(&state, k);
+        let derivative = hand_accelerations(a, r, &v).map(|x| x.eps);
+        for i in 0..12 {
+            worst = worst.max((lin.full[(12 + i, k)] - derivative[i]).abs() / (1.0 + derivative.amax()));
+        }
+    }
+    println!("full linearisation against dual numbers of a hand-written model: worst {worst:e}");
+    assert!(worst < 1e-12, "{worst:e}");
+}
+
+/// `Exp(φ)`: Rodrigues' formula, by its series near `φ = 0`.
+fn exp_rotation<T: RealField + Copy>(phi: &Vector3<T>) -> Matrix3<T> {
+    let c = |x: f64| T::from_f64(x).unwrap_or_else(T::zero);
+    let (k, t2) = (phi.cross_matrix(), phi.dot(phi));
+    let (s, q) = if t2 < c(1e-12) {
+        (c(1.0) - t2 / c(6.0), c(0.5) - t2 / c(24.0))
+    } else {
+        let t = t2.sqrt();
+        (t.sin() / t, (c(1.0) - t.cos()) / t2)
+    };
+    Matrix3::identity() + k * s + k * k * q
+}
+
+/// The state-transition Jacobian of an implicit midpoint step against dual
+/// numbers through the same step of [`hand_accelerations`]: the midpoint
+/// velocity `w = v₀ + (h/2) a(q₀ ⊕ (h/2) w, w)` by fixed-point iteration in
+/// dual numbers (the derivative converges with the value), then
+/// `q₁ = q₀ ⊕ h w`, `v₁ = 2w − v₀`, and the end's increments read off the dual
+/// parts (`δθ̃₁ = A₁ᵀ dA₁`).
+#[test]
+fn transition_jacobian_matches_dual_numbers_through_a_hand_written_step() {
+    let (start, h) = (double_start(), 5e-3);
+    let (_, _, phi) = midpoint_transition(&start, h);
+    let hd = Dual64::from_re(h);
+    let mut worst = 0.0f64;
+    for k in 0..24 {
+        let (a0, r0, v) = perturbed(&start, k);
+        let moved = |w: &SVector<Dual64, 12>, s: Dual64| {
+            let a: [Matrix3<Dual64>; 2] = core::array::from_fn(|b| {
+                a0[b] * exp_rotation(&(Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]) * s))
+            });
+            let r: [Vector3<Dual64>; 2] =
+                core::array::from_fn(|b| r0[b] + Vector3::new(w[6 * b], w[6 * b + 1], w[6 * b + 2]) * s);
+            (a, r)
+        };
+        let mut w = v;
+        for _ in 0..400 {
+            let (a, r) = moved(&w, hd * 0.5);
+            let next = v + hand_accelerations(a, r, &w) * (hd * 0.5);
+            let change = (next - w).map(|x| x.re.abs() + x.eps.abs()).amax();
+            w = next;
+            if change < 1e-17 {
+                break;
+            }
+        }
+        let (a1, r1) = moved(&w, hd);
+        let v1 = w * Dual64::from_re(2.0) - v;
+        let mut column = [0.0; 24];
+        for b in 0..2 {
+            let turn = a1[b].map(|x| x.re).transpose() * a1[b].map(|x| x.eps);
+            let theta = [turn[(2, 1)], turn[(0, 2)], turn[(1, 0)]];
+            for i in 0..3 {
+                column[6 * b + i] = r1[b][i].eps;
+                column[6 * b + 3 + i] = theta[i];
+            }
+        }
+        for (i, x) in v1.iter().enumerate() {
+            column[12 + i] = x.eps;
+        }
+        for (i, x) in column.iter().enumerate() {
+            worst = worst.max((phi[(i, k)] - x).abs() / (1.0 + phi.column(k).amax()));
+        }
+    }
+    println!("state-transition Jacobian against dual numbers of a hand-written step: worst {worst:e}");
+    assert!(worst < 1e-12, "{worst:e}");
 }
