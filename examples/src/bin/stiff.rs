@@ -43,7 +43,12 @@ fn run() -> Result<(), String> {
             let at = time_for(s, TARGET_ERROR).map_or("not reached".to_string(), |t| format!("{t:.2e} s"));
             let _ = writeln!(md, "| {} | {} | {at} |", s.name, points.join(" "));
         }
-        let rk4 = chosen.iter().find(|s| s.name.starts_with("RK4")).and_then(|s| time_for(s, TARGET_ERROR));
+        // RK4's best time, dense or sparse.
+        let rk4 = chosen
+            .iter()
+            .filter(|s| s.name.starts_with("RK4"))
+            .filter_map(|s| time_for(s, TARGET_ERROR))
+            .min_by(f64::total_cmp);
         let best = chosen
             .iter()
             .filter(|s| !s.name.starts_with("RK4"))
@@ -52,8 +57,8 @@ fn run() -> Result<(), String> {
         if let (Some(r), Some((b, name))) = (rk4, best) {
             let _ = writeln!(
                 md,
-                "\nAt error {TARGET_ERROR:.0e}: RK4 with projection {r:.2e} s, the fastest other ({name}) {b:.2e} s: \
-                 {:.2} times RK4's time.",
+                "\nAt error {TARGET_ERROR:.0e}: RK4 with projection (the faster of dense and sparse) {r:.2e} s, \
+                 the fastest other ({name}) {b:.2e} s: {:.2} times RK4's time.",
                 b / r
             );
         }

@@ -11,8 +11,10 @@
 //!
 //! Integrators: fixed steps of RK4, the implicit midpoint rule,
 //! generalised-α (ρ∞ = 0.8) and Radau IIA, the implicit ones with the
-//! generated iteration matrix; and the error-controlled Dormand–Prince 5(4),
-//! generalised-α and Radau IIA over a range of tolerances (`rtol = atol`). Every run projects after each
+//! generated iteration matrix, on the dense path, and of the first three on
+//! the sparse path (`SparseSimulation`); and the error-controlled
+//! Dormand–Prince 5(4), generalised-α and Radau IIA over a range of
+//! tolerances (`rtol = atol`). Every run projects after each
 //! step (the default options). The error is the largest `|r − r_ref| +
 //! |p − p_ref|` of a body at the end (metres and Euler parameters, `p` up to
 //! its sign), the reference being Dormand–Prince at `rtol = atol = 1e-12`;
@@ -21,7 +23,8 @@
 use std::time::Instant;
 
 use joint_runtime::dynamics::{Adaptive, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance};
-use joint_runtime::{Scene, SystemState};
+use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 use super::simulation::Series;
 
@@ -33,7 +36,11 @@ pub const TARGET_ERROR: f64 = 1e-8;
 /// How a run advances.
 #[derive(Clone, Copy, Debug)]
 enum Run {
+    /// Fixed steps, dense `Simulation`.
     Fixed(Integrator, usize),
+    /// Fixed steps, `SparseSimulation`.
+    Sparse(Integrator, usize),
+    /// Error-controlled steps to a tolerance, dense.
     Adaptive(Adaptive, f64),
 }
 
@@ -48,36 +55,47 @@ struct Problem<'a, S, const NB: usize> {
 
 impl<S, const NB: usize> Problem<'_, S, NB> {
     /// The state at `t_end` by `run`, or why it failed.
-    fn run<const NV: usize, const M: usize>(&self, run: Run) -> Result<SystemState<NB>, String>
+    fn run<const NV: usize, const M: usize, const NNZ: usize>(&self, run: Run) -> Result<SystemState<NB>, String>
     where
-        S: Scene<NB, NV, M>,
+        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
         let integrator = match run {
-            Run::Fixed(i, _) => i,
+            Run::Fixed(i, _) | Run::Sparse(i, _) => i,
             Run::Adaptive(..) => Integrator::Rk4,
         };
         let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
-        let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(|e| e.to_string())?;
+        let text = |e: joint_runtime::analysis::AnalysisError| e.to_string();
         let mut state = self.start;
         match run {
             Run::Fixed(_, steps) => {
+                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 let h = self.t_end / steps as f64;
                 for _ in 0..steps {
-                    sim.step(&mut state, h).map_err(|e| e.to_string())?;
+                    sim.step(&mut state, h).map_err(text)?;
+                }
+            }
+            Run::Sparse(_, steps) => {
+                let mut sim = SparseSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let h = self.t_end / steps as f64;
+                for _ in 0..steps {
+                    sim.step(&mut state, h).map_err(text)?;
                 }
             }
             Run::Adaptive(method, tol) => {
-                sim.integrate(&mut state, self.t_end, method, Tolerance { rtol: tol, atol: tol })
-                    .map_err(|e| e.to_string())?;
+                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                sim.integrate(&mut state, self.t_end, method, Tolerance { rtol: tol, atol: tol }).map_err(text)?;
             }
         }
         Ok(state)
     }
 
     /// The fastest time of `run` (s) and its end state.
-    fn timed<const NV: usize, const M: usize>(&self, run: Run) -> Result<(f64, SystemState<NB>), String>
+    fn timed<const NV: usize, const M: usize, const NNZ: usize>(
+        &self,
+        run: Run,
+    ) -> Result<(f64, SystemState<NB>), String>
     where
-        S: Scene<NB, NV, M>,
+        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
         let (mut best, mut spent, mut end) = (f64::INFINITY, 0.0, self.start);
         while spent < MIN_TIME {
@@ -91,9 +109,9 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
     }
 
     /// Every series of the problem.
-    fn series<const NV: usize, const M: usize>(&self, progress: &mut dyn FnMut(&str)) -> Vec<Series>
+    fn series<const NV: usize, const M: usize, const NNZ: usize>(&self, progress: &mut dyn FnMut(&str)) -> Vec<Series>
     where
-        S: Scene<NB, NV, M>,
+        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
         let reference = match self.run(Run::Adaptive(Adaptive::DormandPrince, 1e-12)) {
             Ok(r) => r,
@@ -121,6 +139,13 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         .into_iter()
         .map(|(name, i)| (format!("{name}, fixed h"), steps.iter().map(|&n| Run::Fixed(i, n)).collect()))
         .collect();
+        for (name, i) in [
+            ("RK4", Integrator::Rk4),
+            ("implicit midpoint", Integrator::ImplicitMidpoint),
+            ("generalised-α", Integrator::GeneralisedAlpha),
+        ] {
+            lines.push((format!("{name}, sparse, fixed h"), steps.iter().map(|&n| Run::Sparse(i, n)).collect()));
+        }
         for (name, method) in [
             ("Dormand–Prince 5(4)", Adaptive::DormandPrince),
             ("generalised-α", Adaptive::GeneralisedAlpha),
