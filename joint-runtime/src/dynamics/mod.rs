@@ -844,11 +844,7 @@ where
                 break;
             }
         }
-        let mut y = y0;
-        apply_increment(&mut y, &w, h);
-        set_velocities(&mut y, &(w * 2.0 - v0));
-        y.t = y0.t + h;
-        *state = y;
+        *state = midpoint_end(&y0, &v0, &w, h);
         Ok(newton.counts())
     }
 
@@ -919,6 +915,22 @@ pub(crate) fn midpoint_state<const NB: usize, const NV: usize>(
     set_velocities(&mut mid, w);
     mid.t = y0.t + 0.5 * h;
     mid
+}
+
+/// The implicit midpoint rule's end of step from `y0` (velocities `v0`)
+/// with the midpoint velocity `w`: `q_n ⊕ h w`, `v_{n+1} = 2w − v_n`, at
+/// `t_n + h`.
+pub(crate) fn midpoint_end<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    v0: &SVector<f64, NV>,
+    w: &SVector<f64, NV>,
+    h: f64,
+) -> SystemState<NB> {
+    let mut y = *y0;
+    apply_increment(&mut y, w, h);
+    set_velocities(&mut y, &(w * 2.0 - v0));
+    y.t = y0.t + h;
+    y
 }
 
 /// Whether a Newton correction of `size` ends an implicit integrator's

@@ -198,8 +198,11 @@ where
                 Jacobian { at: y0, aq, av, theta: f64::INFINITY }
             }
         };
-        // Kept before Newton runs: a step that fails retries on it.
-        self.radau = Some(RadauHistory { end: None, h, zu: z.0, zv: z.1, jacobian });
+        // Kept before Newton runs: a step that fails retries on it from the
+        // same state, and no other step keeps it (θ infinite until Newton
+        // converges).
+        let pending = Jacobian { theta: f64::INFINITY, ..jacobian };
+        self.radau = Some(RadauHistory { end: None, h, zu: z.0, zv: z.1, jacobian: pending });
         let factors = Factors::new(&jacobian.aq, &jacobian.av, h)?;
         // RADAU5's mapping: the estimate is of the embedded third-order
         // solution, far above the fifth-order one's error at tight tolerances.
@@ -259,9 +262,6 @@ where
         let (mut last, mut contraction) = (f64::INFINITY, 0.0f64);
         loop {
             if step.iterations >= self.options.newton_max_iterations {
-                if let Some(past) = self.radau.as_mut() {
-                    past.jacobian.theta = f64::INFINITY;
-                }
                 return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: last });
             }
             // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z).
@@ -312,9 +312,6 @@ where
                 return Ok((zu, zv, contraction));
             }
             if !size.is_finite() || (step.iterations >= 2 && theta >= 1.0) {
-                if let Some(past) = self.radau.as_mut() {
-                    past.jacobian.theta = f64::INFINITY;
-                }
                 return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: size });
             }
             last = size;
@@ -479,7 +476,7 @@ fn position_rates<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>) -
 
 /// `J_r(φ)⁻¹ ω = ω + ½ φ × ω + c(θ) φ × (φ × ω)`, `c = (1 − (θ/2) cot(θ/2))/θ²`,
 /// by its series below `θ = 0.1` (where the closed form cancels).
-pub(super) fn inverse_right_jacobian_times(phi: &Vector3<f64>, omega: &Vector3<f64>) -> Vector3<f64> {
+fn inverse_right_jacobian_times(phi: &Vector3<f64>, omega: &Vector3<f64>) -> Vector3<f64> {
     let t2 = phi.norm_squared();
     let c = if t2 < 1e-2 {
         1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30_240.0 + t2 / 1_209_600.0))

@@ -29,8 +29,8 @@ use super::kkt::Kkt;
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::SparseDynamics;
 use super::solver::j_mul;
-use crate::analysis::{AnalysisError, apply_increment, set_velocities, velocity_vector};
-use crate::dynamics::{AppliedLoads, ModifiedNewton, mass_times, midpoint_state, update_blocks};
+use crate::analysis::{AnalysisError, velocity_vector};
+use crate::dynamics::{AppliedLoads, ModifiedNewton, mass_times, midpoint_end, midpoint_state, update_blocks};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The midpoint's state, its dynamics and its Jacobian's values at one `w`.
@@ -74,12 +74,8 @@ where
                 break;
             }
         }
-        let mut y = *y0;
-        apply_increment(&mut y, &w, h);
-        set_velocities(&mut y, &(w * 2.0 - v0));
-        y.t = y0.t + h;
         let (iterations, matrices) = newton.counts();
-        Ok((y, iterations, matrices))
+        Ok((midpoint_end(y0, &v0, &w, h), iterations, matrices))
     }
 
     /// `R = w − v_n − (h/2) a(q_n ⊕ (h/2) w, w)` under the step's rule, and the
