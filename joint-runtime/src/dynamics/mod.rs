@@ -903,6 +903,22 @@ impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L
     }
 }
 
+/// `q_n ⊕ s u` with velocities `v`, at time `t`: what the implicit
+/// integrators' stages and ends are made of.
+pub(crate) fn displaced<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    u: &SVector<f64, NV>,
+    s: f64,
+    v: &SVector<f64, NV>,
+    t: f64,
+) -> SystemState<NB> {
+    let mut y = *y0;
+    apply_increment(&mut y, u, s);
+    set_velocities(&mut y, v);
+    y.t = t;
+    y
+}
+
 /// The implicit midpoint rule's midpoint: `q_n ⊕ (h/2) w` with velocities
 /// `w`, at `t_n + h/2`.
 pub(crate) fn midpoint_state<const NB: usize, const NV: usize>(
@@ -910,11 +926,7 @@ pub(crate) fn midpoint_state<const NB: usize, const NV: usize>(
     w: &SVector<f64, NV>,
     h: f64,
 ) -> SystemState<NB> {
-    let mut mid = *y0;
-    apply_increment(&mut mid, w, 0.5 * h);
-    set_velocities(&mut mid, w);
-    mid.t = y0.t + 0.5 * h;
-    mid
+    displaced(y0, w, 0.5 * h, w, y0.t + 0.5 * h)
 }
 
 /// The implicit midpoint rule's end of step from `y0` (velocities `v0`)
@@ -926,11 +938,7 @@ pub(crate) fn midpoint_end<const NB: usize, const NV: usize>(
     w: &SVector<f64, NV>,
     h: f64,
 ) -> SystemState<NB> {
-    let mut y = *y0;
-    apply_increment(&mut y, w, h);
-    set_velocities(&mut y, &(w * 2.0 - v0));
-    y.t = y0.t + h;
-    y
+    displaced(y0, w, h, &(w * 2.0 - v0), y0.t + h)
 }
 
 /// Whether a Newton correction of `size` ends an implicit integrator's

@@ -83,8 +83,8 @@
 use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
 use super::adaptive::{Tolerance, increment_error};
-use super::{AppliedLoads, Factored, NewtonMatrix, Simulation, StepRule, newton_done};
-use crate::analysis::{AnalysisError, apply_increment, set_velocities, velocity_vector};
+use super::{AppliedLoads, Factored, NewtonMatrix, Simulation, StepRule, displaced, newton_done};
+use crate::analysis::{AnalysisError, velocity_vector};
 use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
 
@@ -219,7 +219,7 @@ where
         };
         let (zu, zv, theta) = self.radau_newton(&y0, &v0, z, &factors, rule, &stop, &mut step)?;
         self.radau = Some(RadauHistory { end: None, h, zu, zv, jacobian: Jacobian { theta, ..jacobian } });
-        let y1 = stage(&y0, &zu[2], &(v0 + zv[2]), y0.t + h);
+        let y1 = displaced(&y0, &zu[2], 1.0, &(v0 + zv[2]), y0.t + h);
         if let Some(tol) = tolerance {
             step.error = self.radau_estimate(&y0, &y1, (&v0, &a0), (&zu, &zv), &factors, rule, tol, &mut step)?;
         }
@@ -269,7 +269,7 @@ where
             let mut fv: Stages<NV> = [SVector::zeros(); 3];
             for i in 0..3 {
                 let v = v0 + zv[i];
-                fv[i] = self.solve(&stage(y0, &zu[i], &v, y0.t + C[i] * h), Some(rule))?.vdot;
+                fv[i] = self.solve(&displaced(y0, &zu[i], 1.0, &v, y0.t + C[i] * h), Some(rule))?.vdot;
                 fu[i] = position_rates::<NV>(&zu[i], &v);
             }
             step.evaluations += 3;
@@ -342,7 +342,7 @@ where
         }
         // The stiff components' overestimate removed: f at y_n + e.
         let v = v0 + ev;
-        let a = self.solve(&stage(y0, &eu, &v, y0.t), Some(rule))?.vdot;
+        let a = self.solve(&displaced(y0, &eu, 1.0, &v, y0.t), Some(rule))?.vdot;
         step.evaluations += 1;
         let (eu, ev) = factors.solve_real(&(position_rates::<NV>(&eu, &v) + pu), &(a + pv));
         Ok(increment_error(y0, y1, &eu, &ev, tolerance))
@@ -367,10 +367,10 @@ where
         let (mut aq, mut av) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
         for (c, (mut q, mut v)) in aq.column_iter_mut().zip(av.column_iter_mut()).enumerate() {
             let unit = |size: f64| SVector::<f64, NV>::from_fn(|i, _| if i == c { size } else { 0.0 });
-            let a = self.solve(&stage(y0, &unit(1e-7), &v0, y0.t), Some(rule))?.vdot;
+            let a = self.solve(&displaced(y0, &unit(1e-7), 1.0, &v0, y0.t), Some(rule))?.vdot;
             q.copy_from(&((a - a0) / 1e-7));
             let eps = 1e-7 * (1.0 + libm::fabs(v0.get(c).copied().unwrap_or(0.0)));
-            let a = self.solve(&stage(y0, &SVector::zeros(), &(v0 + unit(eps)), y0.t), Some(rule))?.vdot;
+            let a = self.solve(&displaced(y0, &SVector::zeros(), 1.0, &(v0 + unit(eps)), y0.t), Some(rule))?.vdot;
             v.copy_from(&((a - a0) / eps));
         }
         Ok((aq, av, 2 * NV))
@@ -440,20 +440,6 @@ fn collocation_weights(s: f64) -> [f64; 3] {
 /// `Σ_j m_ij x_j` for each `i`.
 fn mix<const NV: usize>(m: &[[f64; 3]; 3], x: &Stages<NV>) -> Stages<NV> {
     m.map(|row| x[0] * row[0] + x[1] * row[1] + x[2] * row[2])
-}
-
-/// `q_n ⊕ u` with velocities `v` at time `t`.
-fn stage<const NB: usize, const NV: usize>(
-    y0: &SystemState<NB>,
-    u: &SVector<f64, NV>,
-    v: &SVector<f64, NV>,
-    t: f64,
-) -> SystemState<NB> {
-    let mut s = *y0;
-    apply_increment(&mut s, u, 1.0);
-    set_velocities(&mut s, v);
-    s.t = t;
-    s
 }
 
 /// `U̇` at the increment `u` with velocities `v`: `ṙ` for the translations,
