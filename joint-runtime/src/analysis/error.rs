@@ -109,6 +109,18 @@ pub enum AnalysisError {
         /// What was asked for.
         what: &'static str,
     },
+    /// An implicit step's Newton iteration converged to a solution that gains
+    /// more energy than the work done on the mechanism allows: a spurious
+    /// solution of the integrator's equations, far from the motion (the step
+    /// is too large for them). The state is left unchanged; a smaller step
+    /// (or an integrator for stiff problems) follows the motion.
+    SpuriousSolution {
+        /// The energy gained beyond the work done (J).
+        gain: f64,
+        /// The energy in motion at the step's start plus the work done (J),
+        /// the scale the gain was compared with.
+        scale: f64,
+    },
     /// An eigenvalue or singular value iteration did not converge.
     NoConvergence {
         /// The decomposition.
@@ -163,6 +175,11 @@ impl fmt::Display for AnalysisError {
             AnalysisError::DenseOnly { what } => {
                 write!(f, "{what} runs on the dense path only; use `dynamics::Simulation`")
             }
+            AnalysisError::SpuriousSolution { gain, scale } => write!(
+                f,
+                "the implicit step's solution gains {gain:.3e} J beyond the work done (against {scale:.3e} J in motion): \
+                 a spurious solution, the step is too large"
+            ),
             AnalysisError::NoConvergence { decomposition } => write!(f, "the {decomposition} did not converge"),
             // The factorisation's own message is `source()`'s (the API guidelines:
             // a wrapped error is either shown or returned, not both).

@@ -7,6 +7,46 @@ use alloc::vec::Vec;
 use crate::analysis::InverseMass;
 use crate::linalg::LinalgError;
 
+/// Runs `$body` with `$r` a constant equal to the row count `$n` (0 to 6;
+/// larger blocks are refused by [`BlockFactor::new`]): the dispatch from a
+/// block's run-time size to the kernel monomorphised for it.
+macro_rules! with_rows {
+    ($n:expr, $r:ident => $body:expr) => {
+        match $n {
+            0 => {
+                const $r: usize = 0;
+                $body
+            }
+            1 => {
+                const $r: usize = 1;
+                $body
+            }
+            2 => {
+                const $r: usize = 2;
+                $body
+            }
+            3 => {
+                const $r: usize = 3;
+                $body
+            }
+            4 => {
+                const $r: usize = 4;
+                $body
+            }
+            5 => {
+                const $r: usize = 5;
+                $body
+            }
+            _ => {
+                const $r: usize = 6;
+                $body
+            }
+        }
+    };
+}
+
+mod kernels;
+
 /// A dense block of at most 6 × 6, row-major (`6 r + c`).
 type Block = [f64; 36];
 
@@ -56,6 +96,9 @@ pub struct BlockFactor {
     /// Scratch of the solves (allocated once).
     z: Vec<[f64; 6]>,
     lambda: Vec<[f64; 6]>,
+    /// Counts factorisations: a caller that remembers what it factorised
+    /// knows the factor is still that one while the count stands.
+    stamp: u64,
 }
 
 /// The slot of `(i, k)` in factor column `k`, if the pattern has it.
@@ -130,6 +173,7 @@ impl BlockFactor {
             dropped: Vec::new(),
             z: vec![[0.0; 6]; n],
             lambda: vec![[0.0; 6]; n],
+            stamp: 0,
         };
         f.l = vec![ZERO; f.col.len()];
         f.schedule()?;
@@ -221,6 +265,11 @@ impl BlockFactor {
         &self.dropped
     }
 
+    /// Which factorisation the factor holds (a count of them).
+    pub(crate) fn stamp(&self) -> u64 {
+        self.stamp
+    }
+
     /// The numerical rank of the last factorisation.
     pub fn rank(&self) -> usize {
         self.rank.iter().sum()
@@ -241,15 +290,26 @@ impl BlockFactor {
         tolerance: f64,
         keep: Option<&[([usize; 6], usize)]>,
     ) -> Result<(), LinalgError> {
+        self.stamp = self.stamp.wrapping_add(1);
         if values.len() != self.scatter.len() || !values.iter().all(|x| x.is_finite()) {
             return Err(LinalgError::NonFinite);
         }
-        self.jb.fill(ZERO);
+        // Entries outside the pattern were zeroed at construction and are
+        // never written: no clearing here.
         for (&(s, o), &v) in self.scatter.iter().zip(values) {
             self.jb[s][o] = v;
         }
         self.times_metric(w);
-        let tolerance = if tolerance > 0.0 { tolerance * self.largest_diagonal() } else { 0.0 };
+        // The diagonal blocks of `A` first: their largest entry scales the
+        // rank tolerance, and each is factorised where it was formed.
+        let mut largest = 0.0f64;
+        for k in 0..self.joints.len() {
+            let s = self.col_start[k];
+            self.gram(s, k);
+            let d = &self.l[s];
+            largest = (0..self.joints[k].rows).fold(largest, |m, r| m.max(d[7 * r]));
+        }
+        let tolerance = if tolerance > 0.0 { tolerance * largest } else { 0.0 };
         self.dropped.clear();
         for k in 0..self.joints.len() {
             let rule = keep.and_then(|r| r.get(k)).copied();
@@ -273,95 +333,57 @@ impl BlockFactor {
             for side in 0..2 {
                 let s = 2 * k + side;
                 let Some(m) = joint.bodies[side].and_then(|b| w.get(b)) else {
-                    self.jw[s] = ZERO;
+                    // A side on the ground: its J block is zero, so is J W.
                     continue;
                 };
-                let (j, out) = (&self.jb[s], &mut self.jw[s]);
-                for r in 0..joint.rows {
-                    for c in 0..3 {
-                        out[6 * r + c] = j[6 * r + c] * m.inv_mass;
-                        out[6 * r + 3 + c] = (0..3).map(|x| j[6 * r + 3 + x] * m.inv_inertia[(x, c)]).sum::<f64>();
-                    }
-                }
+                with_rows!(joint.rows, R => kernels::times_metric::<R>(&self.jb[s], m, &mut self.jw[s]));
             }
         }
     }
 
-    /// The largest diagonal entry of `A`, the scale of the rank tolerance: row
-    /// by row, without the off-diagonal entries of the blocks (a third of the
-    /// diagonal blocks' cost for a spherical joint's three rows).
-    fn largest_diagonal(&self) -> f64 {
-        let mut largest = 0.0f64;
-        for (k, joint) in self.joints.iter().enumerate() {
-            let s = self.col_start[k];
-            let shared = &self.shared[self.shared_start[s]..self.shared_start[s + 1]];
-            for r in 0..joint.rows {
-                let entry: f64 = shared
-                    .iter()
-                    .map(|&(si, sk, _)| {
-                        let (jw, jb) = (&self.jw[2 * k + si], &self.jb[2 * k + sk]);
-                        (0..6).map(|c| jw[6 * r + c] * jb[6 * r + c]).sum::<f64>()
-                    })
-                    .sum();
-                largest = largest.max(entry);
-            }
-        }
-        largest
-    }
-
-    /// `A_ik = Σ_b (J W)_i,b J_k,bᵀ` for slot `s = (i, k)`.
-    fn gram(&self, s: usize, k: usize) -> Block {
+    /// `A_ik = Σ_b (J W)_i,b J_k,bᵀ` for slot `s = (i, k)`, written into `l[s]`.
+    fn gram(&mut self, s: usize, k: usize) {
         let i = self.col[s];
         let (ri, rk) = (self.joints[i].rows, self.joints[k].rows);
-        let mut a = ZERO;
+        let out = &mut self.l[s];
+        *out = ZERO;
         for &(si, sk, _) in &self.shared[self.shared_start[s]..self.shared_start[s + 1]] {
             let (jw, jb) = (&self.jw[2 * i + si], &self.jb[2 * k + sk]);
-            for x in 0..ri {
-                for y in 0..rk {
-                    a[6 * x + y] += (0..6).map(|c| jw[6 * x + c] * jb[6 * y + c]).sum::<f64>();
-                }
-            }
+            with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK>(jw, jb, out, 1.0)));
         }
-        a
-    }
-
-    /// `A_ik − Σ_j L_ij L_kjᵀ` for slot `s = (i, k)`.
-    fn updated(&self, s: usize, k: usize) -> Block {
-        let mut b = self.gram(s, k);
-        let (ri, rk) = (self.joints[self.col[s]].rows, self.joints[k].rows);
-        for &(sij, skj) in &self.sched[self.sched_start[s]..self.sched_start[s + 1]] {
-            let (lij, lkj) = (&self.l[sij], &self.l[skj]);
-            for x in 0..ri {
-                for y in 0..rk {
-                    b[6 * x + y] -= (0..6).map(|c| lij[6 * x + c] * lkj[6 * y + c]).sum::<f64>();
-                }
-            }
-        }
-        b
     }
 
     /// Column `k`: the diagonal block by pivoted Cholesky, the blocks below by
-    /// triangular solves against it.
+    /// triangular solves against it, each slot updated in place by the
+    /// columns before it (left-looking: `A_ik − Σ_j L_ij L_kjᵀ`).
     fn factor_column(&mut self, k: usize, tolerance: f64, rule: Option<([usize; 6], usize)>) {
-        let d = self.updated(self.col_start[k], k);
-        let (perm, rank, l) = pivoted_cholesky(&d, self.joints[k].rows, tolerance, rule);
-        self.l[self.col_start[k]] = l;
+        let (d, rows) = (self.col_start[k], self.joints[k].rows);
+        self.update(d, k);
+        let (perm, rank) = with_rows!(rows, R => kernels::pivoted_cholesky::<R>(&mut self.l[d], tolerance, rule));
         self.perm[k] = perm;
         self.rank[k] = rank;
         let start = self.joints[k].start;
-        self.dropped.extend(perm[rank..self.joints[k].rows].iter().map(|&r| start + r));
-        for s in self.col_start[k] + 1..self.col_start[k + 1] {
-            let b = self.updated(s, k);
+        self.dropped.extend(perm[rank..rows].iter().map(|&r| start + r));
+        for s in d + 1..self.col_start[k + 1] {
+            self.gram(s, k);
+            self.update(s, k);
             let ri = self.joints[self.col[s]].rows;
-            let out = &mut self.l[s];
-            *out = ZERO;
-            for x in 0..ri {
-                // T y = B[x, perm[..rank]], T[a][c] = L_kk[perm[a]][c].
-                for a in 0..rank {
-                    let sum: f64 = (0..a).map(|c| l[6 * perm[a] + c] * out[6 * x + c]).sum();
-                    out[6 * x + a] = (b[6 * x + perm[a]] - sum) / l[6 * perm[a] + a];
-                }
-            }
+            // Every slot of column k comes after its diagonal slot `d`.
+            let (before, rest) = self.l.split_at_mut(s);
+            let (Some(lkk), Some(out)) = (before.get(d), rest.first_mut()) else { continue };
+            with_rows!(ri, RI => kernels::solve_below::<RI>(lkk, &perm, rank, out));
+        }
+    }
+
+    /// `l[s] −= Σ_j L_ij L_kjᵀ` for slot `s = (i, k)` (the scheduled products,
+    /// all from earlier columns, so from slots before `s`).
+    fn update(&mut self, s: usize, k: usize) {
+        let (ri, rk) = (self.joints[self.col[s]].rows, self.joints[k].rows);
+        let (before, rest) = self.l.split_at_mut(s);
+        let Some(out) = rest.first_mut() else { return };
+        for &(sij, skj) in &self.sched[self.sched_start[s]..self.sched_start[s + 1]] {
+            let (Some(lij), Some(lkj)) = (before.get(sij), before.get(skj)) else { continue };
+            with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK>(lij, lkj, out, -1.0)));
         }
     }
 
@@ -376,35 +398,18 @@ impl BlockFactor {
                 *cx = b.get(start + x).copied().unwrap_or(0.0);
             }
             for &(j, s) in &self.row[self.row_start[k]..self.row_start[k + 1]] {
-                for (x, cx) in c.iter_mut().enumerate().take(rows) {
-                    *cx -= (0..self.rank[j]).map(|y| self.l[s][6 * x + y] * z[j][y]).sum::<f64>();
-                }
+                with_rows!(rows, R => kernels::sub_ax::<R>(&self.l[s], &z[j], &mut c));
             }
-            let (l, perm) = (&self.l[self.col_start[k]], &self.perm[k]);
-            for a in 0..self.rank[k] {
-                let sum: f64 = (0..a).map(|y| l[6 * perm[a] + y] * z[k][y]).sum();
-                z[k][a] = (c[perm[a]] - sum) / l[6 * perm[a] + a];
-            }
+            z[k] = with_rows!(rows, R => kernels::forward::<R>(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c));
         }
         lambda.fill([0.0; 6]);
         for k in (0..n).rev() {
-            let rank = self.rank[k];
             let mut c = z[k];
             for s in self.col_start[k] + 1..self.col_start[k + 1] {
                 let i = self.col[s];
-                for (a, ca) in c.iter_mut().enumerate().take(rank) {
-                    *ca -= (0..self.joints[i].rows).map(|x| self.l[s][6 * x + a] * lambda[i][x]).sum::<f64>();
-                }
+                with_rows!(self.joints[i].rows, R => kernels::sub_atx::<R>(&self.l[s], &lambda[i], &mut c));
             }
-            let (l, perm) = (&self.l[self.col_start[k]], &self.perm[k]);
-            let mut y = [0.0; 6];
-            for a in (0..rank).rev() {
-                let sum: f64 = (a + 1..rank).map(|e| l[6 * perm[e] + a] * y[e]).sum();
-                y[a] = (c[a] - sum) / l[6 * perm[a] + a];
-            }
-            for a in 0..rank {
-                lambda[k][perm[a]] = y[a];
-            }
+            lambda[k] = kernels::backward(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c);
         }
         for (joint, values) in self.joints.iter().zip(&lambda) {
             for (x, &v) in values.iter().enumerate().take(joint.rows) {
@@ -415,65 +420,4 @@ impl BlockFactor {
         }
         (self.z, self.lambda) = (z, lambda);
     }
-}
-
-/// Pivoted Cholesky of the leading `n × n` of `d`: the columns `l_c` (rows in
-/// the block's order, column `c` in `6 r + c`), the pivot order and the rank.
-/// With `rule`, its pivots are kept (falling back to choosing them if one is
-/// not positive).
-fn pivoted_cholesky(
-    d: &Block,
-    n: usize,
-    tolerance: f64,
-    rule: Option<([usize; 6], usize)>,
-) -> ([usize; 6], usize, Block) {
-    if let Some((perm, rank)) = rule
-        && let Some(l) = cholesky_in_order(d, n, &perm, rank.min(n))
-    {
-        return (perm, rank.min(n), l);
-    }
-    let mut w = *d;
-    let mut perm = [0, 1, 2, 3, 4, 5];
-    let mut l = ZERO;
-    let mut rank = 0;
-    for c in 0..n {
-        let Some(p) = (c..n).max_by(|&a, &b| w[7 * perm[a]].total_cmp(&w[7 * perm[b]])) else { break };
-        let pivot = w[7 * perm[p]];
-        if pivot.is_nan() || pivot <= tolerance || pivot <= 0.0 {
-            break;
-        }
-        perm.swap(c, p);
-        eliminate(&mut w, &mut l, &perm, c, n);
-        rank = c + 1;
-    }
-    (perm, rank, l)
-}
-
-/// Column `c` of the factor at pivot `perm[c]`, and the update of the rest.
-fn eliminate(w: &mut Block, l: &mut Block, perm: &[usize; 6], c: usize, n: usize) {
-    let p = perm[c];
-    let root = libm::sqrt(w[7 * p]);
-    l[6 * p + c] = root;
-    for &r in &perm[c + 1..n] {
-        l[6 * r + c] = w[6 * r + p] / root;
-    }
-    for &r in &perm[c + 1..n] {
-        for &s in &perm[c + 1..n] {
-            w[6 * r + s] -= l[6 * r + c] * l[6 * s + c];
-        }
-    }
-}
-
-/// The factor with the pivots `perm[..rank]` prescribed, if each is positive.
-fn cholesky_in_order(d: &Block, n: usize, perm: &[usize; 6], rank: usize) -> Option<Block> {
-    let mut w = *d;
-    let mut l = ZERO;
-    for c in 0..rank {
-        let pivot = w[7 * perm[c]];
-        if pivot.is_nan() || pivot <= 0.0 {
-            return None;
-        }
-        eliminate(&mut w, &mut l, perm, c, n);
-    }
-    Some(l)
 }

@@ -30,7 +30,10 @@ use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::SparseDynamics;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
-use crate::dynamics::{AppliedLoads, ModifiedNewton, mass_times, midpoint_end, midpoint_state, update_blocks};
+use crate::dynamics::{
+    AppliedLoads, ModifiedNewton, energy_balance, mass_times, midpoint_end, midpoint_state, midpoint_work,
+    update_blocks,
+};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The midpoint's state, its dynamics and its Jacobian's values at one `w`.
@@ -74,8 +77,12 @@ where
                 break;
             }
         }
+        let end = midpoint_end(y0, &v0, &w, h);
+        let constraint_power = -mid.dynamics.lambda.dot(&j_mul::<S, NB, NNZ, NV, M>(&mid.values, &w));
+        let work = midpoint_work::<L, NB, NV>(&mut self.loads, &self.inertias, &mid.state, constraint_power, h);
+        energy_balance(&self.energy(y0), &self.energy(&end), work)?;
         let (iterations, matrices) = newton.counts();
-        Ok((midpoint_end(y0, &v0, &w, h), iterations, matrices))
+        Ok((end, iterations, matrices))
     }
 
     /// `R = w − v_n − (h/2) a(q_n ⊕ (h/2) w, w)` under the step's rule, and the

@@ -2,6 +2,7 @@
 //! [`Simulation`](crate::dynamics::Simulation)'s equations, in time and memory
 //! proportional to the scene.
 
+use alloc::boxed::Box;
 use alloc::vec::Vec;
 
 use nalgebra::{SVector, Vector3};
@@ -9,13 +10,14 @@ use nalgebra::{SVector, Vector3};
 use super::BlockFactor;
 use super::alpha::AlphaWorkspace;
 use super::solver::{Solver, j_mul, jt_mul, non_finite};
+use crate::OmegaBody;
 use crate::analysis::{
-    AnalysisError, AssemblyOptions, InverseMass, RowList, apply_metric, check_output, check_state,
+    AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric, check_output, check_state,
     normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::{
-    AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, StepReport, advance,
-    check_redundant, generalised_forces, near_enough, rk4_weights,
+    AppliedLoads, Energy, Integrator, Mechanics, NewtonMatrix, Rate, Reaction, SimulationOptions, SpringDamper,
+    Stabilisation, StepReport, advance, check_redundant, generalised_forces, near_enough, rk4_weights,
 };
 use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
@@ -46,6 +48,9 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     pub(super) solver: Solver<S, NB, NV, M, NNZ>,
     /// The pivots of the step's start, kept by its stages.
     rule: Vec<([usize; 6], usize)>,
+    /// The state the last step's projection ended at and the factor stamp
+    /// of `J W Jᵀ` there (see [`SparseSimulation::step_start`]).
+    projected: Box<(SystemState<NB>, Option<u64>)>,
     /// Generalised-α's pattern, factor and history (that integrator only).
     pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
     /// The options (RK4 or generalised-α; the integrator is fixed at
@@ -82,6 +87,7 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
+        check_options(&options)?;
         let alpha = match options.integrator {
             Integrator::Rk4 | Integrator::RadauIIA => None,
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => {
@@ -91,7 +97,20 @@ where
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
         let rule = Vec::with_capacity(S::BLOCKS.len());
-        Ok(SparseSimulation { scene, loads, springs, inertias, inverse, gravity, solver, rule, alpha, options })
+        let projected = Box::new((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
+        Ok(SparseSimulation {
+            scene,
+            loads,
+            springs,
+            inertias,
+            inverse,
+            gravity,
+            solver,
+            rule,
+            projected,
+            alpha,
+            options,
+        })
     }
 
     /// Kinetic, gravitational and elastic energy at `state`.
@@ -130,8 +149,15 @@ where
     ) -> Result<SparseDynamics<NV, M>, AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
         let values = self.scene.jacobian_values(state);
-        let gamma = self.scene.gamma(state);
+        let mut gamma = self.scene.gamma(state);
         check_output::<S, NB, NV, M, 1>("γ", &gamma)?;
+        if let Stabilisation::Baumgarte { alpha, beta } = self.options.stabilisation {
+            let (phi, phi_t) = (self.scene.phi(state), self.scene.phi_t(state));
+            check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
+            check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
+            let phi_dot = j_mul::<S, NB, NNZ, NV, M>(&values, &velocity_vector::<NB, NV>(state)) + phi_t;
+            gamma -= phi_dot * (2.0 * alpha) + phi * (beta * beta);
+        }
         let forces: SVector<f64, NV> =
             generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state);
         if !forces.iter().all(|x| x.is_finite()) {
@@ -140,7 +166,12 @@ where
         let minv_q = apply_metric::<NB, NV>(Some(&self.inverse), &forces);
         let rule = if keep { Some(&self.rule[..]) } else { None };
         let factor = &mut self.solver.factor;
-        factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
+        // The last step's projection factorised `J W Jᵀ` at the state the
+        // next step starts from, with no rule and the same tolerance.
+        let (at, stamp) = &*self.projected;
+        if keep || *stamp != Some(factor.stamp()) || at != state {
+            factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
+        }
         let mut lambda = j_mul::<S, NB, NNZ, NV, M>(&values, &minv_q) - gamma;
         factor.solve(lambda.as_mut_slice());
         let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(&values, &lambda));
@@ -197,11 +228,20 @@ where
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
+        // `options` is public: what `new` refused may have been set since.
+        check_options(&self.options)?;
         let mut report = StepReport::default();
         let mut y = match self.options.integrator {
             Integrator::Rk4 => {
                 let (y0, d1) = self.step_start(state)?;
-                self.step_rk4(&y0, d1.vdot, h)?
+                let (y, last_stage) = self.step_rk4(&y0, d1.vdot, h)?;
+                if let Some(options) = self.options.projection {
+                    let mut y = y;
+                    report.projection_iterations = self.settle(&mut y, &last_stage, &options);
+                    y
+                } else {
+                    y
+                }
             }
             Integrator::GeneralisedAlpha => {
                 self.alpha_workspace()?;
@@ -212,7 +252,8 @@ where
                 (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
                 y
             }
-            // Its complex stage system would need a complex saddle-point factor.
+            // Refused by `check_options`: its complex stage system would need a
+            // complex saddle-point factor.
             Integrator::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
             Integrator::ImplicitMidpoint => {
                 self.alpha_workspace()?;
@@ -225,7 +266,8 @@ where
         match self.options.projection {
             Some(options) => {
                 let (it, c, v) = self.project(&mut y, &options)?;
-                (report.projection_iterations, report.constraint_residual, report.velocity_residual) = (it, c, v);
+                report.projection_iterations += it;
+                (report.constraint_residual, report.velocity_residual) = (c, v);
             }
             None => {
                 report.constraint_residual = self.scene.phi(&y).norm();
@@ -271,7 +313,9 @@ where
         Ok(())
     }
 
-    /// One RK4 step from `y0` (its accelerations `vdot`), under the rule of its start.
+    /// One RK4 step from `y0` (its accelerations `vdot`), under the rule of
+    /// its start: the end and the last stage's state (whose `J W Jᵀ` the
+    /// factor holds on return).
     // Not inlined (nor is generalised-α's step): each keeps its stages' states
     // in its own frame, so a 500-body step fits a 2 MiB stack.
     #[inline(never)]
@@ -280,13 +324,42 @@ where
         y0: &SystemState<NB>,
         vdot: SVector<f64, NV>,
         h: f64,
-    ) -> Result<SystemState<NB>, AnalysisError> {
+    ) -> Result<(SystemState<NB>, SystemState<NB>), AnalysisError> {
         let t0 = y0.t;
         let k1 = Rate::new(y0, vdot);
         let k2 = self.rate(&advance(y0, [(&k1, 0.5)], h, t0 + 0.5 * h))?;
         let k3 = self.rate(&advance(y0, [(&k2, 0.5)], h, t0 + 0.5 * h))?;
-        let k4 = self.rate(&advance(y0, [(&k3, 1.0)], h, t0 + h))?;
-        Ok(advance(y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h))
+        let last = advance(y0, [(&k3, 1.0)], h, t0 + h);
+        let k4 = self.rate(&last)?;
+        Ok((advance(y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h), last))
+    }
+
+    /// Simplified Newton on Φ = 0 at the end of an RK4 step, on the factor its
+    /// last stage left (`J W Jᵀ` at `at`, `O(h)` from `y`, under the step's
+    /// rule): minimum-norm corrections in the mass metric, each a solve and no
+    /// factorisation, while each at least halves ‖Φ‖ (they contract at a rate
+    /// of order `h |v|`). Returns the iterations taken; the exact projection
+    /// that follows then usually needs none of its own, only the one
+    /// factorisation at the end state that its velocity projection uses (and
+    /// the next step's start reuses).
+    fn settle(&mut self, y: &mut SystemState<NB>, at: &SystemState<NB>, options: &AssemblyOptions) -> usize {
+        let values = self.scene.jacobian_values(at);
+        let inverse = self.inverse;
+        let mut norm = self.scene.phi(y).norm();
+        let mut iterations = 0;
+        while norm > options.tolerance && iterations < options.max_iterations {
+            let phi = self.scene.phi(y);
+            let delta = self.solver.min_norm_factored(&values, -phi, &inverse);
+            let mut trial = *y;
+            apply_increment(&mut trial, &delta, 1.0);
+            let n = self.scene.phi(&trial).norm();
+            if n.is_nan() || n > 0.5 * norm {
+                break;
+            }
+            (*y, norm) = (trial, n);
+            iterations += 1;
+        }
+        iterations
     }
 
     /// Projects `state` onto Φ = 0 (damped minimum-norm Newton in the mass
@@ -301,13 +374,45 @@ where
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
         let inverse = self.inverse;
-        let (iterations, residual) = near_enough(self.solver.newton(self.scene, state, options, &inverse), options)?;
+        let newton = self.solver.newton(self.scene, state, options, &inverse);
+        // A converged Newton factorised `J W Jᵀ` last at the state it returns
+        // (to list its redundant rows), in this metric and with this
+        // tolerance: the velocities are projected on that factor. Stopping
+        // short (accepted by `near_enough`) left it one state behind.
+        let factored = newton.is_ok();
+        let (iterations, residual) = near_enough(newton, options)?;
         let values = self.scene.jacobian_values(state);
         let phi_t = self.scene.phi_t(state);
         let v = velocity_vector::<NB, NV>(state);
         let b = -(j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t);
-        let v = v + self.solver.min_norm(&values, b, &inverse, options.rank_tolerance)?;
+        let dv = if factored {
+            self.solver.min_norm_factored(&values, b, &inverse)
+        } else {
+            self.solver.min_norm(&values, b, &inverse, options.rank_tolerance)?
+        };
+        let v = v + dv;
         set_velocities(state, &v);
+        // Velocities do not enter `J`: the factor is `J W Jᵀ` at `state`.
+        let reusable = factored && options.rank_tolerance == self.options.rank_tolerance;
+        *self.projected = (*state, reusable.then(|| self.solver.factor.stamp()));
         Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
     }
+}
+
+/// Refuses the options this path cannot honour, rather than ignoring them:
+/// Radau IIA (its complex stage system has no saddle-point factor here) and
+/// Newton matrices by differences (the sparse implicit steps are built on the
+/// generated second-order terms).
+///
+/// # Errors
+/// [`AnalysisError::DenseOnly`] naming the option.
+fn check_options(options: &SimulationOptions) -> Result<(), AnalysisError> {
+    if options.integrator == Integrator::RadauIIA {
+        return Err(AnalysisError::DenseOnly { what: "Radau IIA" });
+    }
+    let implicit = matches!(options.integrator, Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint);
+    if implicit && options.newton_matrix == NewtonMatrix::FiniteDifferences {
+        return Err(AnalysisError::DenseOnly { what: "a Newton matrix by finite differences" });
+    }
+    Ok(())
 }

@@ -24,10 +24,13 @@ pub(crate) fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usiz
     x: &SVector<f64, NV>,
 ) -> SVector<f64, M> {
     let mut out = SVector::<f64, M>::zeros();
-    for (row, o) in out.iter_mut().enumerate() {
-        for (v, &c) in row_entries::<S, NB, NNZ>(values, row) {
-            *o += v * x.get(c).copied().unwrap_or(0.0);
+    let x = x.as_slice();
+    for (o, (row, columns)) in out.iter_mut().zip(rows::<S, NB, NNZ>(values)) {
+        let mut sum = 0.0;
+        for (v, &c) in row.iter().zip(columns) {
+            sum += v * x.get(c).copied().unwrap_or(0.0);
         }
+        *o = sum;
     }
     out
 }
@@ -38,9 +41,10 @@ pub(crate) fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usi
     y: &SVector<f64, M>,
 ) -> SVector<f64, NV> {
     let mut out = SVector::<f64, NV>::zeros();
-    for (row, &yr) in y.iter().enumerate() {
-        for (v, &c) in row_entries::<S, NB, NNZ>(values, row) {
-            if let Some(o) = out.get_mut(c) {
+    let o = out.as_mut_slice();
+    for (&yr, (row, columns)) in y.iter().zip(rows::<S, NB, NNZ>(values)) {
+        for (v, &c) in row.iter().zip(columns) {
+            if let Some(o) = o.get_mut(c) {
                 *o += v * yr;
             }
         }
@@ -48,19 +52,16 @@ pub(crate) fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usi
     out
 }
 
-/// Row `row`'s entries and their columns (none for a row outside the pattern).
-// Slices of the row, not `skip(start)` over all entries: that was 12 % of a
-// 160-body RK4 step's instructions.
-fn row_entries<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+/// Each row's entries and their columns, in row order.
+// Slices of the rows, walked once: per-row look-ups and `skip(start)` over all
+// entries cost a 10-bar chain's RK4 step an eighth of its instructions.
+fn rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
     values: &[f64; NNZ],
-    row: usize,
-) -> impl Iterator<Item = (&f64, &'static usize)> {
-    let range = match (S::ROW_STARTS.get(row), S::ROW_STARTS.get(row + 1)) {
-        (Some(&a), Some(&b)) => a..b,
-        _ => 0..0,
-    };
-    let values = values.get(range.clone()).unwrap_or(&[]);
-    values.iter().zip(S::COLUMNS.get(range).unwrap_or(&[]))
+) -> impl Iterator<Item = (&[f64], &'static [usize])> {
+    S::ROW_STARTS.windows(2).map(move |w| match *w {
+        [a, b] => (values.get(a..b).unwrap_or(&[]), S::COLUMNS.get(a..b).unwrap_or(&[])),
+        _ => (&[][..], &[][..]),
+    })
 }
 
 pub(crate) fn non_finite(quantity: &'static str) -> AnalysisError {
@@ -103,9 +104,20 @@ where
         tolerance: f64,
     ) -> Result<SVector<f64, NV>, AnalysisError> {
         self.factor.factor(values, w, tolerance, None).map_err(|_| non_finite("J"))?;
+        Ok(self.min_norm_factored(values, b, w))
+    }
+
+    /// [`Solver::min_norm`] on the factor as it stands: `values` and `w` must
+    /// be those it was last factorised with.
+    pub(crate) fn min_norm_factored(
+        &mut self,
+        values: &[f64; NNZ],
+        b: SVector<f64, M>,
+        w: &[InverseMass; NB],
+    ) -> SVector<f64, NV> {
         let mut y = b;
         self.factor.solve(y.as_mut_slice());
-        Ok(apply_metric::<NB, NV>(Some(w), &jt_mul::<S, NB, NNZ, NV, M>(values, &y)))
+        apply_metric::<NB, NV>(Some(w), &jt_mul::<S, NB, NNZ, NV, M>(values, &y))
     }
 
     /// [`Solver::min_norm`], then the consistency check of the dense

@@ -1,0 +1,140 @@
+//! µs per RK4 step (h = 1 ms, projection after every step) of the scenes the
+//! peers are timed on (`../shared/peers/`: MuJoCo's `bench_step`, Pinocchio's
+//! `bench_tree`): the chain of N bars on spherical joints and the arm of N
+//! bars on revolute joints (axes z, y, z, …). One JSON line, like the peers',
+//! so that both can be run alternately in one session.
+//!
+//! ```text
+//! cargo run --release --example peer_bench -- chain 10 [STEPS] [ROUNDS]
+//! cargo run --release --example peer_bench -- arm 6 [STEPS] [ROUNDS]
+//! ```
+//!
+//! Each round restarts from the scene's start and times `STEPS` steps; the
+//! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
+//! after the round, which the peers print too (the arm of 6 after 2 s:
+//! `(-3.59644741, 0, -0.88653365)`).
+
+use std::time::Instant;
+
+use joint_examples::scaling::chain_start;
+use joint_runtime::dynamics::{NoLoads, SimulationOptions};
+use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
+
+joint_examples::chain_scene!(Chain3, 3);
+joint_examples::chain_scene!(Chain5, 5);
+joint_examples::chain_scene!(Chain10, 10);
+joint_examples::chain_scene!(Chain20, 20);
+joint_examples::chain_scene!(Chain40, 40);
+joint_examples::chain_scene!(Chain160, 160);
+
+/// Declares an arm of bars `bar[$n]` on revolute joints: `$base` on the
+/// ground, then `$name = (parent, child, axis)` for the rest.
+macro_rules! arm_scene {
+    ($scene:ident, $n:tt, $(($joint:ident, $parent:tt, $child:tt, $axis:tt)),*) => {
+        /// An arm of bars on revolute joints, axes alternating z and y.
+        #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
+        #[scene(gravity = [0, 0, -9.81])]
+        #[body(bar[$n], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
+        #[joint(base = revolute(ground, bar[0]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+        $(#[joint($joint = revolute(bar[$parent], bar[$child]), axis1 = $axis, axis2 = $axis, rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])])*
+        struct $scene;
+    };
+}
+
+arm_scene!(Arm2, 2, (j2, 0, 1, [0, 1, 0]));
+arm_scene!(
+    Arm6,
+    6,
+    (j2, 0, 1, [0, 1, 0]),
+    (j3, 1, 2, [0, 0, 1]),
+    (j4, 2, 3, [0, 1, 0]),
+    (j5, 3, 4, [0, 0, 1]),
+    (j6, 4, 5, [0, 1, 0])
+);
+arm_scene!(
+    Arm12,
+    12,
+    (j2, 0, 1, [0, 1, 0]),
+    (j3, 1, 2, [0, 0, 1]),
+    (j4, 2, 3, [0, 1, 0]),
+    (j5, 3, 4, [0, 0, 1]),
+    (j6, 4, 5, [0, 1, 0]),
+    (j7, 5, 6, [0, 0, 1]),
+    (j8, 6, 7, [0, 1, 0]),
+    (j9, 7, 8, [0, 0, 1]),
+    (j10, 8, 9, [0, 1, 0]),
+    (j11, 9, 10, [0, 0, 1]),
+    (j12, 10, 11, [0, 1, 0])
+);
+
+/// The arm's start: bar `i` centred at `(i + 0.5, 0, 0)`, unrotated, at rest.
+fn arm_start<const NB: usize>() -> SystemState<NB> {
+    let bodies = core::array::from_fn(|i| {
+        let r = Vector3::new(i as f64 + 0.5, 0.0, 0.0);
+        OmegaBody::from_rotation(r, &UnitQuaternion::identity(), Vector3::zeros(), Vector3::zeros())
+    });
+    SystemState { bodies, t: 0.0 }
+}
+
+/// Times `rounds` runs of `steps` steps and prints the JSON line.
+fn run<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    name: &str,
+    scene: &S,
+    start: SystemState<NB>,
+    steps: usize,
+    rounds: usize,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let mut sim = SparseSimulation::new(scene, NoLoads, &[], SimulationOptions::default())?;
+    let mut us = Vec::with_capacity(rounds);
+    let mut end = start;
+    for _ in 0..rounds {
+        let mut state = start;
+        let clock = Instant::now();
+        for _ in 0..steps {
+            sim.step(&mut state, 1e-3)?;
+        }
+        us.push(clock.elapsed().as_secs_f64() * 1e6 / steps as f64);
+        end = state;
+    }
+    us.sort_by(f64::total_cmp);
+    let last = end.bodies[NB - 1];
+    let tip = last.point(&Vector3::new(0.5, 0.0, 0.0));
+    println!(
+        "{{\"peer\":\"joint\",\"scene\":\"{name}\",\"bodies\":{NB},\"rows\":{M},\"steps\":{steps},\
+         \"us_per_step\":{:.4},\"us_min\":{:.4},\"us_max\":{:.4},\"tip\":[{:.10},{:.10},{:.10}],\"time\":{:.6}}}",
+        us[us.len() / 2],
+        us[0],
+        us[us.len() - 1],
+        tip.x,
+        tip.y,
+        tip.z,
+        end.t
+    );
+    Ok(())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let kind = args.first().map_or("chain", String::as_str);
+    let n: usize = args.get(1).map_or(Ok(10), |s| s.parse())?;
+    let steps: usize = args.get(2).map_or(Ok(2000), |s| s.parse())?;
+    let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
+    let name = format!("{kind}{n}");
+    match (kind, n) {
+        ("chain", 3) => run(&name, &Chain3, chain_start(), steps, rounds),
+        ("chain", 5) => run(&name, &Chain5, chain_start(), steps, rounds),
+        ("chain", 10) => run(&name, &Chain10, chain_start(), steps, rounds),
+        ("chain", 20) => run(&name, &Chain20, chain_start(), steps, rounds),
+        ("chain", 40) => run(&name, &Chain40, chain_start(), steps, rounds),
+        ("chain", 160) => run(&name, &Chain160, chain_start(), steps, rounds),
+        ("arm", 2) => run(&name, &Arm2, arm_start(), steps, rounds),
+        ("arm", 6) => run(&name, &Arm6, arm_start(), steps, rounds),
+        ("arm", 12) => run(&name, &Arm12, arm_start(), steps, rounds),
+        _ => Err(format!("no scene {name}: chain 3, 5, 10, 20, 40, 160 or arm 2, 6, 12").into()),
+    }
+}
