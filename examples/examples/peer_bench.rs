@@ -7,7 +7,11 @@
 //! ```text
 //! cargo run --release --example peer_bench -- chain 10 [STEPS] [ROUNDS]
 //! cargo run --release --example peer_bench -- arm 6 [STEPS] [ROUNDS]
+//! cargo run --release --example peer_bench -- double-cardan 3 [STEPS] [ROUNDS]
 //! ```
+//!
+//! `double-cardan 3` is `step_bench`'s free double Cardan shaft (3 bodies,
+//! 19 rows, 10 rad/s), which has no peer.
 //!
 //! Each round restarts from the scene's start and times `STEPS` steps; the
 //! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
@@ -16,6 +20,7 @@
 
 use std::time::Instant;
 
+use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::scaling::chain_start;
 use joint_runtime::dynamics::{NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
@@ -135,6 +140,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("arm", 2) => run(&name, &Arm2, arm_start(), steps, rounds),
         ("arm", 6) => run(&name, &Arm6, arm_start(), steps, rounds),
         ("arm", 12) => run(&name, &Arm12, arm_start(), steps, rounds),
-        _ => Err(format!("no scene {name}: chain 3, 5, 10, 20, 40, 160 or arm 2, 6, 12").into()),
+        ("double-cardan", 3) => {
+            let geometry = Geometry::new(30f64.to_radians(), Arrangement::Z, Phasing::InPhase).ok_or("geometry")?;
+            let start = DoubleCardan::new(geometry, 10.0).initial_state()?;
+            run(&name, &FreeDoubleCardan::new(&geometry), start, steps, rounds)
+        }
+        _ => Err(format!("no scene {name}: chain 3, 5, 10, 20, 40, 160, arm 2, 6, 12 or double-cardan 3").into()),
     }
 }

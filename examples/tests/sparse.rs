@@ -96,6 +96,35 @@ fn baumgarte_as_on_the_dense_path() {
     });
 }
 
+/// An RK4 step starts on the factorisation its projection made at the
+/// state it returned: the dynamics there and the next step are bit for bit a
+/// fresh simulation's (Bricard, with its redundant row); a projection with
+/// another rank tolerance is not reused.
+#[test]
+fn the_projections_factor_serves_the_next_step() {
+    let scene = bricard::scene();
+    let options = SimulationOptions::default();
+    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+    let mut state = bricard::initial_state();
+    for _ in 0..5 {
+        sim.step(&mut state, 1e-3).expect("step");
+    }
+    let mut fresh = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+    let (a, b) = (sim.dynamics(&state).expect("reused"), fresh.dynamics(&state).expect("fresh"));
+    assert_eq!((a.vdot, a.lambda), (b.vdot, b.lambda));
+    assert_eq!(sim.redundant().len(), 1);
+    let (mut x, mut y) = (state, state);
+    sim.step(&mut x, 1e-3).expect("step");
+    fresh.step(&mut y, 1e-3).expect("step");
+    assert_eq!(x, y);
+    // A projection made with a much looser rank tolerance drops other rows:
+    // the dynamics must not take its factor.
+    let loose = AssemblyOptions::default().with_rank_tolerance(0.5);
+    sim.project(&mut x, &loose).expect("projection");
+    let (a, b) = (sim.dynamics(&x).expect("refactorised"), fresh.dynamics(&x).expect("fresh"));
+    assert_eq!((a.vdot, a.lambda), (b.vdot, b.lambda));
+}
+
 #[test]
 fn bricard_with_its_redundant_row() {
     same(&bricard::scene(), bricard::initial_state(), 50, 1e-3);

@@ -12,31 +12,14 @@ use crate::linalg::LinalgError;
 /// block's run-time size to the kernel monomorphised for it.
 macro_rules! with_rows {
     ($n:expr, $r:ident => $body:expr) => {
+        with_rows!(@arms $n, $r, $body, 0 1 2 3 4 5)
+    };
+    (@arms $n:expr, $r:ident, $body:expr, $($k:literal)*) => {
         match $n {
-            0 => {
-                const $r: usize = 0;
+            $($k => {
+                const $r: usize = $k;
                 $body
-            }
-            1 => {
-                const $r: usize = 1;
-                $body
-            }
-            2 => {
-                const $r: usize = 2;
-                $body
-            }
-            3 => {
-                const $r: usize = 3;
-                $body
-            }
-            4 => {
-                const $r: usize = 4;
-                $body
-            }
-            5 => {
-                const $r: usize = 5;
-                $body
-            }
+            })*
             _ => {
                 const $r: usize = 6;
                 $body
@@ -384,6 +367,45 @@ impl BlockFactor {
         for &(sij, skj) in &self.sched[self.sched_start[s]..self.sched_start[s + 1]] {
             let (Some(lij), Some(lkj)) = (before.get(sij), before.get(skj)) else { continue };
             with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK>(lij, lkj, out, -1.0)));
+        }
+    }
+
+    /// `out = J x` from the Jacobian of the last factorisation, block by
+    /// block (regular six-column rows with their structural zeros, which
+    /// beats the CSR walk's indirection at these sizes).
+    pub(crate) fn j_mul(&self, x: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        for (k, joint) in self.joints.iter().enumerate() {
+            let mut acc = [0.0; 6];
+            for (side, body) in joint.bodies.iter().enumerate() {
+                let Some(x) = body.and_then(|b| x.get(6 * b..6 * b + 6)).and_then(|x| <&[f64; 6]>::try_from(x).ok())
+                else {
+                    continue;
+                };
+                with_rows!(joint.rows, R => kernels::add_jx::<R>(&self.jb[2 * k + side], x, &mut acc));
+            }
+            for (o, &a) in out.iter_mut().skip(joint.start).zip(&acc[..joint.rows]) {
+                *o = a;
+            }
+        }
+    }
+
+    /// `out = Jᵀ y` from the Jacobian of the last factorisation, block by block.
+    pub(crate) fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        for (k, joint) in self.joints.iter().enumerate() {
+            let mut yk = [0.0; 6];
+            for (v, &w) in yk.iter_mut().zip(y.iter().skip(joint.start).take(joint.rows)) {
+                *v = w;
+            }
+            for (side, body) in joint.bodies.iter().enumerate() {
+                let Some(o) =
+                    body.and_then(|b| out.get_mut(6 * b..6 * b + 6)).and_then(|o| <&mut [f64; 6]>::try_from(o).ok())
+                else {
+                    continue;
+                };
+                with_rows!(joint.rows, R => kernels::add_jty::<R>(&self.jb[2 * k + side], &yk, o));
+            }
         }
     }
 

@@ -9,7 +9,7 @@ use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
 use super::alpha::AlphaWorkspace;
-use super::solver::{Solver, j_mul, jt_mul, non_finite};
+use super::solver::{Solver, j_mul, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric, check_output, check_state,
@@ -48,9 +48,10 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     pub(super) solver: Solver<S, NB, NV, M, NNZ>,
     /// The pivots of the step's start, kept by its stages.
     rule: Vec<([usize; 6], usize)>,
-    /// The state the last step's projection ended at and the factor stamp
-    /// of `J W Jᵀ` there (see [`SparseSimulation::step_start`]).
-    projected: Box<(SystemState<NB>, Option<u64>)>,
+    /// The state the last projection ended at, and the stamp and rank
+    /// tolerance of the factorisation of `J W Jᵀ` it made there, which the
+    /// dynamics at that state reuse while the factor holds it.
+    projected: Box<(SystemState<NB>, Option<(u64, f64)>)>,
     /// Generalised-α's pattern, factor and history (that integrator only).
     pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
     /// The options (RK4 or generalised-α; the integrator is fixed at
@@ -168,14 +169,22 @@ where
         let factor = &mut self.solver.factor;
         // The last step's projection factorised `J W Jᵀ` at the state the
         // next step starts from, with no rule and the same tolerance.
-        let (at, stamp) = &*self.projected;
-        if keep || *stamp != Some(factor.stamp()) || at != state {
+        let (at, made) = &*self.projected;
+        if keep || *made != Some((factor.stamp(), self.options.rank_tolerance)) || at != state {
             factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
         }
-        let mut lambda = j_mul::<S, NB, NNZ, NV, M>(&values, &minv_q) - gamma;
+        // The products on the factor's own blocks of `J` (the values just
+        // factorised, or the same ones at the same state).
+        let mut lambda = SVector::<f64, M>::zeros();
+        factor.j_mul(minv_q.as_slice(), lambda.as_mut_slice());
+        lambda -= gamma;
         factor.solve(lambda.as_mut_slice());
-        let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_mul::<S, NB, NNZ, NV, M>(&values, &lambda));
-        let r = j_mul::<S, NB, NNZ, NV, M>(&values, &vdot) - gamma;
+        let mut jt_lambda = SVector::<f64, NV>::zeros();
+        factor.jt_mul(lambda.as_slice(), jt_lambda.as_mut_slice());
+        let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_lambda);
+        let mut r = SVector::<f64, M>::zeros();
+        factor.j_mul(vdot.as_slice(), r.as_mut_slice());
+        r -= gamma;
         if !r.norm().is_finite() || !vdot.iter().all(|x| x.is_finite()) {
             return Err(non_finite("accelerations"));
         }
@@ -393,8 +402,7 @@ where
         let v = v + dv;
         set_velocities(state, &v);
         // Velocities do not enter `J`: the factor is `J W Jᵀ` at `state`.
-        let reusable = factored && options.rank_tolerance == self.options.rank_tolerance;
-        *self.projected = (*state, reusable.then(|| self.solver.factor.stamp()));
+        *self.projected = (*state, factored.then(|| (self.solver.factor.stamp(), options.rank_tolerance)));
         Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
     }
 }

@@ -182,3 +182,27 @@ pub(super) fn backward(l: &Block, perm: &[usize; 6], rank: usize, c: &[f64; 6]) 
     }
     lambda
 }
+
+/// `acc[r] += Σ_c j[r][c] x[c]` for `r < R` (one side of a joint's rows of `J x`).
+#[inline(always)]
+pub(super) fn add_jx<const R: usize>(j: &Block, x: &[f64; 6], acc: &mut [f64; 6]) {
+    for r in 0..R {
+        let mut sum = 0.0;
+        for c in 0..6 {
+            sum += j[6 * r + c] * x[c];
+        }
+        acc[r] += sum;
+    }
+}
+
+/// `out[c] += Σ_r j[r][c] y[r]` over `r < R` (one side of a joint's part of `Jᵀ y`).
+#[inline(always)]
+pub(super) fn add_jty<const R: usize>(j: &Block, y: &[f64; 6], out: &mut [f64; 6]) {
+    for c in 0..6 {
+        let mut sum = 0.0;
+        for r in 0..R {
+            sum += j[6 * r + c] * y[r];
+        }
+        out[c] += sum;
+    }
+}
