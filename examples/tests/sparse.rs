@@ -125,6 +125,24 @@ fn the_projections_factor_serves_the_next_step() {
     assert_eq!((a.vdot, a.lambda), (b.vdot, b.lambda));
 }
 
+/// An RK4 step with projection factorises `J M⁻¹ Jᵀ` four times on a chain
+/// (three stages and the end state, which the next step starts on), a fifth
+/// only when renormalising the start's quaternions moves a bit.
+#[test]
+fn four_factorisations_an_rk4_step() {
+    joint_examples::chain_scene!(Chain10, 10);
+    let scene = Chain10;
+    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    let mut state = scaling::chain_start::<10>();
+    sim.step(&mut state, 1e-3).expect("step");
+    let before = sim.factor().factorisations();
+    for _ in 0..50 {
+        sim.step(&mut state, 1e-3).expect("step");
+    }
+    let per_step = (sim.factor().factorisations() - before) as f64 / 50.0;
+    assert!((4.0..=4.5).contains(&per_step), "{per_step} factorisations a step");
+}
+
 #[test]
 fn bricard_with_its_redundant_row() {
     same(&bricard::scene(), bricard::initial_state(), 50, 1e-3);

@@ -117,8 +117,9 @@ pub enum AnalysisError {
     SpuriousSolution {
         /// The energy gained beyond the work done (J).
         gain: f64,
-        /// The energy in motion at the step's start plus the work done (J),
-        /// the scale the gain was compared with.
+        /// The scale the gain was compared with (J): the kinetic and elastic
+        /// energy at the step's start, the size of the work done and the
+        /// change of gravitational energy.
         scale: f64,
     },
     /// An eigenvalue or singular value iteration did not converge.

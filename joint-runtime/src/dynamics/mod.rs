@@ -65,9 +65,11 @@
 //!   equations can have solutions far from the motion, and Newton may converge
 //!   to one (on the stiff press at `h ω = 70`, a state 1.2 m off). A step is
 //!   therefore returned only if its energy balance holds: the energy gained,
-//!   less the work of the user's loads and the constraint forces at the
-//!   midpoint, at most a tenth of the energy in motion and that work;
-//!   otherwise [`AnalysisError::SpuriousSolution`] and the state unchanged.
+//!   less the work of the user's loads (evaluated once more, at the converged
+//!   midpoint) and of the constraint forces there, at most a tenth of the
+//!   step's energy scale (kinetic and elastic energy at its start, the work's
+//!   size and the change of gravitational energy); otherwise
+//!   [`AnalysisError::SpuriousSolution`] and the state unchanged.
 //! - [`Integrator::GeneralisedAlpha`]: the index-3 generalised-α method on the
 //!   Lie group (`generalised_alpha.rs`): `Φ(q) = 0` holds at every step, high
 //!   frequencies are damped to [`SimulationOptions::spectral_radius`] per step,
@@ -442,7 +444,11 @@ pub struct StepReport {
     pub newton_iterations: usize,
     /// Iteration matrices the implicit integrator built and factorised (0 for RK4).
     pub newton_matrices: usize,
-    /// Newton iterations of the position projection.
+    /// Newton iterations of the position projection. On the sparse path an
+    /// RK4 step's projection starts with simplified Newton on its last
+    /// stage's factor (each iteration a solve, no factorisation); those
+    /// iterations are counted here too, so the count may exceed the
+    /// projection's `max_iterations`.
     pub projection_iterations: usize,
     /// ‖Φ‖₂ at the end of the step.
     pub constraint_residual: f64,
@@ -971,8 +977,10 @@ pub(crate) fn midpoint_work<L: AppliedLoads<NB>, const NB: usize, const NV: usiz
     h * (user.dot(&velocity_vector::<NB, NV>(mid)) + constraint_power)
 }
 
-/// How much energy (relative to the energy in motion at the step's start
-/// and the work done) an implicit midpoint step may gain beyond the work.
+/// How much energy an implicit midpoint step may gain beyond the work, relative
+/// to its scale: the kinetic and elastic energy at the step's start, the
+/// work's size and the change of gravitational energy (plus 1e-12 J, so that
+/// a mechanism at rest is not refused for round-off).
 /// The rule conserves a quadratic energy exactly and a smooth one to
 /// `O(h³)`: on the stiff press at 50, 100 and 200 steps every step that
 /// follows the motion gains at most 1.3e-4 of this scale (most lose energy

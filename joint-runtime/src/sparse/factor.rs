@@ -79,9 +79,9 @@ pub struct BlockFactor {
     /// Scratch of the solves (allocated once).
     z: Vec<[f64; 6]>,
     lambda: Vec<[f64; 6]>,
-    /// Counts factorisations: a caller that remembers what it factorised
+    /// Factorisations made: a caller that remembers what it factorised
     /// knows the factor is still that one while the count stands.
-    stamp: u64,
+    factorisations: u64,
 }
 
 /// The slot of `(i, k)` in factor column `k`, if the pattern has it.
@@ -156,7 +156,7 @@ impl BlockFactor {
             dropped: Vec::new(),
             z: vec![[0.0; 6]; n],
             lambda: vec![[0.0; 6]; n],
-            stamp: 0,
+            factorisations: 0,
         };
         f.l = vec![ZERO; f.col.len()];
         f.schedule()?;
@@ -248,9 +248,10 @@ impl BlockFactor {
         &self.dropped
     }
 
-    /// Which factorisation the factor holds (a count of them).
-    pub(crate) fn stamp(&self) -> u64 {
-        self.stamp
+    /// How many factorisations this factor has made (attempts included):
+    /// what a simulation step costs, in its dominant operation.
+    pub fn factorisations(&self) -> u64 {
+        self.factorisations
     }
 
     /// The numerical rank of the last factorisation.
@@ -273,7 +274,7 @@ impl BlockFactor {
         tolerance: f64,
         keep: Option<&[([usize; 6], usize)]>,
     ) -> Result<(), LinalgError> {
-        self.stamp = self.stamp.wrapping_add(1);
+        self.factorisations = self.factorisations.wrapping_add(1);
         if values.len() != self.scatter.len() || !values.iter().all(|x| x.is_finite()) {
             return Err(LinalgError::NonFinite);
         }

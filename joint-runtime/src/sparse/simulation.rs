@@ -48,7 +48,7 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     pub(super) solver: Solver<S, NB, NV, M, NNZ>,
     /// The pivots of the step's start, kept by its stages.
     rule: Vec<([usize; 6], usize)>,
-    /// The state the last projection ended at, and the stamp and rank
+    /// The state the last projection ended at, and the count and rank
     /// tolerance of the factorisation of `J W Jᵀ` it made there, which the
     /// dynamics at that state reuse while the factor holds it.
     projected: Box<(SystemState<NB>, Option<(u64, f64)>)>,
@@ -88,7 +88,7 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        check_options(&options)?;
+        check_options(&options, options.integrator)?;
         let alpha = match options.integrator {
             Integrator::Rk4 | Integrator::RadauIIA => None,
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => {
@@ -170,7 +170,7 @@ where
         // The last step's projection factorised `J W Jᵀ` at the state the
         // next step starts from, with no rule and the same tolerance.
         let (at, made) = &*self.projected;
-        if keep || *made != Some((factor.stamp(), self.options.rank_tolerance)) || at != state {
+        if keep || *made != Some((factor.factorisations(), self.options.rank_tolerance)) || at != state {
             factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
         }
         // The products on the factor's own blocks of `J` (the values just
@@ -238,7 +238,7 @@ where
             return Err(AnalysisError::BadOption { name: "step size" });
         }
         // `options` is public: what `new` refused may have been set since.
-        check_options(&self.options)?;
+        check_options(&self.options, self.options.integrator)?;
         let mut report = StepReport::default();
         let mut y = match self.options.integrator {
             Integrator::Rk4 => {
@@ -402,25 +402,32 @@ where
         let v = v + dv;
         set_velocities(state, &v);
         // Velocities do not enter `J`: the factor is `J W Jᵀ` at `state`.
-        *self.projected = (*state, factored.then(|| (self.solver.factor.stamp(), options.rank_tolerance)));
+        *self.projected = (*state, factored.then(|| (self.solver.factor.factorisations(), options.rank_tolerance)));
         Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
     }
 }
 
-/// Refuses the options this path cannot honour, rather than ignoring them:
-/// Radau IIA (its complex stage system has no saddle-point factor here) and
-/// Newton matrices by differences (the sparse implicit steps are built on the
-/// generated second-order terms).
+/// Refuses the options this path cannot honour for `integrator`, rather
+/// than ignoring them: Radau IIA (its complex stage system has no
+/// saddle-point factor here), Newton matrices by differences (the sparse
+/// implicit steps are built on the generated second-order terms) and
+/// Baumgarte with the implicit midpoint rule (its saddle-point Newton matrix
+/// lacks the stabilisation's terms).
 ///
 /// # Errors
 /// [`AnalysisError::DenseOnly`] naming the option.
-fn check_options(options: &SimulationOptions) -> Result<(), AnalysisError> {
-    if options.integrator == Integrator::RadauIIA {
-        return Err(AnalysisError::DenseOnly { what: "Radau IIA" });
-    }
-    let implicit = matches!(options.integrator, Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint);
-    if implicit && options.newton_matrix == NewtonMatrix::FiniteDifferences {
+pub(super) fn check_options(options: &SimulationOptions, integrator: Integrator) -> Result<(), AnalysisError> {
+    let newton = match integrator {
+        Integrator::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
+        Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => true,
+        Integrator::Rk4 => false,
+    };
+    if newton && options.newton_matrix == NewtonMatrix::FiniteDifferences {
         return Err(AnalysisError::DenseOnly { what: "a Newton matrix by finite differences" });
+    }
+    let baumgarte = matches!(options.stabilisation, Stabilisation::Baumgarte { .. });
+    if baumgarte && integrator == Integrator::ImplicitMidpoint {
+        return Err(AnalysisError::DenseOnly { what: "Baumgarte stabilisation with the implicit midpoint rule" });
     }
     Ok(())
 }
