@@ -11,7 +11,9 @@
 //! ```
 //!
 //! `double-cardan 3` is `step_bench`'s free double Cardan shaft (3 bodies,
-//! 19 rows, 10 rad/s), which has no peer.
+//! 19 rows, 10 rad/s), which has no peer. With `STACK_KIB=n` in the
+//! environment the run happens in a thread with an `n` KiB stack (a step
+//! that needs more aborts the process: how the stack a step needs is found).
 //!
 //! Each round restarts from the scene's start and times `STEPS` steps; the
 //! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
@@ -124,6 +126,19 @@ where
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    match std::env::var("STACK_KIB").ok().and_then(|s| s.parse::<usize>().ok()) {
+        Some(kib) => std::thread::Builder::new()
+            .stack_size(kib << 10)
+            .spawn(|| bench().map_err(|e| e.to_string()))?
+            .join()
+            .map_err(|_| "the benchmark thread panicked")??,
+        None => bench()?,
+    }
+    Ok(())
+}
+
+/// Parses the command line and runs the scene it names.
+fn bench() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let kind = args.first().map_or("chain", String::as_str);
     let n: usize = args.get(1).map_or(Ok(10), |s| s.parse())?;
