@@ -383,7 +383,7 @@ impl BlockFactor {
                 else {
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::add_jx::<R>(&self.jb[2 * k + side], x, &mut acc));
+                with_rows!(joint.rows, R => kernels::add_av::<R>(&self.jb[2 * k + side], x, &mut acc, 1.0));
             }
             for (o, &a) in out.iter_mut().skip(joint.start).zip(&acc[..joint.rows]) {
                 *o = a;
@@ -405,7 +405,7 @@ impl BlockFactor {
                 else {
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::add_jty::<R>(&self.jb[2 * k + side], &yk, o));
+                with_rows!(joint.rows, R => kernels::add_atv::<R>(&self.jb[2 * k + side], &yk, o, 1.0));
             }
         }
     }
@@ -421,7 +421,7 @@ impl BlockFactor {
                 *cx = b.get(start + x).copied().unwrap_or(0.0);
             }
             for &(j, s) in &self.row[self.row_start[k]..self.row_start[k + 1]] {
-                with_rows!(rows, R => kernels::sub_ax::<R>(&self.l[s], &z[j], &mut c));
+                with_rows!(rows, R => kernels::add_av::<R>(&self.l[s], &z[j], &mut c, -1.0));
             }
             z[k] = with_rows!(rows, R => kernels::forward::<R>(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c));
         }
@@ -430,7 +430,7 @@ impl BlockFactor {
             let mut c = z[k];
             for s in self.col_start[k] + 1..self.col_start[k + 1] {
                 let i = self.col[s];
-                with_rows!(self.joints[i].rows, R => kernels::sub_atx::<R>(&self.l[s], &lambda[i], &mut c));
+                with_rows!(self.joints[i].rows, R => kernels::add_atv::<R>(&self.l[s], &lambda[i], &mut c, -1.0));
             }
             lambda[k] = kernels::backward(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c);
         }

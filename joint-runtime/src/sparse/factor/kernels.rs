@@ -125,27 +125,29 @@ pub(super) fn solve_below<const RI: usize>(lkk: &Block, perm: &[usize; 6], rank:
     }
 }
 
-/// `c[x] −= Σ_y l[x][y] z[y]` for `x < R` (the forward solve's update).
+/// `out[x] += sign Σ_y a[x][y] v[y]` for `x < R`: the forward solve's
+/// update (`sign = −1`) and one side of a joint's rows of `J x` (`+1`).
 #[inline(always)]
-pub(super) fn sub_ax<const R: usize>(l: &Block, z: &[f64; 6], c: &mut [f64; 6]) {
+pub(super) fn add_av<const R: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
     for x in 0..R {
         let mut sum = 0.0;
         for y in 0..6 {
-            sum += l[6 * x + y] * z[y];
+            sum += a[6 * x + y] * v[y];
         }
-        c[x] -= sum;
+        out[x] += sign * sum;
     }
 }
 
-/// `c[a] −= Σ_x l[x][a] λ[x]` over the `R` rows of `l` (the backward solve's update).
+/// `out[y] += sign Σ_x a[x][y] v[x]` over the `R` rows of `a`: the backward
+/// solve's update (`sign = −1`) and one side of a joint's part of `Jᵀ v` (`+1`).
 #[inline(always)]
-pub(super) fn sub_atx<const R: usize>(l: &Block, lambda: &[f64; 6], c: &mut [f64; 6]) {
-    for a in 0..6 {
+pub(super) fn add_atv<const R: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
+    for y in 0..6 {
         let mut sum = 0.0;
         for x in 0..R {
-            sum += l[6 * x + a] * lambda[x];
+            sum += a[6 * x + y] * v[x];
         }
-        c[a] -= sum;
+        out[y] += sign * sum;
     }
 }
 
@@ -181,28 +183,4 @@ pub(super) fn backward(l: &Block, perm: &[usize; 6], rank: usize, c: &[f64; 6]) 
         lambda[perm[a]] = y[a];
     }
     lambda
-}
-
-/// `acc[r] += Σ_c j[r][c] x[c]` for `r < R` (one side of a joint's rows of `J x`).
-#[inline(always)]
-pub(super) fn add_jx<const R: usize>(j: &Block, x: &[f64; 6], acc: &mut [f64; 6]) {
-    for r in 0..R {
-        let mut sum = 0.0;
-        for c in 0..6 {
-            sum += j[6 * r + c] * x[c];
-        }
-        acc[r] += sum;
-    }
-}
-
-/// `out[c] += Σ_r j[r][c] y[r]` over `r < R` (one side of a joint's part of `Jᵀ y`).
-#[inline(always)]
-pub(super) fn add_jty<const R: usize>(j: &Block, y: &[f64; 6], out: &mut [f64; 6]) {
-    for c in 0..6 {
-        let mut sum = 0.0;
-        for r in 0..R {
-            sum += j[6 * r + c] * y[r];
-        }
-        out[c] += sum;
-    }
 }
