@@ -354,18 +354,19 @@ where
     fn settle(&mut self, y: &mut SystemState<NB>, at: &SystemState<NB>, options: &AssemblyOptions) -> usize {
         let values = self.scene.jacobian_values(at);
         let inverse = self.inverse;
-        let mut norm = self.scene.phi(y).norm();
+        let mut phi = self.scene.phi(y);
+        let mut norm = phi.norm();
         let mut iterations = 0;
         while norm > options.tolerance && iterations < options.max_iterations {
-            let phi = self.scene.phi(y);
             let delta = self.solver.min_norm_factored(&values, -phi, &inverse);
             let mut trial = *y;
             apply_increment(&mut trial, &delta, 1.0);
-            let n = self.scene.phi(&trial).norm();
+            let p = self.scene.phi(&trial);
+            let n = p.norm();
             if n.is_nan() || n > 0.5 * norm {
                 break;
             }
-            (*y, norm) = (trial, n);
+            (*y, phi, norm) = (trial, p, n);
             iterations += 1;
         }
         iterations
