@@ -33,44 +33,63 @@ where
         let (mut dq, mut dv) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
         for c in 0..NV {
             for (velocity, out) in [(false, &mut dq), (true, &mut dv)] {
-                let direction = unit::<NB>(c, velocity);
-                let mut loads = Loads::<NB>::default();
-                if !self.loads.derivative(state, &direction, &mut loads) {
-                    loads = self.load_differences(state, c, velocity);
-                }
-                spring_derivatives(self.springs, state, &direction, &mut loads);
-                let column = generalised(&loads, &self.inertias, state, &direction);
+                let column = force_column(&mut self.loads, self.springs, &self.inertias, state, c, velocity);
                 out.set_column(c, &column);
             }
         }
         (dq, dv)
     }
+}
 
-    /// Central differences of the user loads alone along column `c`.
-    fn load_differences(&mut self, state: &SystemState<NB>, c: usize, velocity: bool) -> Loads<NB> {
-        let v = velocity_vector::<NB, NV>(state);
-        let e = SVector::<f64, NV>::from_fn(|i, _| if i == c { 1.0 } else { 0.0 });
-        let speed = if velocity { v.get(c).copied().map_or(0.0, libm::fabs) } else { 0.0 };
-        let step = LOAD_STEP * (1.0 + speed);
-        let mut at = |sign: f64| {
-            let mut s = *state;
-            if velocity {
-                set_velocities(&mut s, &(v + e * (sign * step)));
-            } else {
-                apply_increment(&mut s, &e, sign * step);
-            }
-            let mut loads = Loads::<NB>::default();
-            self.loads.apply(&s, &mut loads);
-            loads
-        };
-        let (plus, minus) = (at(1.0), at(-1.0));
-        let mut out = Loads::<NB>::default();
-        for b in 0..NB {
-            out.force[b] = (plus.force[b] - minus.force[b]) / (2.0 * step);
-            out.torque[b] = (plus.torque[b] - minus.torque[b]) / (2.0 * step);
-        }
-        out
+/// Column `c` of `∂Q/∂q` (`velocity` false, along the group increment) or of
+/// `∂Q/∂v` at `state`: the user loads' own derivative or their central
+/// differences, the springs' and the gyroscopic term's exact.
+pub(crate) fn force_column<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
+    user: &mut L,
+    springs: &[SpringDamper],
+    inertias: &[BodyInertia; NB],
+    state: &SystemState<NB>,
+    c: usize,
+    velocity: bool,
+) -> SVector<f64, NV> {
+    let direction = unit::<NB>(c, velocity);
+    let mut loads = Loads::<NB>::default();
+    if !user.derivative(state, &direction, &mut loads) {
+        loads = load_differences::<L, NB, NV>(user, state, c, velocity);
     }
+    spring_derivatives(springs, state, &direction, &mut loads);
+    generalised(&loads, inertias, state, &direction)
+}
+
+/// Central differences of the user loads alone along column `c`.
+fn load_differences<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
+    user: &mut L,
+    state: &SystemState<NB>,
+    c: usize,
+    velocity: bool,
+) -> Loads<NB> {
+    let v = velocity_vector::<NB, NV>(state);
+    let e = SVector::<f64, NV>::from_fn(|i, _| if i == c { 1.0 } else { 0.0 });
+    let speed = if velocity { v.get(c).copied().map_or(0.0, libm::fabs) } else { 0.0 };
+    let step = LOAD_STEP * (1.0 + speed);
+    let mut at = |sign: f64| {
+        let mut s = *state;
+        if velocity {
+            set_velocities(&mut s, &(v + e * (sign * step)));
+        } else {
+            apply_increment(&mut s, &e, sign * step);
+        }
+        let mut loads = Loads::<NB>::default();
+        user.apply(&s, &mut loads);
+        loads
+    };
+    let (plus, minus) = (at(1.0), at(-1.0));
+    let mut out = Loads::<NB>::default();
+    for b in 0..NB {
+        out.force[b] = (plus.force[b] - minus.force[b]) / (2.0 * step);
+        out.torque[b] = (plus.torque[b] - minus.torque[b]) / (2.0 * step);
+    }
+    out
 }
 
 /// The unit direction of velocity column `c`, in the positions or the velocities.

@@ -29,7 +29,7 @@ use alloc::vec::Vec;
 
 use nalgebra::{Complex, DMatrix, SMatrix, SVector};
 
-use super::newton_matrix::{times_update, update_blocks};
+use super::newton_matrix::update_blocks;
 use super::{AppliedLoads, Simulation};
 use crate::analysis::{AnalysisError, check_state, velocity_vector};
 use crate::scene::{Scene, SystemState};
@@ -102,54 +102,74 @@ where
         let lambda = t.dynamics.lambda;
         let second = self.scene.second_order(state, &lambda, &v).ok_or(needed)?;
         let (a_q, a_v) = (t.accelerations(&t.r1q, &t.r2q), t.accelerations(&t.r1v, &t.r2v));
-        let full = full_matrix::<NB, NV>(&v, &a_q, &a_v);
-        let (null, pinv) = null_space(&DMatrix::from_column_slice(M, NV, t.j.as_slice()))?;
-        let n = null.ncols();
-        let moved = DMatrix::from_column_slice(M, NV, (second.jacobian_q + second.phi_t_q).as_slice());
-        let correction = -(&pinv * moved * &null);
-        let mut basis = DMatrix::zeros(2 * NV, 2 * n);
-        basis.view_mut((0, 0), (NV, n)).copy_from(&null);
-        basis.view_mut((NV, 0), (NV, n)).copy_from(&correction);
-        basis.view_mut((NV, n), (NV, n)).copy_from(&null);
-        // The left inverse: z = Nᵀ δq, w = Nᵀ (δv − V z).
-        let nt = null.transpose();
-        let mut left = DMatrix::zeros(2 * n, 2 * NV);
-        left.view_mut((0, 0), (n, NV)).copy_from(&nt);
-        left.view_mut((n, 0), (n, NV)).copy_from(&(-(&nt * &correction * &nt)));
-        left.view_mut((n, NV), (n, NV)).copy_from(&nt);
-        let a = &left * &full * &basis;
-        let mut forced = DMatrix::zeros(2 * NV, inputs.ncols());
+        let mut forced = DMatrix::zeros(NV, inputs.ncols());
         for (k, column) in inputs.column_iter().enumerate() {
             let g = SVector::<f64, NV>::from_iterator(column.iter().copied());
-            let da = t.accelerations(&g, &SVector::<f64, M>::zeros());
-            forced.view_mut((NV, k), (NV, 1)).copy_from(&da);
+            forced.set_column(k, &t.accelerations(&g, &SVector::<f64, M>::zeros()));
         }
-        let b = &left * &forced;
-        if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
-            return Err(AnalysisError::NonFiniteOutput { quantity: "linearisation", row: None });
-        }
-        Ok(Linearisation { a, b, basis, freedoms: n, full, full_b: forced })
+        let dense = |m: &[f64], rows: usize| DMatrix::from_column_slice(rows, NV, m);
+        let moved = second.jacobian_q + second.phi_t_q;
+        minimal::<NB>(
+            v.as_slice(),
+            &dense(a_q.as_slice(), NV),
+            &dense(a_v.as_slice(), NV),
+            &dense(t.j.as_slice(), M),
+            &dense(moved.as_slice(), M),
+            forced,
+        )
     }
 }
 
+/// The linearisation from the accelerations' derivatives `a_q`, `a_v`
+/// (`NV × NV`) and `a_u` (`NV × k`, one column an input) at a state of
+/// velocities `v`, its Jacobian `j` and `moved = ∂(J v)/∂q + ∂Φ_t/∂q`
+/// (`M × NV`): the minimal coordinates of the module docs.
+pub(crate) fn minimal<const NB: usize>(
+    v: &[f64],
+    a_q: &DMatrix<f64>,
+    a_v: &DMatrix<f64>,
+    j: &DMatrix<f64>,
+    moved: &DMatrix<f64>,
+    a_u: DMatrix<f64>,
+) -> Result<Linearisation, AnalysisError> {
+    let nv = v.len();
+    let full = full_matrix::<NB>(v, a_q, a_v);
+    let (null, pinv) = null_space(j)?;
+    let n = null.ncols();
+    let correction = -(&pinv * moved * &null);
+    let mut basis = DMatrix::zeros(2 * nv, 2 * n);
+    basis.view_mut((0, 0), (nv, n)).copy_from(&null);
+    basis.view_mut((nv, 0), (nv, n)).copy_from(&correction);
+    basis.view_mut((nv, n), (nv, n)).copy_from(&null);
+    // The left inverse: z = Nᵀ δq, w = Nᵀ (δv − V z).
+    let nt = null.transpose();
+    let mut left = DMatrix::zeros(2 * n, 2 * nv);
+    left.view_mut((0, 0), (n, nv)).copy_from(&nt);
+    left.view_mut((n, 0), (n, nv)).copy_from(&(-(&nt * &correction * &nt)));
+    left.view_mut((n, nv), (n, nv)).copy_from(&nt);
+    let a = &left * &full * &basis;
+    let mut full_b = DMatrix::zeros(2 * nv, a_u.ncols());
+    full_b.view_mut((nv, 0), (nv, a_u.ncols())).copy_from(&a_u);
+    let b = &left * &full_b;
+    if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
+        return Err(AnalysisError::NonFiniteOutput { quantity: "linearisation", row: None });
+    }
+    Ok(Linearisation { a, b, basis, freedoms: n, full, full_b })
+}
+
 /// `[[Λ(v), I], [A_q, A_v]]`, `2 NV × 2 NV`.
-fn full_matrix<const NB: usize, const NV: usize>(
-    v: &SVector<f64, NV>,
-    a_q: &SMatrix<f64, NV, NV>,
-    a_v: &SMatrix<f64, NV, NV>,
-) -> DMatrix<f64> {
-    let mut full = DMatrix::zeros(2 * NV, 2 * NV);
-    full.view_mut((0, NV), (NV, NV)).fill_with_identity();
+fn full_matrix<const NB: usize>(v: &[f64], a_q: &DMatrix<f64>, a_v: &DMatrix<f64>) -> DMatrix<f64> {
+    let nv = v.len();
+    let mut full = DMatrix::zeros(2 * nv, 2 * nv);
+    full.view_mut((0, nv), (nv, nv)).fill_with_identity();
     for b in 0..NB {
         let o = 6 * b + 3;
-        if o + 3 > NV {
-            break;
-        }
-        let w = nalgebra::Vector3::new(v[o], v[o + 1], v[o + 2]);
+        let Some(w) = v.get(o..o + 3) else { break };
+        let w = nalgebra::Vector3::new(w[0], w[1], w[2]);
         full.view_mut((o, o), (3, 3)).copy_from(&(-w.cross_matrix()));
     }
-    full.view_mut((NV, 0), (NV, NV)).copy_from(a_q);
-    full.view_mut((NV, NV), (NV, NV)).copy_from(a_v);
+    full.view_mut((nv, 0), (nv, nv)).copy_from(a_q);
+    full.view_mut((nv, nv), (nv, nv)).copy_from(a_v);
     full
 }
 
@@ -209,46 +229,71 @@ where
         let needed = AnalysisError::NoSecondOrder { needed_by: "the state-transition Jacobian" };
         let (r_w, t) = self.midpoint_tangent(&y0, &w, h, &mut rule, None)?.ok_or(needed)?;
         let a_q = t.accelerations(&t.r1q, &t.r2q);
-        // R_{q₀} = −(h/2) A_q Ad(−(h/2) ω'), R_{v₀} = −I.
-        let r_q0 = a_q * transport::<NB, NV>(&w, 0.5 * h) * (-0.5 * h);
-        let lu = crate::linalg::Lu::new(&r_w)?;
-        let solve = |m: &SMatrix<f64, NV, NV>| {
-            let mut out = SMatrix::<f64, NV, NV>::zeros();
-            for (k, column) in m.column_iter().enumerate() {
-                out.set_column(k, &lu.solve(&(-column.into_owned())));
-            }
-            out
-        };
-        let dw_dq = solve(&r_q0);
-        let dw_dv = solve(&(-SMatrix::<f64, NV, NV>::identity()));
-        // h J_r(h ω') per body (h I for the translation).
-        let turn = times_update(&SMatrix::<f64, NV, NV>::identity(), &update_blocks::<NB, NV>(&w, h), h);
-        let mut phi = DMatrix::zeros(2 * NV, 2 * NV);
-        phi.view_mut((0, 0), (NV, NV)).copy_from(&(transport::<NB, NV>(&w, h) + turn * dw_dq));
-        phi.view_mut((0, NV), (NV, NV)).copy_from(&(turn * dw_dv));
-        phi.view_mut((NV, 0), (NV, NV)).copy_from(&(dw_dq * 2.0));
-        phi.view_mut((NV, NV), (NV, NV)).copy_from(&(dw_dv * 2.0 - SMatrix::<f64, NV, NV>::identity()));
-        if !phi.iter().all(|x| x.is_finite()) {
-            return Err(AnalysisError::NonFiniteOutput { quantity: "state-transition Jacobian", row: None });
-        }
+        let dense = |m: &SMatrix<f64, NV, NV>| DMatrix::from_column_slice(NV, NV, m.as_slice());
+        let phi = transition_matrix::<NB, NV>(&w, h, dense(&r_w), &dense(&a_q))?;
         *state = y1;
         self.history = None;
         Ok(phi)
     }
 }
 
-/// `blockdiag(I, R(s ω'_0)ᵀ, I, ...)`: a body increment at `q` as one at
-/// `q ⊕ s w` (`p ⊗ q(δθ) ⊗ q(φ) = p ⊗ q(φ) ⊗ q(R(φ)ᵀ δθ)`).
-fn transport<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> SMatrix<f64, NV, NV> {
-    let mut t = SMatrix::<f64, NV, NV>::identity();
-    for b in 0..NB {
-        let o = 6 * b + 3;
-        if o + 3 > NV {
+/// The state-transition Jacobian of a midpoint step of velocity `w` and size
+/// `h` from the Newton matrix `r_w = ∂R/∂w` and the accelerations'
+/// derivative `a_q` at the midpoint (both `NV × NV`; see
+/// [`Simulation::transition`]).
+pub(crate) fn transition_matrix<const NB: usize, const NV: usize>(
+    w: &SVector<f64, NV>,
+    h: f64,
+    r_w: DMatrix<f64>,
+    a_q: &DMatrix<f64>,
+) -> Result<DMatrix<f64>, AnalysisError> {
+    let (nv, turned) = (NV, update_blocks::<NB, NV>(w, h));
+    let w = w.as_slice();
+    // R_{q₀} = −(h/2) A_q Ad(−(h/2) ω'), R_{v₀} = −I: ∂w/∂(q₀, v₀) = −R_w⁻¹ R_{(q₀, v₀)}.
+    let r_q0 = a_q * transport::<NB>(w, 0.5 * h) * (-0.5 * h);
+    let singular = AnalysisError::NoConvergence { decomposition: "LU decomposition of the Newton matrix" };
+    let lu = r_w.lu();
+    let dw_dq = lu.solve(&(-r_q0)).ok_or(singular)?;
+    let dw_dv = lu.solve(&DMatrix::identity(nv, nv)).ok_or(singular)?;
+    // h J_r(h ω') per body (h I for the translation).
+    let turn = update_times::<NB>(&turned, h, nv);
+    let mut phi = DMatrix::zeros(2 * nv, 2 * nv);
+    phi.view_mut((0, 0), (nv, nv)).copy_from(&(transport::<NB>(w, h) + &turn * &dw_dq));
+    phi.view_mut((0, nv), (nv, nv)).copy_from(&(&turn * &dw_dv));
+    phi.view_mut((nv, 0), (nv, nv)).copy_from(&(&dw_dq * 2.0));
+    phi.view_mut((nv, nv), (nv, nv)).copy_from(&(dw_dv * 2.0 - DMatrix::identity(nv, nv)));
+    if !phi.iter().all(|x| x.is_finite()) {
+        return Err(AnalysisError::NonFiniteOutput { quantity: "state-transition Jacobian", row: None });
+    }
+    Ok(phi)
+}
+
+/// `s blockdiag(I, J_r,0, I, J_r,1, ...)`, `nv × nv`.
+pub(crate) fn update_times<const NB: usize>(
+    rotations: &[nalgebra::Matrix3<f64>; NB],
+    s: f64,
+    nv: usize,
+) -> DMatrix<f64> {
+    let mut out = DMatrix::identity(nv, nv) * s;
+    for (b, jr) in rotations.iter().enumerate() {
+        if 6 * b + 6 > nv {
             break;
         }
-        let phi = nalgebra::Vector3::new(w[o], w[o + 1], w[o + 2]) * s;
-        let r = nalgebra::Rotation3::new(phi);
-        t.fixed_view_mut::<3, 3>(o, o).copy_from(&r.matrix().transpose());
+        out.view_mut((6 * b + 3, 6 * b + 3), (3, 3)).copy_from(&(jr * s));
+    }
+    out
+}
+
+/// `blockdiag(I, R(s ω'_0)ᵀ, I, ...)`: a body increment at `q` as one at
+/// `q ⊕ s w` (`p ⊗ q(δθ) ⊗ q(φ) = p ⊗ q(φ) ⊗ q(R(φ)ᵀ δθ)`).
+fn transport<const NB: usize>(w: &[f64], s: f64) -> DMatrix<f64> {
+    let nv = w.len();
+    let mut t = DMatrix::identity(nv, nv);
+    for b in 0..NB {
+        let o = 6 * b + 3;
+        let Some(x) = w.get(o..o + 3) else { break };
+        let r = nalgebra::Rotation3::new(nalgebra::Vector3::new(x[0], x[1], x[2]) * s);
+        t.view_mut((o, o), (3, 3)).copy_from(&r.matrix().transpose());
     }
     t
 }

@@ -100,14 +100,14 @@ pub(crate) mod adaptive;
 mod force_derivatives;
 mod generalised_alpha;
 #[cfg(feature = "alloc")]
-mod linear;
+pub(crate) mod linear;
 mod newton_matrix;
 mod radau;
 
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
-pub(crate) use force_derivatives::spring_column;
+pub(crate) use force_derivatives::{force_column, spring_column};
 #[cfg(feature = "alloc")]
 pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times};
 #[cfg(feature = "alloc")]

@@ -32,12 +32,16 @@
 //! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
 //! The implicit midpoint rule runs there too, its Newton matrix in the same
 //! saddle-point form (`midpoint.rs`; the dense `I − (h/2) ∂a/∂w` is full).
+//! [`SparseSimulation::linearise`] and [`SparseSimulation::transition`] give
+//! the dense path's linearisation and state-transition Jacobian (`linear.rs`):
+//! dense outputs, built column by column on the block factor.
 
 mod adaptive;
 mod alpha;
 mod analysis;
 mod factor;
 mod kkt;
+mod linear;
 mod midpoint;
 mod second_order;
 mod simulation;

@@ -43,7 +43,7 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     pub(super) loads: L,
     pub(super) springs: &'a [SpringDamper],
     pub(super) inertias: [BodyInertia; NB],
-    inverse: [InverseMass; NB],
+    pub(super) inverse: [InverseMass; NB],
     pub(super) gravity: Vector3<f64>,
     pub(super) solver: Solver<S, NB, NV, M, NNZ>,
     /// The pivots of the step's start, kept by its stages.
@@ -112,6 +112,16 @@ where
             alpha,
             options,
         })
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &'a S {
+        self.scene
+    }
+
+    /// The generalised forces `Q` (gravity, user loads, gyroscopic terms, springs).
+    pub fn forces(&mut self, state: &SystemState<NB>) -> SVector<f64, NV> {
+        generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state)
     }
 
     /// Kinetic, gravitational and elastic energy at `state`.

@@ -12,9 +12,11 @@
 #![allow(missing_docs)]
 
 use joint_runtime::dynamics::{
-    AppliedLoads, Attachment, Direction, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper,
+    AppliedLoads, Attachment, Direction, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper,
+    Stabilisation,
 };
 use joint_runtime::nalgebra::{Complex, DMatrix, Matrix2, Matrix3, RealField, SMatrix, SVector, Vector3, Vector4};
+use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{Scene, SystemState};
 use joint_tests::scenes::hanging_rods;
 use num_dual::Dual64;
@@ -91,6 +93,7 @@ fn moved(s: &SystemState<2>, dq: &[f64], dv: &[f64], scale: f64) -> SystemState<
 }
 
 /// A viscous torque `−c ω'` on the upper rod, with its own derivative.
+#[derive(Clone, Copy)]
 struct Drag;
 
 impl AppliedLoads<2> for Drag {
@@ -183,6 +186,67 @@ fn check_full<L: AppliedLoads<2>>(loads: L, springs: &[SpringDamper]) {
     }
 }
 
+/// The sparse path's linearisation and transition Jacobian are the dense
+/// path's (which the tests above hold to differences and dual numbers), with
+/// springs, user loads with and without their own derivative, an input, and
+/// Baumgarte stabilisation (the linearisation only: the sparse midpoint rule
+/// refuses it).
+#[test]
+fn sparse_linearisation_and_transition_are_the_dense_ones() {
+    let pull = |s: &SystemState<2>, l: &mut Loads<2>| l.force[1] += s.bodies[1].rdot * -0.5;
+    let baumgarte = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 5.0, beta: 5.0 });
+    compare_paths(NoLoads, &[], SimulationOptions::default());
+    compare_paths(Drag, &tip_spring(), SimulationOptions::default());
+    compare_paths(pull, &tip_spring(), SimulationOptions::default());
+    compare_paths(pull, &tip_spring(), baumgarte);
+}
+
+fn compare_paths<L: AppliedLoads<2> + Copy>(loads: L, springs: &[SpringDamper], options: SimulationOptions) {
+    let state = double_start();
+    let mut inputs = DMatrix::zeros(12, 2);
+    (inputs[(6, 0)], inputs[(3, 1)]) = (1.0, 0.5);
+    let mut dense = Simulation::new(&DoublePendulum, loads, springs, options).unwrap();
+    let mut sparse = SparseSimulation::new(&DoublePendulum, loads, springs, options).unwrap();
+    assert_eq!(dense.forces(&state), sparse.forces(&state));
+    let (d, s) = (dense.linearise(&state, &inputs).unwrap(), sparse.linearise(&state, &inputs).unwrap());
+    assert_eq!(d.freedoms, s.freedoms);
+    for (name, x, y) in
+        [("full", &d.full, &s.full), ("full_b", &d.full_b, &s.full_b), ("a", &d.a, &s.a), ("b", &d.b, &s.b)]
+    {
+        let gap = (x - y).amax() / (1.0 + x.amax());
+        assert!(gap < 1e-12, "{name}: {gap:e}");
+    }
+    if matches!(options.stabilisation, Stabilisation::Baumgarte { .. }) {
+        let mut end = state;
+        let e = sparse.transition(&mut end, 5e-3).unwrap_err();
+        assert!(e.to_string().contains("Baumgarte") && end == state, "{e}");
+        return;
+    }
+    let midpoint =
+        options.with_integrator(Integrator::ImplicitMidpoint).with_projection(None).with_newton_tolerance(1e-15);
+    (dense.options, sparse.options) = (midpoint, midpoint);
+    let (mut a, mut b) = (state, state);
+    let (x, y) = (dense.transition(&mut a, 5e-3).unwrap(), sparse.transition(&mut b, 5e-3).unwrap());
+    let gap = (&x - &y).amax() / (1.0 + x.amax());
+    assert!(gap < 1e-11, "transition: {gap:e}");
+    assert!((a.bodies[1].r - b.bodies[1].r).norm() < 1e-13);
+}
+
+/// Without second-order terms the sparse path says what it needs, too.
+#[test]
+fn sparse_linearise_without_second_order_is_an_error() {
+    #[derive(Scene)]
+    #[body(bob, mass = 1.0, inertia = [1, 1, 1])]
+    #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
+    struct Plain;
+    let mut sim = SparseSimulation::new(&Plain, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let e = sim.linearise(&swung(0.0), &DMatrix::zeros(6, 0)).unwrap_err();
+    assert!(e.to_string().contains("#[scene(second_order)]"), "{e}");
+    let mut end = swung(0.3);
+    let e = sim.transition(&mut end, 1e-3).unwrap_err();
+    assert!(e.to_string().contains("#[scene(second_order)]") && end == swung(0.3), "{e}");
+}
+
 /// At an equilibrium the full linearisation leaves the constraints' tangent
 /// space invariant: `T A = F T`.
 #[test]
@@ -213,7 +277,6 @@ fn midpoint_transition(
     start: &SystemState<2>,
     h: f64,
 ) -> (Simulation<'static, DoublePendulum, NoLoads, 2, 12, 6>, SystemState<2>, DMatrix<f64>) {
-    use joint_runtime::dynamics::Integrator;
     let options = SimulationOptions::default()
         .with_integrator(Integrator::ImplicitMidpoint)
         .with_projection(None)
@@ -372,16 +435,28 @@ fn full_linearisation_matches_dual_numbers_through_a_hand_written_model() {
     let plain = hand_accelerations::<f64>(a0, [state.bodies[0].r, state.bodies[1].r], &v0);
     let runtime = sim.dynamics(&state).unwrap().vdot;
     assert!((plain - runtime).amax() < 1e-12 * (1.0 + runtime.amax()), "{:e}", (plain - runtime).amax());
-    let mut worst = 0.0f64;
-    for k in 0..24 {
-        let (a, r, v) = perturbed(&state, k);
-        let derivative = hand_accelerations(a, r, &v).map(|x| x.eps);
-        for i in 0..12 {
-            worst = worst.max((lin.full[(12 + i, k)] - derivative[i]).abs() / (1.0 + derivative.amax()));
-        }
-    }
+    let worst = against_dual_accelerations(&lin.full, &state);
     println!("full linearisation against dual numbers of a hand-written model: worst {worst:e}");
     assert!(worst < 1e-12, "{worst:e}");
+    // The sparse path's, through the block factor and the sparse second-order terms.
+    let mut sparse = SparseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let worst = against_dual_accelerations(&sparse.linearise(&state, &DMatrix::zeros(12, 0)).unwrap().full, &state);
+    println!("sparse full linearisation against dual numbers of a hand-written model: worst {worst:e}");
+    assert!(worst < 1e-12, "{worst:e}");
+}
+
+/// The largest relative gap between the acceleration rows of `full` and the
+/// dual-number derivatives of [`hand_accelerations`] along every increment.
+fn against_dual_accelerations(full: &DMatrix<f64>, state: &SystemState<2>) -> f64 {
+    let mut worst = 0.0f64;
+    for k in 0..24 {
+        let (a, r, v) = perturbed(state, k);
+        let derivative = hand_accelerations(a, r, &v).map(|x| x.eps);
+        for i in 0..12 {
+            worst = worst.max((full[(12 + i, k)] - derivative[i]).abs() / (1.0 + derivative.amax()));
+        }
+    }
+    worst
 }
 
 /// `Exp(φ)`: Rodrigues' formula, by its series near `φ = 0`.
@@ -406,11 +481,32 @@ fn exp_rotation<T: RealField + Copy>(phi: &Vector3<T>) -> Matrix3<T> {
 #[test]
 fn transition_jacobian_matches_dual_numbers_through_a_hand_written_step() {
     let (start, h) = (double_start(), 5e-3);
-    let (_, _, phi) = midpoint_transition(&start, h);
+    let (_, end, phi) = midpoint_transition(&start, h);
+    let worst = against_dual_step(&phi, &start, h);
+    println!("state-transition Jacobian against dual numbers of a hand-written step: worst {worst:e}");
+    assert!(worst < 1e-12, "{worst:e}");
+    // The sparse path's: the same step, its Newton matrix from the sparse terms.
+    let options = SimulationOptions::default()
+        .with_integrator(Integrator::ImplicitMidpoint)
+        .with_projection(None)
+        .with_newton_tolerance(1e-15);
+    let mut sparse = SparseSimulation::new(&DoublePendulum, NoLoads, &[], options).unwrap();
+    let mut sparse_end = start;
+    let sparse_phi = sparse.transition(&mut sparse_end, h).unwrap();
+    assert!((sparse_end.bodies[1].r - end.bodies[1].r).norm() < 1e-13, "the same step");
+    let worst = against_dual_step(&sparse_phi, &start, h);
+    println!("sparse state-transition Jacobian against dual numbers of a hand-written step: worst {worst:e}");
+    assert!(worst < 1e-12, "{worst:e}");
+}
+
+/// The largest relative gap between the state-transition Jacobian `phi` of a
+/// midpoint step `h` from `start` and dual numbers through the same step of
+/// [`hand_accelerations`].
+fn against_dual_step(phi: &DMatrix<f64>, start: &SystemState<2>, h: f64) -> f64 {
     let hd = Dual64::from_re(h);
     let mut worst = 0.0f64;
     for k in 0..24 {
-        let (a0, r0, v) = perturbed(&start, k);
+        let (a0, r0, v) = perturbed(start, k);
         let moved = |w: &SVector<Dual64, 12>, s: Dual64| {
             let a: [Matrix3<Dual64>; 2] = core::array::from_fn(|b| {
                 a0[b] * exp_rotation(&(Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]) * s))
@@ -447,6 +543,5 @@ fn transition_jacobian_matches_dual_numbers_through_a_hand_written_step() {
             worst = worst.max((phi[(i, k)] - x).abs() / (1.0 + phi.column(k).amax()));
         }
     }
-    println!("state-transition Jacobian against dual numbers of a hand-written step: worst {worst:e}");
-    assert!(worst < 1e-12, "{worst:e}");
+    worst
 }
