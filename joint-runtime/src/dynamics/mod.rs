@@ -291,7 +291,11 @@ pub enum NewtonMatrix {
     /// Differences: for the implicit midpoint rule, forward differences of its
     /// residual (`NV` evaluations of the dynamics); for generalised-α, the
     /// tangent stiffness `∂(Jᵀλ)/∂q` by forward differences of `Jᵀλ` (the
-    /// forces' derivatives stay exact).
+    /// forces' derivatives stay exact). On the sparse path, for both, the
+    /// second-order terms by central differences of the generated `J`, `γ`
+    /// and `Φ_t`, several bodies at a time
+    /// ([`DifferenceTerms`](crate::sparse::DifferenceTerms)), in the same
+    /// saddle-point Newton matrix.
     FiniteDifferences,
 }
 

@@ -19,13 +19,12 @@ where
     /// Advances `state` to time `t_end` with error-controlled steps of
     /// `method`, projecting after every accepted step if the options say so:
     /// [`Simulation::integrate`](crate::dynamics::Simulation::integrate) in
-    /// time and memory proportional to the scene. Generalised-α needs a scene
-    /// derived with `second_order`; its workspace is allocated here if
-    /// [`SparseSimulation::new`] did not (once, not per step).
+    /// time and memory proportional to the scene. Generalised-α's workspace
+    /// is allocated here if [`SparseSimulation::new`] did not (once, not per
+    /// step).
     ///
     /// # Errors
-    /// As the dense `integrate`; [`AnalysisError::NoSecondOrder`] for
-    /// generalised-α on a scene without second-order terms.
+    /// As the dense `integrate`.
     ///
     /// # Examples
     /// ```

@@ -9,7 +9,8 @@
 //! assembled block by block on the pattern the scene fixes (bodies, joints,
 //! springs) and factorised by [`Kkt`]: time and memory in proportion to the
 //! scene. `K` comes from the scene's sparse second-order terms
-//! ([`Scene::second_order_values`]); `Q_q`, `Q_v` are the gyroscopic terms and
+//! ([`Scene::second_order_values`], or their differences, `differences.rs`,
+//! for a scene without them); `Q_q`, `Q_v` are the gyroscopic terms and
 //! the spring-dampers', exact. User loads are left out of the matrix (their
 //! derivative along every column would cost `O(N²)`): a stiff user load slows
 //! Newton to linear convergence, and a stiff spring belongs in a
@@ -22,13 +23,14 @@ use alloc::vec::Vec;
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::SparseSimulation;
+use super::differences::DifferenceTerms;
 use super::kkt::{Block, Kkt};
 use super::second_order::SecondOrderLayout;
 use super::solver::{jt_mul, non_finite};
 use crate::analysis::{AnalysisError, check_output, velocity_vector};
 use crate::dynamics::{
-    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, generalised_forces, mass_times,
-    spring_column, update_blocks,
+    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, generalised_forces,
+    mass_times, spring_column, update_blocks,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -47,6 +49,8 @@ pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usiz
     /// Body-body blocks of `S` (the diagonal included), for `T`'s product.
     pub(super) body_pairs: Vec<(usize, usize)>,
     pub(super) history: Option<AlphaHistory<NB, NV, M>>,
+    /// The terms by differences, for scenes without generated ones.
+    differences: DifferenceTerms,
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M> {
@@ -88,7 +92,27 @@ impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M>
             row_joint,
             body_pairs: pairs,
             history: None,
+            differences: DifferenceTerms::new(S::BLOCKS, S::BLOCK_BODIES, NB),
         })
+    }
+
+    /// The second-order terms at `state` (`λ`, and `u` of `∂(J u)/∂q`) into
+    /// `terms`: the scene's generated ones, or central differences of its `J`,
+    /// `γ` and `Φ_t` when it has none or `by_differences` asks for them.
+    pub(super) fn fill_terms<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>, const NNZ: usize>(
+        &mut self,
+        scene: &S,
+        state: &SystemState<NB>,
+        lambda: &SVector<f64, M>,
+        u: &SVector<f64, NV>,
+        by_differences: bool,
+    ) -> Result<(), AnalysisError> {
+        if (by_differences || !scene.second_order_values(state, lambda, u, &mut self.terms))
+            && !self.differences.values(scene, state, lambda, u, &mut self.terms)
+        {
+            return Err(missing());
+        }
+        Ok(())
     }
 
     /// Blocks of the factor (its memory, in 6 × 6 blocks).
@@ -197,10 +221,9 @@ where
         c: Coefficients,
     ) -> Result<(), AnalysisError> {
         let t = update_blocks::<NB, NV>(&it.dq, h);
+        let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
         let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        if !self.scene.second_order_values(&it.state, &it.lambda, &it.v, &mut w.terms) {
-            return Err(AnalysisError::NoSecondOrder { needed_by: "generalised-α on the sparse path" });
-        }
+        w.fill_terms(self.scene, &it.state, &it.lambda, &it.v, by_differences)?;
         let kkt = &mut w.kkt;
         kkt.clear();
         // h (K − Q_q), then times T on the right; then c₁ M − c₂ Q_v; then J T and Jᵀ.

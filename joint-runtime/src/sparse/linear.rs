@@ -120,7 +120,7 @@ where
     /// # Errors
     /// As [`Simulation::transition`](crate::dynamics::Simulation::transition),
     /// and [`AnalysisError::DenseOnly`] for options the sparse midpoint rule
-    /// refuses (Baumgarte stabilisation, Newton matrices by differences). On
+    /// refuses (Baumgarte stabilisation). On
     /// error `state` is unchanged.
     pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {

@@ -16,7 +16,7 @@
 //! `q_n ⊕ (h/2) w`): generalised-α's pattern exactly, bodies and joints as
 //! nodes, so the same [`Kkt`](super::kkt::Kkt) factorises it. `K`,
 //! `∂(J a)/∂q`, `∂γ/∂q` and `∂γ/∂v` are the scene's sparse second-order terms
-//! (with `u = a`); `Q_q`, `Q_v` the spring-dampers' and the gyroscopic terms,
+//! (with `u = a`; or their differences, `differences.rs`); `Q_q`, `Q_v` the spring-dampers' and the gyroscopic terms,
 //! exact; user loads are left out, as for generalised-α. Redundant rows are
 //! held at `δμ = 0`, the rule of the step's start. Newton is modified as on
 //! the dense path: the matrix is rebuilt only when convergence slows.
@@ -31,8 +31,8 @@ use super::simulation::SparseDynamics;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::{
-    AppliedLoads, ModifiedNewton, energy_balance, mass_times, midpoint_end, midpoint_state, midpoint_work,
-    update_blocks,
+    AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times, midpoint_end, midpoint_state,
+    midpoint_work, update_blocks,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -111,11 +111,10 @@ where
         let t = update_blocks::<NB, NV>(w, 0.5 * h);
         let quarter = 0.25 * h * h;
         let dropped = self.solver.factor.dropped();
+        let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let (state, d) = (&mid.state, &mid.dynamics);
-        if !self.scene.second_order_values(state, &d.lambda, &d.vdot, &mut ws.terms) {
-            return Err(AnalysisError::NoSecondOrder { needed_by: "the implicit midpoint rule on the sparse path" });
-        }
+        ws.fill_terms(self.scene, state, &d.lambda, &d.vdot, by_differences)?;
         let kkt = &mut ws.kkt;
         kkt.clear();
         // (h²/4)(K − Q_q), times T; then M − (h/2) Q_v; then J with its terms, and Jᵀ.

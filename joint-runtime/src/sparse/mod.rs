@@ -27,7 +27,10 @@
 //! simulation runs index-3 generalised-α with the exact iteration matrix, a
 //! saddle-point matrix over bodies and joints factorised on a pattern fixed
 //! once (`kkt.rs`: minimum degree, each joint after its bodies), from the
-//! scene's sparse second-order terms ([`SecondOrderLayout`]).
+//! scene's sparse second-order terms ([`SecondOrderLayout`]), generated or,
+//! for a scene derived without them, by central differences of its `J`, `γ`
+//! and `Φ_t` ([`DifferenceTerms`]: bodies coloured so that a chain of any
+//! length costs 24 evaluations per colour, two colours).
 //! [`SparseSimulation::integrate`] runs the dense path's error-controlled
 //! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
 //! The implicit midpoint rule runs there too, its Newton matrix in the same
@@ -39,6 +42,7 @@
 mod adaptive;
 mod alpha;
 mod analysis;
+mod differences;
 mod factor;
 mod kkt;
 mod linear;
@@ -48,6 +52,7 @@ mod simulation;
 mod solver;
 
 pub use analysis::SparseAnalysis;
+pub use differences::DifferenceTerms;
 pub use factor::BlockFactor;
 pub use second_order::{RowTerm, SecondOrderLayout};
 pub use simulation::{SparseDynamics, SparseSimulation};

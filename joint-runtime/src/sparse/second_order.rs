@@ -94,10 +94,20 @@ impl SecondOrderLayout {
     /// Row `row`'s entries of `term` with its joint's bodies (`6n` values over
     /// their columns); `None` for a row out of range.
     pub fn row<'v>(&'v self, values: &'v [f64], term: RowTerm, row: usize) -> Option<(&'v [usize], &'v [f64])> {
+        let (bodies, at) = self.row_at(term, row)?;
+        Some((bodies, values.get(at..at + 6 * bodies.len())?))
+    }
+
+    /// Row `row`'s joint's bodies and where its entries of `term` start.
+    pub(crate) fn row_at(&self, term: RowTerm, row: usize) -> Option<(&[usize], usize)> {
         let &(joint, offset) = self.rows.get(row)?;
         let joint = self.joints.get(joint)?;
-        let w = 6 * joint.bodies.len();
-        let at = self.stiffness_len + term as usize * self.section_len + offset;
-        Some((&joint.bodies[..], values.get(at..at + w)?))
+        Some((&joint.bodies[..], self.stiffness_len + term as usize * self.section_len + offset))
+    }
+
+    /// Joint `joint`'s bodies and where its stiffness block starts.
+    pub(crate) fn stiffness_at(&self, joint: usize) -> Option<(&[usize], usize)> {
+        let joint = self.joints.get(joint)?;
+        Some((&joint.bodies[..], joint.stiffness))
     }
 }

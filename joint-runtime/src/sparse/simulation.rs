@@ -16,8 +16,8 @@ use crate::analysis::{
     normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::{
-    AppliedLoads, Energy, Integrator, Mechanics, NewtonMatrix, Rate, Reaction, SimulationOptions, SpringDamper,
-    Stabilisation, StepReport, advance, check_redundant, generalised_forces, near_enough, rk4_weights,
+    AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, Stabilisation,
+    StepReport, advance, check_redundant, generalised_forces, near_enough, rk4_weights,
 };
 use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
@@ -240,9 +240,10 @@ where
     /// constraints if configured. On error `state` is unchanged.
     ///
     /// # Errors
-    /// As [`Simulation::step`](crate::dynamics::Simulation::step);
-    /// [`AnalysisError::NoSecondOrder`] for the implicit integrators on a
-    /// scene derived without `second_order`.
+    /// As [`Simulation::step`](crate::dynamics::Simulation::step). The
+    /// implicit integrators' Newton matrices take the scene's generated
+    /// second-order terms, or differences of `J`, `γ` and `Φ_t` for a scene
+    /// derived without `second_order` ([`DifferenceTerms`](super::DifferenceTerms)).
     pub fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
@@ -420,21 +421,14 @@ where
 
 /// Refuses the options this path cannot honour for `integrator`, rather
 /// than ignoring them: Radau IIA (its complex stage system has no
-/// saddle-point factor here), Newton matrices by differences (the sparse
-/// implicit steps are built on the generated second-order terms) and
-/// Baumgarte with the implicit midpoint rule (its saddle-point Newton matrix
-/// lacks the stabilisation's terms).
+/// saddle-point factor here) and Baumgarte with the implicit midpoint rule
+/// (its saddle-point Newton matrix lacks the stabilisation's terms).
 ///
 /// # Errors
 /// [`AnalysisError::DenseOnly`] naming the option.
 pub(super) fn check_options(options: &SimulationOptions, integrator: Integrator) -> Result<(), AnalysisError> {
-    let newton = match integrator {
-        Integrator::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
-        Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => true,
-        Integrator::Rk4 => false,
-    };
-    if newton && options.newton_matrix == NewtonMatrix::FiniteDifferences {
-        return Err(AnalysisError::DenseOnly { what: "a Newton matrix by finite differences" });
+    if integrator == Integrator::RadauIIA {
+        return Err(AnalysisError::DenseOnly { what: "Radau IIA" });
     }
     let baumgarte = matches!(options.stabilisation, Stabilisation::Baumgarte { .. });
     if baumgarte && integrator == Integrator::ImplicitMidpoint {

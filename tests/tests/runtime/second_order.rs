@@ -57,3 +57,36 @@ fn scenes_without_the_option_give_none() {
     assert!(Plain.second_order(&state, &SVector::zeros(), &SVector::zeros()).is_none());
     let _ = Constant(1.0);
 }
+
+/// The sparse path's terms by differences (`DifferenceTerms`, for scenes
+/// derived without `second_order`) against the generated ones, every entry of
+/// the sparse layout, at random states of the rig: its bodies in two colours
+/// (no joint between two of one colour), so one evaluation moves several.
+#[test]
+fn difference_terms_match_the_generated_ones() {
+    use joint_runtime::SparseJacobian;
+    use joint_runtime::sparse::{DifferenceTerms, SecondOrderLayout};
+    let rig = Rig { theta: Sinusoid { amplitude: 0.7, frequency: 1.3, phase: 0.2, offset: 0.1 } };
+    let layout = SecondOrderLayout::new(Rig::BLOCKS, Rig::BLOCK_BODIES);
+    let terms = DifferenceTerms::new(Rig::BLOCKS, Rig::BLOCK_BODIES, 4);
+    assert_eq!(terms.colours(), 2);
+    let mut rng = Rng(11);
+    let mut worst = 0.0f64;
+    for _ in 0..20 {
+        let state = SystemState { bodies: [(); 4].map(|_| rng.omega_body()), t: rng.next() };
+        let lambda = SVector::<f64, { Rig::ROWS }>::from_fn(|_, _| rng.next() * 10.0);
+        let u = SVector::<f64, 24>::from_fn(|_, _| rng.next() * 5.0);
+        let (mut exact, mut differences) = (vec![0.0; layout.len()], vec![0.0; layout.len()]);
+        assert!(rig.second_order_values(&state, &lambda, &u, &mut exact));
+        assert!(terms.values(&rig, &state, &lambda, &u, &mut differences));
+        let scale = exact.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+        for (x, y) in exact.iter().zip(&differences) {
+            worst = worst.max((x - y).abs() / scale);
+        }
+        // A buffer of the wrong length is refused, untouched.
+        let mut short = vec![7.0; layout.len() - 1];
+        assert!(!terms.values(&rig, &state, &lambda, &u, &mut short) && short.iter().all(|&x| x == 7.0));
+    }
+    println!("terms by differences against the generated ones: worst {worst:e} of the largest");
+    assert!(worst < 1e-8, "{worst:e}");
+}
