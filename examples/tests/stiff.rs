@@ -7,7 +7,7 @@
 use joint_examples::{bricard, press};
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{
-    Adaptive, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation, Tolerance,
+    Adaptive, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance,
 };
 use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{Scene, SystemState};
@@ -194,18 +194,6 @@ fn sparse_newton_matrices_by_differences() {
     let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
     sparse.integrate(&mut state, 0.01, Adaptive::GeneralisedAlpha, tolerance).expect("differences");
     assert!((state.t - 0.01).abs() < 1e-12);
-    // Baumgarte with the midpoint rule: its saddle-point Newton matrix has no
-    // stabilisation terms, so the combination is refused (generalised-α, of
-    // index 3, and RK4 take it).
-    let baumgarte = Stabilisation::Baumgarte { alpha: 10.0, beta: 10.0 };
-    let midpoint =
-        SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint).with_stabilisation(baumgarte);
-    let error = SparseSimulation::new(&scene, NoLoads, &springs, midpoint).expect_err("refused");
-    assert!(error.to_string().contains("Baumgarte"), "{error}");
-    for integrator in [Integrator::Rk4, Integrator::GeneralisedAlpha] {
-        let options = SimulationOptions::default().with_integrator(integrator).with_stabilisation(baumgarte);
-        assert!(SparseSimulation::new(&scene, NoLoads, &springs, options).is_ok(), "{integrator:?}");
-    }
 }
 
 /// One step of a simulation of the press, dense or sparse.

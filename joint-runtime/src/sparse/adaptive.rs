@@ -4,10 +4,9 @@
 //! stages, generalised-α step and projection.
 
 use super::SparseSimulation;
-use super::simulation::check_options;
 use crate::analysis::{AnalysisError, check_state};
 use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
-use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Integrator, Rate, Tolerance};
+use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Rate, Tolerance};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
@@ -61,10 +60,7 @@ where
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
         match method {
-            Adaptive::GeneralisedAlpha => {
-                check_options(&self.options, Integrator::GeneralisedAlpha)?;
-                self.alpha_workspace()?;
-            }
+            Adaptive::GeneralisedAlpha => self.alpha_workspace()?,
             Adaptive::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
             Adaptive::DormandPrince => {}
         }

@@ -20,12 +20,10 @@ use nalgebra::{DMatrix, SVector};
 
 use super::SparseSimulation;
 use super::second_order::{RowTerm, SecondOrderLayout};
-use super::simulation::{SparseDynamics, check_options};
+use super::simulation::SparseDynamics;
 use crate::analysis::{AnalysisError, apply_metric, check_state, velocity_vector};
 use crate::dynamics::linear::{minimal, transition_matrix, update_times};
-use crate::dynamics::{
-    AppliedLoads, Integrator, Linearisation, Stabilisation, force_column, midpoint_state, update_blocks,
-};
+use crate::dynamics::{AppliedLoads, Linearisation, Stabilisation, force_column, midpoint_state, update_blocks};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The linearised equations of motion at one state, dense: `δa` along any
@@ -118,15 +116,12 @@ where
     /// the configured integrator.
     ///
     /// # Errors
-    /// As [`Simulation::transition`](crate::dynamics::Simulation::transition),
-    /// and [`AnalysisError::DenseOnly`] for options the sparse midpoint rule
-    /// refuses (Baumgarte stabilisation). On
-    /// error `state` is unchanged.
+    /// As [`Simulation::transition`](crate::dynamics::Simulation::transition).
+    /// On error `state` is unchanged.
     pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
-        check_options(&self.options, Integrator::ImplicitMidpoint)?;
         self.alpha_workspace()?;
         let (y0, d0) = self.step_start(state)?;
         let (y1, _, _) = self.step_midpoint(&y0, &d0.vdot, h)?;

@@ -16,8 +16,11 @@
 //! `q_n ⊕ (h/2) w`): generalised-α's pattern exactly, bodies and joints as
 //! nodes, so the same [`Kkt`](super::kkt::Kkt) factorises it. `K`,
 //! `∂(J a)/∂q`, `∂γ/∂q` and `∂γ/∂v` are the scene's sparse second-order terms
-//! (with `u = a`; or their differences, `differences.rs`); `Q_q`, `Q_v` the spring-dampers' and the gyroscopic terms,
-//! exact; user loads are left out, as for generalised-α. Redundant rows are
+//! (with `u = a`; or their differences, `differences.rs`); with Baumgarte
+//! stabilisation the second row takes the stabilised `γ̂`'s derivatives, as
+//! the dense matrix does. `Q_q`, `Q_v` are the spring-dampers' and the
+//! gyroscopic terms, exact; user loads are left out, as for generalised-α.
+//! Redundant rows are
 //! held at `δμ = 0`, the rule of the step's start. Newton is modified as on
 //! the dense path: the matrix is rebuilt only when convergence slows.
 
@@ -31,8 +34,8 @@ use super::simulation::SparseDynamics;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::{
-    AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times, midpoint_end, midpoint_state,
-    midpoint_work, update_blocks,
+    AppliedLoads, ModifiedNewton, NewtonMatrix, Stabilisation, energy_balance, mass_times, midpoint_end,
+    midpoint_state, midpoint_work, update_blocks,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -112,9 +115,15 @@ where
         let quarter = 0.25 * h * h;
         let dropped = self.solver.factor.dropped();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
+        let stabilisation = match self.options.stabilisation {
+            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
+            Stabilisation::None => (0.0, 0.0),
+        };
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let (state, d) = (&mid.state, &mid.dynamics);
-        ws.fill_terms(self.scene, state, &d.lambda, &d.vdot, by_differences)?;
+        // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
+        let u = d.vdot + velocity_vector::<NB, NV>(state) * (2.0 * stabilisation.0);
+        ws.fill_terms(self.scene, state, &d.lambda, &u, by_differences)?;
         let kkt = &mut ws.kkt;
         kkt.clear();
         // (h²/4)(K − Q_q), times T; then M − (h/2) Q_v; then J with its terms, and Jᵀ.
@@ -128,7 +137,8 @@ where
         }
         add_mass(kkt, &self.inertias, state, 1.0, 0.5 * h)?;
         add_rows::<S, NB, NNZ>(kkt, &mid.values, &ws.row_joint, dropped, &[Matrix3::identity(); NB])?;
-        add_row_terms(kkt, &ws.layout, &ws.terms, &ws.row_joint, dropped, &t, h)?;
+        let rows = RowTerms { layout: &ws.layout, terms: &ws.terms, row_joint: &ws.row_joint, dropped, stabilisation };
+        add_row_terms::<S, NB, NNZ>(kkt, &rows, &mid.values, &t, h)?;
         ws.kkt.factor().map_err(AnalysisError::from)
     }
 
@@ -155,31 +165,62 @@ where
     }
 }
 
-/// Adds `(h²/4)(∂(J a)/∂q − ∂γ/∂q) T − (h/2) ∂γ/∂v` to each kept row's blocks
-/// over its joint's bodies (`T` on the rotation columns).
-fn add_row_terms<const NB: usize>(
+/// What [`add_row_terms`] reads: the second-order terms (with
+/// `u = a + 2α v`), each row's joint, the dropped rows and Baumgarte's
+/// `(α, β)` (zeros without stabilisation).
+struct RowTerms<'a> {
+    layout: &'a SecondOrderLayout,
+    terms: &'a [f64],
+    row_joint: &'a [(usize, usize)],
+    dropped: &'a [usize],
+    stabilisation: (f64, f64),
+}
+
+/// Adds `(h²/4)(∂(J u)/∂q − ∂γ̂/∂q) T − (h/2) ∂γ̂/∂v` to each kept row's
+/// blocks over its joint's bodies (`T` on the rotation columns), with the
+/// stabilised `γ̂ = γ − 2α (J v + Φ_t) − β² Φ`: `∂γ̂/∂q` adds
+/// `−2α ∂Φ_t/∂q − β² J` (the `∂(J v)/∂q` part is in `u`), `∂γ̂/∂v` adds `−2α J`.
+fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
     kkt: &mut Kkt,
-    layout: &SecondOrderLayout,
-    terms: &[f64],
-    row_joint: &[(usize, usize)],
-    dropped: &[usize],
+    rows: &RowTerms<'_>,
+    values: &[f64; NNZ],
     t: &[Matrix3<f64>; NB],
     h: f64,
 ) -> Result<(), AnalysisError> {
-    for (r, &(joint, local)) in row_joint.iter().enumerate() {
-        if dropped.binary_search(&r).is_ok() {
+    let (alpha, beta) = rows.stabilisation;
+    for (r, &(joint, local)) in rows.row_joint.iter().enumerate() {
+        if rows.dropped.binary_search(&r).is_ok() {
             continue;
         }
-        let entries = |term| layout.row(terms, term, r).ok_or_else(missing);
-        let ((bodies, ja), (_, gq), (_, gv)) =
-            (entries(RowTerm::JacobianQ)?, entries(RowTerm::GammaQ)?, entries(RowTerm::GammaV)?);
+        let entries = |term| rows.layout.row(rows.terms, term, r).ok_or_else(missing);
+        let ((bodies, ja), (_, gq), (_, gv), (_, pt)) = (
+            entries(RowTerm::JacobianQ)?,
+            entries(RowTerm::GammaQ)?,
+            entries(RowTerm::GammaV)?,
+            entries(RowTerm::PhiTQ)?,
+        );
+        // The row of J over the joint's bodies' columns.
+        let mut j = [0.0; 12];
+        if let (Some(&a), Some(&e)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) {
+            for (&c, &v) in S::COLUMNS.iter().zip(values).take(e).skip(a) {
+                if let Some(x) = bodies.iter().position(|&b| b == c / 6).and_then(|i| j.get_mut(6 * i + c % 6)) {
+                    *x = v;
+                }
+            }
+        }
         for (i, &b) in bodies.iter().enumerate() {
-            let q = |k: usize| 0.25 * h * h * (ja[6 * i + k] - gq[6 * i + k]);
+            let q = |k: usize| {
+                let at = 6 * i + k;
+                0.25 * h
+                    * h
+                    * (ja[at] - gq[at] + 2.0 * alpha * pt[at] + beta * beta * j.get(at).copied().unwrap_or(0.0))
+            };
             let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
             let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
             for k in 0..6 {
                 let dq = if k < 3 { q(k) } else { (0..3).map(|m| q(3 + m) * jr[(m, k - 3)]).sum() };
-                row[6 * local + k] += dq - 0.5 * h * gv[6 * i + k];
+                let dv = -0.5 * h * gv[6 * i + k] + h * alpha * j.get(6 * i + k).copied().unwrap_or(0.0);
+                row[6 * local + k] += dq + dv;
             }
         }
     }

@@ -88,7 +88,7 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        check_options(&options, options.integrator)?;
+        check_integrator(options.integrator)?;
         let alpha = match options.integrator {
             Integrator::Rk4 | Integrator::RadauIIA => None,
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => {
@@ -249,7 +249,7 @@ where
             return Err(AnalysisError::BadOption { name: "step size" });
         }
         // `options` is public: what `new` refused may have been set since.
-        check_options(&self.options, self.options.integrator)?;
+        check_integrator(self.options.integrator)?;
         let mut report = StepReport::default();
         let mut y = match self.options.integrator {
             Integrator::Rk4 => {
@@ -419,20 +419,14 @@ where
     }
 }
 
-/// Refuses the options this path cannot honour for `integrator`, rather
-/// than ignoring them: Radau IIA (its complex stage system has no
-/// saddle-point factor here) and Baumgarte with the implicit midpoint rule
-/// (its saddle-point Newton matrix lacks the stabilisation's terms).
+/// Refuses the integrator this path cannot run, rather than ignoring it:
+/// Radau IIA (its complex stage system has no saddle-point factor here).
 ///
 /// # Errors
-/// [`AnalysisError::DenseOnly`] naming the option.
-pub(super) fn check_options(options: &SimulationOptions, integrator: Integrator) -> Result<(), AnalysisError> {
+/// [`AnalysisError::DenseOnly`] naming it.
+fn check_integrator(integrator: Integrator) -> Result<(), AnalysisError> {
     if integrator == Integrator::RadauIIA {
         return Err(AnalysisError::DenseOnly { what: "Radau IIA" });
-    }
-    let baumgarte = matches!(options.stabilisation, Stabilisation::Baumgarte { .. });
-    if baumgarte && integrator == Integrator::ImplicitMidpoint {
-        return Err(AnalysisError::DenseOnly { what: "Baumgarte stabilisation with the implicit midpoint rule" });
     }
     Ok(())
 }
