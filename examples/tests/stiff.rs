@@ -19,29 +19,59 @@ enum Run {
     Adaptive(Adaptive, f64),
 }
 
+/// Accepted and rejected steps (error-controlled) or Newton iterations (fixed steps) of a run.
+type Counts = (usize, usize);
+
 fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     scene: &S,
     springs: &[SpringDamper],
     start: SystemState<NB>,
     t_end: f64,
     how: Run,
-) -> SystemState<NB> {
+) -> (SystemState<NB>, Counts) {
     let integrator = if let Run::Fixed(i, _) = how { i } else { Integrator::Rk4 };
     let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
     let mut sim = Simulation::new(scene, NoLoads, springs, options).expect("simulation");
     let mut state = start;
-    match how {
-        Run::Fixed(_, h) => {
-            for _ in 0..(t_end / h).round() as usize {
-                sim.step(&mut state, h).unwrap_or_else(|e| panic!("{how:?}: {e}"));
-            }
-        }
+    let counts = match how {
+        Run::Fixed(_, h) => (0..(t_end / h).round() as usize)
+            .map(|_| sim.step(&mut state, h).unwrap_or_else(|e| panic!("{how:?}: {e}")).newton_iterations)
+            .fold((0, 0), |(n, _), i| (n + i, 0)),
         Run::Adaptive(method, tol) => {
             let tolerance = Tolerance { rtol: tol, atol: tol };
-            sim.integrate(&mut state, t_end, method, tolerance).unwrap_or_else(|e| panic!("{how:?}: {e}"));
+            let r = sim.integrate(&mut state, t_end, method, tolerance).unwrap_or_else(|e| panic!("{how:?}: {e}"));
+            (r.accepted, r.rejected)
         }
-    }
-    state
+    };
+    (state, counts)
+}
+
+/// [`run`] on the sparse path.
+fn run_sparse<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    scene: &S,
+    springs: &[SpringDamper],
+    start: SystemState<NB>,
+    t_end: f64,
+    how: Run,
+) -> (SystemState<NB>, Counts)
+where
+    S: Scene<NB, NV, M> + joint_runtime::SparseJacobian<NB, NNZ>,
+{
+    let integrator = if let Run::Fixed(i, _) = how { i } else { Integrator::Rk4 };
+    let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
+    let mut sim = SparseSimulation::new(scene, NoLoads, springs, options).expect("simulation");
+    let mut state = start;
+    let counts = match how {
+        Run::Fixed(_, h) => (0..(t_end / h).round() as usize)
+            .map(|_| sim.step(&mut state, h).unwrap_or_else(|e| panic!("{how:?}: {e}")).newton_iterations)
+            .fold((0, 0), |(n, _), i| (n + i, 0)),
+        Run::Adaptive(method, tol) => {
+            let tolerance = Tolerance { rtol: tol, atol: tol };
+            let r = sim.integrate(&mut state, t_end, method, tolerance).unwrap_or_else(|e| panic!("{how:?}: {e}"));
+            (r.accepted, r.rejected)
+        }
+    };
+    (state, counts)
 }
 
 /// `|Δr| + |Δp|` of the worst body.
@@ -57,9 +87,9 @@ fn every_integrator<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const
     t_end: f64,
     runs: &[(Run, f64)],
 ) {
-    let reference = run(scene, springs, start, t_end, Run::Adaptive(Adaptive::DormandPrince, 1e-12));
+    let reference = run(scene, springs, start, t_end, Run::Adaptive(Adaptive::DormandPrince, 1e-12)).0;
     for &(how, allowed) in runs {
-        let end = run(scene, springs, start, t_end, how);
+        let end = run(scene, springs, start, t_end, how).0;
         let error = distance(&end, &reference);
         println!("{name}, {how:?}: error {error:.2e}");
         assert!(error < allowed, "{name}, {how:?}: error {error:e} above {allowed:e}");
@@ -104,10 +134,10 @@ fn every_integrator_on_bricard() {
 #[test]
 fn radau_is_fifth_order() {
     let (scene, start) = (bricard::scene(), bricard::initial_state());
-    let reference = run(&scene, &[], start, 0.6, Run::Adaptive(Adaptive::DormandPrince, 1e-12));
+    let reference = run(&scene, &[], start, 0.6, Run::Adaptive(Adaptive::DormandPrince, 1e-12)).0;
     let errors: Vec<f64> = [0.06, 0.03, 0.015]
         .iter()
-        .map(|&h| distance(&run(&scene, &[], start, 0.6, Run::Fixed(Integrator::RadauIIA, h)), &reference))
+        .map(|&h| distance(&run(&scene, &[], start, 0.6, Run::Fixed(Integrator::RadauIIA, h)).0, &reference))
         .collect();
     let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
     println!("Radau IIA on Bricard: errors {errors:?}, orders {orders:?}");
@@ -139,28 +169,35 @@ fn radau_starts_afresh_after_a_switch_and_fails_cleanly() {
     assert_eq!(state, before);
 }
 
-/// Radau IIA is the dense path's: the sparse simulation says so, in `new`,
-/// in `step` (after the public options were changed) and in `integrate`, and
-/// leaves the state alone.
+/// Radau IIA on the sparse path (its real and complex stage systems on the
+/// saddle-point pattern) takes the dense path's steps: at fixed steps and
+/// error-controlled (the same accepted and rejected steps), on the stiff press
+/// and on Bricard with its redundant row.
 #[test]
-fn radau_runs_on_the_dense_path_only() {
-    let (scene, springs) = (press::scene(), press::springs());
-    let radau = SimulationOptions::default().with_integrator(Integrator::RadauIIA);
-    let error = SparseSimulation::new(&scene, NoLoads, &springs, radau).expect_err("refused in new");
-    assert!(matches!(error, AnalysisError::DenseOnly { what: "Radau IIA" }), "{error}");
-    assert!(error.to_string().contains("dense path"), "{error}");
-    let mut sparse =
-        SparseSimulation::new(&scene, NoLoads, &springs, SimulationOptions::default()).expect("sparse simulation");
-    sparse.options = radau;
-    let mut state = press::initial_state().expect("assembled");
-    let before = state;
-    let error = sparse.step(&mut state, 1e-3).expect_err("dense only");
-    assert!(matches!(error, AnalysisError::DenseOnly { what: "Radau IIA" }), "{error}");
-    sparse.options = SimulationOptions::default();
-    let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
-    let error = sparse.integrate(&mut state, 0.01, Adaptive::RadauIIA, tolerance).expect_err("dense only");
-    assert!(matches!(error, AnalysisError::DenseOnly { .. }), "{error}");
-    assert_eq!(state, before);
+fn sparse_radau_is_the_dense_one() {
+    let runs = [
+        (Run::Fixed(Integrator::RadauIIA, 2.5e-3), 1e-11),
+        (Run::Adaptive(Adaptive::RadauIIA, 1e-6), 1e-9),
+        (Run::Adaptive(Adaptive::RadauIIA, 1e-8), 1e-11),
+    ];
+    let (press, springs, start) = (press::scene(), press::springs(), press::initial_state().expect("assembled"));
+    for (how, allowed) in runs {
+        let (dense, sparse) = (run(&press, &springs, start, 0.05, how), run_sparse(&press, &springs, start, 0.05, how));
+        println!("press, {how:?}: dense {:?}, sparse {:?}", dense.1, sparse.1);
+        let gap = distance(&dense.0, &sparse.0);
+        assert!(gap < allowed, "press, {how:?}: {gap:e}");
+        // Round-off apart, the same Jacobian: Newton's iterations (fixed steps)
+        // or the accepted and rejected steps (error control) within a tenth.
+        let near = |a: usize, b: usize| a.abs_diff(b) * 10 <= a.max(b).max(10);
+        assert!(near(dense.1.0, sparse.1.0) && near(dense.1.1, sparse.1.1), "press, {how:?}");
+    }
+    let (bricard, start) = (bricard::scene(), bricard::initial_state());
+    for how in [Run::Fixed(Integrator::RadauIIA, 1e-2), Run::Adaptive(Adaptive::RadauIIA, 1e-8)] {
+        let (dense, sparse) = (run(&bricard, &[], start, 0.3, how), run_sparse(&bricard, &[], start, 0.3, how));
+        println!("Bricard, {how:?}: dense {:?}, sparse {:?}", dense.1, sparse.1);
+        let gap = distance(&dense.0, &sparse.0);
+        assert!(gap < 1e-11, "Bricard, {how:?}: {gap:e}");
+    }
 }
 
 /// Newton matrices by differences on the sparse path: its implicit steps

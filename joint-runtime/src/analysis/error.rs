@@ -103,12 +103,6 @@ pub enum AnalysisError {
         /// The step size last tried.
         step: f64,
     },
-    /// What was asked for runs on the dense path ([`Simulation`](crate::dynamics::Simulation))
-    /// only, not on a `SparseSimulation`.
-    DenseOnly {
-        /// What was asked for.
-        what: &'static str,
-    },
     /// An implicit step's Newton iteration converged to a solution that gains
     /// more energy than the work done on the mechanism allows: a spurious
     /// solution of the integrator's equations, far from the motion (the step
@@ -172,9 +166,6 @@ impl fmt::Display for AnalysisError {
             }
             AnalysisError::StepTooSmall { t, step } => {
                 write!(f, "error-controlled steps stopped at t = {t}: step {step:.3e} too small for the tolerance")
-            }
-            AnalysisError::DenseOnly { what } => {
-                write!(f, "{what} runs on the dense path only; use `dynamics::Simulation`")
             }
             AnalysisError::SpuriousSolution { gain, scale } => write!(
                 f,

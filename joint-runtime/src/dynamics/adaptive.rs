@@ -43,7 +43,8 @@ pub enum Adaptive {
     /// Implicit generalised-α with its local error estimate, for stiff ones.
     GeneralisedAlpha,
     /// Implicit Radau IIA of order 5 with RADAU5's error estimate, for stiff
-    /// problems at tight tolerances (`radau.rs`; dense path only).
+    /// problems at tight tolerances (`radau.rs`; on the sparse path
+    /// its stage systems on the saddle-point pattern, `sparse/radau.rs`).
     RadauIIA,
 }
 
@@ -191,7 +192,8 @@ where
             }
             Adaptive::RadauIIA => {
                 let (mut y, mut rule) = self.step_start(y0, h)?;
-                let step = self.step_radau(&mut y, h, &mut rule, Some(tolerance))?;
+                let mut host = super::radau::DenseRadau::new(self, &mut rule);
+                let step = super::radau::step_radau(&mut host, &mut y, h, Some(tolerance))?;
                 report.newton_iterations += step.iterations;
                 report.newton_matrices += step.matrices;
                 report.evaluations += step.evaluations;

@@ -102,7 +102,7 @@ mod generalised_alpha;
 #[cfg(feature = "alloc")]
 pub(crate) mod linear;
 mod newton_matrix;
-mod radau;
+pub(crate) mod radau;
 
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
@@ -272,7 +272,8 @@ pub enum Integrator {
     GeneralisedAlpha,
     /// Radau IIA of order 5 on the Lie group (three implicit stages, L-stable,
     /// stiffly accurate), simplified Newton with the generated Jacobian of the
-    /// index-1 equations (`dynamics/radau.rs`). Dense path only.
+    /// index-1 equations (`dynamics/radau.rs`; on the sparse path its real
+    /// and complex stage systems on the saddle-point pattern).
     RadauIIA,
 }
 
@@ -535,7 +536,7 @@ pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize
     /// What generalised-α's last step left for the next.
     history: Option<generalised_alpha::AlphaHistory<NB, NV, M>>,
     /// Radau IIA's last stages (the next step's starting values).
-    radau: Option<radau::RadauHistory<NB, NV>>,
+    radau: Option<radau::RadauHistory<NB, NV, radau::DenseJacobian<NV>>>,
     /// The options (may be changed between steps).
     pub options: SimulationOptions,
 }
@@ -887,7 +888,7 @@ where
             Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,
             Integrator::GeneralisedAlpha => self.step_alpha(&mut y, h, continuing, &mut rule)?,
             Integrator::RadauIIA => {
-                let step = self.step_radau(&mut y, h, &mut rule, None)?;
+                let step = radau::step_radau(&mut radau::DenseRadau::new(self, &mut rule), &mut y, h, None)?;
                 (step.iterations, step.matrices)
             }
         };

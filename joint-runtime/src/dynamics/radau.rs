@@ -114,45 +114,80 @@ const TI: [[f64; 3]; 3] = [
     [-0.5028726349457869, 2.571926949855605, -0.5960392048282249],
 ];
 /// The real eigenvalue of `A⁻¹`.
-const GAMMA: f64 = 3.637834252744496;
+pub(crate) const GAMMA: f64 = 3.637834252744496;
 /// The complex pair `α ± iβ` of `A⁻¹`.
-const ALPHA: f64 = 2.681082873627752;
-const BETA: f64 = 3.0504301992474105;
+pub(crate) const ALPHA: f64 = 2.681082873627752;
+pub(crate) const BETA: f64 = 3.0504301992474105;
 /// The error estimate's weights `d_i = −(13 + 7√6)/3, (−13 + 7√6)/3, −1/3`.
 const D: [f64; 3] = [-10.048809399827416, 1.382142733160749, -1.0 / 3.0];
 
-type Stages<const NV: usize> = [SVector<f64, NV>; 3];
+pub(crate) type Stages<const NV: usize> = [SVector<f64, NV>; 3];
 
 /// What one Radau step did.
-pub(super) struct RadauStep {
-    pub(super) iterations: usize,
-    pub(super) matrices: usize,
-    pub(super) evaluations: usize,
+pub(crate) struct RadauStep {
+    pub(crate) iterations: usize,
+    pub(crate) matrices: usize,
+    pub(crate) evaluations: usize,
     /// The error norm (0 at fixed steps).
-    pub(super) error: f64,
+    pub(crate) error: f64,
 }
 
 /// The last step's stages, from which the next step's Newton iteration starts
 /// (the collocation polynomial extrapolated, as RADAU5), if the next step
-/// starts where this one was accepted; and the Jacobian it used.
+/// starts where this one was accepted; and the Jacobian it used (`J`: the
+/// dense path's matrices, or nothing where the host keeps them).
 #[derive(Clone, Copy)]
-pub(super) struct RadauHistory<const NB: usize, const NV: usize> {
+pub(crate) struct RadauHistory<const NB: usize, const NV: usize, J> {
     /// The accepted (projected) end of the step; `None` until accepted.
-    pub(super) end: Option<SystemState<NB>>,
+    pub(crate) end: Option<SystemState<NB>>,
     h: f64,
     zu: Stages<NV>,
     zv: Stages<NV>,
-    jacobian: Jacobian<NB, NV>,
+    /// The state the Jacobian was evaluated at, and the largest contraction
+    /// of the last Newton iteration that used it (infinite after a failure).
+    at: SystemState<NB>,
+    theta: f64,
+    jacobian: J,
 }
 
-/// `A_q`, `A_v` at the state `at`, and the largest contraction of the last
-/// Newton iteration that used them (infinite after a failure).
-#[derive(Clone, Copy)]
-struct Jacobian<const NB: usize, const NV: usize> {
-    at: SystemState<NB>,
-    aq: SMatrix<f64, NV, NV>,
-    av: SMatrix<f64, NV, NV>,
-    theta: f64,
+/// What the Radau step needs of a simulation (the dense [`Simulation`] and
+/// the sparse one): the accelerations under the step's rule for redundant
+/// rows, the Jacobian of the index-1 equations, and the real and complex
+/// stage systems `(μ − [[0, I], [A_q, A_v]]) (x, y) = (r, s)` factorised and
+/// solved.
+pub(crate) trait RadauHost<const NB: usize, const NV: usize> {
+    /// The Jacobian's matrices, where the host keeps them in the history.
+    type Jacobian: Copy;
+    /// The two factorised systems of one step.
+    type Factors;
+    /// Newton's iteration cap and tolerance at fixed steps.
+    fn newton_limits(&self) -> (usize, f64);
+    /// The history, kept between steps.
+    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, Self::Jacobian>>;
+    /// The accelerations at the step's start `y0` (whose rule the stages keep).
+    fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError>;
+    /// The accelerations at a stage, under the rule of the start.
+    fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError>;
+    /// The Jacobian at the start `y0`, and the dynamics evaluations spent.
+    fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<(Self::Jacobian, usize), AnalysisError>;
+    /// Factorises the two systems of a step `h` on `jacobian`.
+    fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, AnalysisError>;
+    /// `(γ̂/h − [[0, I], [A_q, A_v]])⁻¹ (r, s)`.
+    fn solve_real(
+        &mut self,
+        factors: &Self::Factors,
+        r: &SVector<f64, NV>,
+        s: &SVector<f64, NV>,
+    ) -> (SVector<f64, NV>, SVector<f64, NV>);
+    /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
+    /// imaginary parts of `x`, then of `y`.
+    #[allow(clippy::type_complexity)]
+    fn solve_complex(
+        &mut self,
+        factors: &Self::Factors,
+        r: (&SVector<f64, NV>, &SVector<f64, NV>),
+        s: (&SVector<f64, NV>, &SVector<f64, NV>),
+    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>));
 }
 
 /// RADAU5's bound on the contraction below which the next step keeps the
@@ -167,187 +202,272 @@ enum Stop<const NB: usize> {
     Scaled { kappa: f64, tolerance: Tolerance, start: SystemState<NB> },
 }
 
+/// One Radau IIA step from the normalised `state`; with a `tolerance`,
+/// Newton stops as the error control needs and the step's error norm is
+/// estimated. The stages are kept in the host's history (not yet accepted).
+pub(crate) fn step_radau<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+    host: &mut H,
+    state: &mut SystemState<NB>,
+    h: f64,
+    tolerance: Option<Tolerance>,
+) -> Result<RadauStep, AnalysisError> {
+    let y0 = *state;
+    let v0 = velocity_vector::<NB, NV>(&y0);
+    let a0 = host.start(&y0)?;
+    let z = starting_values(host.history().as_ref(), &y0, &v0, h);
+    let mut step = RadauStep { iterations: 0, matrices: 1, evaluations: 1, error: 0.0 };
+    let (at, jacobian) = match *host.history() {
+        // A retry from the same state, or a last iteration that converged fast.
+        Some(past) if past.at == y0 || past.theta <= KEEP_JACOBIAN => (past.at, past.jacobian),
+        _ => {
+            // No history while the host's matrices change.
+            *host.history() = None;
+            let (jacobian, evaluations) = host.jacobian(&y0)?;
+            step.evaluations += evaluations;
+            (y0, jacobian)
+        }
+    };
+    // Kept before Newton runs: a step that fails retries on it from the
+    // same state, and no other step keeps it (θ infinite until Newton
+    // converges).
+    let pending = RadauHistory { end: None, h, zu: z.0, zv: z.1, at, theta: f64::INFINITY, jacobian };
+    *host.history() = Some(pending);
+    let factors = host.factor(&jacobian, h)?;
+    // RADAU5's mapping: the estimate is of the embedded third-order
+    // solution, far above the fifth-order one's error at tight tolerances.
+    let tolerance = tolerance.map(|t| {
+        let rtol = 0.1 * libm::pow(t.rtol, 2.0 / 3.0);
+        Tolerance { rtol, atol: rtol * t.atol / t.rtol }
+    });
+    let (max_iterations, newton_tolerance) = host.newton_limits();
+    let stop = match tolerance {
+        Some(t) => {
+            let kappa = (10.0 * f64::EPSILON / t.rtol).max(libm::sqrt(t.rtol).min(0.03));
+            Stop::Scaled { kappa, tolerance: t, start: y0 }
+        }
+        None => Stop::Relative(newton_tolerance),
+    };
+    let newton = Newton { y0: &y0, v0: &v0, h, stop: &stop, max_iterations };
+    let (zu, zv, theta) = radau_newton(host, &newton, z, &factors, &mut step)?;
+    *host.history() = Some(RadauHistory { zu, zv, theta, ..pending });
+    let y1 = displaced(&y0, &zu[2], 1.0, &(v0 + zv[2]), y0.t + h);
+    if let Some(tol) = tolerance {
+        step.error = radau_estimate(host, (&y0, &y1, h), (&v0, &a0), (&zu, &zv), &factors, tol, &mut step)?;
+    }
+    *state = y1;
+    Ok(step)
+}
+
+/// The stages Newton starts from: the last accepted step's collocation
+/// polynomial extrapolated to this step if it ended at `y0`, else
+/// positions moving at the start's velocities.
+fn starting_values<J, const NB: usize, const NV: usize>(
+    history: Option<&RadauHistory<NB, NV, J>>,
+    y0: &SystemState<NB>,
+    v0: &SVector<f64, NV>,
+    h: f64,
+) -> (Stages<NV>, Stages<NV>) {
+    match history {
+        Some(past) if past.end.as_ref() == Some(y0) => {
+            let grow = h / past.h;
+            let at = |z: &Stages<NV>, i: usize| {
+                let w = collocation_weights(1.0 + C[i] * grow);
+                z[0] * w[0] + z[1] * w[1] + z[2] * (w[2] - 1.0)
+            };
+            ([0, 1, 2].map(|i| at(&past.zu, i)), [0, 1, 2].map(|i| at(&past.zv, i)))
+        }
+        _ => (C.map(|c| v0 * (c * h)), [SVector::zeros(); 3]),
+    }
+}
+
+/// What one step's Newton iteration is about.
+struct Newton<'a, const NB: usize, const NV: usize> {
+    y0: &'a SystemState<NB>,
+    v0: &'a SVector<f64, NV>,
+    h: f64,
+    stop: &'a Stop<NB>,
+    max_iterations: usize,
+}
+
+/// Simplified Newton on the transformed stage equations from the stages
+/// `z`; returns the converged stages and the largest contraction seen.
+fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+    host: &mut H,
+    newton: &Newton<'_, NB, NV>,
+    (mut zu, mut zv): (Stages<NV>, Stages<NV>),
+    factors: &H::Factors,
+    step: &mut RadauStep,
+) -> Result<(Stages<NV>, Stages<NV>, f64), AnalysisError> {
+    let Newton { y0, v0, h, stop, max_iterations } = *newton;
+    let (mut wu, mut wv) = (mix(&TI, &zu), mix(&TI, &zv));
+    let (mut last, mut contraction) = (f64::INFINITY, 0.0f64);
+    loop {
+        if step.iterations >= max_iterations {
+            return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: last });
+        }
+        // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z).
+        let mut fu: Stages<NV> = [SVector::zeros(); 3];
+        let mut fv: Stages<NV> = [SVector::zeros(); 3];
+        for i in 0..3 {
+            let v = v0 + zv[i];
+            fv[i] = host.accelerations(&displaced(y0, &zu[i], 1.0, &v, y0.t + C[i] * h))?;
+            fu[i] = position_rates::<NV>(&zu[i], &v);
+        }
+        step.evaluations += 3;
+        let (gu, gv) = (mix(&TI, &fu), mix(&TI, &fv));
+        // Residuals G − h⁻¹ Λ W, solved block by block.
+        let residual = |g: &Stages<NV>, w: &Stages<NV>| {
+            [
+                g[0] - w[0] * (GAMMA / h),
+                g[1] - (w[1] * ALPHA - w[2] * BETA) / h,
+                g[2] - (w[1] * BETA + w[2] * ALPHA) / h,
+            ]
+        };
+        let (ru, rv) = (residual(&gu, &wu), residual(&gv, &wv));
+        let (du0, dv0) = host.solve_real(factors, &ru[0], &rv[0]);
+        let ((du1, du2), (dv1, dv2)) = host.solve_complex(factors, (&ru[1], &ru[2]), (&rv[1], &rv[2]));
+        let (du, dv) = ([du0, du1, du2], [dv0, dv1, dv2]);
+        for k in 0..3 {
+            wu[k] += du[k];
+            wv[k] += dv[k];
+        }
+        (zu, zv) = (mix(&T, &wu), mix(&T, &wv));
+        step.iterations += 1;
+        let (dzu, dzv) = (mix(&T, &du), mix(&T, &dv));
+        let (size, bound) = match stop {
+            Stop::Relative(tolerance) => (euclidean(&dzu, &dzv), tolerance * (1.0 + euclidean(&zu, &zv))),
+            Stop::Scaled { kappa, tolerance, start } => (stage_norm(start, &dzu, &dzv, *tolerance), *kappa),
+        };
+        let theta = size / last;
+        if step.iterations >= 2 {
+            contraction = contraction.max(theta);
+        }
+        // Converged when the correction, or the remaining error its
+        // contraction predicts (θ/(1 − θ) of it), is within the bound; at
+        // fixed steps also at the round-off floor, where θ may exceed 1.
+        let floor = match stop {
+            Stop::Relative(tolerance) => newton_done(size, last, bound / tolerance, *tolerance),
+            Stop::Scaled { .. } => size <= 1e-2 * bound,
+        };
+        if floor || (step.iterations >= 2 && theta < 1.0 && theta / (1.0 - theta) * size <= bound) {
+            return Ok((zu, zv, contraction));
+        }
+        if !size.is_finite() || (step.iterations >= 2 && theta >= 1.0) {
+            return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: size });
+        }
+        last = size;
+    }
+}
+
+/// RADAU5's error norm of the step from `y0` (its rates `v0`, `a0`) to `y1`
+/// with the stage increments `z` (see the module documentation).
+#[allow(clippy::type_complexity)]
+fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+    host: &mut H,
+    (y0, y1, h): (&SystemState<NB>, &SystemState<NB>, f64),
+    (v0, a0): (&SVector<f64, NV>, &SVector<f64, NV>),
+    (zu, zv): (&Stages<NV>, &Stages<NV>),
+    factors: &H::Factors,
+    tolerance: Tolerance,
+    step: &mut RadauStep,
+) -> Result<f64, AnalysisError> {
+    let weigh = |z: &Stages<NV>| (z[0] * D[0] + z[1] * D[1] + z[2] * D[2]) / h;
+    let (pu, pv) = (weigh(zu), weigh(zv));
+    let (eu, ev) = host.solve_real(factors, &(v0 + pu), &(a0 + pv));
+    let err = increment_error(y0, y1, &eu, &ev, tolerance);
+    if err <= 1.0 {
+        return Ok(err);
+    }
+    // The stiff components' overestimate removed: f at y_n + e.
+    let v = v0 + ev;
+    let a = host.accelerations(&displaced(y0, &eu, 1.0, &v, y0.t))?;
+    step.evaluations += 1;
+    let (eu, ev) = host.solve_real(factors, &(position_rates::<NV>(&eu, &v) + pu), &(a + pv));
+    Ok(increment_error(y0, y1, &eu, &ev, tolerance))
+}
+
+/// `A_q` and `A_v`, dense.
+pub(crate) type DenseJacobian<const NV: usize> = (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>);
+
+/// The dense [`Simulation`] under the rule of a step, as a [`RadauHost`]:
+/// `A_q`, `A_v` dense and the stage systems factorised by [`Lu`].
+pub(super) struct DenseRadau<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> {
+    pub(super) sim: &'r mut Simulation<'a, S, L, NB, NV, M>,
+    pub(super) rule: &'r mut StepRule<M>,
+    /// The start's factorisation, for the generated Jacobian.
+    start: Option<Factored<NV, M>>,
+}
+
+impl<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> DenseRadau<'r, 'a, S, L, NB, NV, M> {
+    /// The host of one step of `sim` under `rule`.
+    pub(super) fn new(sim: &'r mut Simulation<'a, S, L, NB, NV, M>, rule: &'r mut StepRule<M>) -> Self {
+        DenseRadau { sim, rule, start: None }
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize> RadauHost<NB, NV> for DenseRadau<'_, '_, S, L, NB, NV, M>
+where
+    S: Scene<NB, NV, M>,
+    L: AppliedLoads<NB>,
+{
+    type Jacobian = DenseJacobian<NV>;
+    type Factors = Factors<NV>;
+
+    fn newton_limits(&self) -> (usize, f64) {
+        (self.sim.options.newton_max_iterations, self.sim.options.newton_tolerance)
+    }
+
+    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, Self::Jacobian>> {
+        &mut self.sim.radau
+    }
+
+    fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
+        let start = self.sim.solve_factored(y0, Some(self.rule))?;
+        self.start = Some(start);
+        Ok(start.dynamics.vdot)
+    }
+
+    fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
+        Ok(self.sim.solve(state, Some(self.rule))?.vdot)
+    }
+
+    fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<(Self::Jacobian, usize), AnalysisError> {
+        let start = match self.start {
+            Some(start) => start,
+            None => self.sim.solve_factored(y0, Some(self.rule))?,
+        };
+        let (aq, av, evaluations) = self.sim.radau_jacobian(y0, start, self.rule)?;
+        Ok(((aq, av), evaluations))
+    }
+
+    fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, AnalysisError> {
+        Factors::new(&jacobian.0, &jacobian.1, h)
+    }
+
+    fn solve_real(
+        &mut self,
+        factors: &Self::Factors,
+        r: &SVector<f64, NV>,
+        s: &SVector<f64, NV>,
+    ) -> (SVector<f64, NV>, SVector<f64, NV>) {
+        factors.solve_real(r, s)
+    }
+
+    fn solve_complex(
+        &mut self,
+        factors: &Self::Factors,
+        r: (&SVector<f64, NV>, &SVector<f64, NV>),
+        s: (&SVector<f64, NV>, &SVector<f64, NV>),
+    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
+        factors.solve_complex(r, s)
+    }
+}
+
 impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
 {
-    /// One Radau IIA step from the normalised `state` under `rule`; with a
-    /// `tolerance`, Newton stops as the error control needs and the step's
-    /// error norm is estimated. The stages are kept in `self.radau` (not yet
-    /// accepted).
-    pub(super) fn step_radau(
-        &mut self,
-        state: &mut SystemState<NB>,
-        h: f64,
-        rule: &mut StepRule<M>,
-        tolerance: Option<Tolerance>,
-    ) -> Result<RadauStep, AnalysisError> {
-        let y0 = *state;
-        let v0 = velocity_vector::<NB, NV>(&y0);
-        let start = self.solve_factored(&y0, Some(rule))?;
-        let a0 = start.dynamics.vdot;
-        let z = self.starting_values(&y0, &v0, h);
-        let mut step = RadauStep { iterations: 0, matrices: 1, evaluations: 1, error: 0.0 };
-        let jacobian = match self.radau {
-            // A retry from the same state, or a last iteration that converged fast.
-            Some(past) if past.jacobian.at == y0 || past.jacobian.theta <= KEEP_JACOBIAN => past.jacobian,
-            _ => {
-                let (aq, av, evaluations) = self.radau_jacobian(&y0, start, rule)?;
-                step.evaluations += evaluations;
-                Jacobian { at: y0, aq, av, theta: f64::INFINITY }
-            }
-        };
-        // Kept before Newton runs: a step that fails retries on it from the
-        // same state, and no other step keeps it (θ infinite until Newton
-        // converges).
-        let pending = Jacobian { theta: f64::INFINITY, ..jacobian };
-        self.radau = Some(RadauHistory { end: None, h, zu: z.0, zv: z.1, jacobian: pending });
-        let factors = Factors::new(&jacobian.aq, &jacobian.av, h)?;
-        // RADAU5's mapping: the estimate is of the embedded third-order
-        // solution, far above the fifth-order one's error at tight tolerances.
-        let tolerance = tolerance.map(|t| {
-            let rtol = 0.1 * libm::pow(t.rtol, 2.0 / 3.0);
-            Tolerance { rtol, atol: rtol * t.atol / t.rtol }
-        });
-        let stop = match tolerance {
-            Some(t) => {
-                let kappa = (10.0 * f64::EPSILON / t.rtol).max(libm::sqrt(t.rtol).min(0.03));
-                Stop::Scaled { kappa, tolerance: t, start: y0 }
-            }
-            None => Stop::Relative(self.options.newton_tolerance),
-        };
-        let (zu, zv, theta) = self.radau_newton(&y0, &v0, z, &factors, rule, &stop, &mut step)?;
-        self.radau = Some(RadauHistory { end: None, h, zu, zv, jacobian: Jacobian { theta, ..jacobian } });
-        let y1 = displaced(&y0, &zu[2], 1.0, &(v0 + zv[2]), y0.t + h);
-        if let Some(tol) = tolerance {
-            step.error = self.radau_estimate(&y0, &y1, (&v0, &a0), (&zu, &zv), &factors, rule, tol, &mut step)?;
-        }
-        *state = y1;
-        Ok(step)
-    }
-
-    /// The stages Newton starts from: the last accepted step's collocation
-    /// polynomial extrapolated to this step if it ended at `y0`, else
-    /// positions moving at the start's velocities.
-    fn starting_values(&self, y0: &SystemState<NB>, v0: &SVector<f64, NV>, h: f64) -> (Stages<NV>, Stages<NV>) {
-        match self.radau {
-            Some(past) if past.end.as_ref() == Some(y0) => {
-                let grow = h / past.h;
-                let at = |z: &Stages<NV>, i: usize| {
-                    let w = collocation_weights(1.0 + C[i] * grow);
-                    z[0] * w[0] + z[1] * w[1] + z[2] * (w[2] - 1.0)
-                };
-                ([0, 1, 2].map(|i| at(&past.zu, i)), [0, 1, 2].map(|i| at(&past.zv, i)))
-            }
-            _ => (C.map(|c| v0 * (c * h)), [SVector::zeros(); 3]),
-        }
-    }
-
-    /// Simplified Newton on the transformed stage equations from the stages
-    /// `z`; returns the converged stages and the largest contraction seen.
-    #[allow(clippy::too_many_arguments)]
-    fn radau_newton(
-        &mut self,
-        y0: &SystemState<NB>,
-        v0: &SVector<f64, NV>,
-        (mut zu, mut zv): (Stages<NV>, Stages<NV>),
-        factors: &Factors<NV>,
-        rule: &mut StepRule<M>,
-        stop: &Stop<NB>,
-        step: &mut RadauStep,
-    ) -> Result<(Stages<NV>, Stages<NV>, f64), AnalysisError> {
-        let h = factors.h;
-        let (mut wu, mut wv) = (mix(&TI, &zu), mix(&TI, &zv));
-        let (mut last, mut contraction) = (f64::INFINITY, 0.0f64);
-        loop {
-            if step.iterations >= self.options.newton_max_iterations {
-                return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: last });
-            }
-            // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z).
-            let mut fu: Stages<NV> = [SVector::zeros(); 3];
-            let mut fv: Stages<NV> = [SVector::zeros(); 3];
-            for i in 0..3 {
-                let v = v0 + zv[i];
-                fv[i] = self.solve(&displaced(y0, &zu[i], 1.0, &v, y0.t + C[i] * h), Some(rule))?.vdot;
-                fu[i] = position_rates::<NV>(&zu[i], &v);
-            }
-            step.evaluations += 3;
-            let (gu, gv) = (mix(&TI, &fu), mix(&TI, &fv));
-            // Residuals G − h⁻¹ Λ W, solved block by block.
-            let residual = |g: &Stages<NV>, w: &Stages<NV>| {
-                [
-                    g[0] - w[0] * (GAMMA / h),
-                    g[1] - (w[1] * ALPHA - w[2] * BETA) / h,
-                    g[2] - (w[1] * BETA + w[2] * ALPHA) / h,
-                ]
-            };
-            let (ru, rv) = (residual(&gu, &wu), residual(&gv, &wv));
-            let (du0, dv0) = factors.solve_real(&ru[0], &rv[0]);
-            let ((du1, du2), (dv1, dv2)) = factors.solve_complex((&ru[1], &ru[2]), (&rv[1], &rv[2]));
-            let (du, dv) = ([du0, du1, du2], [dv0, dv1, dv2]);
-            for k in 0..3 {
-                wu[k] += du[k];
-                wv[k] += dv[k];
-            }
-            (zu, zv) = (mix(&T, &wu), mix(&T, &wv));
-            step.iterations += 1;
-            let (dzu, dzv) = (mix(&T, &du), mix(&T, &dv));
-            let (size, bound) = match stop {
-                Stop::Relative(tolerance) => (euclidean(&dzu, &dzv), tolerance * (1.0 + euclidean(&zu, &zv))),
-                Stop::Scaled { kappa, tolerance, start } => (stage_norm(start, &dzu, &dzv, *tolerance), *kappa),
-            };
-            let theta = size / last;
-            if step.iterations >= 2 {
-                contraction = contraction.max(theta);
-            }
-            // Converged when the correction, or the remaining error its
-            // contraction predicts (θ/(1 − θ) of it), is within the bound; at
-            // fixed steps also at the round-off floor, where θ may exceed 1.
-            let floor = match stop {
-                Stop::Relative(tolerance) => newton_done(size, last, bound / tolerance, *tolerance),
-                Stop::Scaled { .. } => size <= 1e-2 * bound,
-            };
-            if floor || (step.iterations >= 2 && theta < 1.0 && theta / (1.0 - theta) * size <= bound) {
-                return Ok((zu, zv, contraction));
-            }
-            if !size.is_finite() || (step.iterations >= 2 && theta >= 1.0) {
-                return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: size });
-            }
-            last = size;
-        }
-    }
-
-    /// RADAU5's error norm of the step from `y0` (its rates `f0`) to `y1`
-    /// with the stage increments `z` (see the module documentation).
-    #[allow(clippy::too_many_arguments)]
-    fn radau_estimate(
-        &mut self,
-        y0: &SystemState<NB>,
-        y1: &SystemState<NB>,
-        (v0, a0): (&SVector<f64, NV>, &SVector<f64, NV>),
-        (zu, zv): (&Stages<NV>, &Stages<NV>),
-        factors: &Factors<NV>,
-        rule: &mut StepRule<M>,
-        tolerance: Tolerance,
-        step: &mut RadauStep,
-    ) -> Result<f64, AnalysisError> {
-        let h = factors.h;
-        let weigh = |z: &Stages<NV>| (z[0] * D[0] + z[1] * D[1] + z[2] * D[2]) / h;
-        let (pu, pv) = (weigh(zu), weigh(zv));
-        let (eu, ev) = factors.solve_real(&(v0 + pu), &(a0 + pv));
-        let err = increment_error(y0, y1, &eu, &ev, tolerance);
-        if err <= 1.0 {
-            return Ok(err);
-        }
-        // The stiff components' overestimate removed: f at y_n + e.
-        let v = v0 + ev;
-        let a = self.solve(&displaced(y0, &eu, 1.0, &v, y0.t), Some(rule))?.vdot;
-        step.evaluations += 1;
-        let (eu, ev) = factors.solve_real(&(position_rates::<NV>(&eu, &v) + pu), &(a + pv));
-        Ok(increment_error(y0, y1, &eu, &ev, tolerance))
-    }
-
     /// `A_q = ∂a/∂q` (increments at the state) and `A_v = ∂a/∂v` at `y0`,
     /// whose accelerations `start` solved, and the dynamics evaluations spent.
     #[allow(clippy::type_complexity)]
@@ -379,7 +499,7 @@ where
 
 /// The two factorised systems of a step `h`: `K(μ) = μ² I − μ A_v − A_q` at
 /// `μ = γ̂/h` and at `μ = (α + iβ)/h`.
-struct Factors<const NV: usize> {
+pub(super) struct Factors<const NV: usize> {
     h: f64,
     real: Lu<NV>,
     complex: Lu<NV, Complex<f64>>,

@@ -6,7 +6,8 @@
 use super::SparseSimulation;
 use crate::analysis::{AnalysisError, check_state};
 use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
-use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Rate, Tolerance};
+use crate::dynamics::radau::step_radau;
+use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Integrator, Rate, Tolerance};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
@@ -60,8 +61,7 @@ where
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
         match method {
-            Adaptive::GeneralisedAlpha => self.alpha_workspace()?,
-            Adaptive::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
+            Adaptive::GeneralisedAlpha | Adaptive::RadauIIA => self.alpha_workspace()?,
             Adaptive::DormandPrince => {}
         }
         integrate(self, state, t_end, method, tolerance)
@@ -113,7 +113,14 @@ where
                 }
                 Ok((y1, err))
             }
-            Adaptive::RadauIIA => Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
+            Adaptive::RadauIIA => {
+                let mut y1 = y;
+                let step = step_radau(self, &mut y1, h, Some(tolerance))?;
+                report.newton_iterations += step.iterations;
+                report.newton_matrices += step.matrices;
+                report.evaluations += step.evaluations;
+                Ok((y1, step.error))
+            }
         }
     }
 
@@ -122,12 +129,12 @@ where
         if let Some(options) = self.options.projection {
             self.project(&mut next, &options)?;
         }
-        if let Some(w) = self.alpha.as_mut() {
-            match (&mut w.history, method) {
-                (Some(history), Adaptive::GeneralisedAlpha) => history.state = next,
-                _ => w.history = None,
-            }
-        }
+        let integrator = match method {
+            Adaptive::DormandPrince => Integrator::Rk4,
+            Adaptive::GeneralisedAlpha => Integrator::GeneralisedAlpha,
+            Adaptive::RadauIIA => Integrator::RadauIIA,
+        };
+        self.follow(next, integrator);
         Ok(next)
     }
 }

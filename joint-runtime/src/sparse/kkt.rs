@@ -23,12 +23,21 @@ use alloc::collections::BTreeSet;
 use alloc::vec;
 use alloc::vec::Vec;
 
+use nalgebra::ComplexField;
+
 use crate::linalg::LinalgError;
 
-/// A dense block of at most 6 × 6, row-major (`6 r + c`).
-pub(super) type Block = [f64; 36];
+/// A dense block of at most 6 × 6, row-major (`6 r + c`), of real (`f64`,
+/// the default) or complex entries (Radau IIA's complex stage system).
+pub(super) type Block<T = f64> = [T; 36];
 
-const ZERO: Block = [0.0; 36];
+/// The entries a [`Kkt`] may hold: `f64` or `Complex<f64>`.
+pub(super) trait Entry: ComplexField<RealField = f64> + Copy {}
+impl<T: ComplexField<RealField = f64> + Copy> Entry for T {}
+
+fn zero<T: Entry>() -> Block<T> {
+    [T::zero(); 36]
+}
 
 /// Where the block `(row node, column node)` lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,7 +52,7 @@ enum Place {
 /// The factorised matrix: `A = L U` with `L_ik = A_ik D_k⁻¹` (unit block
 /// diagonal) and `U_kj = A_kj`, `U_kk = D_k`, blocks by elimination position.
 #[derive(Clone, Debug)]
-pub(super) struct Kkt {
+pub(super) struct Kkt<T = f64> {
     /// Each node's size, by node.
     sizes: Vec<usize>,
     /// Node at each elimination position, and the position of each node.
@@ -58,17 +67,17 @@ pub(super) struct Kkt {
     /// pair of later neighbours: the Schur update `A_ij −= L_ik U_kj`.
     updates_start: Vec<usize>,
     updates: Vec<(usize, usize, Place)>,
-    diag: Vec<Block>,
-    low: Vec<Block>,
-    up: Vec<Block>,
+    diag: Vec<Block<T>>,
+    low: Vec<Block<T>>,
+    up: Vec<Block<T>>,
     /// Scratch of the solve, by position.
-    x: Vec<[f64; 6]>,
+    x: Vec<[T; 6]>,
 }
 
 /// A problem with the declared structure.
 const BAD_STRUCTURE: LinalgError = LinalgError::NonFinite;
 
-impl Kkt {
+impl<T: Entry> Kkt<T> {
     /// The pattern of a matrix over `bodies` body nodes (6 columns each) and
     /// joint nodes of `joint_rows` rows connecting `joint_bodies`, with bodies
     /// also coupled in pairs by `couplings` (springs, joints' stiffness).
@@ -126,10 +135,10 @@ impl Kkt {
             adj: Vec::new(),
             updates_start: Vec::new(),
             updates: Vec::new(),
-            diag: vec![ZERO; n],
+            diag: vec![zero(); n],
             low: Vec::new(),
             up: Vec::new(),
-            x: vec![[0.0; 6]; n],
+            x: vec![[T::zero(); 6]; n],
         };
         kkt.symbolic(later);
         Ok(kkt)
@@ -152,8 +161,8 @@ impl Kkt {
             self.adj.extend_from_slice(ps);
             self.adj_start.push(self.adj.len());
         }
-        self.low = vec![ZERO; self.adj.len()];
-        self.up = vec![ZERO; self.adj.len()];
+        self.low = vec![zero(); self.adj.len()];
+        self.up = vec![zero(); self.adj.len()];
         self.updates_start = vec![0];
         for k in 0..n {
             let (a, b) = (self.adj_start[k], self.adj_start[k + 1]);
@@ -186,13 +195,13 @@ impl Kkt {
     /// Sets every block to zero (before an assembly).
     pub(super) fn clear(&mut self) {
         for b in self.diag.iter_mut().chain(self.low.iter_mut()).chain(self.up.iter_mut()) {
-            *b = ZERO;
+            *b = zero();
         }
     }
 
     /// The block of node `row` and node `column` (row-major, stride 6), if the
     /// pattern has it: where an assembly writes.
-    pub(super) fn block_mut(&mut self, row: usize, column: usize) -> Option<&mut Block> {
+    pub(super) fn block_mut(&mut self, row: usize, column: usize) -> Option<&mut Block<T>> {
         let (i, j) = (*self.position.get(row)?, *self.position.get(column)?);
         match self.place_at(i, j)? {
             Place::Diagonal(k) => self.diag.get_mut(k),
@@ -239,16 +248,16 @@ impl Kkt {
 
     /// Solves `A x = b` in place; `b` is by node: body `i`'s 6 entries, then
     /// the joints' rows, in node order (`sizes` concatenated).
-    pub(super) fn solve(&mut self, b: &mut [f64]) {
+    pub(super) fn solve(&mut self, b: &mut [T]) {
         let n = self.order.len();
         // Gather by position.
         let mut node_start = 0;
         for node in 0..n {
             let k = self.position[node];
             let size = self.sizes[node];
-            let mut v = [0.0; 6];
+            let mut v = [T::zero(); 6];
             for (r, x) in v.iter_mut().enumerate().take(size) {
-                *x = b.get(node_start + r).copied().unwrap_or(0.0);
+                *x = b.get(node_start + r).copied().unwrap_or_else(T::zero);
             }
             self.x[k] = v;
             node_start += size;
@@ -262,7 +271,7 @@ impl Kkt {
                 let ni = self.sizes[self.order[i]];
                 for r in 0..ni {
                     let row = &self.low[s][6 * r..6 * r + nk];
-                    self.x[i][r] -= row.iter().zip(&yk).map(|(a, y)| a * y).sum::<f64>();
+                    self.x[i][r] -= row.iter().zip(&yk).fold(T::zero(), |sum, (&a, &y)| sum + a * y);
                 }
             }
         }
@@ -279,9 +288,9 @@ impl Kkt {
                     }
                 }
             }
-            let mut out = [0.0; 6];
+            let mut out = [T::zero(); 6];
             for (r, o) in out.iter_mut().enumerate().take(nk) {
-                for (c, x) in rhs.iter().enumerate().take(nk) {
+                for (c, &x) in rhs.iter().enumerate().take(nk) {
                     *o += self.diag[k][6 * r + c] * x;
                 }
             }
@@ -302,6 +311,70 @@ impl Kkt {
     /// Number of blocks stored (diagonal, below and above).
     pub(super) fn blocks(&self) -> usize {
         self.diag.len() + 2 * self.low.len()
+    }
+
+    /// A matrix on the same pattern with entries of type `U`, all zero.
+    pub(super) fn like<U: Entry>(&self) -> Kkt<U> {
+        Kkt {
+            sizes: self.sizes.clone(),
+            order: self.order.clone(),
+            position: self.position.clone(),
+            adj_start: self.adj_start.clone(),
+            adj: self.adj.clone(),
+            updates_start: self.updates_start.clone(),
+            updates: self.updates.clone(),
+            diag: vec![zero(); self.diag.len()],
+            low: vec![zero(); self.low.len()],
+            up: vec![zero(); self.up.len()],
+            x: vec![[U::zero(); 6]; self.x.len()],
+        }
+    }
+
+    /// Sets every block to `Σ c P` over the assembled (not factorised)
+    /// real matrices `parts` on this pattern (made by [`Kkt::like`]); blocks
+    /// of a part with another pattern are ignored.
+    pub(super) fn combine(&mut self, parts: &[(&Kkt<f64>, T)]) {
+        self.clear();
+        for &(part, c) in parts {
+            let pairs = [(&mut self.diag, &part.diag), (&mut self.low, &part.low), (&mut self.up, &part.up)];
+            for (out, from) in pairs {
+                for (o, f) in out.iter_mut().zip(from) {
+                    for (x, &y) in o.iter_mut().zip(f) {
+                        *x += c * T::from_real(y);
+                    }
+                }
+            }
+        }
+    }
+
+    /// `out = A x` for the assembled (not factorised) matrix, both by node as
+    /// in [`Kkt::solve`].
+    pub(super) fn times(&self, x: &[T], out: &mut [T]) {
+        let mut start = vec![0; self.sizes.len() + 1];
+        for (node, size) in self.sizes.iter().enumerate() {
+            start[node + 1] = start[node] + size;
+        }
+        out.fill(T::zero());
+        let mut add = |block: &Block<T>, row: usize, column: usize| {
+            let (r0, c0) = (start[row], start[column]);
+            for r in 0..self.sizes[row] {
+                let mut sum = T::zero();
+                for c in 0..self.sizes[column] {
+                    sum += block[6 * r + c] * x.get(c0 + c).copied().unwrap_or_else(T::zero);
+                }
+                if let Some(o) = out.get_mut(r0 + r) {
+                    *o += sum;
+                }
+            }
+        };
+        for (k, &node) in self.order.iter().enumerate() {
+            add(&self.diag[k], node, node);
+            for s in self.adj_start[k]..self.adj_start[k + 1] {
+                let other = self.order[self.adj[s]];
+                add(&self.low[s], other, node);
+                add(&self.up[s], node, other);
+            }
+        }
     }
 }
 
@@ -341,12 +414,12 @@ fn elimination_order(
 }
 
 /// `a (r × k) · b (k × c)`.
-fn multiply(a: &Block, b: &Block, r: usize, k: usize, c: usize) -> Block {
-    let mut out = ZERO;
+fn multiply<T: Entry>(a: &Block<T>, b: &Block<T>, r: usize, k: usize, c: usize) -> Block<T> {
+    let mut out = zero();
     for i in 0..r {
         for l in 0..k {
             let x = a[6 * i + l];
-            if x != 0.0 {
+            if x != T::zero() {
                 for j in 0..c {
                     out[6 * i + j] += x * b[6 * l + j];
                 }
@@ -358,23 +431,23 @@ fn multiply(a: &Block, b: &Block, r: usize, k: usize, c: usize) -> Block {
 
 /// The inverse of the leading `n × n` of `a`, by Gauss–Jordan with partial
 /// pivoting.
-fn invert(a: &Block, n: usize) -> Result<Block, LinalgError> {
+fn invert<T: Entry>(a: &Block<T>, n: usize) -> Result<Block<T>, LinalgError> {
     let mut m = *a;
-    let mut inv = ZERO;
+    let mut inv = zero::<T>();
     for i in 0..n {
-        inv[6 * i + i] = 1.0;
+        inv[6 * i + i] = T::one();
     }
-    let scale = (0..n * 6).map(|i| libm::fabs(m[i])).fold(0.0, f64::max);
+    // |re| + |im| for complex entries: as good as the modulus, without its hypot.
+    let scale = (0..n * 6).map(|i| m[i].norm1()).fold(0.0, f64::max);
     if !scale.is_finite() {
         return Err(LinalgError::NonFinite);
     }
     for col in 0..n {
-        let Some(p) = (col..n).max_by(|&x, &y| libm::fabs(m[6 * x + col]).total_cmp(&libm::fabs(m[6 * y + col])))
-        else {
+        let Some(p) = (col..n).max_by(|&x, &y| m[6 * x + col].norm1().total_cmp(&m[6 * y + col].norm1())) else {
             break;
         };
         let pivot = m[6 * p + col];
-        if !(libm::fabs(pivot) > 1e-300 && libm::fabs(pivot) > f64::EPSILON * 1e-3 * scale) {
+        if !(pivot.norm1() > 1e-300 && pivot.norm1() > f64::EPSILON * 1e-3 * scale) {
             return Err(LinalgError::Singular { step: col });
         }
         for c in 0..6 {
@@ -387,7 +460,7 @@ fn invert(a: &Block, n: usize) -> Result<Block, LinalgError> {
         }
         for r in 0..n {
             let f = m[6 * r + col];
-            if r != col && f != 0.0 {
+            if r != col && f != T::zero() {
                 for c in 0..n {
                     m[6 * r + c] -= f * m[6 * col + c];
                     inv[6 * r + c] -= f * inv[6 * col + c];
@@ -449,6 +522,63 @@ mod tests {
             .map(|r| libm::fabs((0..n).map(|c| dense[r * n + c] * x[c]).sum::<f64>() - rhs[r]))
             .fold(0.0, f64::max);
         assert!(residual < 1e-12, "residual {residual}");
+    }
+
+    /// The same pattern with complex entries, combined from real parts
+    /// `P0 + P1 / μ + P2 / μ²` as Radau's complex system is, against the
+    /// dense product: `A x = b` solved, and `times` the dense product.
+    #[test]
+    fn complex_combination_matches_a_dense_product() {
+        use nalgebra::Complex;
+        let joint_rows = [3, 2];
+        let joint_bodies = [[None, Some(0)], [Some(0), Some(1)]];
+        let real = Kkt::<f64>::new(2, &joint_rows, &joint_bodies, &[(0, 1)]).expect("pattern");
+        let mut parts = [real.clone(), real.clone(), real.clone()];
+        let mut seed = 3u64;
+        let mut random = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let blocks = [(0, 0, 6, 6), (1, 1, 6, 6), (0, 1, 6, 6), (1, 0, 6, 6), (2, 0, 3, 6), (0, 2, 6, 3)];
+        let blocks = [&blocks[..], &[(3, 0, 2, 6), (0, 3, 6, 2), (3, 1, 2, 6), (1, 3, 6, 2)]].concat();
+        for (p, part) in parts.iter_mut().enumerate() {
+            for &(a, b, na, nb) in &blocks {
+                let block = part.block_mut(a, b).expect("in the pattern");
+                for r in 0..na {
+                    for c in 0..nb {
+                        block[6 * r + c] = random() + if p == 0 && a == b && a < 2 && r == c { 4.0 } else { 0.0 };
+                    }
+                }
+            }
+        }
+        let mu = Complex::new(2.0, 3.0);
+        let coefficients = [Complex::new(1.0, 0.0), mu.inv(), (mu * mu).inv()];
+        let mut complex = real.like::<Complex<f64>>();
+        let weighted: Vec<(&Kkt<f64>, Complex<f64>)> = parts.iter().zip(coefficients).collect();
+        complex.combine(&weighted);
+        let n = 12 + 5;
+        let x: Vec<Complex<f64>> = (0..n).map(|i| Complex::new((i as f64).sin(), (i as f64).cos())).collect();
+        let mut b = vec![Complex::new(0.0, 0.0); n];
+        complex.times(&x, &mut b);
+        // The product part by part (real parts times x), weighted.
+        let mut want = vec![Complex::new(0.0, 0.0); n];
+        for (part, c) in parts.iter().zip(coefficients) {
+            for (re, im) in [(true, false), (false, true)] {
+                let xs: Vec<f64> = x.iter().map(|z| if re { z.re } else { z.im }).collect();
+                let mut y = vec![0.0; n];
+                part.times(&xs, &mut y);
+                for (w, &y) in want.iter_mut().zip(&y) {
+                    *w += c * if im { Complex::new(0.0, y) } else { Complex::new(y, 0.0) };
+                }
+            }
+        }
+        let product_gap = b.iter().zip(&want).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
+        assert!(product_gap < 1e-14, "{product_gap:e}");
+        complex.factor().expect("nonsingular");
+        let mut solved = b.clone();
+        complex.solve(&mut solved);
+        let gap = solved.iter().zip(&x).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
+        assert!(gap < 1e-12, "{gap:e}");
     }
 
     #[test]

@@ -138,7 +138,7 @@ where
         add_mass(kkt, &self.inertias, state, 1.0, 0.5 * h)?;
         add_rows::<S, NB, NNZ>(kkt, &mid.values, &ws.row_joint, dropped, &[Matrix3::identity(); NB])?;
         let rows = RowTerms { layout: &ws.layout, terms: &ws.terms, row_joint: &ws.row_joint, dropped, stabilisation };
-        add_row_terms::<S, NB, NNZ>(kkt, &rows, &mid.values, &t, h)?;
+        add_row_terms::<S, NB, NNZ>(kkt, &rows, &mid.values, &t, (quarter, 0.5 * h))?;
         ws.kkt.factor().map_err(AnalysisError::from)
     }
 
@@ -168,24 +168,25 @@ where
 /// What [`add_row_terms`] reads: the second-order terms (with
 /// `u = a + 2α v`), each row's joint, the dropped rows and Baumgarte's
 /// `(α, β)` (zeros without stabilisation).
-struct RowTerms<'a> {
-    layout: &'a SecondOrderLayout,
-    terms: &'a [f64],
-    row_joint: &'a [(usize, usize)],
-    dropped: &'a [usize],
-    stabilisation: (f64, f64),
+pub(super) struct RowTerms<'a> {
+    pub(super) layout: &'a SecondOrderLayout,
+    pub(super) terms: &'a [f64],
+    pub(super) row_joint: &'a [(usize, usize)],
+    pub(super) dropped: &'a [usize],
+    pub(super) stabilisation: (f64, f64),
 }
 
-/// Adds `(h²/4)(∂(J u)/∂q − ∂γ̂/∂q) T − (h/2) ∂γ̂/∂v` to each kept row's
-/// blocks over its joint's bodies (`T` on the rotation columns), with the
-/// stabilised `γ̂ = γ − 2α (J v + Φ_t) − β² Φ`: `∂γ̂/∂q` adds
-/// `−2α ∂Φ_t/∂q − β² J` (the `∂(J v)/∂q` part is in `u`), `∂γ̂/∂v` adds `−2α J`.
-fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+/// Adds `c_q (∂(J u)/∂q − ∂γ̂/∂q) T − c_v ∂γ̂/∂v` to each kept row's blocks
+/// over its joint's bodies (`T` on the rotation columns; the midpoint rule's
+/// `c_q = h²/4`, `c_v = h/2`), with the stabilised
+/// `γ̂ = γ − 2α (J v + Φ_t) − β² Φ`: `∂γ̂/∂q` adds `−2α ∂Φ_t/∂q − β² J` (the
+/// `∂(J v)/∂q` part is in `u`), `∂γ̂/∂v` adds `−2α J`.
+pub(super) fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
     kkt: &mut Kkt,
     rows: &RowTerms<'_>,
     values: &[f64; NNZ],
     t: &[Matrix3<f64>; NB],
-    h: f64,
+    (cq, cv): (f64, f64),
 ) -> Result<(), AnalysisError> {
     let (alpha, beta) = rows.stabilisation;
     for (r, &(joint, local)) in rows.row_joint.iter().enumerate() {
@@ -211,15 +212,13 @@ fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
         for (i, &b) in bodies.iter().enumerate() {
             let q = |k: usize| {
                 let at = 6 * i + k;
-                0.25 * h
-                    * h
-                    * (ja[at] - gq[at] + 2.0 * alpha * pt[at] + beta * beta * j.get(at).copied().unwrap_or(0.0))
+                cq * (ja[at] - gq[at] + 2.0 * alpha * pt[at] + beta * beta * j.get(at).copied().unwrap_or(0.0))
             };
             let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
             let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
             for k in 0..6 {
                 let dq = if k < 3 { q(k) } else { (0..3).map(|m| q(3 + m) * jr[(m, k - 3)]).sum() };
-                let dv = -0.5 * h * gv[6 * i + k] + h * alpha * j.get(6 * i + k).copied().unwrap_or(0.0);
+                let dv = cv * (2.0 * alpha * j.get(6 * i + k).copied().unwrap_or(0.0) - gv[6 * i + k]);
                 row[6 * local + k] += dq + dv;
             }
         }

@@ -35,6 +35,8 @@
 //! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
 //! The implicit midpoint rule runs there too, its Newton matrix in the same
 //! saddle-point form (`midpoint.rs`; the dense `I − (h/2) ∂a/∂w` is full).
+//! Radau IIA runs there as well (`radau.rs`): its real and complex stage
+//! systems on the same pattern, the real and complex block LU of `kkt.rs`.
 //! [`SparseSimulation::linearise`] and [`SparseSimulation::transition`] give
 //! the dense path's linearisation and state-transition Jacobian (`linear.rs`):
 //! dense outputs, built column by column on the block factor.
@@ -47,6 +49,7 @@ mod factor;
 mod kkt;
 mod linear;
 mod midpoint;
+mod radau;
 mod second_order;
 mod simulation;
 mod solver;

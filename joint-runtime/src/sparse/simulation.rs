@@ -9,12 +9,14 @@ use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
 use super::alpha::AlphaWorkspace;
+use super::radau::RadauWorkspace;
 use super::solver::{Solver, j_mul, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric, check_output, check_state,
     normalise_orientations, set_velocities, velocity_vector,
 };
+use crate::dynamics::radau::{RadauHistory, step_radau};
 use crate::dynamics::{
     AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, Stabilisation,
     StepReport, advance, check_redundant, generalised_forces, near_enough, rk4_weights,
@@ -52,8 +54,12 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     /// tolerance of the factorisation of `J W Jᵀ` it made there, which the
     /// dynamics at that state reuse while the factor holds it.
     projected: Box<(SystemState<NB>, Option<(u64, f64)>)>,
-    /// Generalised-α's pattern, factor and history (that integrator only).
+    /// Generalised-α's pattern, factor and history (the implicit
+    /// integrators only).
     pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
+    /// Radau IIA's matrices on that pattern, and its history.
+    pub(super) radau: Option<Box<RadauWorkspace>>,
+    pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
     /// The options (RK4 or generalised-α; the integrator is fixed at
     /// [`SparseSimulation::new`], which builds its workspace).
     pub options: SimulationOptions,
@@ -88,10 +94,9 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        check_integrator(options.integrator)?;
         let alpha = match options.integrator {
-            Integrator::Rk4 | Integrator::RadauIIA => None,
-            Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => {
+            Integrator::Rk4 => None,
+            Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint | Integrator::RadauIIA => {
                 Some(AlphaWorkspace::new::<S, NNZ>(springs)?)
             }
         };
@@ -110,6 +115,8 @@ where
             rule,
             projected,
             alpha,
+            radau: None,
+            radau_history: None,
             options,
         })
     }
@@ -248,8 +255,6 @@ where
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
-        // `options` is public: what `new` refused may have been set since.
-        check_integrator(self.options.integrator)?;
         let mut report = StepReport::default();
         let mut y = match self.options.integrator {
             Integrator::Rk4 => {
@@ -272,9 +277,13 @@ where
                 (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
                 y
             }
-            // Refused by `check_options`: its complex stage system would need a
-            // complex saddle-point factor.
-            Integrator::RadauIIA => return Err(AnalysisError::DenseOnly { what: "Radau IIA" }),
+            Integrator::RadauIIA => {
+                self.alpha_workspace()?;
+                let (mut y, _) = self.step_start(state)?;
+                let step = step_radau(self, &mut y, h, None)?;
+                (report.newton_iterations, report.newton_matrices) = (step.iterations, step.matrices);
+                y
+            }
             Integrator::ImplicitMidpoint => {
                 self.alpha_workspace()?;
                 let (y0, d1) = self.step_start(state)?;
@@ -297,14 +306,7 @@ where
             }
         }
         *state = y;
-        // Generalised-α's history follows its own steps; another integrator's
-        // step leaves it stale, so it is dropped (as on the dense path).
-        if let Some(w) = self.alpha.as_mut() {
-            match (&mut w.history, self.options.integrator) {
-                (Some(history), Integrator::GeneralisedAlpha) => history.state = *state,
-                _ => w.history = None,
-            }
-        }
+        self.follow(*state, self.options.integrator);
         Ok(report)
     }
 
@@ -419,14 +421,22 @@ where
     }
 }
 
-/// Refuses the integrator this path cannot run, rather than ignoring it:
-/// Radau IIA (its complex stage system has no saddle-point factor here).
-///
-/// # Errors
-/// [`AnalysisError::DenseOnly`] naming it.
-fn check_integrator(integrator: Integrator) -> Result<(), AnalysisError> {
-    if integrator == Integrator::RadauIIA {
-        return Err(AnalysisError::DenseOnly { what: "Radau IIA" });
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+{
+    /// The histories after a step of `integrator` was accepted at `state`:
+    /// its own follows the state, the others' are dropped (as on the dense
+    /// path).
+    pub(super) fn follow(&mut self, state: SystemState<NB>, integrator: Integrator) {
+        if let Some(w) = self.alpha.as_mut() {
+            match (&mut w.history, integrator) {
+                (Some(history), Integrator::GeneralisedAlpha) => history.state = state,
+                _ => w.history = None,
+            }
+        }
+        match (&mut self.radau_history, integrator) {
+            (Some(radau), Integrator::RadauIIA) => radau.end = Some(state),
+            _ => self.radau_history = None,
+        }
     }
-    Ok(())
 }

@@ -1,0 +1,252 @@
+//! Radau IIA on the sparse path: the dense method (`dynamics/radau.rs`, the
+//! same driver through its [`RadauHost`] trait) with its real and complex
+//! stage systems on the saddle-point pattern of the other implicit
+//! integrators, factorised by [`Kkt`] over real and complex entries.
+//!
+//! The dense step solves `(μ − [[0, I], [A_q, A_v]]) (x, y) = (r, s)`
+//! through `(μ² I − μ A_v − A_q) x = s + (μ − A_v) r`, `y = μ x − r`, with
+//! `A_q`, `A_v` full (every acceleration depends on every state through `λ`).
+//! Keeping `δλ` as an unknown, as the midpoint rule does, and dividing by
+//! `μ²`, the same `x` solves
+//!
+//! ```text
+//! [ M − (Q_q − K)/μ² − Q_v/μ               Jᵀ ] [ x  ]   [ M u − Q_v r / μ² ]
+//! [ J − (∂γ̂/∂q − ∂(J a)/∂q)/μ² − ∂γ̂/∂v/μ   0  ] [ δμ ] = [ J u − ∂γ̂/∂v r / μ² ]
+//! ```
+//!
+//! with `u = s/μ² + r/μ`: the matrix `P₀ + P₁/μ + P₂/μ²` of three real
+//! matrices on one pattern, assembled once per Jacobian (at the step's start,
+//! kept across steps by RADAU5's rule as on the dense path), combined and
+//! factorised at `μ = γ̂/h` (real) and `μ = (α + iβ)/h` (complex) at every
+//! step: `O(N)` a factorisation where the dense path's are `O(NV³)`. `P₁`'s
+//! product with `r` gives the right-hand side's `Q_v r`, `∂γ̂/∂v r` terms.
+//! The terms are the scene's second-order terms (or their differences), the
+//! springs' and the gyroscopic ones, exact; user loads are left out of the
+//! Jacobian (as in the other sparse Newton matrices): simplified Newton then
+//! converges more slowly under a stiff user load, to the same solution.
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use nalgebra::{Complex, Matrix3, SVector};
+
+use super::SparseSimulation;
+use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
+use super::kkt::Kkt;
+use super::midpoint::{RowTerms, add_row_terms};
+use super::solver::j_mul;
+use crate::analysis::{AnalysisError, velocity_vector};
+use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
+use crate::dynamics::{AppliedLoads, NewtonMatrix, Stabilisation, mass_times};
+use crate::scene::{Scene, SparseJacobian, SystemState};
+
+/// Radau's matrices on the pattern and the scratch of their solves,
+/// allocated at the first Radau step.
+#[derive(Clone, Debug)]
+pub(super) struct RadauWorkspace {
+    /// `P₀`, `P₁`, `P₂` at the Jacobian's state.
+    parts: [Kkt; 3],
+    real: Kkt,
+    complex: Kkt<Complex<f64>>,
+    /// `J` at the Jacobian's state, and the rows its rule dropped.
+    values: Vec<f64>,
+    dropped: Vec<usize>,
+    rhs: Vec<f64>,
+    complex_rhs: Vec<Complex<f64>>,
+    product: Vec<f64>,
+}
+
+impl RadauWorkspace {
+    fn new(pattern: &Kkt, len: usize) -> Self {
+        RadauWorkspace {
+            parts: [pattern.like(), pattern.like(), pattern.like()],
+            real: pattern.like(),
+            complex: pattern.like(),
+            values: Vec::new(),
+            dropped: Vec::new(),
+            rhs: vec![0.0; len],
+            complex_rhs: vec![Complex::new(0.0, 0.0); len],
+            product: vec![0.0; len],
+        }
+    }
+
+    /// `P₁ r` by node (bodies' rows, then joints'), into `product`.
+    fn p1_times<const NV: usize>(&mut self, r: &SVector<f64, NV>) {
+        self.rhs.fill(0.0);
+        for (o, x) in self.rhs.iter_mut().zip(r.iter()) {
+            *o = *x;
+        }
+        self.parts[1].times(&self.rhs, &mut self.product);
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> RadauHost<NB, NV>
+    for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    L: AppliedLoads<NB>,
+{
+    /// The matrices live in the workspace.
+    type Jacobian = ();
+    /// The step `h` the workspace's systems were factorised for.
+    type Factors = f64;
+
+    fn newton_limits(&self) -> (usize, f64) {
+        (self.options.newton_max_iterations, self.options.newton_tolerance)
+    }
+
+    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, ()>> {
+        &mut self.radau_history
+    }
+
+    fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
+        Ok(self.solve(y0, true, false)?.vdot)
+    }
+
+    fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
+        Ok(self.solve(state, true, false)?.vdot)
+    }
+
+    /// `P₀`, `P₁`, `P₂` at `y0` (see the module docs).
+    fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<((), usize), AnalysisError> {
+        self.alpha_workspace()?;
+        let d = self.solve(y0, true, false)?;
+        let values = self.scene.jacobian_values(y0);
+        let stabilisation = match self.options.stabilisation {
+            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
+            Stabilisation::None => (0.0, 0.0),
+        };
+        let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
+        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let u = d.vdot + velocity_vector::<NB, NV>(y0) * (2.0 * stabilisation.0);
+        ws.fill_terms(self.scene, y0, &d.lambda, &u, by_differences)?;
+        let radau = self.radau.get_or_insert_with(|| alloc::boxed::Box::new(RadauWorkspace::new(&ws.kkt, NV + M)));
+        radau.values.clear();
+        radau.values.extend_from_slice(&values);
+        radau.dropped.clear();
+        radau.dropped.extend_from_slice(self.solver.factor.dropped());
+        let identity = [Matrix3::identity(); NB];
+        let rows = RowTerms {
+            layout: &ws.layout,
+            terms: &ws.terms,
+            row_joint: &ws.row_joint,
+            dropped: &radau.dropped,
+            stabilisation,
+        };
+        let [p0, p1, p2] = &mut radau.parts;
+        for p in [&mut *p0, &mut *p1, &mut *p2] {
+            p.clear();
+        }
+        // P₀ = [M, Jᵀ; J, 0].
+        add_mass(p0, &self.inertias, y0, 1.0, 0.0)?;
+        add_rows::<S, NB, NNZ>(p0, &values, &ws.row_joint, &radau.dropped, &identity)?;
+        // P₁ = [−Q_v, 0; −∂γ̂/∂v, 0].
+        add_mass(p1, &self.inertias, y0, 0.0, 1.0)?;
+        for s in self.springs {
+            spring_blocks(p1, s, y0, true, -1.0)?;
+        }
+        add_row_terms::<S, NB, NNZ>(p1, &rows, &values, &identity, (0.0, 1.0))?;
+        // P₂ = [K − Q_q, 0; ∂(J a)/∂q − ∂γ̂/∂q, 0].
+        add_stiffness(p2, &ws.layout, &ws.terms, 1.0)?;
+        for s in self.springs {
+            spring_blocks(p2, s, y0, false, -1.0)?;
+        }
+        add_row_terms::<S, NB, NNZ>(p2, &rows, &values, &identity, (1.0, 0.0))?;
+        Ok(((), 1))
+    }
+
+    fn factor(&mut self, _: &(), h: f64) -> Result<f64, AnalysisError> {
+        let radau = self.radau.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let [p0, p1, p2] = &radau.parts;
+        let inverse = h / GAMMA;
+        radau.real.combine(&[(p0, 1.0), (p1, inverse), (p2, inverse * inverse)]);
+        radau.real.factor()?;
+        let inverse = Complex::new(h, 0.0) / Complex::new(ALPHA, BETA);
+        let one = Complex::new(1.0, 0.0);
+        radau.complex.combine(&[(p0, one), (p1, inverse), (p2, inverse * inverse)]);
+        radau.complex.factor()?;
+        Ok(h)
+    }
+
+    fn solve_real(
+        &mut self,
+        &h: &f64,
+        r: &SVector<f64, NV>,
+        s: &SVector<f64, NV>,
+    ) -> (SVector<f64, NV>, SVector<f64, NV>) {
+        let mu = GAMMA / h;
+        let u = s / (mu * mu) + r / mu;
+        let (mu_u, ju) = (mass_times(&self.inertias, &u), self.radau_j_mul(&u));
+        let Some(radau) = self.radau.as_deref_mut() else { return (SVector::zeros(), SVector::zeros()) };
+        radau.p1_times(r);
+        let scale = 1.0 / (mu * mu);
+        for (i, (o, p)) in radau.rhs.iter_mut().zip(&radau.product).enumerate() {
+            let base = if i < NV { mu_u.get(i) } else { ju.get(i - NV) };
+            *o = base.copied().unwrap_or(0.0) + p * scale;
+        }
+        zero_dropped(&mut radau.rhs, &radau.dropped, NV);
+        radau.real.solve(&mut radau.rhs);
+        let x = SVector::<f64, NV>::from_iterator(radau.rhs.iter().copied());
+        (x, x * mu - r)
+    }
+
+    fn solve_complex(
+        &mut self,
+        &h: &f64,
+        (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),
+    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
+        let mu = Complex::new(ALPHA, BETA) / h;
+        let (r, s) = (r2.zip_map(r3, Complex::new), s2.zip_map(s3, Complex::new));
+        let (i1, i2) = (mu.inv(), (mu * mu).inv());
+        let u = s * i2 + r * i1;
+        let (ur, ui) = (u.map(|z| z.re), u.map(|z| z.im));
+        let (mr, mi) = (mass_times(&self.inertias, &ur), mass_times(&self.inertias, &ui));
+        let (jr, ji) = (self.radau_j_mul(&ur), self.radau_j_mul(&ui));
+        let zero = (SVector::zeros(), SVector::zeros());
+        let Some(radau) = self.radau.as_deref_mut() else { return (zero, zero) };
+        radau.p1_times(r2);
+        for (o, p) in radau.complex_rhs.iter_mut().zip(&radau.product) {
+            *o = Complex::new(*p, 0.0) * i2;
+        }
+        radau.p1_times(r3);
+        for (i, (o, p)) in radau.complex_rhs.iter_mut().zip(&radau.product).enumerate() {
+            let (re, im) = if i < NV { (mr.get(i), mi.get(i)) } else { (jr.get(i - NV), ji.get(i - NV)) };
+            let base = Complex::new(re.copied().unwrap_or(0.0), im.copied().unwrap_or(0.0));
+            *o += base + Complex::new(0.0, *p) * i2;
+        }
+        for &row in &radau.dropped {
+            if let Some(o) = radau.complex_rhs.get_mut(NV + row) {
+                *o = Complex::new(0.0, 0.0);
+            }
+        }
+        radau.complex.solve(&mut radau.complex_rhs);
+        let x = SVector::<Complex<f64>, NV>::from_iterator(radau.complex_rhs.iter().copied());
+        let y = x * mu - r;
+        ((x.map(|z| z.re), x.map(|z| z.im)), (y.map(|z| z.re), y.map(|z| z.im)))
+    }
+}
+
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    L: AppliedLoads<NB>,
+{
+    /// `J x` with `J` at the Jacobian's state.
+    fn radau_j_mul(&self, x: &SVector<f64, NV>) -> SVector<f64, M> {
+        match self.radau.as_deref().and_then(|r| <&[f64; NNZ]>::try_from(&r.values[..]).ok()) {
+            Some(values) => j_mul::<S, NB, NNZ, NV, M>(values, x),
+            None => SVector::zeros(),
+        }
+    }
+}
+
+/// Zeros the dropped rows' entries of a right-hand side by node.
+fn zero_dropped(rhs: &mut [f64], dropped: &[usize], nv: usize) {
+    for &row in dropped {
+        if let Some(o) = rhs.get_mut(nv + row) {
+            *o = 0.0;
+        }
+    }
+}
