@@ -5,7 +5,7 @@
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
 use joint_runtime::analysis::{AssemblyOptions, accelerations, assemble, velocities};
 use joint_runtime::dynamics::{
-    Adaptive, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation, Tolerance,
+    Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation, Tolerance,
 };
 use joint_runtime::nalgebra::{DMatrix, SVector};
 use joint_runtime::sparse::{RowTerm, SecondOrderLayout, SparseAnalysis, SparseSimulation};
@@ -680,4 +680,43 @@ fn generalised_alpha_starts_afresh_after_another_integrator() {
     sim.step(&mut state, 1e-3).expect("generalised-α again");
     fresh.step(&mut other, 1e-3).expect("a fresh generalised-α");
     assert_eq!(flat(&state), flat(&other));
+}
+
+/// Stiff user loads enter the sparse Newton matrices (on the pattern's
+/// blocks, three colours of bodies for a chain): a viscous drag on every bar
+/// and a stiff spring between neighbouring bars' centres, written as a
+/// closure (so differenced), take the dense path's steps in as many Newton
+/// iterations with the implicit midpoint rule, generalised-α and Radau IIA.
+#[test]
+fn stiff_user_loads_enter_the_sparse_newton_matrices() {
+    joint_examples::chain_scene!(Full5, 5, second_order);
+    let start = scaling::chain_start::<5>();
+    let loads = |s: &SystemState<5>, l: &mut Loads<5>| {
+        for b in 0..5 {
+            l.force[b] -= s.bodies[b].rdot * 300.0;
+            l.torque[b] -= s.bodies[b].omega * 30.0;
+        }
+        for b in 1..5 {
+            let d = s.bodies[b].r - s.bodies[b - 1].r;
+            let f = d * (2e4 * (d.norm() - 1.0) / d.norm());
+            l.force[b] -= f;
+            l.force[b - 1] += f;
+        }
+    };
+    for integrator in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha, Integrator::RadauIIA] {
+        let options = SimulationOptions::default().with_integrator(integrator);
+        let mut dense = Simulation::new(&Full5, loads, &[], options).expect("dense");
+        let mut sparse = SparseSimulation::new(&Full5, loads, &[], options).expect("sparse");
+        let (mut a, mut b, mut iterations) = (start, start, [0, 0]);
+        for _ in 0..50 {
+            iterations[0] += dense.step(&mut a, 2e-3).expect("dense").newton_iterations;
+            iterations[1] += sparse.step(&mut b, 2e-3).expect("sparse").newton_iterations;
+        }
+        let gap = a.bodies.iter().zip(&b.bodies).map(|(x, y)| (x.r - y.r).norm()).fold(0.0, f64::max);
+        println!(
+            "{integrator:?}, stiff user loads: dense and sparse {gap:.1e} apart, Newton iterations {iterations:?}"
+        );
+        assert!(gap < 1e-9, "{integrator:?}: {gap:e}");
+        assert!(iterations[1] * 10 <= iterations[0] * 11 + 10, "{integrator:?}: {iterations:?}");
+    }
 }

@@ -11,10 +11,9 @@
 //! scene. `K` comes from the scene's sparse second-order terms
 //! ([`Scene::second_order_values`], or their differences, `differences.rs`,
 //! for a scene without them); `Q_q`, `Q_v` are the gyroscopic terms and
-//! the spring-dampers', exact. User loads are left out of the matrix (their
-//! derivative along every column would cost `O(N²)`): a stiff user load slows
-//! Newton to linear convergence, and a stiff spring belongs in a
-//! [`SpringDamper`](crate::dynamics::SpringDamper). Redundant rows are held at
+//! the spring-dampers', exact; the user loads' on the pattern's blocks, by
+//! their own derivative or differences, several bodies at a time
+//! (`loads.rs`). Redundant rows are held at
 //! `δλ = 0` as identity rows, the rule of the step's start.
 
 use alloc::vec;
@@ -25,6 +24,7 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use super::SparseSimulation;
 use super::differences::DifferenceTerms;
 use super::kkt::{Block, Kkt};
+use super::loads::LoadColouring;
 use super::second_order::SecondOrderLayout;
 use super::solver::{jt_mul, non_finite};
 use crate::analysis::{AnalysisError, check_output, velocity_vector};
@@ -51,6 +51,8 @@ pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usiz
     pub(super) history: Option<AlphaHistory<NB, NV, M>>,
     /// The terms by differences, for scenes without generated ones.
     differences: DifferenceTerms,
+    /// The colouring of the user loads' derivatives.
+    pub(super) user: LoadColouring,
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M> {
@@ -90,6 +92,7 @@ impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M>
             layout,
             rhs: vec![0.0; NV + M],
             row_joint,
+            user: LoadColouring::new(NB, &pairs),
             body_pairs: pairs,
             history: None,
             differences: DifferenceTerms::new(S::BLOCKS, S::BLOCK_BODIES, NB),
@@ -231,10 +234,12 @@ where
         for s in self.springs {
             spring_blocks(kkt, s, &it.state, false, -h)?;
         }
+        w.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, false, -h)?;
         times_update(kkt, &w.body_pairs, &t)?;
         for s in self.springs {
             spring_blocks(kkt, s, &it.state, true, -c.gamma / c.beta)?;
         }
+        w.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, true, -c.gamma / c.beta)?;
         add_mass(kkt, &self.inertias, &it.state, c.mass_factor(h), c.gamma / c.beta)?;
         add_rows::<S, NB, NNZ>(kkt, values, &w.row_joint, self.solver.factor.dropped(), &t)?;
         w.kkt.factor().map_err(AnalysisError::from)

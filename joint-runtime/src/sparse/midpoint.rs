@@ -19,7 +19,7 @@
 //! (with `u = a`; or their differences, `differences.rs`); with Baumgarte
 //! stabilisation the second row takes the stabilised `γ̂`'s derivatives, as
 //! the dense matrix does. `Q_q`, `Q_v` are the spring-dampers' and the
-//! gyroscopic terms, exact; user loads are left out, as for generalised-α.
+//! gyroscopic terms, exact, and the user loads' on the pattern (`loads.rs`).
 //! Redundant rows are
 //! held at `δμ = 0`, the rule of the step's start. Newton is modified as on
 //! the dense path: the matrix is rebuilt only when convergence slows.
@@ -131,10 +131,12 @@ where
         for s in self.springs {
             spring_blocks(kkt, s, state, false, -quarter)?;
         }
+        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, state, false, -quarter)?;
         times_update(kkt, &ws.body_pairs, &t)?;
         for s in self.springs {
             spring_blocks(kkt, s, state, true, -0.5 * h)?;
         }
+        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, state, true, -0.5 * h)?;
         add_mass(kkt, &self.inertias, state, 1.0, 0.5 * h)?;
         add_rows::<S, NB, NNZ>(kkt, &mid.values, &ws.row_joint, dropped, &[Matrix3::identity(); NB])?;
         let rows = RowTerms { layout: &ws.layout, terms: &ws.terms, row_joint: &ws.row_joint, dropped, stabilisation };

@@ -48,6 +48,7 @@ mod differences;
 mod factor;
 mod kkt;
 mod linear;
+mod loads;
 mod midpoint;
 mod radau;
 mod second_order;

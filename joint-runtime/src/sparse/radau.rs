@@ -21,9 +21,8 @@
 //! step: `O(N)` a factorisation where the dense path's are `O(NV³)`. `P₁`'s
 //! product with `r` gives the right-hand side's `Q_v r`, `∂γ̂/∂v r` terms.
 //! The terms are the scene's second-order terms (or their differences), the
-//! springs' and the gyroscopic ones, exact; user loads are left out of the
-//! Jacobian (as in the other sparse Newton matrices): simplified Newton then
-//! converges more slowly under a stiff user load, to the same solution.
+//! springs' and the gyroscopic ones, exact, and the user loads' on the
+//! pattern (`loads.rs`).
 
 use alloc::vec;
 use alloc::vec::Vec;
@@ -145,12 +144,14 @@ where
         for s in self.springs {
             spring_blocks(p1, s, y0, true, -1.0)?;
         }
+        ws.user.add_blocks::<L, NB, NV>(p1, &mut self.loads, y0, true, -1.0)?;
         add_row_terms::<S, NB, NNZ>(p1, &rows, &values, &identity, (0.0, 1.0))?;
         // P₂ = [K − Q_q, 0; ∂(J a)/∂q − ∂γ̂/∂q, 0].
         add_stiffness(p2, &ws.layout, &ws.terms, 1.0)?;
         for s in self.springs {
             spring_blocks(p2, s, y0, false, -1.0)?;
         }
+        ws.user.add_blocks::<L, NB, NV>(p2, &mut self.loads, y0, false, -1.0)?;
         add_row_terms::<S, NB, NNZ>(p2, &rows, &values, &identity, (1.0, 0.0))?;
         Ok(((), 1))
     }
