@@ -7,10 +7,11 @@
 use joint_examples::{bricard, press};
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{
-    Adaptive, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance,
+    Adaptive, IntegrationReport, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, SpringDamper,
+    StepReport, Tolerance,
 };
 use joint_runtime::sparse::SparseSimulation;
-use joint_runtime::{Scene, SystemState};
+use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 /// How a run advances.
 #[derive(Clone, Copy, Debug)]
@@ -22,16 +23,68 @@ enum Run {
 /// Accepted and rejected steps (error-controlled) or Newton iterations (fixed steps) of a run.
 type Counts = (usize, usize);
 
-fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
-    scene: &S,
-    springs: &[SpringDamper],
+/// What a run needs of a simulation, dense or sparse.
+trait Steps<const NB: usize> {
+    fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError>;
+    fn integrate(
+        &mut self,
+        state: &mut SystemState<NB>,
+        t_end: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+    ) -> Result<IntegrationReport, AnalysisError>;
+}
+
+impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Steps<NB>
+    for Simulation<'_, S, NoLoads, NB, NV, M>
+{
+    fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
+        Simulation::step(self, state, h)
+    }
+    fn integrate(
+        &mut self,
+        state: &mut SystemState<NB>,
+        t_end: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+    ) -> Result<IntegrationReport, AnalysisError> {
+        Simulation::integrate(self, state, t_end, method, tolerance)
+    }
+}
+
+impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Steps<NB>
+    for SparseSimulation<'_, S, NoLoads, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
+        SparseSimulation::step(self, state, h)
+    }
+    fn integrate(
+        &mut self,
+        state: &mut SystemState<NB>,
+        t_end: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+    ) -> Result<IntegrationReport, AnalysisError> {
+        SparseSimulation::integrate(self, state, t_end, method, tolerance)
+    }
+}
+
+/// The options of a run.
+fn options_for(how: Run) -> SimulationOptions {
+    let integrator = if let Run::Fixed(i, _) = how { i } else { Integrator::Rk4 };
+    SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8)
+}
+
+/// Advances `start` to `t_end` as `how` says: the end, and Newton's
+/// iterations (fixed steps) or the accepted and rejected steps (error control).
+fn advance<const NB: usize>(
+    sim: &mut impl Steps<NB>,
     start: SystemState<NB>,
     t_end: f64,
     how: Run,
 ) -> (SystemState<NB>, Counts) {
-    let integrator = if let Run::Fixed(i, _) = how { i } else { Integrator::Rk4 };
-    let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
-    let mut sim = Simulation::new(scene, NoLoads, springs, options).expect("simulation");
     let mut state = start;
     let counts = match how {
         Run::Fixed(_, h) => (0..(t_end / h).round() as usize)
@@ -46,6 +99,17 @@ fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     (state, counts)
 }
 
+fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    springs: &[SpringDamper],
+    start: SystemState<NB>,
+    t_end: f64,
+    how: Run,
+) -> (SystemState<NB>, Counts) {
+    let mut sim = Simulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
+    advance(&mut sim, start, t_end, how)
+}
+
 /// [`run`] on the sparse path.
 fn run_sparse<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
@@ -55,23 +119,10 @@ fn run_sparse<S, const NB: usize, const NV: usize, const M: usize, const NNZ: us
     how: Run,
 ) -> (SystemState<NB>, Counts)
 where
-    S: Scene<NB, NV, M> + joint_runtime::SparseJacobian<NB, NNZ>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let integrator = if let Run::Fixed(i, _) = how { i } else { Integrator::Rk4 };
-    let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
-    let mut sim = SparseSimulation::new(scene, NoLoads, springs, options).expect("simulation");
-    let mut state = start;
-    let counts = match how {
-        Run::Fixed(_, h) => (0..(t_end / h).round() as usize)
-            .map(|_| sim.step(&mut state, h).unwrap_or_else(|e| panic!("{how:?}: {e}")).newton_iterations)
-            .fold((0, 0), |(n, _), i| (n + i, 0)),
-        Run::Adaptive(method, tol) => {
-            let tolerance = Tolerance { rtol: tol, atol: tol };
-            let r = sim.integrate(&mut state, t_end, method, tolerance).unwrap_or_else(|e| panic!("{how:?}: {e}"));
-            (r.accepted, r.rejected)
-        }
-    };
-    (state, counts)
+    let mut sim = SparseSimulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
+    advance(&mut sim, start, t_end, how)
 }
 
 /// `|Δr| + |Δp|` of the worst body.

@@ -15,7 +15,7 @@ use crate::rotation_matrix;
 use crate::scene::{BodyInertia, Scene, SystemState};
 
 /// Relative step of the central differences of user loads.
-const LOAD_STEP: f64 = 1e-6;
+pub(crate) const LOAD_STEP: f64 = 1e-6;
 
 /// A direction of the state: `(δr, δθ')` and `(δṙ, δω')` per body.
 pub type Direction<const NB: usize> = [[Vector3<f64>; 4]; NB];
@@ -71,13 +71,26 @@ fn load_differences<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
     let v = velocity_vector::<NB, NV>(state);
     let e = SVector::<f64, NV>::from_fn(|i, _| if i == c { 1.0 } else { 0.0 });
     let speed = if velocity { v.get(c).copied().map_or(0.0, libm::fabs) } else { 0.0 };
-    let step = LOAD_STEP * (1.0 + speed);
+    load_differences_along(user, state, &e, velocity, LOAD_STEP * (1.0 + speed))
+}
+
+/// Central differences of the user loads alone along `delta` (in the
+/// positions, along the group increment, or in the velocities) with the
+/// step `step`.
+pub(crate) fn load_differences_along<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
+    user: &mut L,
+    state: &SystemState<NB>,
+    delta: &SVector<f64, NV>,
+    velocity: bool,
+    step: f64,
+) -> Loads<NB> {
+    let v = velocity_vector::<NB, NV>(state);
     let mut at = |sign: f64| {
         let mut s = *state;
         if velocity {
-            set_velocities(&mut s, &(v + e * (sign * step)));
+            set_velocities(&mut s, &(v + delta * (sign * step)));
         } else {
-            apply_increment(&mut s, &e, sign * step);
+            apply_increment(&mut s, delta, sign * step);
         }
         let mut loads = Loads::<NB>::default();
         user.apply(&s, &mut loads);

@@ -91,10 +91,7 @@ where
         state: &SystemState<NB>,
         inputs: &DMatrix<f64>,
     ) -> Result<Linearisation, AnalysisError> {
-        check_state::<S, NB, NV, M>(state, true)?;
-        if inputs.nrows() != NV {
-            return Err(AnalysisError::BadOption { name: "inputs (NV rows)" });
-        }
+        check_inputs::<S, NB, NV, M>(state, inputs)?;
         let mut rule = self.step_rule(state)?;
         let needed = AnalysisError::NoSecondOrder { needed_by: "the linearisation" };
         let t = self.tangent(state, &mut rule)?.ok_or(needed)?;
@@ -155,6 +152,18 @@ pub(crate) fn minimal<const NB: usize>(
         return Err(AnalysisError::NonFiniteOutput { quantity: "linearisation", row: None });
     }
     Ok(Linearisation { a, b, basis, freedoms: n, full, full_b })
+}
+
+/// The linearisation's checks: a finite `state` and `NV` rows of `inputs`.
+pub(crate) fn check_inputs<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    state: &SystemState<NB>,
+    inputs: &DMatrix<f64>,
+) -> Result<(), AnalysisError> {
+    check_state::<S, NB, NV, M>(state, true)?;
+    if inputs.nrows() != NV {
+        return Err(AnalysisError::BadOption { name: "inputs (NV rows)" });
+    }
+    Ok(())
 }
 
 /// `[[Λ(v), I], [A_q, A_v]]`, `2 NV × 2 NV`.

@@ -107,7 +107,7 @@ pub(crate) mod radau;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
-pub(crate) use force_derivatives::{force_column, spring_column};
+pub(crate) use force_derivatives::{LOAD_STEP, force_column, load_differences_along, spring_column};
 #[cfg(feature = "alloc")]
 pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times};
 #[cfg(feature = "alloc")]

@@ -88,19 +88,7 @@ impl DifferenceTerms {
                 neighbours[b].push(a);
             }
         }
-        let mut colour_of = vec![usize::MAX; bodies];
-        let mut colours: Vec<Vec<usize>> = Vec::new();
-        for b in 0..bodies {
-            let taken: Vec<usize> = neighbours[b].iter().map(|&n| colour_of[n]).collect();
-            let c = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
-            if c == colours.len() {
-                colours.push(Vec::new());
-            }
-            if let Some(list) = colours.get_mut(c) {
-                list.push(b);
-            }
-            colour_of[b] = c;
-        }
+        let (colours, colour_of) = greedy_colours(bodies, |b| neighbours[b].clone());
         DifferenceTerms { layout: SecondOrderLayout::new(blocks, joint_bodies), colours, colour_of }
     }
 
@@ -243,6 +231,28 @@ impl DifferenceTerms {
             }
         }
     }
+}
+
+/// Colours `bodies` bodies greedily in order, each with the least colour
+/// none of `conflicts(b)` has yet: the bodies of each colour, and each
+/// body's colour.
+pub(super) fn greedy_colours(bodies: usize, conflicts: impl Fn(usize) -> Vec<usize>) -> (Vec<Vec<usize>>, Vec<usize>) {
+    let mut colour_of = vec![usize::MAX; bodies];
+    let mut colours: Vec<Vec<usize>> = Vec::new();
+    for b in 0..bodies {
+        let taken: Vec<usize> = conflicts(b).iter().filter_map(|&n| colour_of.get(n).copied()).collect();
+        let c = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
+        if c == colours.len() {
+            colours.push(Vec::new());
+        }
+        if let Some(list) = colours.get_mut(c) {
+            list.push(b);
+        }
+        if let Some(x) = colour_of.get_mut(b) {
+            *x = c;
+        }
+    }
+    (colours, colour_of)
 }
 
 /// One colour's position direction and the scene's terms both ways.

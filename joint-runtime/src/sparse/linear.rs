@@ -21,8 +21,8 @@ use nalgebra::{DMatrix, SVector};
 use super::SparseSimulation;
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::SparseDynamics;
-use crate::analysis::{AnalysisError, apply_metric, check_state, velocity_vector};
-use crate::dynamics::linear::{minimal, transition_matrix, update_times};
+use crate::analysis::{AnalysisError, apply_metric, velocity_vector};
+use crate::dynamics::linear::{check_inputs, minimal, transition_matrix, update_times};
 use crate::dynamics::{AppliedLoads, Linearisation, Stabilisation, force_column, midpoint_state, update_blocks};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -88,10 +88,7 @@ where
         state: &SystemState<NB>,
         inputs: &DMatrix<f64>,
     ) -> Result<Linearisation, AnalysisError> {
-        check_state::<S, NB, NV, M>(state, true)?;
-        if inputs.nrows() != NV {
-            return Err(AnalysisError::BadOption { name: "inputs (NV rows)" });
-        }
+        check_inputs::<S, NB, NV, M>(state, inputs)?;
         let needed = AnalysisError::NoSecondOrder { needed_by: "the linearisation" };
         let d = self.solve(state, false, true)?;
         let t = self.dense_tangent(state, &d, needed)?;

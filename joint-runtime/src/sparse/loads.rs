@@ -21,13 +21,11 @@ use alloc::vec::Vec;
 use nalgebra::{SVector, Vector3};
 
 use super::alpha::missing;
+use super::differences::greedy_colours;
 use super::kkt::Kkt;
-use crate::analysis::{AnalysisError, apply_increment, set_velocities, velocity_vector};
-use crate::dynamics::{AppliedLoads, Direction, Loads};
+use crate::analysis::{AnalysisError, velocity_vector};
+use crate::dynamics::{AppliedLoads, Direction, LOAD_STEP, Loads, load_differences_along};
 use crate::scene::SystemState;
-
-/// Relative step of the central differences of user loads (the dense path's).
-const LOAD_STEP: f64 = 1e-6;
 
 /// The bodies coloured at distance two on the Newton matrix's pattern.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -52,24 +50,9 @@ impl LoadColouring {
             n.sort_unstable();
             n.dedup();
         }
-        let mut colour_of = vec![usize::MAX; bodies];
-        let mut colours: Vec<Vec<usize>> = Vec::new();
-        for b in 0..bodies {
-            let mut taken = Vec::new();
-            for &n in &neighbours[b] {
-                for &m in &neighbours[n] {
-                    taken.push(colour_of[m]);
-                }
-            }
-            let c = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
-            if c == colours.len() {
-                colours.push(Vec::new());
-            }
-            if let Some(list) = colours.get_mut(c) {
-                list.push(b);
-            }
-            colour_of[b] = c;
-        }
+        // Within two couplings: the neighbours' neighbours.
+        let near = |b: usize| neighbours[b].iter().flat_map(|&n| neighbours[n].iter().copied()).collect();
+        let (colours, _) = greedy_colours(bodies, near);
         LoadColouring { colours, neighbours }
     }
 
@@ -128,26 +111,9 @@ fn derivative<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
         return loads;
     }
     let v = velocity_vector::<NB, NV>(state);
-    let speed =
-        if velocity { colour.iter().filter_map(|&b| v.get(6 * b + k)).fold(0.0, |m, x| x.abs().max(m)) } else { 0.0 };
-    let step = LOAD_STEP * (1.0 + speed);
-    let mut at = |sign: f64| {
-        let mut s = *state;
-        if velocity {
-            set_velocities(&mut s, &(v + delta * (sign * step)));
-        } else {
-            apply_increment(&mut s, &delta, sign * step);
-        }
-        let mut loads = Loads::<NB>::default();
-        user.apply(&s, &mut loads);
-        loads
-    };
-    let (plus, minus) = (at(1.0), at(-1.0));
-    for b in 0..NB {
-        loads.force[b] = (plus.force[b] - minus.force[b]) / (2.0 * step);
-        loads.torque[b] = (plus.torque[b] - minus.torque[b]) / (2.0 * step);
-    }
-    loads
+    let fastest = colour.iter().filter_map(|&b| v.get(6 * b + k)).fold(0.0, |m: f64, x| m.max(x.abs()));
+    let step = LOAD_STEP * (1.0 + if velocity { fastest } else { 0.0 });
+    load_differences_along(user, state, &delta, velocity, step)
 }
 
 #[cfg(test)]
