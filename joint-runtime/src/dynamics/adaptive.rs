@@ -48,6 +48,17 @@ pub enum Adaptive {
     RadauIIA,
 }
 
+impl Adaptive {
+    /// The fixed-step integrator whose history an accepted step follows.
+    pub(crate) fn integrator(self) -> Integrator {
+        match self {
+            Adaptive::DormandPrince => Integrator::Rk4,
+            Adaptive::GeneralisedAlpha => Integrator::GeneralisedAlpha,
+            Adaptive::RadauIIA => Integrator::RadauIIA,
+        }
+    }
+}
+
 /// The local error asked of each step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -207,12 +218,7 @@ where
         if let Some(options) = self.options.projection {
             self.project(&mut next, &options)?;
         }
-        let integrator = match method {
-            Adaptive::DormandPrince => Integrator::Rk4,
-            Adaptive::GeneralisedAlpha => Integrator::GeneralisedAlpha,
-            Adaptive::RadauIIA => Integrator::RadauIIA,
-        };
-        self.follow(next, integrator);
+        self.follow(next, method.integrator());
         Ok(next)
     }
 }

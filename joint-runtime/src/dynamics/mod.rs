@@ -255,6 +255,17 @@ pub enum Stabilisation {
     },
 }
 
+impl Stabilisation {
+    /// `(α, β)`: zeros without stabilisation, where the Newton matrices'
+    /// stabilisation terms vanish.
+    pub(crate) fn coefficients(self) -> (f64, f64) {
+        match self {
+            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
+            Stabilisation::None => (0.0, 0.0),
+        }
+    }
+}
+
 /// The time integrator of [`Simulation::step`] (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]

@@ -25,7 +25,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Dynamics, Factored, Simulation, Stabilisation, StepRule, midpoint_state};
+use super::{AppliedLoads, Dynamics, Factored, Simulation, StepRule, midpoint_state};
 use crate::analysis::{AnalysisError, InverseMass, jacobian_times_metric, velocity_vector};
 use crate::linalg::PivotedCholesky;
 use crate::scene::{Scene, SystemState};
@@ -95,10 +95,7 @@ where
         f: Factored<NV, M>,
     ) -> Result<Option<Tangent<NB, NV, M>>, AnalysisError> {
         let d = f.dynamics;
-        let (alpha, beta) = match self.options.stabilisation {
-            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
-            Stabilisation::None => (0.0, 0.0),
-        };
+        let (alpha, beta) = self.options.stabilisation.coefficients();
         let v = velocity_vector::<NB, NV>(state);
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
         let u = d.vdot + v * (2.0 * alpha);

@@ -7,7 +7,7 @@ use super::SparseSimulation;
 use crate::analysis::{AnalysisError, check_state};
 use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
 use crate::dynamics::radau::step_radau;
-use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Integrator, Rate, Tolerance};
+use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Rate, Tolerance};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
@@ -115,6 +115,7 @@ where
             }
             Adaptive::RadauIIA => {
                 let mut y1 = y;
+                self.radau_start = Some((y, d));
                 let step = step_radau(self, &mut y1, h, Some(tolerance))?;
                 report.newton_iterations += step.iterations;
                 report.newton_matrices += step.matrices;
@@ -129,12 +130,7 @@ where
         if let Some(options) = self.options.projection {
             self.project(&mut next, &options)?;
         }
-        let integrator = match method {
-            Adaptive::DormandPrince => Integrator::Rk4,
-            Adaptive::GeneralisedAlpha => Integrator::GeneralisedAlpha,
-            Adaptive::RadauIIA => Integrator::RadauIIA,
-        };
-        self.follow(next, integrator);
+        self.follow(next, method.integrator());
         Ok(next)
     }
 }

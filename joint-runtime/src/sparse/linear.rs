@@ -23,7 +23,7 @@ use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::SparseDynamics;
 use crate::analysis::{AnalysisError, apply_metric, velocity_vector};
 use crate::dynamics::linear::{check_inputs, minimal, transition_matrix, update_times};
-use crate::dynamics::{AppliedLoads, Linearisation, Stabilisation, force_column, midpoint_state, update_blocks};
+use crate::dynamics::{AppliedLoads, Linearisation, force_column, midpoint_state, update_blocks};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The linearised equations of motion at one state, dense: `δa` along any
@@ -150,10 +150,7 @@ where
         d: &SparseDynamics<NV, M>,
         needed: AnalysisError,
     ) -> Result<DenseTangent, AnalysisError> {
-        let (alpha, beta) = match self.options.stabilisation {
-            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
-            Stabilisation::None => (0.0, 0.0),
-        };
+        let (alpha, beta) = self.options.stabilisation.coefficients();
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
         let u = d.vdot + velocity_vector::<NB, NV>(state) * (2.0 * alpha);
         let layout = SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES);

@@ -34,8 +34,8 @@ use super::simulation::SparseDynamics;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::{
-    AppliedLoads, ModifiedNewton, NewtonMatrix, Stabilisation, energy_balance, mass_times, midpoint_end,
-    midpoint_state, midpoint_work, update_blocks,
+    AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times, midpoint_end, midpoint_state,
+    midpoint_work, update_blocks,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -115,10 +115,7 @@ where
         let quarter = 0.25 * h * h;
         let dropped = self.solver.factor.dropped();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
-        let stabilisation = match self.options.stabilisation {
-            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
-            Stabilisation::None => (0.0, 0.0),
-        };
+        let stabilisation = self.options.stabilisation.coefficients();
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let (state, d) = (&mid.state, &mid.dynamics);
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.

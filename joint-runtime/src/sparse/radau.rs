@@ -33,10 +33,11 @@ use super::SparseSimulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
 use super::kkt::Kkt;
 use super::midpoint::{RowTerms, add_row_terms};
+use super::simulation::SparseDynamics;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
-use crate::dynamics::{AppliedLoads, NewtonMatrix, Stabilisation, mass_times};
+use crate::dynamics::{AppliedLoads, NewtonMatrix, mass_times};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// Radau's matrices on the pattern and the scratch of their solves,
@@ -99,7 +100,7 @@ where
     }
 
     fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
-        Ok(self.solve(y0, true, false)?.vdot)
+        Ok(self.radau_start_dynamics(y0)?.vdot)
     }
 
     fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
@@ -109,12 +110,9 @@ where
     /// `P₀`, `P₁`, `P₂` at `y0` (see the module docs).
     fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<((), usize), AnalysisError> {
         self.alpha_workspace()?;
-        let d = self.solve(y0, true, false)?;
+        let d = self.radau_start_dynamics(y0)?;
         let values = self.scene.jacobian_values(y0);
-        let stabilisation = match self.options.stabilisation {
-            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
-            Stabilisation::None => (0.0, 0.0),
-        };
+        let stabilisation = self.options.stabilisation.coefficients();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let u = d.vdot + velocity_vector::<NB, NV>(y0) * (2.0 * stabilisation.0);
@@ -234,6 +232,19 @@ where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
+    /// The dynamics at the step's start `y0` under its rule: those the
+    /// step's start solved (the factor still holds them), or solved here.
+    fn radau_start_dynamics(&mut self, y0: &SystemState<NB>) -> Result<SparseDynamics<NV, M>, AnalysisError> {
+        match self.radau_start {
+            Some((at, d)) if at == *y0 => Ok(d),
+            _ => {
+                let d = self.solve(y0, true, false)?;
+                self.radau_start = Some((*y0, d));
+                Ok(d)
+            }
+        }
+    }
+
     /// `J x` with `J` at the Jacobian's state.
     fn radau_j_mul(&self, x: &SVector<f64, NV>) -> SVector<f64, M> {
         match self.radau.as_deref().and_then(|r| <&[f64; NNZ]>::try_from(&r.values[..]).ok()) {

@@ -60,8 +60,11 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     /// Radau IIA's matrices on that pattern, and its history.
     pub(super) radau: Option<Box<RadauWorkspace>>,
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
-    /// The options (RK4 or generalised-α; the integrator is fixed at
-    /// [`SparseSimulation::new`], which builds its workspace).
+    /// The dynamics a Radau step's start solved, and where (its stages
+    /// start from them rather than solving the start again).
+    pub(super) radau_start: Option<(SystemState<NB>, SparseDynamics<NV, M>)>,
+    /// The options (may be changed between steps; an implicit integrator's
+    /// workspace is built in [`SparseSimulation::new`] or at its first step).
     pub options: SimulationOptions,
 }
 
@@ -117,6 +120,7 @@ where
             alpha,
             radau: None,
             radau_history: None,
+            radau_start: None,
             options,
         })
     }
@@ -279,7 +283,8 @@ where
             }
             Integrator::RadauIIA => {
                 self.alpha_workspace()?;
-                let (mut y, _) = self.step_start(state)?;
+                let (mut y, d) = self.step_start(state)?;
+                self.radau_start = Some((y, d));
                 let step = step_radau(self, &mut y, h, None)?;
                 (report.newton_iterations, report.newton_matrices) = (step.iterations, step.matrices);
                 y
