@@ -53,10 +53,10 @@ pub struct BlockFactor {
     /// the diagonal first; each entry is a position `i ≥ k`.
     col_start: Vec<usize>,
     col: Vec<usize>,
-    /// For each factor slot `(i, k)`: the pairs `(slot (i, j), slot (k, j))`,
-    /// `j < k`, whose product updates it.
+    /// For each factor slot `(i, k)`: the triples `(j, slot (i, j), slot (k,
+    /// j))`, `j < k`, whose product updates it.
     sched_start: Vec<usize>,
-    sched: Vec<(usize, usize)>,
+    sched: Vec<(usize, usize, usize)>,
     /// For each slot `(i, k)`: the bodies the two joints share, as `(side of i,
     /// side of k, body)`: the terms of `A_ik = Σ J_i,b W_b J_k,bᵀ`.
     shared_start: Vec<usize>,
@@ -167,7 +167,7 @@ impl BlockFactor {
     /// The update schedule, the shared bodies of each slot and the rows of `L`.
     fn schedule(&mut self) -> Result<(), LinalgError> {
         let n = self.joints.len();
-        let mut updates: Vec<Vec<(usize, usize)>> = vec![Vec::new(); self.col.len()];
+        let mut updates: Vec<Vec<(usize, usize, usize)>> = vec![Vec::new(); self.col.len()];
         let mut rows: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
         for j in 0..n {
             let column = &self.col[self.col_start[j] + 1..self.col_start[j + 1]];
@@ -178,7 +178,7 @@ impl BlockFactor {
                     let sij = self.col_start[j] + 1 + y;
                     // Eliminating j joins i and k: the pattern has (i, k).
                     let sik = slot(&self.col_start, &self.col, i, k).ok_or(BAD_STRUCTURE)?;
-                    updates[sik].push((sij, skj));
+                    updates[sik].push((j, sij, skj));
                 }
             }
         }
@@ -330,10 +330,11 @@ impl BlockFactor {
         let i = self.col[s];
         let (ri, rk) = (self.joints[i].rows, self.joints[k].rows);
         let out = &mut self.l[s];
-        *out = ZERO;
+        // Only the `ri × rk` entries are ever nonzero (the kernels keep it so).
+        with_rows!(ri, RI => with_rows!(rk, RK => kernels::clear::<RI, RK>(out)));
         for &(si, sk, _) in &self.shared[self.shared_start[s]..self.shared_start[s + 1]] {
             let (jw, jb) = (&self.jw[2 * i + si], &self.jb[2 * k + sk]);
-            with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK>(jw, jb, out, 1.0)));
+            with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK, 6>(jw, jb, out, 1.0)));
         }
     }
 
@@ -355,7 +356,7 @@ impl BlockFactor {
             // Every slot of column k comes after its diagonal slot `d`.
             let (before, rest) = self.l.split_at_mut(s);
             let (Some(lkk), Some(out)) = (before.get(d), rest.first_mut()) else { continue };
-            with_rows!(ri, RI => kernels::solve_below::<RI>(lkk, &perm, rank, out));
+            with_rows!(ri, RI => with_rows!(rows, RK => kernels::solve_below::<RI, RK>(lkk, &perm, rank, out)));
         }
     }
 
@@ -365,9 +366,13 @@ impl BlockFactor {
         let (ri, rk) = (self.joints[self.col[s]].rows, self.joints[k].rows);
         let (before, rest) = self.l.split_at_mut(s);
         let Some(out) = rest.first_mut() else { return };
-        for &(sij, skj) in &self.sched[self.sched_start[s]..self.sched_start[s + 1]] {
-            let (Some(lij), Some(lkj)) = (before.get(sij), before.get(skj)) else { continue };
-            with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK>(lij, lkj, out, -1.0)));
+        for &(j, sij, skj) in &self.sched[self.sched_start[s]..self.sched_start[s + 1]] {
+            let (Some(lij), Some(lkj), Some(rj)) =
+                (before.get(sij), before.get(skj), self.joints.get(j).map(|j| j.rows))
+            else {
+                continue;
+            };
+            with_rows!(ri, RI => with_rows!(rk, RK => with_rows!(rj, RJ => kernels::add_abt::<RI, RK, RJ>(lij, lkj, out, -1.0))));
         }
     }
 
@@ -383,7 +388,7 @@ impl BlockFactor {
                 else {
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::add_av::<R>(&self.jb[2 * k + side], x, &mut acc, 1.0));
+                with_rows!(joint.rows, R => kernels::add_av::<R, 6>(&self.jb[2 * k + side], x, &mut acc, 1.0));
             }
             for (o, &a) in out.iter_mut().skip(joint.start).zip(&acc[..joint.rows]) {
                 *o = a;
@@ -405,7 +410,7 @@ impl BlockFactor {
                 else {
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::add_atv::<R>(&self.jb[2 * k + side], &yk, o, 1.0));
+                with_rows!(joint.rows, R => kernels::add_atv::<R, 6>(&self.jb[2 * k + side], &yk, o, 1.0));
             }
         }
     }
@@ -421,7 +426,8 @@ impl BlockFactor {
                 *cx = b.get(start + x).copied().unwrap_or(0.0);
             }
             for &(j, s) in &self.row[self.row_start[k]..self.row_start[k + 1]] {
-                with_rows!(rows, R => kernels::add_av::<R>(&self.l[s], &z[j], &mut c, -1.0));
+                let rj = self.joints[j].rows;
+                with_rows!(rows, R => with_rows!(rj, RJ => kernels::add_av::<R, RJ>(&self.l[s], &z[j], &mut c, -1.0)));
             }
             z[k] = with_rows!(rows, R => kernels::forward::<R>(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c));
         }
@@ -430,7 +436,8 @@ impl BlockFactor {
             let mut c = z[k];
             for s in self.col_start[k] + 1..self.col_start[k + 1] {
                 let i = self.col[s];
-                with_rows!(self.joints[i].rows, R => kernels::add_atv::<R>(&self.l[s], &lambda[i], &mut c, -1.0));
+                let rk = self.joints[k].rows;
+                with_rows!(self.joints[i].rows, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(&self.l[s], &lambda[i], &mut c, -1.0)));
             }
             lambda[k] = kernels::backward(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c);
         }

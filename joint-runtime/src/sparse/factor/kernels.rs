@@ -4,7 +4,7 @@
 //! row-major (`6 r + c`); entries past a block's rows, and an `L` block's
 //! columns past its rank, are zero, so products can run over all six columns.
 
-use super::{Block, ZERO};
+use super::Block;
 use crate::analysis::InverseMass;
 
 /// `out = J W` for a block of `R` rows: the translational columns times
@@ -23,13 +23,19 @@ pub(super) fn times_metric<const R: usize>(j: &Block, m: &InverseMass, out: &mut
     }
 }
 
-/// `out[x][y] += sign Σ_c a[x][c] b[y][c]` for `x < RI`, `y < RK`.
+/// `out[x][y] += sign Σ_c a[x][c] b[y][c]` for `x < RI`, `y < RK`, `c < C`
+/// (`C = 6` for `J` blocks, the column block's rows for `L` blocks).
 #[inline(always)]
-pub(super) fn add_abt<const RI: usize, const RK: usize>(a: &Block, b: &Block, out: &mut Block, sign: f64) {
+pub(super) fn add_abt<const RI: usize, const RK: usize, const C: usize>(
+    a: &Block,
+    b: &Block,
+    out: &mut Block,
+    sign: f64,
+) {
     for x in 0..RI {
         for y in 0..RK {
             let mut sum = 0.0;
-            for c in 0..6 {
+            for c in 0..C {
                 sum += a[6 * x + c] * b[6 * y + c];
             }
             out[6 * x + y] += sign * sum;
@@ -42,15 +48,22 @@ pub(super) fn add_abt<const RI: usize, const RK: usize>(a: &Block, b: &Block, ou
 /// and the pivot order and rank are returned. A pivot at or below
 /// `tolerance` (or not positive) ends the factor: its row and the rest are
 /// dropped as redundant. With `rule`, its pivots are kept (falling back to
-/// choosing them if one is not positive).
+/// choosing them if one is not positive). Only the block's `N × N` entries
+/// are read, copied and written: the rest of `l` is zero and stays so.
 #[inline(always)]
 pub(super) fn pivoted_cholesky<const N: usize>(
     l: &mut Block,
     tolerance: f64,
     rule: Option<([usize; 6], usize)>,
 ) -> ([usize; 6], usize) {
-    let d = *l;
-    if let Some((perm, rank)) = rule {
+    let mut d = [[0.0; N]; N];
+    for (r, row) in d.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            *x = l[6 * r + c];
+        }
+    }
+    // A rule is this block's own earlier pivots: a permutation of `0..N`.
+    if let Some((perm, rank)) = rule.filter(|(perm, _)| perm[..N].iter().all(|&p| p < N)) {
         let rank = rank.min(N);
         if in_order::<N>(&d, &perm, rank, l) {
             return (perm, rank);
@@ -58,11 +71,11 @@ pub(super) fn pivoted_cholesky<const N: usize>(
     }
     let mut w = d;
     let mut perm = [0, 1, 2, 3, 4, 5];
-    *l = ZERO;
+    clear::<N, N>(l);
     let mut rank = 0;
     for c in 0..N {
-        let Some(p) = (c..N).max_by(|&a, &b| w[7 * perm[a]].total_cmp(&w[7 * perm[b]])) else { break };
-        let pivot = w[7 * perm[p]];
+        let Some(p) = (c..N).max_by(|&a, &b| w[perm[a]][perm[a]].total_cmp(&w[perm[b]][perm[b]])) else { break };
+        let pivot = w[perm[p]][perm[p]];
         if pivot.is_nan() || pivot <= tolerance || pivot <= 0.0 {
             break;
         }
@@ -73,14 +86,24 @@ pub(super) fn pivoted_cholesky<const N: usize>(
     (perm, rank)
 }
 
+/// Zeroes the leading `R × C` entries of a block.
+#[inline(always)]
+pub(super) fn clear<const R: usize, const C: usize>(l: &mut Block) {
+    for r in 0..R {
+        for c in 0..C {
+            l[6 * r + c] = 0.0;
+        }
+    }
+}
+
 /// The factor of `d` with the pivots `perm[..rank]` prescribed, into `l`;
 /// `false` if one of them is not positive.
 #[inline(always)]
-fn in_order<const N: usize>(d: &Block, perm: &[usize; 6], rank: usize, l: &mut Block) -> bool {
+fn in_order<const N: usize>(d: &[[f64; N]; N], perm: &[usize; 6], rank: usize, l: &mut Block) -> bool {
     let mut w = *d;
-    *l = ZERO;
+    clear::<N, N>(l);
     for c in 0..rank {
-        let pivot = w[7 * perm[c]];
+        let pivot = w[perm[c]][perm[c]];
         if pivot.is_nan() || pivot <= 0.0 {
             return false;
         }
@@ -91,58 +114,64 @@ fn in_order<const N: usize>(d: &Block, perm: &[usize; 6], rank: usize, l: &mut B
 
 /// Column `c` of the factor at pivot `perm[c]`, and the update of the rest.
 #[inline(always)]
-fn eliminate<const N: usize>(w: &mut Block, l: &mut Block, perm: &[usize; 6], c: usize) {
+fn eliminate<const N: usize>(w: &mut [[f64; N]; N], l: &mut Block, perm: &[usize; 6], c: usize) {
     let p = perm[c];
-    let root = libm::sqrt(w[7 * p]);
+    let root = libm::sqrt(w[p][p]);
     l[6 * p + c] = root;
     for &r in &perm[c + 1..N] {
-        l[6 * r + c] = w[6 * r + p] / root;
+        l[6 * r + c] = w[r][p] / root;
     }
     for &r in &perm[c + 1..N] {
         for &s in &perm[c + 1..N] {
-            w[6 * r + s] -= l[6 * r + c] * l[6 * s + c];
+            w[r][s] -= l[6 * r + c] * l[6 * s + c];
         }
     }
 }
 
 /// A block below the diagonal, in place: each of its `RI` rows `b` becomes
-/// `y` with `T y = b[perm[..rank]]`, `T[a][c] = L_kk[perm[a]][c]`; the
-/// columns past the rank are zeroed.
+/// `y` with `T y = b[perm[..rank]]`, `T[a][c] = L_kk[perm[a]][c]`, over the
+/// diagonal block's `RK` rows; the columns past the rank are zeroed.
 #[inline(always)]
-pub(super) fn solve_below<const RI: usize>(lkk: &Block, perm: &[usize; 6], rank: usize, out: &mut Block) {
+pub(super) fn solve_below<const RI: usize, const RK: usize>(
+    lkk: &Block,
+    perm: &[usize; 6],
+    rank: usize,
+    out: &mut Block,
+) {
+    let rank = rank.min(RK);
     for x in 0..RI {
-        let mut b = [0.0; 6];
-        b.copy_from_slice(&out[6 * x..6 * x + 6]);
-        let mut y = [0.0; 6];
-        for a in 0..rank.min(6) {
+        let mut y = [0.0; RK];
+        for a in 0..rank {
             let mut sum = 0.0;
-            for c in 0..a {
-                sum += lkk[6 * perm[a] + c] * y[c];
+            for (c, yc) in y.iter().enumerate().take(a) {
+                sum += lkk[6 * perm[a] + c] * yc;
             }
-            y[a] = (b[perm[a]] - sum) / lkk[6 * perm[a] + a];
+            y[a] = (out[6 * x + perm[a]] - sum) / lkk[6 * perm[a] + a];
         }
-        out[6 * x..6 * x + 6].copy_from_slice(&y);
+        out[6 * x..6 * x + RK].copy_from_slice(&y);
     }
 }
 
-/// `out[x] += sign Σ_y a[x][y] v[y]` for `x < R`: the forward solve's
-/// update (`sign = −1`) and one side of a joint's rows of `J x` (`+1`).
+/// `out[x] += sign Σ_y a[x][y] v[y]` for `x < R`, `y < C`: the forward
+/// solve's update (`sign = −1`, `C` the rows of the column's block) and one
+/// side of a joint's rows of `J x` (`+1`, `C = 6`).
 #[inline(always)]
-pub(super) fn add_av<const R: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
+pub(super) fn add_av<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
     for x in 0..R {
         let mut sum = 0.0;
-        for y in 0..6 {
+        for y in 0..C {
             sum += a[6 * x + y] * v[y];
         }
         out[x] += sign * sum;
     }
 }
 
-/// `out[y] += sign Σ_x a[x][y] v[x]` over the `R` rows of `a`: the backward
-/// solve's update (`sign = −1`) and one side of a joint's part of `Jᵀ v` (`+1`).
+/// `out[y] += sign Σ_x a[x][y] v[x]` over the `R` rows of `a`, `y < C`: the
+/// backward solve's update (`sign = −1`, `C` the rows of the column's block)
+/// and one side of a joint's part of `Jᵀ v` (`+1`, `C = 6`).
 #[inline(always)]
-pub(super) fn add_atv<const R: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
-    for y in 0..6 {
+pub(super) fn add_atv<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
+    for y in 0..C {
         let mut sum = 0.0;
         for x in 0..R {
             sum += a[6 * x + y] * v[x];
