@@ -33,9 +33,11 @@ pub use error::{Analysis, AnalysisError};
 pub(crate) use motion::{
     apply_increment, normalise_orientations, quat_mul, rotate_body, set_velocities, velocity_vector,
 };
-#[cfg(feature = "alloc")]
-pub(crate) use newton::damped_newton;
 pub(crate) use newton::newton;
+#[cfg(feature = "alloc")]
+pub(crate) use newton::{Directions, damped_newton};
+#[cfg(feature = "alloc")]
+pub(crate) use solve::apply_metric_into;
 pub(crate) use solve::{InverseMass, Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
 
 use crate::linalg::DEFAULT_RANK_TOLERANCE;

@@ -18,12 +18,38 @@ pub(crate) fn newton<S, const NB: usize, const NV: usize, const M: usize>(
 where
     S: Scene<NB, NV, M>,
 {
-    damped_newton(scene, state, options, |state, b| {
-        let j = scene.jacobian(state);
+    damped_newton(scene, state, options, &mut Dense { scene, metric, rank_tolerance: options.rank_tolerance })
+}
+
+/// What Newton asks of a linear solver: a step, and at the end only the
+/// factorisation's redundant rows (no step nobody uses).
+pub(crate) trait Directions<const NB: usize, const NV: usize, const M: usize> {
+    /// `Δ` with `J Δ = b` at `state`, of minimum norm in the metric.
+    fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError>;
+    /// The rows the factorisation of `J` at `state` drops as redundant.
+    fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError>;
+}
+
+/// The dense solver's directions.
+struct Dense<'s, S, const NB: usize> {
+    scene: &'s S,
+    metric: Metric<'s, NB>,
+    rank_tolerance: f64,
+}
+
+impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Directions<NB, NV, M> for Dense<'_, S, NB> {
+    fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError> {
+        let j = self.scene.jacobian(state);
         check_output::<S, NB, NV, M, NV>("J", &j)?;
-        let step = min_norm(&j, &b, metric, options.rank_tolerance)?;
-        Ok((step.x, RowList::from_rows::<S, NB, NV>(step.factor.dropped())))
-    })
+        Ok(min_norm(&j, b, self.metric, self.rank_tolerance)?.x)
+    }
+
+    fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError> {
+        let j = self.scene.jacobian(state);
+        check_output::<S, NB, NV, M, NV>("J", &j)?;
+        let step = min_norm(&j, &SVector::<f64, M>::zeros(), self.metric, self.rank_tolerance)?;
+        Ok(RowList::from_rows::<S, NB, NV>(step.factor.dropped()))
+    }
 }
 
 /// Damped Newton on Φ = 0 (the dense and the sparse assembly and projection):
@@ -34,7 +60,7 @@ pub(crate) fn damped_newton<S, const NB: usize, const NV: usize, const M: usize>
     scene: &S,
     state: &mut SystemState<NB>,
     options: &AssemblyOptions,
-    mut direction: impl FnMut(&SystemState<NB>, SVector<f64, M>) -> Result<(SVector<f64, NV>, RowList<M>), AnalysisError>,
+    directions: &mut impl Directions<NB, NV, M>,
 ) -> Result<Assembly<M>, AnalysisError>
 where
     S: Scene<NB, NV, M>,
@@ -53,7 +79,7 @@ where
     let mut iterations = 0;
     loop {
         if norm <= options.tolerance {
-            let (_, redundant) = direction(state, phi)?;
+            let redundant = directions.redundant(state)?;
             return Ok(Assembly { iterations, residual: norm, redundant });
         }
         if iterations >= options.max_iterations {
@@ -63,7 +89,7 @@ where
                 worst: WorstRows::of::<S, NB, NV, M>(&phi),
             });
         }
-        let (delta, _) = direction(state, -phi)?;
+        let delta = directions.step(state, &-phi)?;
         let mut alpha = 1.0;
         loop {
             let mut trial = *state;

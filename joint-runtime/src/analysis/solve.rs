@@ -25,6 +25,17 @@ pub(crate) fn apply_metric<const NB: usize, const NV: usize>(
 ) -> SVector<f64, NV> {
     let Some(w) = metric else { return *x };
     let mut y = *x;
+    apply_metric_into(w, x, &mut y);
+    y
+}
+
+/// `y = W x` in place of the caller's vector (no `NV`-sized temporary).
+pub(crate) fn apply_metric_into<const NB: usize, const NV: usize>(
+    w: &[InverseMass; NB],
+    x: &SVector<f64, NV>,
+    y: &mut SVector<f64, NV>,
+) {
+    y.copy_from(x);
     for (i, m) in w.iter().enumerate() {
         if 6 * i + 6 > NV {
             break;
@@ -34,7 +45,6 @@ pub(crate) fn apply_metric<const NB: usize, const NV: usize>(
         y.fixed_rows_mut::<3>(6 * i).copy_from(&f);
         y.fixed_rows_mut::<3>(6 * i + 3).copy_from(&t);
     }
-    y
 }
 
 /// `J W` for the block-diagonal metric.

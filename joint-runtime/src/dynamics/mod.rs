@@ -494,6 +494,17 @@ impl<const NB: usize, const NV: usize> Rate<NB, NV> {
         }
         rate
     }
+
+    /// [`Rate::new`] written over `self` (no state-sized temporary).
+    #[cfg(feature = "alloc")]
+    #[inline]
+    pub(crate) fn assign(&mut self, state: &SystemState<NB>, vdot: &SVector<f64, NV>) {
+        self.vdot.copy_from(vdot);
+        for ((b, rdot), pdot) in state.bodies.iter().zip(self.rdot.iter_mut()).zip(self.pdot.iter_mut()) {
+            *rdot = b.rdot;
+            *pdot = quat_mul(&b.p, &Vector4::new(0.0, b.omega.x, b.omega.y, b.omega.z)) * 0.5;
+        }
+    }
 }
 
 /// RK4's combination of its four stage rates.
@@ -516,13 +527,30 @@ pub(crate) fn advance<'r, const NB: usize, const NV: usize>(
     t: f64,
 ) -> SystemState<NB> {
     let mut y = *y0;
-    let mut v = velocity_vector::<NB, NV>(y0);
+    advance_into(y0, rates, h, t, &mut y);
+    y
+}
+
+/// [`advance`] written into `y` (no state- or velocity-sized temporary; the
+/// same operations in the same order, so the same bits).
+#[inline]
+pub(crate) fn advance_into<'r, const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    rates: impl IntoIterator<Item = (&'r Rate<NB, NV>, f64)>,
+    h: f64,
+    t: f64,
+    y: &mut SystemState<NB>,
+) {
+    y.bodies.copy_from_slice(&y0.bodies);
     for (k, c) in rates {
-        for ((b, rdot), pdot) in y.bodies.iter_mut().zip(k.rdot.iter()).zip(k.pdot.iter()) {
+        for (i, ((b, rdot), pdot)) in y.bodies.iter_mut().zip(k.rdot.iter()).zip(k.pdot.iter()).enumerate() {
             b.r += rdot * (h * c);
             b.p += pdot * (h * c);
+            if 6 * i + 6 <= NV {
+                b.rdot += k.vdot.fixed_rows::<3>(6 * i) * (h * c);
+                b.omega += k.vdot.fixed_rows::<3>(6 * i + 3) * (h * c);
+            }
         }
-        v += k.vdot * (h * c);
     }
     for b in y.bodies.iter_mut() {
         let n = b.p.norm();
@@ -530,9 +558,7 @@ pub(crate) fn advance<'r, const NB: usize, const NV: usize>(
             b.p /= n;
         }
     }
-    set_velocities(&mut y, &v);
     y.t = t;
-    y
 }
 
 /// A scene with loads, springs and options: computes constrained dynamics and

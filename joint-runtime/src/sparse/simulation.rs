@@ -13,13 +13,13 @@ use super::radau::RadauWorkspace;
 use super::solver::{Solver, j_mul, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{
-    AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric, check_output, check_state,
-    normalise_orientations, set_velocities, velocity_vector,
+    AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric_into, check_output,
+    check_state, normalise_orientations, set_velocities, velocity_vector,
 };
 use crate::dynamics::radau::{RadauHistory, step_radau};
 use crate::dynamics::{
     AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, Stabilisation,
-    StepReport, advance, check_redundant, generalised_forces, near_enough, rk4_weights,
+    StepReport, advance_into, check_redundant, generalised_forces, near_enough, rk4_weights,
 };
 use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
@@ -63,9 +63,57 @@ pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M:
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again).
     pub(super) radau_start: Option<(SystemState<NB>, SparseDynamics<NV, M>)>,
+    /// The vectors of a solve and the stages of an RK4 step, kept here
+    /// rather than in a step's frames (allocated once, in `new`).
+    work: Box<SolveWork<NV, M, NNZ>>,
+    rk4: Option<Box<Rk4Work<NB, NV>>>,
     /// The options (may be changed between steps; an implicit integrator's
     /// workspace is built in [`SparseSimulation::new`] or at its first step).
     pub options: SimulationOptions,
+}
+
+/// A solve's vectors: `J`'s values, `γ`, `Q`, `W Q`, `λ`, `Jᵀ λ`, `v̇` and
+/// the residual `J v̇ − γ`.
+struct SolveWork<const NV: usize, const M: usize, const NNZ: usize> {
+    values: [f64; NNZ],
+    gamma: SVector<f64, M>,
+    forces: SVector<f64, NV>,
+    minv_q: SVector<f64, NV>,
+    lambda: SVector<f64, M>,
+    jt_lambda: SVector<f64, NV>,
+    vdot: SVector<f64, NV>,
+    r: SVector<f64, M>,
+}
+
+impl<const NV: usize, const M: usize, const NNZ: usize> SolveWork<NV, M, NNZ> {
+    fn new() -> Box<Self> {
+        Box::new(SolveWork {
+            values: [0.0; NNZ],
+            gamma: SVector::zeros(),
+            forces: SVector::zeros(),
+            minv_q: SVector::zeros(),
+            lambda: SVector::zeros(),
+            jt_lambda: SVector::zeros(),
+            vdot: SVector::zeros(),
+            r: SVector::zeros(),
+        })
+    }
+}
+
+/// An RK4 step's start, stage rates, stage state and end.
+struct Rk4Work<const NB: usize, const NV: usize> {
+    y0: SystemState<NB>,
+    k: [Rate<NB, NV>; 4],
+    stage: SystemState<NB>,
+    end: SystemState<NB>,
+}
+
+impl<const NB: usize, const NV: usize> Rk4Work<NB, NV> {
+    fn new() -> Box<Self> {
+        let y = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
+        let k = Rate::new(&y, SVector::zeros());
+        Box::new(Rk4Work { y0: y, k: [k; 4], stage: y, end: y })
+    }
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
@@ -121,6 +169,8 @@ where
             radau: None,
             radau_history: None,
             radau_start: None,
+            work: SolveWork::new(),
+            rk4: Some(Rk4Work::new()),
             options,
         })
     }
@@ -169,49 +219,57 @@ where
         keep: bool,
         check: bool,
     ) -> Result<SparseDynamics<NV, M>, AnalysisError> {
+        self.solve_into(state, keep, check)?;
+        Ok(SparseDynamics { vdot: self.work.vdot, lambda: self.work.lambda })
+    }
+
+    /// [`SparseSimulation::solve`] into the workspace (`v̇`, `λ` in
+    /// `self.work`): no vector of the scene's size in this frame but the
+    /// stabilisation's.
+    fn solve_into(&mut self, state: &SystemState<NB>, keep: bool, check: bool) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
-        let values = self.scene.jacobian_values(state);
-        let mut gamma = self.scene.gamma(state);
-        check_output::<S, NB, NV, M, 1>("γ", &gamma)?;
+        let w = &mut *self.work;
+        w.values = self.scene.jacobian_values(state);
+        w.gamma = self.scene.gamma(state);
+        check_output::<S, NB, NV, M, 1>("γ", &w.gamma)?;
         if let Stabilisation::Baumgarte { alpha, beta } = self.options.stabilisation {
             let (phi, phi_t) = (self.scene.phi(state), self.scene.phi_t(state));
             check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
             check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
-            let phi_dot = j_mul::<S, NB, NNZ, NV, M>(&values, &velocity_vector::<NB, NV>(state)) + phi_t;
-            gamma -= phi_dot * (2.0 * alpha) + phi * (beta * beta);
+            let phi_dot = j_mul::<S, NB, NNZ, NV, M>(&w.values, &velocity_vector::<NB, NV>(state)) + phi_t;
+            w.gamma -= phi_dot * (2.0 * alpha) + phi * (beta * beta);
         }
-        let forces: SVector<f64, NV> =
-            generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state);
-        if !forces.iter().all(|x| x.is_finite()) {
+        w.forces = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state);
+        if !w.forces.iter().all(|x| x.is_finite()) {
             return Err(non_finite("forces"));
         }
-        let minv_q = apply_metric::<NB, NV>(Some(&self.inverse), &forces);
+        apply_metric_into(&self.inverse, &w.forces, &mut w.minv_q);
         let rule = if keep { Some(&self.rule[..]) } else { None };
         let factor = &mut self.solver.factor;
         // The last step's projection factorised `J W Jᵀ` at the state the
         // next step starts from, with no rule and the same tolerance.
         let (at, made) = &*self.projected;
         if keep || *made != Some((factor.factorisations(), self.options.rank_tolerance)) || at != state {
-            factor.factor(&values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
+            factor.factor(&w.values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
         }
         // The products on the factor's own blocks of `J` (the values just
         // factorised, or the same ones at the same state).
-        let mut lambda = SVector::<f64, M>::zeros();
-        factor.j_mul(minv_q.as_slice(), lambda.as_mut_slice());
-        lambda -= gamma;
-        factor.solve(lambda.as_mut_slice());
-        let mut jt_lambda = SVector::<f64, NV>::zeros();
-        factor.jt_mul(lambda.as_slice(), jt_lambda.as_mut_slice());
-        let vdot = minv_q - apply_metric::<NB, NV>(Some(&self.inverse), &jt_lambda);
-        let mut r = SVector::<f64, M>::zeros();
-        factor.j_mul(vdot.as_slice(), r.as_mut_slice());
-        r -= gamma;
-        if !r.norm().is_finite() || !vdot.iter().all(|x| x.is_finite()) {
+        factor.j_mul(w.minv_q.as_slice(), w.lambda.as_mut_slice());
+        w.lambda -= &w.gamma;
+        factor.solve(w.lambda.as_mut_slice());
+        factor.jt_mul(w.lambda.as_slice(), w.jt_lambda.as_mut_slice());
+        // v̇ = W Q − W Jᵀ λ.
+        apply_metric_into(&self.inverse, &w.jt_lambda, &mut w.vdot);
+        for (v, &q) in w.vdot.iter_mut().zip(w.minv_q.iter()) {
+            *v = q - *v;
+        }
+        factor.j_mul(w.vdot.as_slice(), w.r.as_mut_slice());
+        w.r -= &w.gamma;
+        if !w.r.norm().is_finite() || !w.vdot.iter().all(|x| x.is_finite()) {
             return Err(non_finite("accelerations"));
         }
-        let scale = 1.0 + gamma.norm() + libm::sqrt(values.iter().map(|x| x * x).sum::<f64>()) * vdot.norm();
-        check_redundant::<S, NB, NV, M>(&r, self.solver.factor.dropped(), scale, check)?;
-        Ok(SparseDynamics { vdot, lambda })
+        let scale = 1.0 + w.gamma.norm() + libm::sqrt(w.values.iter().map(|x| x * x).sum::<f64>()) * w.vdot.norm();
+        check_redundant::<S, NB, NV, M>(&w.r, self.solver.factor.dropped(), scale, check)
     }
 
     /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every
@@ -262,15 +320,15 @@ where
         let mut report = StepReport::default();
         let mut y = match self.options.integrator {
             Integrator::Rk4 => {
-                let (y0, d1) = self.step_start(state)?;
-                let (y, last_stage) = self.step_rk4(&y0, d1.vdot, h)?;
-                if let Some(options) = self.options.projection {
-                    let mut y = y;
-                    report.projection_iterations = self.settle(&mut y, &last_stage, &options);
-                    y
-                } else {
-                    y
+                let mut w = self.rk4.take().unwrap_or_else(Rk4Work::new);
+                let stepped = self.step_rk4(&mut w, state, h);
+                let mut y = w.end;
+                if let (Ok(()), Some(options)) = (&stepped, self.options.projection) {
+                    report.projection_iterations = self.settle(&mut y, &w.stage, &options);
                 }
+                self.rk4 = Some(w);
+                stepped?;
+                y
             }
             Integrator::GeneralisedAlpha => {
                 self.alpha_workspace()?;
@@ -340,25 +398,27 @@ where
         Ok(())
     }
 
-    /// One RK4 step from `y0` (its accelerations `vdot`), under the rule of
-    /// its start: the end and the last stage's state (whose `J W Jᵀ` the
-    /// factor holds on return).
-    // Not inlined (nor is generalised-α's step): each keeps its stages' states
-    // in its own frame, so a 500-body step fits a 2 MiB stack.
-    #[inline(never)]
-    fn step_rk4(
-        &mut self,
-        y0: &SystemState<NB>,
-        vdot: SVector<f64, NV>,
-        h: f64,
-    ) -> Result<(SystemState<NB>, SystemState<NB>), AnalysisError> {
-        let t0 = y0.t;
-        let k1 = Rate::new(y0, vdot);
-        let k2 = self.rate(&advance(y0, [(&k1, 0.5)], h, t0 + 0.5 * h))?;
-        let k3 = self.rate(&advance(y0, [(&k2, 0.5)], h, t0 + 0.5 * h))?;
-        let last = advance(y0, [(&k3, 1.0)], h, t0 + h);
-        let k4 = self.rate(&last)?;
-        Ok((advance(y0, rk4_weights(&k1, &k2, &k3, &k4), h, t0 + h), last))
+    /// One RK4 step from `state` (checked and normalised into `w.y0`) under
+    /// the rule of its start: the end in `w.end`, the last stage's state
+    /// (whose `J W Jᵀ` the factor holds on return) in `w.stage`. The stages
+    /// live in `w`, not in this frame.
+    fn step_rk4(&mut self, w: &mut Rk4Work<NB, NV>, state: &SystemState<NB>, h: f64) -> Result<(), AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)?;
+        w.y0 = *state;
+        normalise_orientations::<S, NB, NV, M>(&mut w.y0)?;
+        self.solve_into(&w.y0, false, true)?;
+        self.rule.clear();
+        self.rule.extend(self.solver.factor.rule());
+        let t0 = w.y0.t;
+        w.k[0].assign(&w.y0, &self.work.vdot);
+        for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
+            advance_into(&w.y0, [(&w.k[stage - 1], c)], h, t0 + c * h, &mut w.stage);
+            self.solve_into(&w.stage, true, false)?;
+            w.k[stage].assign(&w.stage, &self.work.vdot);
+        }
+        let [k1, k2, k3, k4] = &w.k;
+        advance_into(&w.y0, rk4_weights(k1, k2, k3, k4), h, t0 + h, &mut w.end);
+        Ok(())
     }
 
     /// Simplified Newton on Φ = 0 at the end of an RK4 step, on the factor its

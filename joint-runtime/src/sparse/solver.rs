@@ -9,7 +9,8 @@ use nalgebra::{Matrix3, SVector};
 
 use super::BlockFactor;
 use crate::analysis::{
-    Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, RowList, WorstRows, apply_metric, damped_newton,
+    Analysis, AnalysisError, Assembly, AssemblyOptions, Directions, InverseMass, RowList, WorstRows, apply_metric,
+    damped_newton,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -157,10 +158,37 @@ where
         options: &AssemblyOptions,
         w: &[InverseMass; NB],
     ) -> Result<Assembly<M>, AnalysisError> {
-        damped_newton(scene, state, options, |state, b| {
-            let values = scene.jacobian_values(state);
-            let x = self.min_norm(&values, b, w, options.rank_tolerance)?;
-            Ok((x, self.redundant()))
-        })
+        damped_newton(
+            scene,
+            state,
+            options,
+            &mut Sparse { solver: self, scene, w, rank_tolerance: options.rank_tolerance },
+        )
+    }
+}
+
+/// The block factor's Newton directions; at the end, a factorisation and no
+/// solve.
+struct Sparse<'s, S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    solver: &'s mut Solver<S, NB, NV, M, NNZ>,
+    scene: &'s S,
+    w: &'s [InverseMass; NB],
+    rank_tolerance: f64,
+}
+
+impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Directions<NB, NV, M>
+    for Sparse<'_, S, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError> {
+        let values = self.scene.jacobian_values(state);
+        self.solver.min_norm(&values, *b, self.w, self.rank_tolerance)
+    }
+
+    fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError> {
+        let values = self.scene.jacobian_values(state);
+        self.solver.factor.factor(&values, self.w, self.rank_tolerance, None).map_err(|_| non_finite("J"))?;
+        Ok(self.solver.redundant())
     }
 }
