@@ -488,10 +488,7 @@ impl<const NB: usize, const NV: usize> Rate<NB, NV> {
     #[inline]
     pub(crate) fn new(state: &SystemState<NB>, vdot: SVector<f64, NV>) -> Self {
         let mut rate = Rate { rdot: [Vector3::zeros(); NB], pdot: [Vector4::zeros(); NB], vdot };
-        for ((b, rdot), pdot) in state.bodies.iter().zip(rate.rdot.iter_mut()).zip(rate.pdot.iter_mut()) {
-            *rdot = b.rdot;
-            *pdot = quat_mul(&b.p, &Vector4::new(0.0, b.omega.x, b.omega.y, b.omega.z)) * 0.5;
-        }
+        rate.positions(state);
         rate
     }
 
@@ -500,6 +497,12 @@ impl<const NB: usize, const NV: usize> Rate<NB, NV> {
     #[inline]
     pub(crate) fn assign(&mut self, state: &SystemState<NB>, vdot: &SVector<f64, NV>) {
         self.vdot.copy_from(vdot);
+        self.positions(state);
+    }
+
+    /// `ṙ` and `ṗ = ½ p ⊗ (0, ω')` of every body at `state`.
+    #[inline]
+    fn positions(&mut self, state: &SystemState<NB>) {
         for ((b, rdot), pdot) in state.bodies.iter().zip(self.rdot.iter_mut()).zip(self.pdot.iter_mut()) {
             *rdot = b.rdot;
             *pdot = quat_mul(&b.p, &Vector4::new(0.0, b.omega.x, b.omega.y, b.omega.z)) * 0.5;
