@@ -153,8 +153,16 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     /// (in [`ELIMINATION`](Self::ELIMINATION), all later) of the blocks its
     /// column reaches, fill included.
     const FACTOR_BELOW: &'static [usize];
+    /// The entries' values at `state`, written into `out` (the derive writes
+    /// them in place: no array of the scene's size in the caller's frame).
+    fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]);
+
     /// The entries' values at `state`.
-    fn jacobian_values(&self, state: &SystemState<NB>) -> [f64; NNZ];
+    fn jacobian_values(&self, state: &SystemState<NB>) -> [f64; NNZ] {
+        let mut out = [0.0; NNZ];
+        self.jacobian_values_into(state, &mut out);
+        out
+    }
 }
 
 /// The dense matrix of a CSR one (the pattern of [`SparseJacobian`]): what a

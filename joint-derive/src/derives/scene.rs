@@ -244,7 +244,7 @@ fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, L
         const ROW_STARTS: &'static [usize] = &[#(#row_starts),*];
         const COLUMNS: [usize; #nnz] = [#(#columns),*];
         #[inline]
-        fn jacobian_values(&self, state: &#state) -> [f64; #nnz] { #body [#(#values),*] }
+        fn jacobian_values_into(&self, state: &#state, out: &mut [f64; #nnz]) { #body *out = [#(#values),*]; }
     };
     (items, nnz, ops)
 }

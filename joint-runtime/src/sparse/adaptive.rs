@@ -130,7 +130,7 @@ where
         if let Some(options) = self.options.projection {
             self.project(&mut next, &options)?;
         }
-        self.follow(next, method.integrator());
+        self.follow(&next, method.integrator());
         Ok(next)
     }
 }

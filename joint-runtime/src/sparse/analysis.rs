@@ -57,7 +57,7 @@ where
         options: &AssemblyOptions,
     ) -> Result<Assembly<M>, AnalysisError> {
         let unit = self.unit;
-        self.solver.newton(scene, state, options, &unit)
+        self.solver.newton(scene, state, options, &unit, &mut [0.0; NNZ])
     }
 
     /// [`crate::analysis::velocities`] on the block factor: `J v = −Φ_t`,

@@ -229,7 +229,7 @@ where
     fn solve_into(&mut self, state: &SystemState<NB>, keep: bool, check: bool) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
         let w = &mut *self.work;
-        w.values = self.scene.jacobian_values(state);
+        self.scene.jacobian_values_into(state, &mut w.values);
         w.gamma = self.scene.gamma(state);
         check_output::<S, NB, NV, M, 1>("γ", &w.gamma)?;
         if let Stabilisation::Baumgarte { alpha, beta } = self.options.stabilisation {
@@ -318,59 +318,115 @@ where
             return Err(AnalysisError::BadOption { name: "step size" });
         }
         let mut report = StepReport::default();
-        let mut y = match self.options.integrator {
-            Integrator::Rk4 => {
-                let mut w = self.rk4.take().unwrap_or_else(Rk4Work::new);
-                let stepped = self.step_rk4(&mut w, state, h);
-                let mut y = w.end;
-                if let (Ok(()), Some(options)) = (&stepped, self.options.projection) {
-                    report.projection_iterations = self.settle(&mut y, &w.stage, &options);
-                }
-                self.rk4 = Some(w);
-                stepped?;
-                y
+        // Each integrator in a frame of its own: a step's stack is the one
+        // integrator's, not the sum of all four.
+        match self.options.integrator {
+            Integrator::Rk4 => self.advance_rk4(state, h, &mut report)?,
+            Integrator::GeneralisedAlpha => self.advance_alpha(state, h, &mut report)?,
+            Integrator::RadauIIA => self.advance_radau(state, h, &mut report)?,
+            Integrator::ImplicitMidpoint => self.advance_midpoint(state, h, &mut report)?,
+        }
+        self.follow(state, self.options.integrator);
+        Ok(report)
+    }
+
+    /// An RK4 step from `state`, settled on its last stage's factor and
+    /// projected, written into `state` (unchanged on error). The stages and
+    /// the end live in the boxed `Rk4Work`.
+    #[inline(never)]
+    fn advance_rk4(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut StepReport,
+    ) -> Result<(), AnalysisError> {
+        let mut w = self.rk4.take().unwrap_or_else(Rk4Work::new);
+        let stepped = self.step_rk4(&mut w, state, h).and_then(|()| {
+            if let Some(options) = self.options.projection {
+                report.projection_iterations = self.settle(&mut w.end, &w.stage, &options);
             }
-            Integrator::GeneralisedAlpha => {
-                self.alpha_workspace()?;
-                // Generalised-α goes on from its last step only if handed back its state.
-                let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
-                let (y0, d1) = self.step_start(state)?;
-                let (y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
-                (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
-                y
-            }
-            Integrator::RadauIIA => {
-                self.alpha_workspace()?;
-                let (mut y, d) = self.step_start(state)?;
-                self.radau_start = Some((y, d));
-                let step = step_radau(self, &mut y, h, None)?;
-                (report.newton_iterations, report.newton_matrices) = (step.iterations, step.matrices);
-                y
-            }
-            Integrator::ImplicitMidpoint => {
-                self.alpha_workspace()?;
-                let (y0, d1) = self.step_start(state)?;
-                let (y, iterations, matrices) = self.step_midpoint(&y0, &d1.vdot, h)?;
-                (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
-                y
-            }
-        };
+            self.finish(&mut w.end, report)
+        });
+        if stepped.is_ok() {
+            *state = w.end;
+        }
+        self.rk4 = Some(w);
+        stepped
+    }
+
+    /// A generalised-α step from `state`, projected, into `state`.
+    #[inline(never)]
+    fn advance_alpha(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut StepReport,
+    ) -> Result<(), AnalysisError> {
+        self.alpha_workspace()?;
+        // Generalised-α goes on from its last step only if handed back its state.
+        let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
+        let (y0, d1) = self.step_start(state)?;
+        let (mut y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
+        (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
+        self.finish(&mut y, report)?;
+        *state = y;
+        Ok(())
+    }
+
+    /// A Radau IIA step from `state`, projected, into `state`.
+    #[inline(never)]
+    fn advance_radau(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut StepReport,
+    ) -> Result<(), AnalysisError> {
+        self.alpha_workspace()?;
+        let (mut y, d) = self.step_start(state)?;
+        self.radau_start = Some((y, d));
+        let step = step_radau(self, &mut y, h, None)?;
+        (report.newton_iterations, report.newton_matrices) = (step.iterations, step.matrices);
+        self.finish(&mut y, report)?;
+        *state = y;
+        Ok(())
+    }
+
+    /// An implicit midpoint step from `state`, projected, into `state`.
+    #[inline(never)]
+    fn advance_midpoint(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut StepReport,
+    ) -> Result<(), AnalysisError> {
+        self.alpha_workspace()?;
+        let (y0, d1) = self.step_start(state)?;
+        let (mut y, iterations, matrices) = self.step_midpoint(&y0, &d1.vdot, h)?;
+        (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
+        self.finish(&mut y, report)?;
+        *state = y;
+        Ok(())
+    }
+
+    /// A step's end: the projection if configured (its iterations added to
+    /// the report's), and the residuals the report gives either way.
+    #[inline(never)]
+    fn finish(&mut self, y: &mut SystemState<NB>, report: &mut StepReport) -> Result<(), AnalysisError> {
         match self.options.projection {
             Some(options) => {
-                let (it, c, v) = self.project(&mut y, &options)?;
+                let (it, c, v) = self.project(y, &options)?;
                 report.projection_iterations += it;
                 (report.constraint_residual, report.velocity_residual) = (c, v);
             }
             None => {
-                report.constraint_residual = self.scene.phi(&y).norm();
-                let values = self.scene.jacobian_values(&y);
-                let v = velocity_vector::<NB, NV>(&y);
-                report.velocity_residual = (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + self.scene.phi_t(&y)).norm();
+                report.constraint_residual = self.scene.phi(y).norm();
+                self.scene.jacobian_values_into(y, &mut self.work.values);
+                let v = velocity_vector::<NB, NV>(y);
+                report.velocity_residual =
+                    (j_mul::<S, NB, NNZ, NV, M>(&self.work.values, &v) + self.scene.phi_t(y)).norm();
             }
         }
-        *state = y;
-        self.follow(*state, self.options.integrator);
-        Ok(report)
+        Ok(())
     }
 
     /// A step's start: `state` checked and normalised, its dynamics, and the
@@ -430,13 +486,14 @@ where
     /// factorisation at the end state that its velocity projection uses (and
     /// the next step's start reuses).
     fn settle(&mut self, y: &mut SystemState<NB>, at: &SystemState<NB>, options: &AssemblyOptions) -> usize {
-        let values = self.scene.jacobian_values(at);
-        let inverse = self.inverse;
+        let values = &mut self.work.values;
+        self.scene.jacobian_values_into(at, values);
+        let inverse = &self.inverse;
         let mut phi = self.scene.phi(y);
         let mut norm = phi.norm();
         let mut iterations = 0;
         while norm > options.tolerance && iterations < options.max_iterations {
-            let delta = self.solver.min_norm_factored(&values, -phi, &inverse);
+            let delta = self.solver.min_norm_factored(values, -phi, inverse);
             let mut trial = *y;
             apply_increment(&mut trial, &delta, 1.0);
             let p = self.scene.phi(&trial);
@@ -461,28 +518,32 @@ where
         state: &mut SystemState<NB>,
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
-        let inverse = self.inverse;
-        let newton = self.solver.newton(self.scene, state, options, &inverse);
+        let (inverse, values) = (&self.inverse, &mut self.work.values);
+        let newton = self.solver.newton(self.scene, state, options, inverse, values);
         // A converged Newton factorised `J W Jᵀ` last at the state it returns
         // (to list its redundant rows), in this metric and with this
         // tolerance: the velocities are projected on that factor. Stopping
         // short (accepted by `near_enough`) left it one state behind.
         let factored = newton.is_ok();
         let (iterations, residual) = near_enough(newton, options)?;
-        let values = self.scene.jacobian_values(state);
+        // Newton left `J` at `state` in the buffer only if it converged.
+        if !factored {
+            self.scene.jacobian_values_into(state, values);
+        }
         let phi_t = self.scene.phi_t(state);
         let v = velocity_vector::<NB, NV>(state);
-        let b = -(j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t);
+        let b = -(j_mul::<S, NB, NNZ, NV, M>(values, &v) + phi_t);
         let dv = if factored {
-            self.solver.min_norm_factored(&values, b, &inverse)
+            self.solver.min_norm_factored(values, b, inverse)
         } else {
-            self.solver.min_norm(&values, b, &inverse, options.rank_tolerance)?
+            self.solver.min_norm(values, b, inverse, options.rank_tolerance)?
         };
         let v = v + dv;
         set_velocities(state, &v);
         // Velocities do not enter `J`: the factor is `J W Jᵀ` at `state`.
-        *self.projected = (*state, factored.then(|| (self.solver.factor.factorisations(), options.rank_tolerance)));
-        Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(&values, &v) + phi_t).norm()))
+        self.projected.0 = *state;
+        self.projected.1 = factored.then(|| (self.solver.factor.factorisations(), options.rank_tolerance));
+        Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(values, &v) + phi_t).norm()))
     }
 }
 
@@ -492,15 +553,15 @@ impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
     /// The histories after a step of `integrator` was accepted at `state`:
     /// its own follows the state, the others' are dropped (as on the dense
     /// path).
-    pub(super) fn follow(&mut self, state: SystemState<NB>, integrator: Integrator) {
+    pub(super) fn follow(&mut self, state: &SystemState<NB>, integrator: Integrator) {
         if let Some(w) = self.alpha.as_mut() {
             match (&mut w.history, integrator) {
-                (Some(history), Integrator::GeneralisedAlpha) => history.state = state,
+                (Some(history), Integrator::GeneralisedAlpha) => history.state = *state,
                 _ => w.history = None,
             }
         }
         match (&mut self.radau_history, integrator) {
-            (Some(radau), Integrator::RadauIIA) => radau.end = Some(state),
+            (Some(radau), Integrator::RadauIIA) => radau.end = Some(*state),
             _ => self.radau_history = None,
         }
     }

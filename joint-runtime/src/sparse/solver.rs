@@ -157,12 +157,13 @@ where
         state: &mut SystemState<NB>,
         options: &AssemblyOptions,
         w: &[InverseMass; NB],
+        values: &mut [f64; NNZ],
     ) -> Result<Assembly<M>, AnalysisError> {
         damped_newton(
             scene,
             state,
             options,
-            &mut Sparse { solver: self, scene, w, rank_tolerance: options.rank_tolerance },
+            &mut Sparse { solver: self, scene, w, values, rank_tolerance: options.rank_tolerance },
         )
     }
 }
@@ -173,6 +174,8 @@ struct Sparse<'s, S, const NB: usize, const NV: usize, const M: usize, const NNZ
     solver: &'s mut Solver<S, NB, NV, M, NNZ>,
     scene: &'s S,
     w: &'s [InverseMass; NB],
+    /// `J`'s values, written in place (the caller's buffer).
+    values: &'s mut [f64; NNZ],
     rank_tolerance: f64,
 }
 
@@ -182,13 +185,13 @@ where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError> {
-        let values = self.scene.jacobian_values(state);
-        self.solver.min_norm(&values, *b, self.w, self.rank_tolerance)
+        self.scene.jacobian_values_into(state, self.values);
+        self.solver.min_norm(self.values, *b, self.w, self.rank_tolerance)
     }
 
     fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError> {
-        let values = self.scene.jacobian_values(state);
-        self.solver.factor.factor(&values, self.w, self.rank_tolerance, None).map_err(|_| non_finite("J"))?;
+        self.scene.jacobian_values_into(state, self.values);
+        self.solver.factor.factor(self.values, self.w, self.rank_tolerance, None).map_err(|_| non_finite("J"))?;
         Ok(self.solver.redundant())
     }
 }
