@@ -18,37 +18,43 @@ pub(crate) fn newton<S, const NB: usize, const NV: usize, const M: usize>(
 where
     S: Scene<NB, NV, M>,
 {
-    damped_newton(scene, state, options, &mut Dense { scene, metric, rank_tolerance: options.rank_tolerance })
+    let mut dense = Dense { scene, metric, rank_tolerance: options.rank_tolerance, redundant: RowList::default() };
+    let (iterations, residual) = damped_newton(scene, state, options, &mut dense)?;
+    Ok(Assembly { iterations, residual, redundant: dense.redundant })
 }
 
 /// What Newton asks of a linear solver: a step, and at the end only the
-/// factorisation's redundant rows (no step nobody uses).
+/// factorisation (no step nobody uses), whose redundant rows the solver keeps.
 pub(crate) trait Directions<const NB: usize, const NV: usize, const M: usize> {
     /// `Δ` with `J Δ = b` at `state`, of minimum norm in the metric.
     fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError>;
-    /// The rows the factorisation of `J` at `state` drops as redundant.
-    fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError>;
+    /// Factorises at the converged `state` (its redundant rows, kept by the solver).
+    fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError>;
 }
 
-/// The dense solver's directions.
-struct Dense<'s, S, const NB: usize> {
+/// The dense solver's directions, and the rows its last factorisation dropped.
+struct Dense<'s, S, const NB: usize, const M: usize> {
     scene: &'s S,
     metric: Metric<'s, NB>,
     rank_tolerance: f64,
+    redundant: RowList<M>,
 }
 
-impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Directions<NB, NV, M> for Dense<'_, S, NB> {
+impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Directions<NB, NV, M>
+    for Dense<'_, S, NB, M>
+{
     fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError> {
         let j = self.scene.jacobian(state);
         check_output::<S, NB, NV, M, NV>("J", &j)?;
         Ok(min_norm(&j, b, self.metric, self.rank_tolerance)?.x)
     }
 
-    fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError> {
+    fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
         let j = self.scene.jacobian(state);
         check_output::<S, NB, NV, M, NV>("J", &j)?;
         let step = min_norm(&j, &SVector::<f64, M>::zeros(), self.metric, self.rank_tolerance)?;
-        Ok(RowList::from_rows::<S, NB, NV>(step.factor.dropped()))
+        self.redundant = RowList::from_rows::<S, NB, NV>(step.factor.dropped());
+        Ok(())
     }
 }
 
@@ -61,7 +67,7 @@ pub(crate) fn damped_newton<S, const NB: usize, const NV: usize, const M: usize>
     state: &mut SystemState<NB>,
     options: &AssemblyOptions,
     directions: &mut impl Directions<NB, NV, M>,
-) -> Result<Assembly<M>, AnalysisError>
+) -> Result<(usize, f64), AnalysisError>
 where
     S: Scene<NB, NV, M>,
 {
@@ -79,8 +85,8 @@ where
     let mut iterations = 0;
     loop {
         if norm <= options.tolerance {
-            let redundant = directions.redundant(state)?;
-            return Ok(Assembly { iterations, residual: norm, redundant });
+            directions.factor_at(state)?;
+            return Ok((iterations, norm));
         }
         if iterations >= options.max_iterations {
             return Err(AnalysisError::NotConverged {

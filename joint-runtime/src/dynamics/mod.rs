@@ -796,7 +796,10 @@ where
         state: &mut SystemState<NB>,
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
-        let (iterations, residual) = near_enough(newton(self.scene, state, options, Some(&self.inverse)), options)?;
+        let (iterations, residual) = near_enough(
+            newton(self.scene, state, options, Some(&self.inverse)).map(|a| (a.iterations, a.residual)),
+            options,
+        )?;
         let j = self.scene.jacobian(state);
         let phi_t = self.scene.phi_t(state);
         check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
@@ -1191,12 +1194,12 @@ pub(crate) fn check_redundant<S: Scene<NB, NV, M>, const NB: usize, const NV: us
 
 /// A projection's Newton iterations and final ‖Φ‖, where stopping short of the
 /// tolerance by less than a factor 1000 (the round-off floor) is accepted.
-pub(crate) fn near_enough<const M: usize>(
-    newton: Result<crate::analysis::Assembly<M>, AnalysisError>,
+pub(crate) fn near_enough(
+    newton: Result<(usize, f64), AnalysisError>,
     options: &AssemblyOptions,
 ) -> Result<(usize, f64), AnalysisError> {
     match newton {
-        Ok(a) => Ok((a.iterations, a.residual)),
+        Ok(done) => Ok(done),
         Err(
             AnalysisError::NotConverged { residual, iterations, .. }
             | AnalysisError::NoProgress { residual, iterations, .. },

@@ -57,7 +57,8 @@ where
         options: &AssemblyOptions,
     ) -> Result<Assembly<M>, AnalysisError> {
         let unit = self.unit;
-        self.solver.newton(scene, state, options, &unit, &mut [0.0; NNZ])
+        let (iterations, residual) = self.solver.newton(scene, state, options, &unit, &mut [0.0; NNZ])?;
+        Ok(Assembly { iterations, residual, redundant: self.solver.redundant() })
     }
 
     /// [`crate::analysis::velocities`] on the block factor: `J v = −Φ_t`,

@@ -418,15 +418,19 @@ where
                 report.projection_iterations += it;
                 (report.constraint_residual, report.velocity_residual) = (c, v);
             }
-            None => {
-                report.constraint_residual = self.scene.phi(y).norm();
-                self.scene.jacobian_values_into(y, &mut self.work.values);
-                let v = velocity_vector::<NB, NV>(y);
-                report.velocity_residual =
-                    (j_mul::<S, NB, NNZ, NV, M>(&self.work.values, &v) + self.scene.phi_t(y)).norm();
-            }
+            None => self.residuals(y, report),
         }
         Ok(())
+    }
+
+    /// ‖Φ‖ and ‖J v + Φ_t‖ at an unprojected step's end, into the report (in
+    /// a frame of its own, apart from the projection's).
+    #[inline(never)]
+    fn residuals(&mut self, y: &SystemState<NB>, report: &mut StepReport) {
+        report.constraint_residual = self.scene.phi(y).norm();
+        self.scene.jacobian_values_into(y, &mut self.work.values);
+        let v = velocity_vector::<NB, NV>(y);
+        report.velocity_residual = (j_mul::<S, NB, NNZ, NV, M>(&self.work.values, &v) + self.scene.phi_t(y)).norm();
     }
 
     /// A step's start: `state` checked and normalised, its dynamics, and the

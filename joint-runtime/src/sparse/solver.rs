@@ -9,8 +9,7 @@ use nalgebra::{Matrix3, SVector};
 
 use super::BlockFactor;
 use crate::analysis::{
-    Analysis, AnalysisError, Assembly, AssemblyOptions, Directions, InverseMass, RowList, WorstRows, apply_metric,
-    damped_newton,
+    Analysis, AnalysisError, AssemblyOptions, Directions, InverseMass, RowList, WorstRows, apply_metric, damped_newton,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -158,7 +157,7 @@ where
         options: &AssemblyOptions,
         w: &[InverseMass; NB],
         values: &mut [f64; NNZ],
-    ) -> Result<Assembly<M>, AnalysisError> {
+    ) -> Result<(usize, f64), AnalysisError> {
         damped_newton(
             scene,
             state,
@@ -189,9 +188,8 @@ where
         self.solver.min_norm(self.values, *b, self.w, self.rank_tolerance)
     }
 
-    fn redundant(&mut self, state: &SystemState<NB>) -> Result<RowList<M>, AnalysisError> {
+    fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
         self.scene.jacobian_values_into(state, self.values);
-        self.solver.factor.factor(self.values, self.w, self.rank_tolerance, None).map_err(|_| non_finite("J"))?;
-        Ok(self.solver.redundant())
+        self.solver.factor.factor(self.values, self.w, self.rank_tolerance, None).map_err(|_| non_finite("J"))
     }
 }
