@@ -489,6 +489,9 @@ where
     /// that follows then usually needs none of its own, only the one
     /// factorisation at the end state that its velocity projection uses (and
     /// the next step's start reuses).
+    // Not inlined: its vectors and trial state would sit in the step's frame
+    // through the projection's Newton, which runs after it.
+    #[inline(never)]
     fn settle(&mut self, y: &mut SystemState<NB>, at: &SystemState<NB>, options: &AssemblyOptions) -> usize {
         let values = &mut self.work.values;
         self.scene.jacobian_values_into(at, values);
@@ -530,7 +533,21 @@ where
         // short (accepted by `near_enough`) left it one state behind.
         let factored = newton.is_ok();
         let (iterations, residual) = near_enough(newton, options)?;
-        // Newton left `J` at `state` in the buffer only if it converged.
+        let velocity_residual = self.project_velocities(state, factored, options)?;
+        Ok((iterations, residual, velocity_residual))
+    }
+
+    /// The velocity half of [`SparseSimulation::project`] (`factored`: Newton
+    /// converged, so the factor and the values buffer hold `J` at `state`);
+    /// returns ‖J v + Φ_t‖. In a frame of its own, apart from Newton's.
+    #[inline(never)]
+    fn project_velocities(
+        &mut self,
+        state: &mut SystemState<NB>,
+        factored: bool,
+        options: &AssemblyOptions,
+    ) -> Result<f64, AnalysisError> {
+        let (inverse, values) = (&self.inverse, &mut self.work.values);
         if !factored {
             self.scene.jacobian_values_into(state, values);
         }
@@ -547,7 +564,7 @@ where
         // Velocities do not enter `J`: the factor is `J W Jᵀ` at `state`.
         self.projected.0 = *state;
         self.projected.1 = factored.then(|| (self.solver.factor.factorisations(), options.rank_tolerance));
-        Ok((iterations, residual, (j_mul::<S, NB, NNZ, NV, M>(values, &v) + phi_t).norm()))
+        Ok((j_mul::<S, NB, NNZ, NV, M>(values, &v) + phi_t).norm())
     }
 }
 
