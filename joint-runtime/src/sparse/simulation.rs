@@ -366,11 +366,8 @@ where
         // Generalised-α goes on from its last step only if handed back its state.
         let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
         let (y0, d1) = self.step_start(state)?;
-        let (mut y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
-        (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
-        self.finish(&mut y, report)?;
-        *state = y;
-        Ok(())
+        let (y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
+        self.conclude(state, y, (iterations, matrices), report)
     }
 
     /// A Radau IIA step from `state`, projected, into `state`.
@@ -385,10 +382,7 @@ where
         let (mut y, d) = self.step_start(state)?;
         self.radau_start = Some((y, d));
         let step = step_radau(self, &mut y, h, None)?;
-        (report.newton_iterations, report.newton_matrices) = (step.iterations, step.matrices);
-        self.finish(&mut y, report)?;
-        *state = y;
-        Ok(())
+        self.conclude(state, y, (step.iterations, step.matrices), report)
     }
 
     /// An implicit midpoint step from `state`, projected, into `state`.
@@ -401,7 +395,19 @@ where
     ) -> Result<(), AnalysisError> {
         self.alpha_workspace()?;
         let (y0, d1) = self.step_start(state)?;
-        let (mut y, iterations, matrices) = self.step_midpoint(&y0, &d1.vdot, h)?;
+        let (y, iterations, matrices) = self.step_midpoint(&y0, &d1.vdot, h)?;
+        self.conclude(state, y, (iterations, matrices), report)
+    }
+
+    /// An implicit step's end `y`, its Newton iterations and matrices into the
+    /// report, then [`finish`](Self::finish), then `y` into `state`.
+    fn conclude(
+        &mut self,
+        state: &mut SystemState<NB>,
+        mut y: SystemState<NB>,
+        (iterations, matrices): (usize, usize),
+        report: &mut StepReport,
+    ) -> Result<(), AnalysisError> {
         (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
         self.finish(&mut y, report)?;
         *state = y;
