@@ -433,10 +433,9 @@ impl BlockFactor {
         }
         lambda.fill([0.0; 6]);
         for k in (0..n).rev() {
-            let mut c = z[k];
+            let (mut c, rk) = (z[k], self.joints[k].rows);
             for s in self.col_start[k] + 1..self.col_start[k + 1] {
                 let i = self.col[s];
-                let rk = self.joints[k].rows;
                 with_rows!(self.joints[i].rows, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(&self.l[s], &lambda[i], &mut c, -1.0)));
             }
             lambda[k] = kernels::backward(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c);

@@ -445,13 +445,22 @@ where
         &mut self,
         state: &SystemState<NB>,
     ) -> Result<(SystemState<NB>, SparseDynamics<NV, M>), AnalysisError> {
-        check_state::<S, NB, NV, M>(state, true)?;
         let mut y0 = *state;
-        normalise_orientations::<S, NB, NV, M>(&mut y0)?;
-        let d1 = self.solve(&y0, false, true)?;
+        self.begin(state, &mut y0)?;
+        Ok((y0, SparseDynamics { vdot: self.work.vdot, lambda: self.work.lambda }))
+    }
+
+    /// [`step_start`](Self::step_start) into `y0` and the workspace (`v̇`,
+    /// `λ` in `self.work`): `state` checked, copied and normalised, solved
+    /// at, and the step's rule taken from that factorisation.
+    fn begin(&mut self, state: &SystemState<NB>, y0: &mut SystemState<NB>) -> Result<(), AnalysisError> {
+        check_state::<S, NB, NV, M>(state, true)?;
+        *y0 = *state;
+        normalise_orientations::<S, NB, NV, M>(y0)?;
+        self.solve_into(y0, false, true)?;
         self.rule.clear();
         self.rule.extend(self.solver.factor.rule());
-        Ok((y0, d1))
+        Ok(())
     }
 
     /// Generalised-α's workspace, built at its first use if
@@ -469,12 +478,7 @@ where
     /// (whose `J W Jᵀ` the factor holds on return) in `w.stage`. The stages
     /// live in `w`, not in this frame.
     fn step_rk4(&mut self, w: &mut Rk4Work<NB, NV>, state: &SystemState<NB>, h: f64) -> Result<(), AnalysisError> {
-        check_state::<S, NB, NV, M>(state, true)?;
-        w.y0 = *state;
-        normalise_orientations::<S, NB, NV, M>(&mut w.y0)?;
-        self.solve_into(&w.y0, false, true)?;
-        self.rule.clear();
-        self.rule.extend(self.solver.factor.rule());
+        self.begin(state, &mut w.y0)?;
         let t0 = w.y0.t;
         w.k[0].assign(&w.y0, &self.work.vdot);
         for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {

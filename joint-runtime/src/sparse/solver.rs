@@ -103,8 +103,18 @@ where
         w: &[InverseMass; NB],
         tolerance: f64,
     ) -> Result<SVector<f64, NV>, AnalysisError> {
-        self.factor.factor(values, w, tolerance, None).map_err(|_| non_finite("J"))?;
+        self.factorise(values, w, tolerance)?;
         Ok(self.min_norm_factored(values, b, w))
+    }
+
+    /// `J W Jᵀ` factorised afresh (no pivot rule) for the values `values`.
+    pub(crate) fn factorise(
+        &mut self,
+        values: &[f64; NNZ],
+        w: &[InverseMass; NB],
+        tolerance: f64,
+    ) -> Result<(), AnalysisError> {
+        self.factor.factor(values, w, tolerance, None).map_err(|_| non_finite("J"))
     }
 
     /// [`Solver::min_norm`] on the factor as it stands: `values` and `w` must
@@ -190,6 +200,6 @@ where
 
     fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
         self.scene.jacobian_values_into(state, self.values);
-        self.solver.factor.factor(self.values, self.w, self.rank_tolerance, None).map_err(|_| non_finite("J"))
+        self.solver.factorise(self.values, self.w, self.rank_tolerance)
     }
 }

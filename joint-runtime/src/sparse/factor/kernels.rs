@@ -2,7 +2,8 @@
 //! straight-line over its block's true size (constant loop bounds, which the
 //! compiler unrolls), chosen once per block by `with_rows!`. A block is 6 × 6
 //! row-major (`6 r + c`); entries past a block's rows, and an `L` block's
-//! columns past its rank, are zero, so products can run over all six columns.
+//! columns past its rank, are zero, so a product runs over six columns for a
+//! `J` block and over the column block's rows for an `L` block.
 
 use super::Block;
 use crate::analysis::InverseMass;
