@@ -25,8 +25,6 @@ pub mod record;
 pub mod scene;
 #[cfg(feature = "serde")]
 mod serde_array;
-#[cfg(feature = "alloc")]
-#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub mod sparse;
 mod state;
 mod time;

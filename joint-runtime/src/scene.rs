@@ -153,6 +153,10 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     /// (in [`ELIMINATION`](Self::ELIMINATION), all later) of the blocks its
     /// column reaches, fill included.
     const FACTOR_BELOW: &'static [usize];
+    /// Where the block factor of `J M⁻¹ Jᵀ` lives: arrays sized by the derive
+    /// from the pattern above ([`FactorArrays`](crate::sparse::FactorArrays)),
+    /// so that the sparse solves need no allocator.
+    type Factor: crate::sparse::FactorStorage;
     /// The entries' values at `state`, written into `out` (the derive writes
     /// them in place: no array of the scene's size in the caller's frame).
     fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]);

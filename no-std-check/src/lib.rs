@@ -25,6 +25,7 @@ use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF32x8, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::sparse::SparseAnalysis;
 use joint_runtime::{Joint, OmegaBody, Scene, SystemState, TwoBodies};
 
 /// A Cardan joint with run-time yokes and offsets.
@@ -108,4 +109,20 @@ pub extern "C" fn joint_pendulum_steps(angle: f64, steps: u32) -> f64 {
 #[panic_handler]
 fn panic(_: &PanicInfo) -> ! {
     loop {}
+}
+
+/// The pendulum assembled on the sparse block factor, whose storage the
+/// derive sized: no allocator behind it.
+#[unsafe(no_mangle)]
+pub extern "C" fn joint_pendulum_sparse_assembly(angle: f64) -> f64 {
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
+    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
+    let mut state = SystemState { bodies: [link], t: 0.0 };
+    let Ok(mut analysis) = SparseAnalysis::new(&Pendulum) else {
+        return f64::NAN;
+    };
+    match analysis.assemble(&Pendulum, &mut state, &AssemblyOptions::default()) {
+        Ok(_) => Pendulum.phi(&state).norm(),
+        Err(_) => f64::NAN,
+    }
 }

@@ -128,7 +128,7 @@ fn print(
     let sty = ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true };
     // The sparse Jacobian first (its printer's bindings do not depend on the methods).
     let (mut sparse, nnz, sparse_ops) = sparse_jacobian(d, &generate::print_none(d, &sty), &z);
-    sparse.extend(block_structure(s));
+    sparse.extend(block_structure(s, &nnz, &z.m));
     let large = (d.phi.len() * 6 * s.bodies.len() > DENSE_LIMIT).then(|| from_sparse(d, &z, &nnz, sparse_ops));
     let printed = generate::print(d, &sty, large.as_ref());
     let blocks = blocks.iter().map(|b| {
@@ -252,7 +252,7 @@ fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, L
 /// The joints' bodies and the elimination order of the joint blocks of
 /// `J M⁻¹ Jᵀ` (two blocks are coupled when their joints share a body), with the
 /// pattern of its block factor: fixed here, at compile time.
-fn block_structure(s: &SceneDecl) -> TokenStream {
+fn block_structure(s: &SceneDecl, nnz: &Literal, m: &Literal) -> TokenStream {
     let bodies = |j: &crate::front::scene::JointDecl| {
         j.bodies.map(|b| match b {
             Some(i) => {
@@ -286,13 +286,37 @@ fn block_structure(s: &SceneDecl) -> TokenStream {
         below.extend(b.iter().copied());
         starts.push(below.len());
     }
+    let [n, slots, updates, shared] = factor_sizes(s, &e).map(Literal::usize_unsuffixed);
     let (order, starts, below) = (lit(&e.order), lit(&starts), lit(&below));
+    let k = krate();
     quote! {
         const BLOCK_BODIES: &'static [[::core::option::Option<usize>; 2]] = &[#(#block_bodies),*];
         const ELIMINATION: &'static [usize] = #order;
         const FACTOR_STARTS: &'static [usize] = #starts;
         const FACTOR_BELOW: &'static [usize] = #below;
+        /// Joint blocks, factor slots, scheduled updates, shared-body terms,
+        /// Jacobian entries, rows.
+        type Factor = #k::sparse::FactorArrays<#n, #slots, #updates, #shared, #nnz, #m>;
     }
+}
+
+/// The block factor's sizes, as the runtime's schedule counts them: joint
+/// blocks; slots (diagonal and below, fill included); updates (each column
+/// `j` with `m` slots below the diagonal updates `m (m + 1) / 2` later
+/// slots); the bodies each slot's two joints share, side by side.
+fn factor_sizes(s: &SceneDecl, e: &crate::engine::order::Elimination) -> [usize; 4] {
+    let n = s.joints.len();
+    let slots = n + e.below.iter().map(Vec::len).sum::<usize>();
+    let updates = e.below.iter().map(|b| b.len() * (b.len() + 1) / 2).sum();
+    let bodies = |position: usize| e.order.get(position).and_then(|&j| s.joints.get(j)).map(|j| j.bodies);
+    let shares = |i: usize, k: usize| match (bodies(i), bodies(k)) {
+        (Some(a), Some(b)) => a.iter().flatten().map(|x| b.iter().filter(|y| **y == Some(*x)).count()).sum(),
+        _ => 0,
+    };
+    let shared = (0..n)
+        .map(|k| shares(k, k) + e.below.get(k).map_or(0, |b| b.iter().map(|&i| shares(i, k)).sum::<usize>()))
+        .sum();
+    [n, slots, updates, shared]
 }
 
 /// A number as generated code writes it.

@@ -34,7 +34,6 @@ pub(crate) use motion::{
     apply_increment, normalise_orientations, quat_mul, rotate_body, set_velocities, velocity_vector,
 };
 pub(crate) use newton::newton;
-#[cfg(feature = "alloc")]
 pub(crate) use newton::{Directions, damped_newton};
 #[cfg(feature = "alloc")]
 pub(crate) use solve::apply_metric_into;

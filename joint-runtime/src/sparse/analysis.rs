@@ -13,14 +13,20 @@ use super::solver::{Solver, non_finite, unit_metric};
 
 /// Assembly, velocity and acceleration analysis of one scene type on its
 /// sparse block factor (built once, in [`SparseAnalysis::new`]).
-pub struct SparseAnalysis<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+pub struct SparseAnalysis<
+    S: SparseJacobian<NB, NNZ>,
+    const NB: usize,
+    const NV: usize,
+    const M: usize,
+    const NNZ: usize,
+> {
     solver: Solver<S, NB, NV, M, NNZ>,
     unit: [InverseMass; NB],
     /// Relative rank tolerance of the velocity and acceleration solves.
     pub rank_tolerance: f64,
 }
 
-impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
+impl<S: SparseJacobian<NB, NNZ>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
     for SparseAnalysis<S, NB, NV, M, NNZ>
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {

@@ -1,11 +1,9 @@
 //! The block factor of `J W Jᵀ` (`W` the inverse mass matrix) on the scene's
 //! compile-time pattern: a static schedule built once, run at every step.
 
-use alloc::vec;
-use alloc::vec::Vec;
-
 use crate::analysis::InverseMass;
 use crate::linalg::LinalgError;
+use crate::scene::RowBlock;
 
 /// Runs `$body` with `$r` a constant equal to the row count `$n` (0 to 6;
 /// larger blocks are refused by [`BlockFactor::new`]): the dispatch from a
@@ -28,12 +26,15 @@ macro_rules! with_rows {
     };
 }
 
+mod build;
 mod kernels;
+mod storage;
+
+pub use storage::{FactorArrays, FactorStorage};
+use storage::{Parts, View};
 
 /// A dense block of at most 6 × 6, row-major (`6 r + c`).
 type Block = [f64; 36];
-
-const ZERO: Block = [0.0; 36];
 
 /// A joint's block: its rows and the bodies it connects.
 #[derive(Clone, Copy, Debug)]
@@ -44,67 +45,45 @@ struct JointRows {
 }
 
 /// The factor of `A = J W Jᵀ` (`P A Pᵀ = L Lᵀ` on the rows kept), its pattern
-/// and schedule fixed at construction.
+/// and schedule fixed at construction, in storage sized at compile time
+/// ([`FactorArrays`], sizes from the derive: no allocator needed).
+///
+/// The pattern, in `F`'s arrays: joint blocks by elimination position; the
+/// block rows of factor column `k` (the diagonal first, each a position
+/// `i ≥ k`); for each slot `(i, k)` the updates `(j, slot (i, j), slot (k,
+/// j))`, `j < k`, whose products update it, and the bodies the two joints
+/// share (`(side of i, side of k, body)`: the terms of
+/// `A_ik = Σ J_i,b W_b J_k,bᵀ`); for each position `k` the slots
+/// `(j, slot (k, j))`, `j < k` (the forward solve); each Jacobian entry's
+/// place `(2 k + side, 6 r + c)`. The numbers: `J` and `J W` per joint and
+/// side, the factor blocks per slot (the diagonal slot holds the block's own
+/// columns), each block's pivot order and rank, and the solves' scratch.
 #[derive(Clone, Debug)]
-pub struct BlockFactor {
-    /// Joint blocks by elimination position.
-    joints: Vec<JointRows>,
-    /// Block rows of factor column `k`: `col[col_start[k]..col_start[k + 1]]`,
-    /// the diagonal first; each entry is a position `i ≥ k`.
-    col_start: Vec<usize>,
-    col: Vec<usize>,
-    /// For each factor slot `(i, k)`: the triples `(j, slot (i, j), slot (k,
-    /// j))`, `j < k`, whose product updates it.
-    sched_start: Vec<usize>,
-    sched: Vec<(usize, usize, usize)>,
-    /// For each slot `(i, k)`: the bodies the two joints share, as `(side of i,
-    /// side of k, body)`: the terms of `A_ik = Σ J_i,b W_b J_k,bᵀ`.
-    shared_start: Vec<usize>,
-    shared: Vec<(usize, usize, usize)>,
-    /// For each position `k`: `(j, slot (k, j))` for `j < k` (the forward solve).
-    row_start: Vec<usize>,
-    row: Vec<(usize, usize)>,
-    /// Each Jacobian entry's place: `(2 k + side, 6 r + c)`.
-    scatter: Vec<(usize, usize)>,
-    /// `J` per joint and side (rows × 6), and `J W`.
-    jb: Vec<Block>,
-    jw: Vec<Block>,
-    /// Factor blocks per slot; the diagonal slot holds the block's own columns.
-    l: Vec<Block>,
-    /// Per position: pivot order within the block and rank.
-    perm: Vec<[usize; 6]>,
-    rank: Vec<usize>,
-    /// Rows dropped as redundant, ascending.
-    dropped: Vec<usize>,
-    /// Scratch of the solves (allocated once).
-    z: Vec<[f64; 6]>,
-    lambda: Vec<[f64; 6]>,
+pub struct BlockFactor<F> {
+    store: F,
+    /// How many rows the last factorisation dropped (the first entries of
+    /// the storage's `dropped`, ascending).
+    dropped: usize,
     /// Factorisations made: a caller that remembers what it factorised
     /// knows the factor is still that one while the count stands.
     factorisations: u64,
-}
-
-/// The slot of `(i, k)` in factor column `k`, if the pattern has it.
-fn slot(col_start: &[usize], col: &[usize], i: usize, k: usize) -> Option<usize> {
-    let (a, b) = (*col_start.get(k)?, *col_start.get(k + 1)?);
-    col.get(a..b)?.binary_search(&i).ok().map(|x| a + x)
 }
 
 /// A problem with the structure a scene declares (a derive bug, or a
 /// hand-written impl that contradicts itself).
 const BAD_STRUCTURE: LinalgError = LinalgError::NonFinite;
 
-impl BlockFactor {
+impl<F: FactorStorage> BlockFactor<F> {
     /// The factor's structure for a scene with joint row blocks `blocks`
-    /// (`(start, rows)` in row order), their bodies, the Jacobian's CSR
-    /// pattern and the derive's elimination order and factor pattern.
+    /// (in row order), their bodies, the Jacobian's CSR pattern and the
+    /// derive's elimination order and factor pattern.
     ///
     /// # Errors
     /// [`LinalgError::NonFinite`] if the structure contradicts itself (a row of
     /// a joint with an entry outside its bodies' columns, a block over 6 rows,
-    /// an order that is not a permutation).
+    /// an order that is not a permutation) or does not fit `F`'s sizes.
     pub fn new(
-        blocks: &[(usize, usize)],
+        blocks: &[RowBlock],
         bodies: &[[Option<usize>; 2]],
         row_starts: &[usize],
         columns: &[usize],
@@ -112,140 +91,25 @@ impl BlockFactor {
         factor_starts: &[usize],
         factor_below: &[usize],
     ) -> Result<Self, LinalgError> {
-        let n = blocks.len();
-        if bodies.len() != n || elimination.len() != n || factor_starts.len() != n + 1 {
-            return Err(BAD_STRUCTURE);
-        }
-        let mut joints = Vec::with_capacity(n);
-        let mut position = vec![usize::MAX; n];
-        for (k, &b) in elimination.iter().enumerate() {
-            let (&(start, rows), &bodies) = (blocks.get(b).ok_or(BAD_STRUCTURE)?, bodies.get(b).ok_or(BAD_STRUCTURE)?);
-            if rows > 6 || position[b] != usize::MAX {
-                return Err(BAD_STRUCTURE);
-            }
-            position[b] = k;
-            joints.push(JointRows { start, rows, bodies });
-        }
-        // Factor columns: the diagonal, then the pattern below.
-        let (mut col_start, mut col) = (vec![0], Vec::new());
-        for k in 0..n {
-            col.push(k);
-            let below = factor_below.get(factor_starts[k]..factor_starts[k + 1]).ok_or(BAD_STRUCTURE)?;
-            if below.iter().any(|&i| i <= k || i >= n) {
-                return Err(BAD_STRUCTURE);
-            }
-            col.extend_from_slice(below);
-            col_start.push(col.len());
-        }
-        let mut f = BlockFactor {
-            joints,
-            col_start,
-            col,
-            sched_start: Vec::new(),
-            sched: Vec::new(),
-            shared_start: Vec::new(),
-            shared: Vec::new(),
-            row_start: Vec::new(),
-            row: Vec::new(),
-            scatter: Vec::new(),
-            jb: vec![ZERO; 2 * n],
-            jw: vec![ZERO; 2 * n],
-            l: Vec::new(),
-            perm: vec![[0; 6]; n],
-            rank: vec![0; n],
-            dropped: Vec::new(),
-            z: vec![[0.0; 6]; n],
-            lambda: vec![[0.0; 6]; n],
-            factorisations: 0,
-        };
-        f.l = vec![ZERO; f.col.len()];
-        f.schedule()?;
-        f.scatter_map(&position, blocks, row_starts, columns)?;
-        Ok(f)
-    }
-
-    /// The update schedule, the shared bodies of each slot and the rows of `L`.
-    fn schedule(&mut self) -> Result<(), LinalgError> {
-        let n = self.joints.len();
-        let mut updates: Vec<Vec<(usize, usize, usize)>> = vec![Vec::new(); self.col.len()];
-        let mut rows: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
-        for j in 0..n {
-            let column = &self.col[self.col_start[j] + 1..self.col_start[j + 1]];
-            for (x, &k) in column.iter().enumerate() {
-                let skj = self.col_start[j] + 1 + x;
-                rows[k].push((j, skj));
-                for (y, &i) in column.iter().enumerate().skip(x) {
-                    let sij = self.col_start[j] + 1 + y;
-                    // Eliminating j joins i and k: the pattern has (i, k).
-                    let sik = slot(&self.col_start, &self.col, i, k).ok_or(BAD_STRUCTURE)?;
-                    updates[sik].push((j, sij, skj));
-                }
-            }
-        }
-        self.sched_start = vec![0];
-        self.shared_start = vec![0];
-        for k in 0..n {
-            for (s, update) in updates.iter().enumerate().take(self.col_start[k + 1]).skip(self.col_start[k]) {
-                self.sched.extend_from_slice(update);
-                self.sched_start.push(self.sched.len());
-                let (a, b) = (self.joints[self.col[s]].bodies, self.joints[k].bodies);
-                for (si, bi) in a.iter().enumerate() {
-                    for (sk, bk) in b.iter().enumerate() {
-                        if let (Some(x), Some(y)) = (bi, bk)
-                            && x == y
-                        {
-                            self.shared.push((si, sk, *x));
-                        }
-                    }
-                }
-                self.shared_start.push(self.shared.len());
-            }
-        }
-        self.row_start = vec![0];
-        for r in rows {
-            self.row.extend(r);
-            self.row_start.push(self.row.len());
-        }
-        Ok(())
-    }
-
-    /// Where each Jacobian entry goes: its joint's block and side.
-    fn scatter_map(
-        &mut self,
-        position: &[usize],
-        blocks: &[(usize, usize)],
-        row_starts: &[usize],
-        columns: &[usize],
-    ) -> Result<(), LinalgError> {
-        for (b, &(start, rows)) in blocks.iter().enumerate() {
-            let k = position[b];
-            let bodies = self.joints[k].bodies;
-            for r in 0..rows {
-                let (Some(&a), Some(&e)) = (row_starts.get(start + r), row_starts.get(start + r + 1)) else {
-                    return Err(BAD_STRUCTURE);
-                };
-                for &c in columns.get(a..e).ok_or(BAD_STRUCTURE)? {
-                    let side = bodies.iter().position(|x| *x == Some(c / 6)).ok_or(BAD_STRUCTURE)?;
-                    self.scatter.push((2 * k + side, 6 * r + c % 6));
-                }
-            }
-        }
-        Ok(())
+        let mut store = F::zeroed();
+        let pattern = build::Pattern { blocks, bodies, row_starts, columns, elimination, factor_starts, factor_below };
+        store.parts().build(&pattern)?;
+        Ok(BlockFactor { store, dropped: 0, factorisations: 0 })
     }
 
     /// Number of Jacobian entries the factor reads.
     pub fn nonzeros(&self) -> usize {
-        self.scatter.len()
+        self.store.view().nonzeros
     }
 
     /// Blocks stored for the factor (diagonal and below, fill included).
     pub fn factor_blocks(&self) -> usize {
-        self.col.len()
+        self.store.view().slots
     }
 
     /// Rows dropped as redundant by the last factorisation, ascending.
     pub fn dropped(&self) -> &[usize] {
-        &self.dropped
+        self.store.view().dropped.get(..self.dropped).unwrap_or(&[])
     }
 
     /// How many factorisations this factor has made (attempts included):
@@ -256,7 +120,7 @@ impl BlockFactor {
 
     /// The numerical rank of the last factorisation.
     pub fn rank(&self) -> usize {
-        self.rank.iter().sum()
+        self.store.view().rank.iter().sum()
     }
 
     /// Factorises `J W Jᵀ` for the Jacobian entries `values` (the scene's CSR
@@ -275,6 +139,52 @@ impl BlockFactor {
         keep: Option<&[([usize; 6], usize)]>,
     ) -> Result<(), LinalgError> {
         self.factorisations = self.factorisations.wrapping_add(1);
+        self.dropped = 0;
+        self.dropped = self.store.parts().factor(values, w, tolerance, keep)?;
+        Ok(())
+    }
+
+    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
+    /// Each block's pivots and rank: the rule that makes a later factorisation
+    /// drop the same rows.
+    // An iterator, not a `Vec`: the step copies it into its own buffer,
+    // allocated once.
+    pub(crate) fn rule(&self) -> impl Iterator<Item = ([usize; 6], usize)> + '_ {
+        let v = self.store.view();
+        v.perm.iter().copied().zip(v.rank.iter().copied())
+    }
+
+    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
+    /// `out = J x` from the Jacobian of the last factorisation, block by
+    /// block (regular six-column rows with their structural zeros, which
+    /// beats the CSR walk's indirection at these sizes).
+    pub(crate) fn j_mul(&self, x: &[f64], out: &mut [f64]) {
+        self.store.view().j_mul(x, out);
+    }
+
+    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
+    /// `out = Jᵀ y` from the Jacobian of the last factorisation, block by block.
+    pub(crate) fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
+        self.store.view().jt_mul(y, out);
+    }
+
+    /// Solves `A λ = b` on the rows kept (λ = 0 on the dropped ones), in place.
+    pub fn solve(&mut self, b: &mut [f64]) {
+        self.store.parts().solve(b);
+    }
+}
+
+// The algorithms on the storage's slices: compiled once, not per scene.
+impl Parts<'_> {
+    /// The factorisation of [`BlockFactor::factor`]; returns how many rows
+    /// it dropped (the first entries of `dropped`, ascending).
+    fn factor(
+        &mut self,
+        values: &[f64],
+        w: &[InverseMass],
+        tolerance: f64,
+        keep: Option<&[([usize; 6], usize)]>,
+    ) -> Result<usize, LinalgError> {
         if values.len() != self.scatter.len() || !values.iter().all(|x| x.is_finite()) {
             return Err(LinalgError::NonFinite);
         }
@@ -288,27 +198,21 @@ impl BlockFactor {
         // rank tolerance, and each is factorised where it was formed.
         let mut largest = 0.0f64;
         for k in 0..self.joints.len() {
-            let s = self.col_start[k];
+            let s = self.col_range[k].0;
             self.gram(s, k);
             let d = &self.l[s];
             largest = (0..self.joints[k].rows).fold(largest, |m, r| m.max(d[7 * r]));
         }
         let tolerance = if tolerance > 0.0 { tolerance * largest } else { 0.0 };
-        self.dropped.clear();
+        let mut dropped = 0;
         for k in 0..self.joints.len() {
             let rule = keep.and_then(|r| r.get(k)).copied();
-            self.factor_column(k, tolerance, rule);
+            dropped = self.factor_column(k, tolerance, rule, dropped);
         }
-        self.dropped.sort_unstable();
-        Ok(())
-    }
-
-    /// Each block's pivots and rank: the rule that makes a later factorisation
-    /// drop the same rows.
-    // An iterator, not a `Vec`: the step copies it into its own buffer,
-    // allocated once.
-    pub(crate) fn rule(&self) -> impl Iterator<Item = ([usize; 6], usize)> + '_ {
-        self.perm.iter().copied().zip(self.rank.iter().copied())
+        if let Some(d) = self.dropped.get_mut(..dropped) {
+            d.sort_unstable();
+        }
+        Ok(dropped)
     }
 
     /// `J W` per joint and side.
@@ -332,7 +236,8 @@ impl BlockFactor {
         let out = &mut self.l[s];
         // Only the `ri × rk` entries are ever nonzero (the kernels keep it so).
         with_rows!(ri, RI => with_rows!(rk, RK => kernels::clear::<RI, RK>(out)));
-        for &(si, sk, _) in &self.shared[self.shared_start[s]..self.shared_start[s + 1]] {
+        let (a, b) = self.shared_range[s];
+        for &(si, sk, _) in &self.shared[a..b] {
             let (jw, jb) = (&self.jw[2 * i + si], &self.jb[2 * k + sk]);
             with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK, 6>(jw, jb, out, 1.0)));
         }
@@ -340,16 +245,23 @@ impl BlockFactor {
 
     /// Column `k`: the diagonal block by pivoted Cholesky, the blocks below by
     /// triangular solves against it, each slot updated in place by the
-    /// columns before it (left-looking: `A_ik − Σ_j L_ij L_kjᵀ`).
-    fn factor_column(&mut self, k: usize, tolerance: f64, rule: Option<([usize; 6], usize)>) {
-        let (d, rows) = (self.col_start[k], self.joints[k].rows);
+    /// columns before it (left-looking: `A_ik − Σ_j L_ij L_kjᵀ`). Its dropped
+    /// rows are appended to the `dropped` before; returns the new count.
+    fn factor_column(&mut self, k: usize, tolerance: f64, rule: Option<([usize; 6], usize)>, dropped: usize) -> usize {
+        let ((d, end), rows) = (self.col_range[k], self.joints[k].rows);
         self.update(d, k);
         let (perm, rank) = with_rows!(rows, R => kernels::pivoted_cholesky::<R>(&mut self.l[d], tolerance, rule));
         self.perm[k] = perm;
         self.rank[k] = rank;
         let start = self.joints[k].start;
-        self.dropped.extend(perm[rank..rows].iter().map(|&r| start + r));
-        for s in d + 1..self.col_start[k + 1] {
+        let mut count = dropped;
+        for &r in &perm[rank..rows] {
+            if let Some(x) = self.dropped.get_mut(count) {
+                *x = start + r;
+                count += 1;
+            }
+        }
+        for s in d + 1..end {
             self.gram(s, k);
             self.update(s, k);
             let ri = self.joints[self.col[s]].rows;
@@ -358,6 +270,7 @@ impl BlockFactor {
             let (Some(lkk), Some(out)) = (before.get(d), rest.first_mut()) else { continue };
             with_rows!(ri, RI => with_rows!(rows, RK => kernels::solve_below::<RI, RK>(lkk, &perm, rank, out)));
         }
+        count
     }
 
     /// `l[s] −= Σ_j L_ij L_kjᵀ` for slot `s = (i, k)` (the scheduled products,
@@ -366,7 +279,8 @@ impl BlockFactor {
         let (ri, rk) = (self.joints[self.col[s]].rows, self.joints[k].rows);
         let (before, rest) = self.l.split_at_mut(s);
         let Some(out) = rest.first_mut() else { return };
-        for &(j, sij, skj) in &self.sched[self.sched_start[s]..self.sched_start[s + 1]] {
+        let (a, b) = self.sched_range[s];
+        for &(j, sij, skj) in &self.sched[a..b] {
             let (Some(lij), Some(lkj), Some(rj)) =
                 (before.get(sij), before.get(skj), self.joints.get(j).map(|j| j.rows))
             else {
@@ -376,10 +290,48 @@ impl BlockFactor {
         }
     }
 
-    /// `out = J x` from the Jacobian of the last factorisation, block by
-    /// block (regular six-column rows with their structural zeros, which
-    /// beats the CSR walk's indirection at these sizes).
-    pub(crate) fn j_mul(&self, x: &[f64], out: &mut [f64]) {
+    /// Solves `A λ = b` on the rows kept (λ = 0 on the dropped ones), in place.
+    fn solve(&mut self, b: &mut [f64]) {
+        let n = self.joints.len();
+        let (z, lambda) = (&mut *self.z, &mut *self.lambda);
+        for k in 0..n {
+            let JointRows { start, rows, .. } = self.joints[k];
+            let mut c = [0.0; 6];
+            for (x, cx) in c.iter_mut().enumerate().take(rows) {
+                *cx = b.get(start + x).copied().unwrap_or(0.0);
+            }
+            let (a, e) = self.row_range[k];
+            for &(j, s) in &self.row[a..e] {
+                let rj = self.joints[j].rows;
+                with_rows!(rows, R => with_rows!(rj, RJ => kernels::add_av::<R, RJ>(&self.l[s], &z[j], &mut c, -1.0)));
+            }
+            let d = self.col_range[k].0;
+            z[k] = with_rows!(rows, R => kernels::forward::<R>(&self.l[d], &self.perm[k], self.rank[k], &c));
+        }
+        lambda.fill([0.0; 6]);
+        for k in (0..n).rev() {
+            let ((d, end), mut c, rk) = (self.col_range[k], z[k], self.joints[k].rows);
+            for s in d + 1..end {
+                let i = self.col[s];
+                with_rows!(self.joints[i].rows, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(&self.l[s], &lambda[i], &mut c, -1.0)));
+            }
+            lambda[k] = kernels::backward(&self.l[d], &self.perm[k], self.rank[k], &c);
+        }
+        for (joint, values) in self.joints.iter().zip(lambda.iter()) {
+            for (x, &v) in values.iter().enumerate().take(joint.rows) {
+                if let Some(out) = b.get_mut(joint.start + x) {
+                    *out = v;
+                }
+            }
+        }
+    }
+}
+
+// Read by the simulation (feature `alloc`) only.
+#[cfg_attr(not(feature = "alloc"), allow(dead_code))]
+impl View<'_> {
+    /// `out = J x`, block by block.
+    fn j_mul(&self, x: &[f64], out: &mut [f64]) {
         out.fill(0.0);
         for (k, joint) in self.joints.iter().enumerate() {
             let mut acc = [0.0; 6];
@@ -396,8 +348,8 @@ impl BlockFactor {
         }
     }
 
-    /// `out = Jᵀ y` from the Jacobian of the last factorisation, block by block.
-    pub(crate) fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
+    /// `out = Jᵀ y`, block by block.
+    fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
         out.fill(0.0);
         for (k, joint) in self.joints.iter().enumerate() {
             let mut yk = [0.0; 6];
@@ -414,39 +366,86 @@ impl BlockFactor {
             }
         }
     }
+}
 
-    /// Solves `A λ = b` on the rows kept (λ = 0 on the dropped ones), in place.
-    pub fn solve(&mut self, b: &mut [f64]) {
-        let n = self.joints.len();
-        let (mut z, mut lambda) = (core::mem::take(&mut self.z), core::mem::take(&mut self.lambda));
-        for k in 0..n {
-            let JointRows { start, rows, .. } = self.joints[k];
-            let mut c = [0.0; 6];
-            for (x, cx) in c.iter_mut().enumerate().take(rows) {
-                *cx = b.get(start + x).copied().unwrap_or(0.0);
-            }
-            for &(j, s) in &self.row[self.row_start[k]..self.row_start[k + 1]] {
-                let rj = self.joints[j].rows;
-                with_rows!(rows, R => with_rows!(rj, RJ => kernels::add_av::<R, RJ>(&self.l[s], &z[j], &mut c, -1.0)));
-            }
-            z[k] = with_rows!(rows, R => kernels::forward::<R>(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c));
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector, Matrix3};
+
+    use super::*;
+
+    /// Two spherical joints in a chain from the ground, eliminated in row
+    /// order: blocks of 3 rows; the ground joint's rows reach body 0's six
+    /// columns, the second joint's both bodies' twelve.
+    const BLOCKS: [RowBlock; 2] =
+        [RowBlock { name: "a", start: 0, rows: 3 }, RowBlock { name: "b", start: 3, rows: 3 }];
+    const BODIES: [[Option<usize>; 2]; 2] = [[None, Some(0)], [Some(0), Some(1)]];
+
+    fn csr() -> (Vec<usize>, Vec<usize>) {
+        let (mut starts, mut columns) = (vec![0], Vec::new());
+        for row in 0..6 {
+            columns.extend(0..if row < 3 { 6 } else { 12 });
+            starts.push(columns.len());
         }
-        lambda.fill([0.0; 6]);
-        for k in (0..n).rev() {
-            let (mut c, rk) = (z[k], self.joints[k].rows);
-            for s in self.col_start[k] + 1..self.col_start[k + 1] {
-                let i = self.col[s];
-                with_rows!(self.joints[i].rows, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(&self.l[s], &lambda[i], &mut c, -1.0)));
+        (starts, columns)
+    }
+
+    /// Counted by hand: 2 blocks; 3 slots (two diagonal, one below); 1
+    /// update (column 0 has one slot below: 1 · 2 / 2); shared bodies: the
+    /// ground joint with itself 1, the second joint with itself 2, the two
+    /// joints 1 (body 0): 4; 18 + 36 entries; 6 rows.
+    type Right = FactorArrays<2, 3, 1, 4, 54, 6>;
+
+    fn factor<F: FactorStorage>() -> Result<BlockFactor<F>, LinalgError> {
+        let (starts, columns) = csr();
+        BlockFactor::new(&BLOCKS, &BODIES, &starts, &columns, &[0, 1], &[0, 1, 1], &[1])
+    }
+
+    #[test]
+    fn storage_of_the_patterns_sizes_is_taken_and_any_other_refused() {
+        assert!(factor::<Right>().is_ok());
+        assert!(factor::<FactorArrays<3, 3, 1, 4, 54, 6>>().is_err());
+        assert!(factor::<FactorArrays<2, 4, 1, 4, 54, 6>>().is_err());
+        assert!(factor::<FactorArrays<2, 3, 2, 4, 54, 6>>().is_err());
+        assert!(factor::<FactorArrays<2, 3, 1, 3, 54, 6>>().is_err());
+        assert!(factor::<FactorArrays<2, 3, 1, 4, 53, 6>>().is_err());
+        assert!(factor::<FactorArrays<2, 3, 1, 4, 54, 5>>().is_err());
+    }
+
+    /// The block solve against a dense solve of `J W Jᵀ λ = b` (nalgebra's
+    /// LU), `J` random on the pattern, `W` two bodies' inverse masses.
+    #[test]
+    fn solves_as_the_dense_matrix_does() {
+        let mut seed = 7u64;
+        let mut random = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (starts, columns) = csr();
+        let values: Vec<f64> = columns.iter().map(|_| random()).collect();
+        let w = [
+            InverseMass { inv_mass: 0.5, inv_inertia: Matrix3::new(2.0, 0.1, 0.0, 0.1, 3.0, 0.2, 0.0, 0.2, 4.0) },
+            InverseMass { inv_mass: 0.25, inv_inertia: Matrix3::from_diagonal_element(1.5) },
+        ];
+        let mut j = DMatrix::<f64>::zeros(6, 12);
+        for r in 0..6 {
+            for e in starts[r]..starts[r + 1] {
+                j[(r, columns[e])] = values[e];
             }
-            lambda[k] = kernels::backward(&self.l[self.col_start[k]], &self.perm[k], self.rank[k], &c);
         }
-        for (joint, values) in self.joints.iter().zip(&lambda) {
-            for (x, &v) in values.iter().enumerate().take(joint.rows) {
-                if let Some(out) = b.get_mut(joint.start + x) {
-                    *out = v;
-                }
-            }
+        let mut metric = DMatrix::<f64>::zeros(12, 12);
+        for (b, m) in w.iter().enumerate() {
+            metric.view_mut((6 * b, 6 * b), (3, 3)).fill_diagonal(m.inv_mass);
+            metric.view_mut((6 * b + 3, 6 * b + 3), (3, 3)).copy_from(&m.inv_inertia);
         }
-        (self.z, self.lambda) = (z, lambda);
+        let a = &j * metric * j.transpose();
+        let b = DVector::from_fn(6, |i, _| 1.0 + i as f64);
+        let expected = a.lu().solve(&b).expect("a nonsingular J W Jᵀ");
+        let mut f = factor::<Right>().expect("the pattern's sizes");
+        f.factor(&values, &w, 1e-12, None).expect("finite");
+        let mut x = b.clone();
+        f.solve(x.as_mut_slice());
+        assert_eq!((f.rank(), f.dropped()), (6, &[][..]));
+        assert!((x - &expected).norm() <= 1e-12 * expected.norm(), "{expected}");
     }
 }

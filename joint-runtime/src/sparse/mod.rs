@@ -1,13 +1,15 @@
 //! Scenes that scale: the constrained dynamics of a [`Scene`](crate::Scene)
 //! through its compile-time structure, in time and memory proportional to the
-//! scene (feature `alloc`).
+//! scene (the simulation with feature `alloc`; the block factor and
+//! [`SparseAnalysis`] without it).
 //!
 //! The derive fixes, for every scene, which bodies each joint connects, a
 //! fill-reducing elimination order of the joint blocks of `J M⁻¹ Jᵀ` (minimum
-//! degree: leaves first on a tree, the fill of each closed loop kept local) and
-//! the pattern of its block factor ([`SparseJacobian`](crate::SparseJacobian)).
+//! degree: leaves first on a tree, the fill of each closed loop kept local),
+//! the pattern of its block factor and the sizes of the factor's arrays
+//! ([`SparseJacobian`](crate::SparseJacobian), [`FactorArrays`]).
 //! [`BlockFactor`] turns that pattern, once, into a compact static schedule
-//! (which factor blocks update which), allocated once; every factorisation then
+//! (which factor blocks update which) in those arrays; every factorisation then
 //! runs the schedule on blocks of at most 6 × 6, with no search and no
 //! allocation. Why a schedule rather than generated factorisation code: the
 //! code would grow with the factor's operation count and rustc's time with it
@@ -41,22 +43,38 @@
 //! the dense path's linearisation and state-transition Jacobian (`linear.rs`):
 //! dense outputs, built column by column on the block factor.
 
+#[cfg(feature = "alloc")]
 mod adaptive;
+#[cfg(feature = "alloc")]
 mod alpha;
 mod analysis;
+#[cfg(feature = "alloc")]
 mod differences;
 mod factor;
+#[cfg(feature = "alloc")]
 mod kkt;
+#[cfg(feature = "alloc")]
 mod linear;
+#[cfg(feature = "alloc")]
 mod loads;
+#[cfg(feature = "alloc")]
 mod midpoint;
+#[cfg(feature = "alloc")]
 mod radau;
+#[cfg(feature = "alloc")]
 mod second_order;
+#[cfg(feature = "alloc")]
 mod simulation;
 mod solver;
 
 pub use analysis::SparseAnalysis;
+#[cfg(feature = "alloc")]
+#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use differences::DifferenceTerms;
-pub use factor::BlockFactor;
+pub use factor::{BlockFactor, FactorArrays, FactorStorage};
+#[cfg(feature = "alloc")]
+#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use second_order::{RowTerm, SecondOrderLayout};
+#[cfg(feature = "alloc")]
+#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use simulation::{SparseDynamics, SparseSimulation};

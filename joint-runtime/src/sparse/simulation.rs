@@ -40,7 +40,15 @@ pub struct SparseDynamics<const NV: usize, const M: usize> {
 /// of [`Simulation`](crate::dynamics::Simulation). The workspace is
 /// allocated once, in [`SparseSimulation::new`] (or at the first implicit
 /// step of a simulation made for RK4); a step allocates nothing.
-pub struct SparseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+pub struct SparseSimulation<
+    'a,
+    S: SparseJacobian<NB, NNZ>,
+    L,
+    const NB: usize,
+    const NV: usize,
+    const M: usize,
+    const NNZ: usize,
+> {
     pub(super) scene: &'a S,
     pub(super) loads: L,
     pub(super) springs: &'a [SpringDamper],
@@ -116,7 +124,7 @@ impl<const NB: usize, const NV: usize> Rk4Work<NB, NV> {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
+impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
     for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -191,7 +199,7 @@ where
     }
 
     /// The block factor (its size, and the rows the last factorisation dropped).
-    pub fn factor(&self) -> &BlockFactor {
+    pub fn factor(&self) -> &BlockFactor<S::Factor> {
         &self.solver.factor
     }
 
@@ -578,7 +586,7 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
     SparseSimulation<'_, S, L, NB, NV, M, NNZ>
 {
     /// The histories after a step of `integrator` was accepted at `state`:

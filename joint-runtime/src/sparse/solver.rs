@@ -2,7 +2,6 @@
 //! of one scene, minimum-norm solves of `J x = b` in a metric, and damped Newton
 //! on Φ = 0, reading only the Jacobian's nonzero entries.
 
-use alloc::vec::Vec;
 use core::marker::PhantomData;
 
 use nalgebra::{Matrix3, SVector};
@@ -69,8 +68,9 @@ pub(crate) fn non_finite(quantity: &'static str) -> AnalysisError {
 }
 
 /// The block factor of one scene type and the solves on it.
-pub(crate) struct Solver<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
-    pub(crate) factor: BlockFactor,
+pub(crate) struct Solver<S: SparseJacobian<NB, NNZ>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+{
+    pub(crate) factor: BlockFactor<S::Factor>,
     scene: PhantomData<fn() -> S>,
 }
 
@@ -81,9 +81,8 @@ where
     /// The factor's schedule, from the scene's compile-time structure.
     pub(crate) fn new() -> Result<Self, AnalysisError> {
         crate::analysis::check_dims::<NB, NV>()?;
-        let blocks: Vec<(usize, usize)> = S::BLOCKS.iter().map(|b| (b.start, b.rows)).collect();
         let factor = BlockFactor::new(
-            &blocks,
+            S::BLOCKS,
             S::BLOCK_BODIES,
             S::ROW_STARTS,
             &S::COLUMNS,
@@ -179,7 +178,7 @@ where
 
 /// The block factor's Newton directions; at the end, a factorisation and no
 /// solve.
-struct Sparse<'s, S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+struct Sparse<'s, S: SparseJacobian<NB, NNZ>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
     solver: &'s mut Solver<S, NB, NV, M, NNZ>,
     scene: &'s S,
     w: &'s [InverseMass; NB],

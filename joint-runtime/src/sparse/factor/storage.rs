@@ -1,0 +1,190 @@
+//! Where a block factor lives: arrays whose sizes the derive computed from the
+//! scene's pattern, so that the factor needs no allocator (with `alloc`, each
+//! array is boxed, which keeps a large scene's factor off the stack).
+
+use super::{Block, JointRows};
+
+/// An array of `N` entries: boxed with `alloc`, inline without.
+#[cfg(feature = "alloc")]
+type Buf<T, const N: usize> = alloc::boxed::Box<[T; N]>;
+#[cfg(not(feature = "alloc"))]
+type Buf<T, const N: usize> = [T; N];
+
+/// `N` copies of `v`, built where they will live (on the heap with `alloc`:
+/// no array of the scene's size passes through the stack).
+fn filled<T: Copy, const N: usize>(v: T) -> Buf<T, N> {
+    #[cfg(feature = "alloc")]
+    {
+        match alloc::vec![v; N].into_boxed_slice().try_into() {
+            Ok(b) => b,
+            // Unreachable: the slice has N entries.
+            Err(_) => alloc::boxed::Box::new([v; N]),
+        }
+    }
+    #[cfg(not(feature = "alloc"))]
+    {
+        [v; N]
+    }
+}
+
+/// The storage of a [`BlockFactor`](super::BlockFactor): implemented by
+/// [`FactorArrays`], whose sizes the derive writes into each scene's
+/// [`SparseJacobian::Factor`](crate::SparseJacobian::Factor).
+pub trait FactorStorage: Clone + core::fmt::Debug + Send + Sync + sealed::Sealed {
+    /// Storage with every entry zero.
+    #[doc(hidden)]
+    fn zeroed() -> Self;
+    /// Every array, as slices.
+    #[doc(hidden)]
+    fn parts(&mut self) -> Parts<'_>;
+    /// The arrays read after a factorisation.
+    #[doc(hidden)]
+    fn view(&self) -> View<'_>;
+}
+
+mod sealed {
+    pub trait Sealed {}
+}
+
+/// The arrays of a block factor of `N` joint blocks, `S` factor slots
+/// (diagonal and below, fill included), `T` scheduled block updates, `U`
+/// shared-body terms of `J W Jᵀ`, `NNZ` Jacobian entries and `M` rows. The
+/// derive computes these from the scene's pattern; [`BlockFactor::new`]
+/// refuses storage whose sizes do not match it.
+///
+/// [`BlockFactor::new`]: super::BlockFactor
+#[derive(Clone, Debug)]
+pub struct FactorArrays<
+    const N: usize,
+    const S: usize,
+    const T: usize,
+    const U: usize,
+    const NNZ: usize,
+    const M: usize,
+> {
+    joints: Buf<JointRows, N>,
+    col_range: Buf<(usize, usize), N>,
+    col: Buf<usize, S>,
+    sched_range: Buf<(usize, usize), S>,
+    sched: Buf<(usize, usize, usize), T>,
+    shared_range: Buf<(usize, usize), S>,
+    shared: Buf<(usize, usize, usize), U>,
+    row_range: Buf<(usize, usize), N>,
+    /// `S − N` entries are used (the slots below the diagonal).
+    row: Buf<(usize, usize), S>,
+    scatter: Buf<(usize, usize), NNZ>,
+    jb: Buf<[Block; 2], N>,
+    jw: Buf<[Block; 2], N>,
+    l: Buf<Block, S>,
+    perm: Buf<[usize; 6], N>,
+    rank: Buf<usize, N>,
+    dropped: Buf<usize, M>,
+    z: Buf<[f64; 6], N>,
+    lambda: Buf<[f64; 6], N>,
+}
+
+/// A factor's arrays, borrowed at once (pattern and numbers).
+#[derive(Debug)]
+pub struct Parts<'a> {
+    pub(super) joints: &'a mut [JointRows],
+    pub(super) col_range: &'a mut [(usize, usize)],
+    pub(super) col: &'a mut [usize],
+    pub(super) sched_range: &'a mut [(usize, usize)],
+    pub(super) sched: &'a mut [(usize, usize, usize)],
+    pub(super) shared_range: &'a mut [(usize, usize)],
+    pub(super) shared: &'a mut [(usize, usize, usize)],
+    pub(super) row_range: &'a mut [(usize, usize)],
+    pub(super) row: &'a mut [(usize, usize)],
+    pub(super) scatter: &'a mut [(usize, usize)],
+    /// `J` and `J W` per joint and side: entry `2 k + side`.
+    pub(super) jb: &'a mut [Block],
+    pub(super) jw: &'a mut [Block],
+    pub(super) l: &'a mut [Block],
+    pub(super) perm: &'a mut [[usize; 6]],
+    pub(super) rank: &'a mut [usize],
+    pub(super) dropped: &'a mut [usize],
+    pub(super) z: &'a mut [[f64; 6]],
+    pub(super) lambda: &'a mut [[f64; 6]],
+}
+
+/// What a factorisation leaves to read: the blocks, `J`, the pivots and the
+/// redundant rows.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(feature = "alloc"), allow(dead_code))]
+pub struct View<'a> {
+    pub(super) joints: &'a [JointRows],
+    pub(super) slots: usize,
+    pub(super) nonzeros: usize,
+    pub(super) jb: &'a [Block],
+    pub(super) perm: &'a [[usize; 6]],
+    pub(super) rank: &'a [usize],
+    pub(super) dropped: &'a [usize],
+}
+
+impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: usize, const M: usize> sealed::Sealed
+    for FactorArrays<N, S, T, U, NNZ, M>
+{
+}
+
+impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: usize, const M: usize> FactorStorage
+    for FactorArrays<N, S, T, U, NNZ, M>
+{
+    fn zeroed() -> Self {
+        const ZERO: Block = [0.0; 36];
+        FactorArrays {
+            joints: filled(JointRows { start: 0, rows: 0, bodies: [None; 2] }),
+            col_range: filled((0, 0)),
+            col: filled(0),
+            sched_range: filled((0, 0)),
+            sched: filled((0, 0, 0)),
+            shared_range: filled((0, 0)),
+            shared: filled((0, 0, 0)),
+            row_range: filled((0, 0)),
+            row: filled((0, 0)),
+            scatter: filled((0, 0)),
+            jb: filled([ZERO; 2]),
+            jw: filled([ZERO; 2]),
+            l: filled(ZERO),
+            perm: filled([0; 6]),
+            rank: filled(0),
+            dropped: filled(0),
+            z: filled([0.0; 6]),
+            lambda: filled([0.0; 6]),
+        }
+    }
+
+    fn parts(&mut self) -> Parts<'_> {
+        Parts {
+            joints: &mut self.joints[..],
+            col_range: &mut self.col_range[..],
+            col: &mut self.col[..],
+            sched_range: &mut self.sched_range[..],
+            sched: &mut self.sched[..],
+            shared_range: &mut self.shared_range[..],
+            shared: &mut self.shared[..],
+            row_range: &mut self.row_range[..],
+            row: &mut self.row[..],
+            scatter: &mut self.scatter[..],
+            jb: self.jb.as_flattened_mut(),
+            jw: self.jw.as_flattened_mut(),
+            l: &mut self.l[..],
+            perm: &mut self.perm[..],
+            rank: &mut self.rank[..],
+            dropped: &mut self.dropped[..],
+            z: &mut self.z[..],
+            lambda: &mut self.lambda[..],
+        }
+    }
+
+    fn view(&self) -> View<'_> {
+        View {
+            joints: &self.joints[..],
+            slots: S,
+            nonzeros: NNZ,
+            jb: self.jb.as_flattened(),
+            perm: &self.perm[..],
+            rank: &self.rank[..],
+            dropped: &self.dropped[..],
+        }
+    }
+}
