@@ -25,7 +25,7 @@ use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF32x8, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
-use joint_runtime::sparse::SparseAnalysis;
+use joint_runtime::sparse::{SparseAnalysis, SparseSimulation};
 use joint_runtime::{Joint, OmegaBody, Scene, SystemState, TwoBodies};
 
 /// A Cardan joint with run-time yokes and offsets.
@@ -121,8 +121,29 @@ pub extern "C" fn joint_pendulum_sparse_assembly(angle: f64) -> f64 {
     let Ok(mut analysis) = SparseAnalysis::new(&Pendulum) else {
         return f64::NAN;
     };
-    match analysis.assemble(&Pendulum, &mut state, &AssemblyOptions::default()) {
-        Ok(_) => Pendulum.phi(&state).norm(),
-        Err(_) => f64::NAN,
+    if analysis.assemble(&Pendulum, &mut state, &AssemblyOptions::default()).is_err() {
+        return f64::NAN;
     }
+    Pendulum.phi(&state).norm()
+}
+
+/// RK4 steps with projection on the sparse path: its factor, solves and
+/// workspaces all inline, sized at compile time.
+#[unsafe(no_mangle)]
+pub extern "C" fn joint_pendulum_sparse_steps(angle: f64, steps: u32) -> f64 {
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
+    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
+    let mut state = SystemState { bodies: [link], t: 0.0 };
+    let Ok(mut sim) = SparseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
+        return f64::NAN;
+    };
+    if sim.project(&mut state, &AssemblyOptions::default()).is_err() {
+        return f64::NAN;
+    }
+    for _ in 0..steps {
+        if sim.step(&mut state, 1e-3).is_err() {
+            return f64::NAN;
+        }
+    }
+    sim.energy(&state).total()
 }

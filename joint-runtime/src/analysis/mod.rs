@@ -35,7 +35,6 @@ pub(crate) use motion::{
 };
 pub(crate) use newton::newton;
 pub(crate) use newton::{Directions, damped_newton};
-#[cfg(feature = "alloc")]
 pub(crate) use solve::apply_metric_into;
 pub(crate) use solve::{InverseMass, Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
 

@@ -493,7 +493,6 @@ impl<const NB: usize, const NV: usize> Rate<NB, NV> {
     }
 
     /// [`Rate::new`] written over `self` (no state-sized temporary).
-    #[cfg(feature = "alloc")]
     #[inline]
     pub(crate) fn assign(&mut self, state: &SystemState<NB>, vdot: &SVector<f64, NV>) {
         self.vdot.copy_from(vdot);

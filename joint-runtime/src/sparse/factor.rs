@@ -124,10 +124,10 @@ impl<F: FactorStorage> BlockFactor<F> {
     }
 
     /// Factorises `J W Jᵀ` for the Jacobian entries `values` (the scene's CSR
-    /// order) and the inverse masses `w`. With `keep` (from a previous
-    /// factorisation, see [`BlockFactor::rule`]) each block keeps the same
-    /// pivots, so that nearby matrices drop the same rows; without it, pivots
-    /// are chosen here. `tolerance` is relative to the largest diagonal entry.
+    /// order) and the inverse masses `w`. With `keep`, each block keeps the
+    /// pivots and rank [`BlockFactor::keep_rule`] took, so that nearby
+    /// matrices drop the same rows; without it, pivots are chosen here.
+    /// `tolerance` is relative to the largest diagonal entry.
     ///
     /// # Errors
     /// [`LinalgError::NonFinite`] for a non-finite entry.
@@ -136,7 +136,7 @@ impl<F: FactorStorage> BlockFactor<F> {
         values: &[f64],
         w: &[InverseMass],
         tolerance: f64,
-        keep: Option<&[([usize; 6], usize)]>,
+        keep: bool,
     ) -> Result<(), LinalgError> {
         self.factorisations = self.factorisations.wrapping_add(1);
         self.dropped = 0;
@@ -144,17 +144,15 @@ impl<F: FactorStorage> BlockFactor<F> {
         Ok(())
     }
 
-    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
-    /// Each block's pivots and rank: the rule that makes a later factorisation
-    /// drop the same rows.
-    // An iterator, not a `Vec`: the step copies it into its own buffer,
-    // allocated once.
-    pub(crate) fn rule(&self) -> impl Iterator<Item = ([usize; 6], usize)> + '_ {
-        let v = self.store.view();
-        v.perm.iter().copied().zip(v.rank.iter().copied())
+    /// Takes each block's pivots and rank from the last factorisation: the
+    /// rule that makes later factorisations with `keep` drop the same rows.
+    pub(crate) fn keep_rule(&mut self) {
+        let p = self.store.parts();
+        for ((kept, &perm), &rank) in p.kept.iter_mut().zip(p.perm.iter()).zip(p.rank.iter()) {
+            *kept = (perm, rank);
+        }
     }
 
-    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
     /// `out = J x` from the Jacobian of the last factorisation, block by
     /// block (regular six-column rows with their structural zeros, which
     /// beats the CSR walk's indirection at these sizes).
@@ -162,7 +160,6 @@ impl<F: FactorStorage> BlockFactor<F> {
         self.store.view().j_mul(x, out);
     }
 
-    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
     /// `out = Jᵀ y` from the Jacobian of the last factorisation, block by block.
     pub(crate) fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
         self.store.view().jt_mul(y, out);
@@ -178,13 +175,7 @@ impl<F: FactorStorage> BlockFactor<F> {
 impl Parts<'_> {
     /// The factorisation of [`BlockFactor::factor`]; returns how many rows
     /// it dropped (the first entries of `dropped`, ascending).
-    fn factor(
-        &mut self,
-        values: &[f64],
-        w: &[InverseMass],
-        tolerance: f64,
-        keep: Option<&[([usize; 6], usize)]>,
-    ) -> Result<usize, LinalgError> {
+    fn factor(&mut self, values: &[f64], w: &[InverseMass], tolerance: f64, keep: bool) -> Result<usize, LinalgError> {
         if values.len() != self.scatter.len() || !values.iter().all(|x| x.is_finite()) {
             return Err(LinalgError::NonFinite);
         }
@@ -206,7 +197,7 @@ impl Parts<'_> {
         let tolerance = if tolerance > 0.0 { tolerance * largest } else { 0.0 };
         let mut dropped = 0;
         for k in 0..self.joints.len() {
-            let rule = keep.and_then(|r| r.get(k)).copied();
+            let rule = if keep { self.kept.get(k).copied() } else { None };
             dropped = self.factor_column(k, tolerance, rule, dropped);
         }
         if let Some(d) = self.dropped.get_mut(..dropped) {
@@ -327,8 +318,6 @@ impl Parts<'_> {
     }
 }
 
-// Read by the simulation (feature `alloc`) only.
-#[cfg_attr(not(feature = "alloc"), allow(dead_code))]
 impl View<'_> {
     /// `out = J x`, block by block.
     fn j_mul(&self, x: &[f64], out: &mut [f64]) {
@@ -442,7 +431,7 @@ mod tests {
         let b = DVector::from_fn(6, |i, _| 1.0 + i as f64);
         let expected = a.lu().solve(&b).expect("a nonsingular J W Jᵀ");
         let mut f = factor::<Right>().expect("the pattern's sizes");
-        f.factor(&values, &w, 1e-12, None).expect("finite");
+        f.factor(&values, &w, 1e-12, false).expect("finite");
         let mut x = b.clone();
         f.solve(x.as_mut_slice());
         assert_eq!((f.rank(), f.dropped()), (6, &[][..]));

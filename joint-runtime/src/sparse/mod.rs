@@ -1,7 +1,7 @@
 //! Scenes that scale: the constrained dynamics of a [`Scene`](crate::Scene)
 //! through its compile-time structure, in time and memory proportional to the
-//! scene (the simulation with feature `alloc`; the block factor and
-//! [`SparseAnalysis`] without it).
+//! scene (the block factor, [`SparseAnalysis`] and [`SparseSimulation`]'s RK4
+//! without an allocator; its implicit integrators with feature `alloc`).
 //!
 //! The derive fixes, for every scene, which bodies each joint connects, a
 //! fill-reducing elimination order of the joint blocks of `J M⁻¹ Jᵀ` (minimum
@@ -63,7 +63,6 @@ mod midpoint;
 mod radau;
 #[cfg(feature = "alloc")]
 mod second_order;
-#[cfg(feature = "alloc")]
 mod simulation;
 mod solver;
 
@@ -75,6 +74,4 @@ pub use factor::{BlockFactor, FactorArrays, FactorStorage};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use second_order::{RowTerm, SecondOrderLayout};
-#[cfg(feature = "alloc")]
-#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use simulation::{SparseDynamics, SparseSimulation};

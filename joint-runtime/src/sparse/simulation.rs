@@ -2,13 +2,12 @@
 //! [`Simulation`](crate::dynamics::Simulation)'s equations, in time and memory
 //! proportional to the scene.
 
-use alloc::boxed::Box;
-use alloc::vec::Vec;
-
 use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
+#[cfg(feature = "alloc")]
 use super::alpha::AlphaWorkspace;
+#[cfg(feature = "alloc")]
 use super::radau::RadauWorkspace;
 use super::solver::{Solver, j_mul, non_finite};
 use crate::OmegaBody;
@@ -16,6 +15,7 @@ use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric_into, check_output,
     check_state, normalise_orientations, set_velocities, velocity_vector,
 };
+#[cfg(feature = "alloc")]
 use crate::dynamics::radau::{RadauHistory, step_radau};
 use crate::dynamics::{
     AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, Stabilisation,
@@ -39,7 +39,9 @@ pub struct SparseDynamics<const NV: usize, const M: usize> {
 /// iteration matrices in saddle-point form), with the mass-metric projection
 /// of [`Simulation`](crate::dynamics::Simulation). The workspace is
 /// allocated once, in [`SparseSimulation::new`] (or at the first implicit
-/// step of a simulation made for RK4); a step allocates nothing.
+/// step of a simulation made for RK4); a step allocates nothing. Without
+/// feature `alloc`, RK4 runs with every workspace inline (the block factor's
+/// arrays sized by the derive) and `new` refuses the implicit integrators.
 pub struct SparseSimulation<
     'a,
     S: SparseJacobian<NB, NNZ>,
@@ -56,28 +58,59 @@ pub struct SparseSimulation<
     pub(super) inverse: [InverseMass; NB],
     pub(super) gravity: Vector3<f64>,
     pub(super) solver: Solver<S, NB, NV, M, NNZ>,
-    /// The pivots of the step's start, kept by its stages.
-    rule: Vec<([usize; 6], usize)>,
     /// The state the last projection ended at, and the count and rank
     /// tolerance of the factorisation of `J W Jᵀ` it made there, which the
     /// dynamics at that state reuse while the factor holds it.
-    projected: Box<(SystemState<NB>, Option<(u64, f64)>)>,
+    projected: Boxed<(SystemState<NB>, Option<(u64, f64)>)>,
+    #[cfg(feature = "alloc")]
     /// Generalised-α's pattern, factor and history (the implicit
     /// integrators only).
     pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
+    #[cfg(feature = "alloc")]
     /// Radau IIA's matrices on that pattern, and its history.
     pub(super) radau: Option<Box<RadauWorkspace>>,
+    #[cfg(feature = "alloc")]
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
+    #[cfg(feature = "alloc")]
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again).
     pub(super) radau_start: Option<(SystemState<NB>, SparseDynamics<NV, M>)>,
     /// The vectors of a solve and the stages of an RK4 step, kept here
     /// rather than in a step's frames (allocated once, in `new`).
-    work: Box<SolveWork<NV, M, NNZ>>,
-    rk4: Option<Box<Rk4Work<NB, NV>>>,
+    work: Boxed<SolveWork<NV, M, NNZ>>,
+    rk4: Option<Boxed<Rk4Work<NB, NV>>>,
     /// The options (may be changed between steps; an implicit integrator's
     /// workspace is built in [`SparseSimulation::new`] or at its first step).
     pub options: SimulationOptions,
+}
+
+/// Without `alloc`, the implicit integrators (their saddle-point workspaces
+/// are not yet sized at compile time) are refused rather than ignored.
+#[cfg(not(feature = "alloc"))]
+fn implicit_needs_alloc(integrator: Integrator) -> Result<(), AnalysisError> {
+    match integrator {
+        Integrator::Rk4 => Ok(()),
+        _ => Err(AnalysisError::BadOption { name: "integrator (implicit ones need feature `alloc`)" }),
+    }
+}
+
+/// A workspace: boxed with `alloc` (off the stack, and cheap to move),
+/// inline without.
+#[cfg(feature = "alloc")]
+type Boxed<T> = alloc::boxed::Box<T>;
+#[cfg(not(feature = "alloc"))]
+type Boxed<T> = T;
+
+/// `x` where a workspace lives.
+fn boxed<T>(x: T) -> Boxed<T> {
+    #[cfg(feature = "alloc")]
+    {
+        alloc::boxed::Box::new(x)
+    }
+    #[cfg(not(feature = "alloc"))]
+    {
+        x
+    }
 }
 
 /// A solve's vectors: `J`'s values, `γ`, `Q`, `W Q`, `λ`, `Jᵀ λ`, `v̇` and
@@ -94,8 +127,8 @@ struct SolveWork<const NV: usize, const M: usize, const NNZ: usize> {
 }
 
 impl<const NV: usize, const M: usize, const NNZ: usize> SolveWork<NV, M, NNZ> {
-    fn new() -> Box<Self> {
-        Box::new(SolveWork {
+    fn new() -> Boxed<Self> {
+        boxed(SolveWork {
             values: [0.0; NNZ],
             gamma: SVector::zeros(),
             forces: SVector::zeros(),
@@ -117,10 +150,10 @@ struct Rk4Work<const NB: usize, const NV: usize> {
 }
 
 impl<const NB: usize, const NV: usize> Rk4Work<NB, NV> {
-    fn new() -> Box<Self> {
+    fn new() -> Boxed<Self> {
         let y = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
         let k = Rate::new(&y, SVector::zeros());
-        Box::new(Rk4Work { y0: y, k: [k; 4], stage: y, end: y })
+        boxed(Rk4Work { y0: y, k: [k; 4], stage: y, end: y })
     }
 }
 
@@ -153,16 +186,18 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
+        #[cfg(feature = "alloc")]
         let alpha = match options.integrator {
             Integrator::Rk4 => None,
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint | Integrator::RadauIIA => {
                 Some(AlphaWorkspace::new::<S, NNZ>(springs)?)
             }
         };
+        #[cfg(not(feature = "alloc"))]
+        implicit_needs_alloc(options.integrator)?;
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
-        let rule = Vec::with_capacity(S::BLOCKS.len());
-        let projected = Box::new((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
+        let projected = boxed((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
         Ok(SparseSimulation {
             scene,
             loads,
@@ -171,11 +206,14 @@ where
             inverse,
             gravity,
             solver,
-            rule,
             projected,
+            #[cfg(feature = "alloc")]
             alpha,
+            #[cfg(feature = "alloc")]
             radau: None,
+            #[cfg(feature = "alloc")]
             radau_history: None,
+            #[cfg(feature = "alloc")]
             radau_start: None,
             work: SolveWork::new(),
             rk4: Some(Rk4Work::new()),
@@ -203,8 +241,10 @@ where
         &self.solver.factor
     }
 
+    #[cfg(feature = "alloc")]
     /// The 6 × 6 blocks generalised-α's iteration matrix stores (its memory,
     /// fill included); `None` for RK4.
+    #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
     pub fn iteration_blocks(&self) -> Option<usize> {
         self.alpha.as_ref().map(AlphaWorkspace::blocks)
     }
@@ -236,7 +276,7 @@ where
     /// stabilisation's.
     fn solve_into(&mut self, state: &SystemState<NB>, keep: bool, check: bool) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
-        let w = &mut *self.work;
+        let w: &mut SolveWork<NV, M, NNZ> = &mut self.work;
         self.scene.jacobian_values_into(state, &mut w.values);
         w.gamma = self.scene.gamma(state);
         check_output::<S, NB, NV, M, 1>("γ", &w.gamma)?;
@@ -252,13 +292,12 @@ where
             return Err(non_finite("forces"));
         }
         apply_metric_into(&self.inverse, &w.forces, &mut w.minv_q);
-        let rule = if keep { Some(&self.rule[..]) } else { None };
         let factor = &mut self.solver.factor;
         // The last step's projection factorised `J W Jᵀ` at the state the
         // next step starts from, with no rule and the same tolerance.
-        let (at, made) = &*self.projected;
+        let (at, made): &(SystemState<NB>, Option<(u64, f64)>) = &self.projected;
         if keep || *made != Some((factor.factorisations(), self.options.rank_tolerance)) || at != state {
-            factor.factor(&w.values, &self.inverse, self.options.rank_tolerance, rule).map_err(|_| non_finite("J"))?;
+            factor.factor(&w.values, &self.inverse, self.options.rank_tolerance, keep).map_err(|_| non_finite("J"))?;
         }
         // The products on the factor's own blocks of `J` (the values just
         // factorised, or the same ones at the same state).
@@ -307,6 +346,7 @@ where
         self.solver.redundant()
     }
 
+    #[cfg(feature = "alloc")]
     /// One RK4 stage: the rate at `state` under the step's rule.
     pub(super) fn rate(&mut self, state: &SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError> {
         Ok(Rate::new(state, self.solve(state, true, false)?.vdot))
@@ -330,10 +370,16 @@ where
         // integrator's, not the sum of all four.
         match self.options.integrator {
             Integrator::Rk4 => self.advance_rk4(state, h, &mut report)?,
+            #[cfg(feature = "alloc")]
             Integrator::GeneralisedAlpha => self.advance_alpha(state, h, &mut report)?,
+            #[cfg(feature = "alloc")]
             Integrator::RadauIIA => self.advance_radau(state, h, &mut report)?,
+            #[cfg(feature = "alloc")]
             Integrator::ImplicitMidpoint => self.advance_midpoint(state, h, &mut report)?,
+            #[cfg(not(feature = "alloc"))]
+            implicit => implicit_needs_alloc(implicit)?,
         }
+        #[cfg(feature = "alloc")]
         self.follow(state, self.options.integrator);
         Ok(report)
     }
@@ -362,6 +408,7 @@ where
         stepped
     }
 
+    #[cfg(feature = "alloc")]
     /// A generalised-α step from `state`, projected, into `state`.
     #[inline(never)]
     fn advance_alpha(
@@ -378,6 +425,7 @@ where
         self.conclude(state, y, (iterations, matrices), report)
     }
 
+    #[cfg(feature = "alloc")]
     /// A Radau IIA step from `state`, projected, into `state`.
     #[inline(never)]
     fn advance_radau(
@@ -393,6 +441,7 @@ where
         self.conclude(state, y, (step.iterations, step.matrices), report)
     }
 
+    #[cfg(feature = "alloc")]
     /// An implicit midpoint step from `state`, projected, into `state`.
     #[inline(never)]
     fn advance_midpoint(
@@ -407,6 +456,7 @@ where
         self.conclude(state, y, (iterations, matrices), report)
     }
 
+    #[cfg(feature = "alloc")]
     /// An implicit step's end `y`, its Newton iterations and matrices into the
     /// report, then [`finish`](Self::finish), then `y` into `state`.
     fn conclude(
@@ -447,6 +497,7 @@ where
         report.velocity_residual = (j_mul::<S, NB, NNZ, NV, M>(&self.work.values, &v) + self.scene.phi_t(y)).norm();
     }
 
+    #[cfg(feature = "alloc")]
     /// A step's start: `state` checked and normalised, its dynamics, and the
     /// rule of redundant rows every stage of the step keeps.
     pub(super) fn step_start(
@@ -466,11 +517,11 @@ where
         *y0 = *state;
         normalise_orientations::<S, NB, NV, M>(y0)?;
         self.solve_into(y0, false, true)?;
-        self.rule.clear();
-        self.rule.extend(self.solver.factor.rule());
+        self.solver.factor.keep_rule();
         Ok(())
     }
 
+    #[cfg(feature = "alloc")]
     /// Generalised-α's workspace, built at its first use if
     /// [`SparseSimulation::new`] did not (another integrator, then
     /// [`integrate`](Self::integrate) with it): allocated once.
@@ -586,6 +637,7 @@ where
     }
 }
 
+#[cfg(feature = "alloc")]
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
     SparseSimulation<'_, S, L, NB, NV, M, NNZ>
 {

@@ -113,7 +113,7 @@ where
         w: &[InverseMass; NB],
         tolerance: f64,
     ) -> Result<(), AnalysisError> {
-        self.factor.factor(values, w, tolerance, None).map_err(|_| non_finite("J"))
+        self.factor.factor(values, w, tolerance, false).map_err(|_| non_finite("J"))
     }
 
     /// [`Solver::min_norm`] on the factor as it stands: `values` and `w` must

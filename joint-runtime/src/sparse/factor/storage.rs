@@ -78,6 +78,8 @@ pub struct FactorArrays<
     l: Buf<Block, S>,
     perm: Buf<[usize; 6], N>,
     rank: Buf<usize, N>,
+    /// The pivots and ranks a later factorisation keeps (`BlockFactor::keep_rule`).
+    kept: Buf<([usize; 6], usize), N>,
     dropped: Buf<usize, M>,
     z: Buf<[f64; 6], N>,
     lambda: Buf<[f64; 6], N>,
@@ -102,21 +104,19 @@ pub struct Parts<'a> {
     pub(super) l: &'a mut [Block],
     pub(super) perm: &'a mut [[usize; 6]],
     pub(super) rank: &'a mut [usize],
+    pub(super) kept: &'a mut [([usize; 6], usize)],
     pub(super) dropped: &'a mut [usize],
     pub(super) z: &'a mut [[f64; 6]],
     pub(super) lambda: &'a mut [[f64; 6]],
 }
 
-/// What a factorisation leaves to read: the blocks, `J`, the pivots and the
-/// redundant rows.
+/// What a factorisation leaves to read: `J`, the ranks and the redundant rows.
 #[derive(Clone, Copy, Debug)]
-#[cfg_attr(not(feature = "alloc"), allow(dead_code))]
 pub struct View<'a> {
     pub(super) joints: &'a [JointRows],
     pub(super) slots: usize,
     pub(super) nonzeros: usize,
     pub(super) jb: &'a [Block],
-    pub(super) perm: &'a [[usize; 6]],
     pub(super) rank: &'a [usize],
     pub(super) dropped: &'a [usize],
 }
@@ -147,6 +147,7 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
             l: filled(ZERO),
             perm: filled([0; 6]),
             rank: filled(0),
+            kept: filled(([0; 6], 0)),
             dropped: filled(0),
             z: filled([0.0; 6]),
             lambda: filled([0.0; 6]),
@@ -170,6 +171,7 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
             l: &mut self.l[..],
             perm: &mut self.perm[..],
             rank: &mut self.rank[..],
+            kept: &mut self.kept[..],
             dropped: &mut self.dropped[..],
             z: &mut self.z[..],
             lambda: &mut self.lambda[..],
@@ -182,7 +184,6 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
             slots: S,
             nonzeros: NNZ,
             jb: self.jb.as_flattened(),
-            perm: &self.perm[..],
             rank: &self.rank[..],
             dropped: &self.dropped[..],
         }
