@@ -68,7 +68,7 @@ pub struct SparseSimulation<
     pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
     #[cfg(feature = "alloc")]
     /// Radau IIA's matrices on that pattern, and its history.
-    pub(super) radau: Option<Box<RadauWorkspace>>,
+    pub(super) radau: Option<alloc::boxed::Box<RadauWorkspace>>,
     #[cfg(feature = "alloc")]
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
     #[cfg(feature = "alloc")]
