@@ -14,7 +14,9 @@
 //! 19 rows, 10 rad/s), which has no peer. With `STACK_KIB=n` in the
 //! environment the steps run in a thread with an `n` KiB stack (the
 //! simulation is built and boxed on the main thread; a step that needs more
-//! aborts the process: how the stack a step needs is found).
+//! aborts the process: how the stack a step needs is found). With
+//! `INTEGRATOR=alpha`, `midpoint` or `radau` the steps are that implicit
+//! integrator's (RK4 otherwise), so that their stack can be measured too.
 //!
 //! Each round restarts from the scene's start and times `STEPS` steps; the
 //! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
@@ -25,7 +27,7 @@ use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::scaling::chain_start;
-use joint_runtime::dynamics::{NoLoads, SimulationOptions};
+use joint_runtime::dynamics::{Integrator, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
@@ -99,7 +101,15 @@ where
 {
     // Built here, on the main thread's stack, and boxed: what a step needs is
     // measured apart from what building the simulation needs.
-    let mut sim = Box::new(SparseSimulation::new(scene, NoLoads, &[], SimulationOptions::default())?);
+    let integrator = match std::env::var("INTEGRATOR").as_deref() {
+        Ok("alpha") => Integrator::GeneralisedAlpha,
+        Ok("midpoint") => Integrator::ImplicitMidpoint,
+        Ok("radau") => Integrator::RadauIIA,
+        _ => Integrator::Rk4,
+    };
+    let mut options = SimulationOptions::default();
+    options.integrator = integrator;
+    let mut sim = Box::new(SparseSimulation::new(scene, NoLoads, &[], options)?);
     let (start, mut end) = (Box::new(start), Box::new(start));
     let mut us = Vec::with_capacity(rounds);
     let mut time = || -> Result<(), String> {

@@ -145,6 +145,53 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
         Iterate::new(y0, v0, past, self.a - x / (h * c.beta), self.lambda - dlambda, h, c)
     }
 
+    /// [`Iterate::new`] written over `self`, for the pseudo-acceleration
+    /// `self.a` and multipliers `self.lambda` (the same operations in the
+    /// same order, so the same bits; no vector in the caller's frame).
+    #[cfg(feature = "alloc")]
+    pub(crate) fn follow(
+        &mut self,
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        past: &AlphaHistory<NB, NV, M>,
+        h: f64,
+        c: Coefficients,
+    ) {
+        let (q, v, d) = (h * (0.5 - c.beta), h * (1.0 - c.gamma), 1.0 - c.alpha_f);
+        let outputs = self.dq.iter_mut().zip(self.v.iter_mut()).zip(self.vdot.iter_mut());
+        let inputs = self.a.iter().zip(past.a.iter()).zip(v0.iter().zip(past.vdot.iter()));
+        for (((dq, vel), vdot), ((&a, &pa), (&v0, &pv))) in outputs.zip(inputs) {
+            *dq = v0 + pa * q + a * (h * c.beta);
+            *vel = v0 + pa * v + a * (h * c.gamma);
+            *vdot = (a * (1.0 - c.alpha_m) + pa * c.alpha_m - pv * c.alpha_f) / d;
+        }
+        self.state = *y0;
+        apply_increment(&mut self.state, &self.dq, h);
+        set_velocities(&mut self.state, &self.v);
+        self.state.t = y0.t + h;
+    }
+
+    /// [`Iterate::corrected`] written over `self`.
+    #[cfg(feature = "alloc")]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn correct(
+        &mut self,
+        y0: &SystemState<NB>,
+        v0: &SVector<f64, NV>,
+        past: &AlphaHistory<NB, NV, M>,
+        x: &SVector<f64, NV>,
+        dlambda: &SVector<f64, M>,
+        h: f64,
+        c: Coefficients,
+    ) {
+        let s = h * c.beta;
+        for (a, x) in self.a.iter_mut().zip(x.iter()) {
+            *a -= x / s;
+        }
+        self.lambda -= dlambda;
+        self.follow(y0, v0, past, h, c);
+    }
+
     /// What the next step starts from.
     pub(crate) fn history(&self) -> AlphaHistory<NB, NV, M> {
         AlphaHistory { state: self.state, vdot: self.vdot, a: self.a, lambda: self.lambda }

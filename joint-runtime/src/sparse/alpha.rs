@@ -16,6 +16,7 @@
 //! (`loads.rs`). Redundant rows are held at
 //! `δλ = 0` as identity rows, the rule of the step's start.
 
+use alloc::boxed::Box;
 use alloc::vec;
 use alloc::vec::Vec;
 
@@ -27,6 +28,7 @@ use super::kkt::{Block, Kkt};
 use super::loads::LoadColouring;
 use super::second_order::SecondOrderLayout;
 use super::solver::{jt_mul, non_finite};
+use crate::OmegaBody;
 use crate::analysis::{AnalysisError, check_output, velocity_vector};
 use crate::dynamics::{
     AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, generalised_forces,
@@ -124,6 +126,34 @@ impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M>
     }
 }
 
+/// Generalised-α's history, iterate and Newton vectors, boxed and made with
+/// the implicit integrators' pattern: a step's frames hold none of them.
+pub(super) struct AlphaWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    past: AlphaHistory<NB, NV, M>,
+    v0: SVector<f64, NV>,
+    it: Iterate<NB, NV, M>,
+    x: SVector<f64, NV>,
+    dlambda: SVector<f64, M>,
+    values: [f64; NNZ],
+    phi: SVector<f64, M>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWork<NB, NV, M, NNZ> {
+    pub(super) fn new() -> Box<Self> {
+        let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
+        let (v, l) = (SVector::zeros(), SVector::zeros());
+        Box::new(AlphaWork {
+            past: AlphaHistory { state, vdot: v, a: v, lambda: l },
+            v0: v,
+            it: Iterate { dq: v, a: v, v, vdot: v, lambda: l, state },
+            x: v,
+            dlambda: l,
+            values: [0.0; NNZ],
+            phi: l,
+        })
+    }
+}
+
 /// `block (6 × 6) += s · x` for the 3 × 3 `x` at `(r, c)`.
 fn add3(block: &mut Block, r: usize, c: usize, x: &Matrix3<f64>, s: f64) {
     for i in 0..3 {
@@ -151,71 +181,105 @@ where
         start: (SVector<f64, NV>, SVector<f64, M>),
     ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
         let c = Coefficients::checked(self.options.spectral_radius)?;
-        let past = match (continuing, self.alpha.as_ref().and_then(|w| w.history)) {
-            (true, Some(past)) => past,
-            _ => AlphaHistory { state: *y0, vdot: start.0, a: start.0, lambda: start.1 },
-        };
-        let v0 = velocity_vector::<NB, NV>(y0);
-        let mut it = Iterate::new(y0, &v0, &past, c.predicted(&past), past.lambda, h, c);
+        let mut w = self.alpha_work.take().unwrap_or_else(AlphaWork::new);
+        let step = self.alpha_newton(&mut w, y0, h, continuing, start, c);
+        self.alpha_work = Some(w);
+        step
+    }
+
+    /// [`step_alpha`](Self::step_alpha)'s Newton iteration on the iterate
+    /// and vectors of `w`.
+    fn alpha_newton(
+        &mut self,
+        w: &mut AlphaWork<NB, NV, M, NNZ>,
+        y0: &SystemState<NB>,
+        h: f64,
+        continuing: bool,
+        start: (SVector<f64, NV>, SVector<f64, M>),
+        c: Coefficients,
+    ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
+        match (continuing, self.alpha.as_ref().and_then(|w| w.history.as_ref())) {
+            (true, Some(past)) => w.past = *past,
+            _ => w.past = AlphaHistory { state: *y0, vdot: start.0, a: start.0, lambda: start.1 },
+        }
+        w.v0 = velocity_vector::<NB, NV>(y0);
+        w.it.a = c.predicted(&w.past);
+        w.it.lambda = w.past.lambda;
+        w.it.follow(y0, &w.v0, &w.past, h, c);
         let mut newton = ModifiedNewton::new(&self.options);
         loop {
             newton.next()?;
-            let (values, r2) = self.alpha_residual(&it)?;
+            self.alpha_residual(&w.it, &mut w.values, &mut w.phi)?;
             if newton.stale() {
-                self.alpha_matrix(&it, &values, h, c)?;
+                self.alpha_matrix(&w.it, &w.values, h, c)?;
                 newton.built();
             }
-            let (x, dlambda) = self.alpha_solve(&r2, h)?;
-            it = it.corrected(y0, &v0, &past, &x, &dlambda, h, c);
-            if newton.converged(x.norm(), 1.0 + it.dq.norm())? {
+            self.alpha_solve(&w.phi, h, &mut w.x, &mut w.dlambda)?;
+            w.it.correct(y0, &w.v0, &w.past, &w.x, &w.dlambda, h, c);
+            if newton.converged(w.x.norm(), 1.0 + w.it.dq.norm())? {
                 break;
             }
         }
-        if let Some(w) = self.alpha.as_mut() {
-            w.history = Some(it.history());
+        if let Some(a) = self.alpha.as_mut() {
+            a.history = Some(w.it.history());
         }
         let (iterations, matrices) = newton.counts();
-        Ok((it.state, iterations, matrices))
+        Ok((w.it.state, iterations, matrices))
     }
 
-    /// `M v̇ + Jᵀ λ − Q` into the workspace's right-hand side; returns the
-    /// Jacobian's values and `Φ` at the iterate.
-    fn alpha_residual(&mut self, it: &Iterate<NB, NV, M>) -> Result<([f64; NNZ], SVector<f64, M>), AnalysisError> {
-        let values = self.scene.jacobian_values(&it.state);
+    /// `M v̇ + Jᵀ λ − Q` into the workspace's right-hand side; the Jacobian's
+    /// values and `Φ` at the iterate into `values` and `phi`.
+    #[inline(never)]
+    fn alpha_residual(
+        &mut self,
+        it: &Iterate<NB, NV, M>,
+        values: &mut [f64; NNZ],
+        phi: &mut SVector<f64, M>,
+    ) -> Result<(), AnalysisError> {
+        self.scene.jacobian_values_into(&it.state, values);
         if !values.iter().all(|x| x.is_finite()) {
             return Err(non_finite("J"));
         }
-        let phi = self.scene.phi(&it.state);
-        check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
+        *phi = self.scene.phi(&it.state);
+        check_output::<S, NB, NV, M, 1>("Φ", phi)?;
         let q = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, &it.state);
-        let r1 = mass_times(&self.inertias, &it.vdot) + jt_mul::<S, NB, NNZ, NV, M>(&values, &it.lambda) - q;
+        let r1 = mass_times(&self.inertias, &it.vdot) + jt_mul::<S, NB, NNZ, NV, M>(values, &it.lambda) - q;
         if !r1.iter().all(|x| x.is_finite()) {
             return Err(non_finite("forces"));
         }
         let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         w.rhs[..NV].copy_from_slice(r1.as_slice());
-        Ok((values, phi))
+        Ok(())
     }
 
     /// Solves the iteration matrix for the residual in the workspace and
-    /// `r2 = Φ`: the correction `(x, δλ)`.
+    /// `r2 = Φ`: the correction `(x, δλ)`, written into `x` and `dlambda`.
+    #[inline(never)]
     fn alpha_solve(
         &mut self,
         r2: &SVector<f64, M>,
         h: f64,
-    ) -> Result<(SVector<f64, NV>, SVector<f64, M>), AnalysisError> {
+        x: &mut SVector<f64, NV>,
+        dlambda: &mut SVector<f64, M>,
+    ) -> Result<(), AnalysisError> {
         let dropped = self.solver.factor.dropped();
         let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         for (r, x) in r2.iter().enumerate() {
             w.rhs[NV + r] = if dropped.binary_search(&r).is_ok() { 0.0 } else { x / h };
         }
         w.kkt.solve(&mut w.rhs);
-        let x = SVector::<f64, NV>::from_column_slice(&w.rhs[..NV]);
-        let dlambda = SVector::<f64, M>::from_column_slice(&w.rhs[NV..]);
-        Ok((x, dlambda))
+        let (xs, ls) = w.rhs.split_at(NV);
+        for (o, &v) in x.iter_mut().zip(xs) {
+            *o = v;
+        }
+        for (o, &v) in dlambda.iter_mut().zip(ls) {
+            *o = v;
+        }
+        Ok(())
     }
 
     /// Assembles and factorises the iteration matrix at the iterate.
+    #[inline(never)]
     fn alpha_matrix(
         &mut self,
         it: &Iterate<NB, NV, M>,

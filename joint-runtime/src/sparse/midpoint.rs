@@ -24,6 +24,8 @@
 //! held at `δμ = 0`, the rule of the step's start. Newton is modified as on
 //! the dense path: the matrix is rebuilt only when convergence slows.
 
+use alloc::boxed::Box;
+
 use nalgebra::{Matrix3, SVector};
 
 use super::SparseSimulation;
@@ -32,6 +34,7 @@ use super::kkt::Kkt;
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::SparseDynamics;
 use super::solver::j_mul;
+use crate::OmegaBody;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::{
     AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times, midpoint_end, midpoint_state,
@@ -44,6 +47,34 @@ struct Midpoint<const NB: usize, const NV: usize, const M: usize, const NNZ: usi
     state: SystemState<NB>,
     dynamics: SparseDynamics<NV, M>,
     values: [f64; NNZ],
+}
+
+/// The midpoint rule's iterate: the start's velocities `v0`, the midpoint
+/// velocity `w`, the residual `R`, the correction `δw` and the midpoint.
+/// Boxed, made with the implicit integrators' pattern (in `new`, or at the
+/// first implicit step of a simulation made for RK4) and kept: a step's
+/// frames hold no vector of the scene's size but its end.
+pub(super) struct MidpointWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    v0: SVector<f64, NV>,
+    w: SVector<f64, NV>,
+    r: SVector<f64, NV>,
+    dw: SVector<f64, NV>,
+    mid: Midpoint<NB, NV, M, NNZ>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> MidpointWork<NB, NV, M, NNZ> {
+    pub(super) fn new() -> Box<Self> {
+        let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
+        let dynamics = SparseDynamics { vdot: SVector::zeros(), lambda: SVector::zeros() };
+        let zero = SVector::zeros();
+        Box::new(MidpointWork {
+            v0: zero,
+            w: zero,
+            r: zero,
+            dw: zero,
+            mid: Midpoint { state, dynamics, values: [0.0; NNZ] },
+        })
+    }
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
@@ -62,49 +93,71 @@ where
         vdot: &SVector<f64, NV>,
         h: f64,
     ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
-        let v0 = velocity_vector::<NB, NV>(y0);
+        let mut m = self.midpoint.take().unwrap_or_else(MidpointWork::new);
+        let step = self.midpoint_newton(&mut m, y0, vdot, h);
+        self.midpoint = Some(m);
+        step
+    }
+
+    /// [`step_midpoint`](Self::step_midpoint)'s Newton iteration on the
+    /// iterate `m`, then the step's end, checked against the energy balance.
+    fn midpoint_newton(
+        &mut self,
+        m: &mut MidpointWork<NB, NV, M, NNZ>,
+        y0: &SystemState<NB>,
+        vdot: &SVector<f64, NV>,
+        h: f64,
+    ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
+        m.v0 = velocity_vector::<NB, NV>(y0);
         // Explicit predictor.
-        let mut w = v0 + vdot * (0.5 * h);
-        let (mut r, mut mid) = self.midpoint_residual(y0, &v0, &w, h)?;
+        for ((w, v), a) in m.w.iter_mut().zip(m.v0.iter()).zip(vdot.iter()) {
+            *w = v + a * (0.5 * h);
+        }
+        self.midpoint_residual(y0, m, h)?;
         let mut newton = ModifiedNewton::new(&self.options);
         loop {
             newton.next()?;
             if newton.stale() {
-                self.midpoint_matrix(&mid, &w, h)?;
+                self.midpoint_matrix(&m.mid, &m.w, h)?;
                 newton.built();
             }
-            let dw = self.midpoint_solve(&mid.values, &r)?;
-            w += dw;
-            (r, mid) = self.midpoint_residual(y0, &v0, &w, h)?;
-            if newton.converged(dw.norm(), 1.0 + w.norm())? {
+            self.midpoint_solve(&m.mid.values, &m.r, &mut m.dw)?;
+            m.w += &m.dw;
+            self.midpoint_residual(y0, m, h)?;
+            if newton.converged(m.dw.norm(), 1.0 + m.w.norm())? {
                 break;
             }
         }
-        let end = midpoint_end(y0, &v0, &w, h);
-        let constraint_power = -mid.dynamics.lambda.dot(&j_mul::<S, NB, NNZ, NV, M>(&mid.values, &w));
-        let work = midpoint_work::<L, NB, NV>(&mut self.loads, &self.inertias, &mid.state, constraint_power, h);
+        let end = midpoint_end(y0, &m.v0, &m.w, h);
+        let constraint_power = -m.mid.dynamics.lambda.dot(&j_mul::<S, NB, NNZ, NV, M>(&m.mid.values, &m.w));
+        let work = midpoint_work::<L, NB, NV>(&mut self.loads, &self.inertias, &m.mid.state, constraint_power, h);
         energy_balance(&self.energy(y0), &self.energy(&end), work)?;
         let (iterations, matrices) = newton.counts();
         Ok((end, iterations, matrices))
     }
 
     /// `R = w − v_n − (h/2) a(q_n ⊕ (h/2) w, w)` under the step's rule, and the
-    /// midpoint it was evaluated at.
+    /// midpoint it was evaluated at, into `m`.
+    #[inline(never)]
     fn midpoint_residual(
         &mut self,
         y0: &SystemState<NB>,
-        v0: &SVector<f64, NV>,
-        w: &SVector<f64, NV>,
+        m: &mut MidpointWork<NB, NV, M, NNZ>,
         h: f64,
-    ) -> Result<(SVector<f64, NV>, Midpoint<NB, NV, M, NNZ>), AnalysisError> {
-        let state = midpoint_state(y0, w, h);
-        let dynamics = self.solve(&state, true, false)?;
-        let values = self.scene.jacobian_values(&state);
-        Ok((w - v0 - dynamics.vdot * (0.5 * h), Midpoint { state, dynamics, values }))
+    ) -> Result<(), AnalysisError> {
+        m.mid.state = midpoint_state(y0, &m.w, h);
+        m.mid.dynamics = self.solve(&m.mid.state, true, false)?;
+        self.scene.jacobian_values_into(&m.mid.state, &mut m.mid.values);
+        let vdot = &m.mid.dynamics.vdot;
+        for (((r, w), v), a) in m.r.iter_mut().zip(m.w.iter()).zip(m.v0.iter()).zip(vdot.iter()) {
+            *r = w - v - a * (0.5 * h);
+        }
+        Ok(())
     }
 
     /// Assembles and factorises the saddle-point Newton matrix at the midpoint
     /// `mid` of the velocity `w` (see the module docs).
+    #[inline(never)]
     fn midpoint_matrix(
         &mut self,
         mid: &Midpoint<NB, NV, M, NNZ>,
@@ -143,7 +196,13 @@ where
 
     /// The Newton correction `δw` for the residual `r`: the saddle-point
     /// matrix solved for `[−M R; −J R]` (zero on the dropped rows).
-    fn midpoint_solve(&mut self, values: &[f64; NNZ], r: &SVector<f64, NV>) -> Result<SVector<f64, NV>, AnalysisError> {
+    #[inline(never)]
+    fn midpoint_solve(
+        &mut self,
+        values: &[f64; NNZ],
+        r: &SVector<f64, NV>,
+        dw: &mut SVector<f64, NV>,
+    ) -> Result<(), AnalysisError> {
         let (mr, jr) = (mass_times(&self.inertias, r), j_mul::<S, NB, NNZ, NV, M>(values, r));
         let dropped = self.solver.factor.dropped();
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
@@ -156,11 +215,13 @@ where
             }
         }
         ws.kkt.solve(&mut ws.rhs);
-        let dw = SVector::<f64, NV>::from_column_slice(&ws.rhs[..NV]);
+        for (d, &x) in dw.iter_mut().zip(ws.rhs.iter()) {
+            *d = x;
+        }
         if !dw.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFiniteOutput { quantity: "Newton correction", row: None });
         }
-        Ok(dw)
+        Ok(())
     }
 }
 

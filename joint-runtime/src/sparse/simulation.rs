@@ -6,7 +6,9 @@ use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
 #[cfg(feature = "alloc")]
-use super::alpha::AlphaWorkspace;
+use super::alpha::{AlphaWork, AlphaWorkspace};
+#[cfg(feature = "alloc")]
+use super::midpoint::MidpointWork;
 #[cfg(feature = "alloc")]
 use super::radau::RadauWorkspace;
 use super::solver::{Solver, j_mul, non_finite};
@@ -75,6 +77,12 @@ pub struct SparseSimulation<
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again).
     pub(super) radau_start: Option<(SystemState<NB>, SparseDynamics<NV, M>)>,
+    /// The implicit midpoint rule's iterate (with `alpha`).
+    #[cfg(feature = "alloc")]
+    pub(super) midpoint: Option<alloc::boxed::Box<MidpointWork<NB, NV, M, NNZ>>>,
+    /// Generalised-α's iterate and Newton vectors (with `alpha`).
+    #[cfg(feature = "alloc")]
+    pub(super) alpha_work: Option<alloc::boxed::Box<AlphaWork<NB, NV, M, NNZ>>>,
     /// The vectors of a solve and the stages of an RK4 step, kept here
     /// rather than in a step's frames (allocated once, in `new`).
     work: Boxed<SolveWork<NV, M, NNZ>>,
@@ -193,6 +201,11 @@ where
                 Some(AlphaWorkspace::new::<S, NNZ>(springs)?)
             }
         };
+        // The implicit integrators' vectors with their pattern: a step
+        // allocates nothing.
+        #[cfg(feature = "alloc")]
+        let (alpha_work, midpoint) =
+            (alpha.as_ref().map(|_| AlphaWork::new()), alpha.as_ref().map(|_| MidpointWork::new()));
         #[cfg(not(feature = "alloc"))]
         implicit_needs_alloc(options.integrator)?;
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
@@ -215,6 +228,10 @@ where
             radau_history: None,
             #[cfg(feature = "alloc")]
             radau_start: None,
+            #[cfg(feature = "alloc")]
+            midpoint,
+            #[cfg(feature = "alloc")]
+            alpha_work,
             work: SolveWork::new(),
             rk4: Some(Rk4Work::new()),
             options,
@@ -528,6 +545,8 @@ where
     pub(super) fn alpha_workspace(&mut self) -> Result<(), AnalysisError> {
         if self.alpha.is_none() {
             self.alpha = Some(AlphaWorkspace::new::<S, NNZ>(self.springs)?);
+            self.alpha_work = Some(AlphaWork::new());
+            self.midpoint = Some(MidpointWork::new());
         }
         Ok(())
     }

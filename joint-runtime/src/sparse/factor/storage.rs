@@ -52,7 +52,7 @@ mod sealed {
 /// derive computes these from the scene's pattern; [`BlockFactor::new`]
 /// refuses storage whose sizes do not match it.
 ///
-/// [`BlockFactor::new`]: super::BlockFactor
+/// [`BlockFactor::new`]: super::BlockFactor::new
 #[derive(Clone, Debug)]
 pub struct FactorArrays<
     const N: usize,
