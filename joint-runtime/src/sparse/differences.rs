@@ -116,48 +116,80 @@ impl DifferenceTerms {
             return false;
         }
         out.fill(0.0);
-        let v = velocity_vector::<NB, NV>(state);
         for (colour, bodies) in self.colours.iter().enumerate() {
             for k in 0..6 {
-                let mut delta = SVector::<f64, NV>::zeros();
-                for &b in bodies {
-                    let (Some(d), Some(body)) = (delta.get_mut(6 * b + k), state.bodies.get(b)) else { continue };
-                    *d = STEP * if k < 3 { 1.0 + body.r.amax() } else { 1.0 };
-                }
-                let (mut plus, mut minus) = (*state, *state);
-                apply_increment(&mut plus, &delta, 1.0);
-                apply_increment(&mut minus, &delta, -1.0);
-                let moved = Moved {
-                    colour,
-                    k,
-                    delta: &delta,
-                    j: [scene.jacobian_values(&plus), scene.jacobian_values(&minus)],
-                    gamma: [scene.gamma(&plus), scene.gamma(&minus)],
-                    phi_t: [scene.phi_t(&plus), scene.phi_t(&minus)],
-                };
-                self.positions::<S, NB, NV, M, NNZ>(&moved, lambda, u, out);
-                let mut dv = SVector::<f64, NV>::zeros();
-                for &b in bodies {
-                    let speed = state.bodies.get(b).map_or(0.0, |x| x.rdot.amax().max(x.omega.amax()));
-                    if let Some(d) = dv.get_mut(6 * b + k) {
-                        *d = STEP * (1.0 + speed);
-                    }
-                }
-                let (mut plus, mut minus) = (*state, *state);
-                set_velocities(&mut plus, &(v + dv));
-                set_velocities(&mut minus, &(v - dv));
-                let (gp, gm) = (scene.gamma(&plus), scene.gamma(&minus));
-                self.each_row::<S, NB, NV, M, NNZ>(colour, k, &dv, |r, h, lc, _| {
-                    let d = (gp.get(r).copied().unwrap_or(0.0) - gm.get(r).copied().unwrap_or(0.0)) / (2.0 * h);
-                    if let Some((_, at)) = self.layout.row_at(RowTerm::GammaV, r)
-                        && let Some(o) = out.get_mut(at + lc)
-                    {
-                        *o = d;
-                    }
-                });
+                self.position_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), lambda, u, out);
+                self.velocity_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), out);
             }
         }
         true
+    }
+
+    /// One colour's bodies moved along coordinate `k` of their position
+    /// increments, both ways: the position derivatives' differences. In a
+    /// frame of its own, apart from the velocity direction's.
+    #[inline(never)]
+    fn position_direction<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+        &self,
+        scene: &S,
+        state: &SystemState<NB>,
+        (colour, bodies, k): (usize, &[usize], usize),
+        lambda: &SVector<f64, M>,
+        u: &SVector<f64, NV>,
+        out: &mut [f64],
+    ) where
+        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    {
+        let mut delta = SVector::<f64, NV>::zeros();
+        for &b in bodies {
+            let (Some(d), Some(body)) = (delta.get_mut(6 * b + k), state.bodies.get(b)) else { continue };
+            *d = STEP * if k < 3 { 1.0 + body.r.amax() } else { 1.0 };
+        }
+        let (mut plus, mut minus) = (*state, *state);
+        apply_increment(&mut plus, &delta, 1.0);
+        apply_increment(&mut minus, &delta, -1.0);
+        let moved = Moved {
+            colour,
+            k,
+            delta: &delta,
+            j: [scene.jacobian_values(&plus), scene.jacobian_values(&minus)],
+            gamma: [scene.gamma(&plus), scene.gamma(&minus)],
+            phi_t: [scene.phi_t(&plus), scene.phi_t(&minus)],
+        };
+        self.positions::<S, NB, NV, M, NNZ>(&moved, lambda, u, out);
+    }
+
+    /// One colour's bodies' velocity coordinate `k` moved both ways: `∂γ/∂v`.
+    #[inline(never)]
+    fn velocity_direction<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+        &self,
+        scene: &S,
+        state: &SystemState<NB>,
+        (colour, bodies, k): (usize, &[usize], usize),
+        out: &mut [f64],
+    ) where
+        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    {
+        let v = velocity_vector::<NB, NV>(state);
+        let mut dv = SVector::<f64, NV>::zeros();
+        for &b in bodies {
+            let speed = state.bodies.get(b).map_or(0.0, |x| x.rdot.amax().max(x.omega.amax()));
+            if let Some(d) = dv.get_mut(6 * b + k) {
+                *d = STEP * (1.0 + speed);
+            }
+        }
+        let (mut plus, mut minus) = (*state, *state);
+        set_velocities(&mut plus, &(v + dv));
+        set_velocities(&mut minus, &(v - dv));
+        let (gp, gm) = (scene.gamma(&plus), scene.gamma(&minus));
+        self.each_row::<S, NB, NV, M, NNZ>(colour, k, &dv, |r, h, lc, _| {
+            let d = (gp.get(r).copied().unwrap_or(0.0) - gm.get(r).copied().unwrap_or(0.0)) / (2.0 * h);
+            if let Some((_, at)) = self.layout.row_at(RowTerm::GammaV, r)
+                && let Some(o) = out.get_mut(at + lc)
+            {
+                *o = d;
+            }
+        });
     }
 
     /// Scatters one colour's position direction: `∂(J u)/∂q`, `∂γ/∂q`,
