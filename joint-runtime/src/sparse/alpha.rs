@@ -181,7 +181,8 @@ where
         start: (SVector<f64, NV>, SVector<f64, M>),
     ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
         let c = Coefficients::checked(self.options.spectral_radius)?;
-        let mut w = self.alpha_work.take().unwrap_or_else(AlphaWork::new);
+        // Made with the implicit pattern (`alpha_workspace`).
+        let mut w = self.alpha_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let step = self.alpha_newton(&mut w, y0, h, continuing, start, c);
         self.alpha_work = Some(w);
         step

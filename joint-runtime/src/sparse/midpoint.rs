@@ -93,7 +93,9 @@ where
         vdot: &SVector<f64, NV>,
         h: f64,
     ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
-        let mut m = self.midpoint.take().unwrap_or_else(MidpointWork::new);
+        // Made with the implicit pattern (`alpha_workspace`): no constructor
+        // (and its temporaries) in this frame.
+        let mut m = self.midpoint.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let step = self.midpoint_newton(&mut m, y0, vdot, h);
         self.midpoint = Some(m);
         step
@@ -128,12 +130,26 @@ where
                 break;
             }
         }
+        let end = self.midpoint_end(m, y0, h)?;
+        let (iterations, matrices) = newton.counts();
+        Ok((end, iterations, matrices))
+    }
+
+    /// The step's end from the converged iterate, refused if it gains
+    /// energy no work explains (a spurious Newton solution). In a frame of
+    /// its own, apart from the iteration's.
+    #[inline(never)]
+    fn midpoint_end(
+        &mut self,
+        m: &MidpointWork<NB, NV, M, NNZ>,
+        y0: &SystemState<NB>,
+        h: f64,
+    ) -> Result<SystemState<NB>, AnalysisError> {
         let end = midpoint_end(y0, &m.v0, &m.w, h);
         let constraint_power = -m.mid.dynamics.lambda.dot(&j_mul::<S, NB, NNZ, NV, M>(&m.mid.values, &m.w));
         let work = midpoint_work::<L, NB, NV>(&mut self.loads, &self.inertias, &m.mid.state, constraint_power, h);
         energy_balance(&self.energy(y0), &self.energy(&end), work)?;
-        let (iterations, matrices) = newton.counts();
-        Ok((end, iterations, matrices))
+        Ok(end)
     }
 
     /// `R = w − v_n − (h/2) a(q_n ⊕ (h/2) w, w)` under the step's rule, and the
