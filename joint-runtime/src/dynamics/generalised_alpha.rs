@@ -99,6 +99,7 @@ impl Coefficients {
 }
 
 /// The unknowns of one step and what follows from them.
+#[derive(Clone, Copy)]
 pub(crate) struct Iterate<const NB: usize, const NV: usize, const M: usize> {
     pub(crate) dq: SVector<f64, NV>,
     pub(crate) a: SVector<f64, NV>,
@@ -120,14 +121,10 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
         h: f64,
         c: Coefficients,
     ) -> Self {
-        let dq = v0 + past.a * (h * (0.5 - c.beta)) + a * (h * c.beta);
-        let v = v0 + past.a * (h * (1.0 - c.gamma)) + a * (h * c.gamma);
-        let vdot = (a * (1.0 - c.alpha_m) + past.a * c.alpha_m - past.vdot * c.alpha_f) / (1.0 - c.alpha_f);
-        let mut state = *y0;
-        apply_increment(&mut state, &dq, h);
-        set_velocities(&mut state, &v);
-        state.t = y0.t + h;
-        Iterate { dq, a, v, vdot, lambda, state }
+        let zero = SVector::zeros();
+        let mut it = Iterate { dq: zero, a, v: zero, vdot: zero, lambda, state: *y0 };
+        it.follow(y0, v0, past, h, c);
+        it
     }
 
     /// The iterate after the Newton correction `(x, δλ)`.
@@ -142,13 +139,14 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
         h: f64,
         c: Coefficients,
     ) -> Self {
-        Iterate::new(y0, v0, past, self.a - x / (h * c.beta), self.lambda - dlambda, h, c)
+        let mut next = *self;
+        next.correct(y0, v0, past, x, dlambda, h, c);
+        next
     }
 
-    /// [`Iterate::new`] written over `self`, for the pseudo-acceleration
-    /// `self.a` and multipliers `self.lambda` (the same operations in the
-    /// same order, so the same bits; no vector in the caller's frame).
-    #[cfg(feature = "alloc")]
+    /// The state and rates that follow from the pseudo-acceleration `self.a`
+    /// (multipliers `self.lambda`), written over `self`: no vector in the
+    /// caller's frame.
     pub(crate) fn follow(
         &mut self,
         y0: &SystemState<NB>,
@@ -172,7 +170,6 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
     }
 
     /// [`Iterate::corrected`] written over `self`.
-    #[cfg(feature = "alloc")]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn correct(
         &mut self,
