@@ -99,7 +99,6 @@ impl Coefficients {
 }
 
 /// The unknowns of one step and what follows from them.
-#[derive(Clone, Copy)]
 pub(crate) struct Iterate<const NB: usize, const NV: usize, const M: usize> {
     pub(crate) dq: SVector<f64, NV>,
     pub(crate) a: SVector<f64, NV>,
@@ -127,23 +126,6 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
         it
     }
 
-    /// The iterate after the Newton correction `(x, δλ)`.
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn corrected(
-        &self,
-        y0: &SystemState<NB>,
-        v0: &SVector<f64, NV>,
-        past: &AlphaHistory<NB, NV, M>,
-        x: &SVector<f64, NV>,
-        dlambda: &SVector<f64, M>,
-        h: f64,
-        c: Coefficients,
-    ) -> Self {
-        let mut next = *self;
-        next.correct(y0, v0, past, x, dlambda, h, c);
-        next
-    }
-
     /// The state and rates that follow from the pseudo-acceleration `self.a`
     /// (multipliers `self.lambda`), written over `self`: no vector in the
     /// caller's frame.
@@ -169,7 +151,7 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
         self.state.t = y0.t + h;
     }
 
-    /// [`Iterate::corrected`] written over `self`.
+    /// The iterate after the Newton correction `(x, δλ)`, written over `self`.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn correct(
         &mut self,
@@ -245,7 +227,7 @@ where
             };
             let (x, dlambda) = m.solve(&j, &r1, &(r2 / h));
             factor = Some(m);
-            it = it.corrected(&y0, &v0, &past, &x, &dlambda, h, c);
+            it.correct(&y0, &v0, &past, &x, &dlambda, h, c);
             if newton.converged(x.norm(), 1.0 + it.dq.norm())? {
                 break;
             }
