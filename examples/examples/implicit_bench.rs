@@ -10,7 +10,7 @@
 //! each row gives the median over rounds of µs per step, with Newton
 //! iterations and iteration matrices per step and how far apart the two runs
 //! end. A third run in each round takes the sparse path
-//! (`SparseSimulation`), whose exact Newton matrix is a saddle-point matrix
+//! (`Simulation`), whose exact Newton matrix is a saddle-point matrix
 //! over bodies and joints.
 //!
 //! ```text
@@ -21,8 +21,9 @@ use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::{bricard, four_bar};
-use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, StepReport};
-use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::dynamics::{
+    DenseSimulation, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, StepReport,
+};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 const STEPS: usize = 500;
@@ -66,7 +67,7 @@ fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     matrix: NewtonMatrix,
 ) -> Result<Run<NB>, Box<dyn std::error::Error>> {
     let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint).with_newton_matrix(matrix);
-    let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
+    let mut sim = DenseSimulation::new(scene, NoLoads, &[], options)?;
     timed(start, |state| sim.step(state, H))
 }
 
@@ -78,7 +79,7 @@ where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint);
-    let mut sim = SparseSimulation::new(scene, NoLoads, &[], options)?;
+    let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
     timed(start, |state| sim.step(state, H))
 }
 

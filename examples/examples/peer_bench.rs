@@ -27,9 +27,8 @@ use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::scaling::chain_start;
-use joint_runtime::dynamics::{Integrator, NoLoads, SimulationOptions};
+use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
-use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
 joint_examples::chain_scene!(Chain3, 3);
@@ -109,7 +108,7 @@ where
     };
     let mut options = SimulationOptions::default();
     options.integrator = integrator;
-    let mut sim = Box::new(SparseSimulation::new(scene, NoLoads, &[], options)?);
+    let mut sim = Box::new(Simulation::new(scene, NoLoads, &[], options)?);
     let (start, mut end) = (Box::new(start), Box::new(start));
     let mut us = Vec::with_capacity(rounds);
     let mut time = || -> Result<(), String> {

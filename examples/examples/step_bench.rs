@@ -1,4 +1,4 @@
-//! Time per `Simulation::step` on the double Cardan shaft (Z arrangement, yokes
+//! Time per `DenseSimulation::step` on the double Cardan shaft (Z arrangement, yokes
 //! in phase, β = 30°) as a dynamics problem: no motor, gravity along −z, the
 //! shafts spinning freely from an initial 10 rad/s (velocities from the driven
 //! shaft's velocity analysis, so the start is consistent). Each integrator (RK4,
@@ -13,8 +13,7 @@
 use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
-use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::dynamics::{DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
 
 const STEPS: usize = 20_000;
 const REPS: usize = 5;
@@ -42,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if !projection {
                 options.projection = None;
             }
-            let mut sim = Simulation::new(&scene, NoLoads, &[], options)?;
+            let mut sim = DenseSimulation::new(&scene, NoLoads, &[], options)?;
             let e0 = sim.energy(&start).total();
             times.clear();
             let (mut drift, mut residual, mut mismatch) = (0.0f64, 0.0f64, 0.0f64);
@@ -75,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     // The same scene on the sparse block factor (RK4 with projection).
-    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default())?;
+    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default())?;
     let e0 = sim.energy(&start).total();
     times.clear();
     let (mut drift, mut residual) = (0.0f64, 0.0f64);

@@ -27,7 +27,7 @@ use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
-use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState};
+use joint_runtime::{BodyInertia, OmegaBody, Scene, SparseJacobian, SystemState};
 
 /// Number of moving bars.
 pub const BODIES: usize = 5;
@@ -211,7 +211,7 @@ impl core::error::Error for Failure {}
 // The error is the runtime's (120 bytes) plus the time it happened: one word
 // over clippy's threshold, on a path taken once per run.
 #[allow(clippy::result_large_err)]
-pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
+pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS> + SparseJacobian<BODIES, NNZ>, const NNZ: usize>(
     scene: &S,
     integrator: Integrator,
     h: f64,

@@ -27,7 +27,7 @@ use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{DMatrix, UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
-use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState};
+use joint_runtime::{BodyInertia, OmegaBody, Scene, SparseJacobian, SystemState};
 
 /// Number of four-bar loops.
 pub const LOOPS: usize = 4;
@@ -220,7 +220,7 @@ pub struct Run {
 ///
 /// # Errors
 /// Any failure of a step.
-pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS>>(
+pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS> + SparseJacobian<BODIES, NNZ>, const NNZ: usize>(
     scene: &S,
     start: &SystemState<BODIES>,
     integrator: Integrator,

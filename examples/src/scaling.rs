@@ -21,9 +21,8 @@
 use std::time::Instant;
 
 use joint_runtime::analysis::AnalysisError;
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
-use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
 /// Declares the chain of `$n` bars (`second_order` after the size for the
@@ -164,7 +163,7 @@ pub fn sparse_step_us<S, const NB: usize, const NV: usize, const M: usize, const
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let mut sim = SparseSimulation::new(scene, NoLoads, &[], options(integrator))?;
+    let mut sim = Simulation::new(scene, NoLoads, &[], options(integrator))?;
     let us = median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))?;
     Ok((us, sim.iteration_blocks()))
 }
@@ -186,7 +185,7 @@ where
 {
     std::thread::scope(|scope| {
         let run = move || {
-            let mut sim = Simulation::new(scene, NoLoads, &[], options(integrator))?;
+            let mut sim = DenseSimulation::new(scene, NoLoads, &[], options(integrator))?;
             median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))
         };
         match std::thread::Builder::new().stack_size(stack).spawn_scoped(scope, run) {

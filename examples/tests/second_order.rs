@@ -8,16 +8,18 @@
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::{bricard, four_bar};
 use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions};
-use joint_runtime::{Scene, SystemState};
+use joint_runtime::{Scene, SparseJacobian, SystemState};
 use joint_tests::second_order::worst_error;
 
 /// The worst relative error over `steps` RK4 steps of the scene from `start`
 /// (λ and a from the dynamics, so the terms are those a Newton matrix uses).
-fn check<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+fn check<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     name: &str,
     scene: &S,
     start: SystemState<NB>,
-) {
+) where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
     let mut sim = Simulation::new(scene, NoLoads, &[], SimulationOptions::default()).expect("simulation");
     let mut state = start;
     let mut worst = (0.0f64, "");

@@ -5,10 +5,11 @@
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
 use joint_runtime::analysis::{AssemblyOptions, accelerations, assemble, velocities};
 use joint_runtime::dynamics::{
-    Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation, Tolerance,
+    Adaptive, DenseSimulation, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
+    Tolerance,
 };
 use joint_runtime::nalgebra::{DMatrix, SVector};
-use joint_runtime::sparse::{RowTerm, SecondOrderLayout, SparseAnalysis, SparseSimulation};
+use joint_runtime::sparse::{RowTerm, SecondOrderLayout, SparseAnalysis};
 use joint_runtime::{Ramp, Scene, SparseJacobian, SystemState};
 
 /// `|a − b| ≤ tol (1 + |b|)` entry by entry.
@@ -55,8 +56,8 @@ fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
 {
     on_dense_stack(|| {
         let options = SimulationOptions::default();
-        let mut dense = Simulation::new(scene, NoLoads, &[], options).expect("dense");
-        let mut sparse = SparseSimulation::new(scene, NoLoads, &[], options).expect("sparse");
+        let mut dense = DenseSimulation::new(scene, NoLoads, &[], options).expect("dense");
+        let mut sparse = Simulation::new(scene, NoLoads, &[], options).expect("sparse");
         let (d, s) =
             (dense.dynamics(&state).expect("dense dynamics"), sparse.dynamics(&state).expect("sparse dynamics"));
         close("v̇", s.vdot.as_slice(), d.vdot.as_slice(), 1e-9);
@@ -87,8 +88,8 @@ fn baumgarte_as_on_the_dense_path() {
                 .with_integrator(integrator)
                 .with_projection(None)
                 .with_stabilisation(Stabilisation::Baumgarte { alpha: 200.0, beta: 200.0 });
-            let mut dense = Simulation::new(&scene, NoLoads, &[], options).expect("dense");
-            let mut sparse = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+            let mut dense = DenseSimulation::new(&scene, NoLoads, &[], options).expect("dense");
+            let mut sparse = Simulation::new(&scene, NoLoads, &[], options).expect("sparse");
             let (mut a, mut b, mut iterations) = (start, start, [0, 0]);
             for _ in 0..500 {
                 iterations[0] += dense.step(&mut a, 1e-3).expect("dense step").newton_iterations;
@@ -111,12 +112,12 @@ fn baumgarte_as_on_the_dense_path() {
 fn the_projections_factor_serves_the_next_step() {
     let scene = bricard::scene();
     let options = SimulationOptions::default();
-    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+    let mut sim = Simulation::new(&scene, NoLoads, &[], options).expect("sparse");
     let mut state = bricard::initial_state();
     for _ in 0..5 {
         sim.step(&mut state, 1e-3).expect("step");
     }
-    let mut fresh = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+    let mut fresh = Simulation::new(&scene, NoLoads, &[], options).expect("sparse");
     let (a, b) = (sim.dynamics(&state).expect("reused"), fresh.dynamics(&state).expect("fresh"));
     assert_eq!((a.vdot, a.lambda), (b.vdot, b.lambda));
     assert_eq!(sim.redundant().len(), 1);
@@ -139,7 +140,7 @@ fn the_projections_factor_serves_the_next_step() {
 fn four_factorisations_an_rk4_step() {
     joint_examples::chain_scene!(Chain10, 10);
     let scene = Chain10;
-    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).expect("sparse");
     let mut state = scaling::chain_start::<10>();
     sim.step(&mut state, 1e-3).expect("step");
     let before = sim.factor().factorisations();
@@ -199,7 +200,7 @@ fn a_200_body_chain_matches_the_dense_dynamics_and_keeps_its_energy() {
     let start = scaling::chain_start::<200>();
     let dense = std::thread::scope(|s| {
         let run = || {
-            Simulation::new(&Chain200, NoLoads, &[], SimulationOptions::default())
+            DenseSimulation::new(&Chain200, NoLoads, &[], SimulationOptions::default())
                 .and_then(|mut d| d.dynamics(&start))
                 .map(|d| d.vdot)
         };
@@ -211,7 +212,7 @@ fn a_200_body_chain_matches_the_dense_dynamics_and_keeps_its_energy() {
             .expect("no panic")
     })
     .expect("dense dynamics");
-    let mut sparse = SparseSimulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    let mut sparse = Simulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).expect("sparse");
     close("v̇", sparse.dynamics(&start).expect("sparse dynamics").vdot.as_slice(), dense.as_slice(), 1e-9);
     // 100 ms of free fall and swing: energy and constraints kept.
     let (mut state, e0) = (start, sparse.energy(&start).total());
@@ -236,7 +237,7 @@ fn crank_angle<const NB: usize>(state: &SystemState<NB>, i: usize) -> f64 {
 /// far any crank strays from the first (one degree of freedom) and the worst
 /// relative energy change.
 fn through_singular_positions<const NV: usize, const M: usize, const NNZ: usize>(
-    sim: &mut SparseSimulation<'_, Ladder40, NoLoads, 81, NV, M, NNZ>,
+    sim: &mut Simulation<'_, Ladder40, NoLoads, 81, NV, M, NNZ>,
     mut state: SystemState<81>,
 ) -> (usize, f64, f64)
 where
@@ -262,7 +263,7 @@ where
 
 #[test]
 fn the_40_loop_ladder_runs_through_its_singular_positions() {
-    let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    let mut sim = Simulation::new(&Ladder40, NoLoads, &[], SimulationOptions::default()).expect("sparse");
     let state = scaling::ladder_start::<81>();
     // Upright: three redundant rows per planar loop, found by joint.
     sim.dynamics(&state).expect("dynamics");
@@ -303,8 +304,8 @@ fn reactions_match_the_dense_ones() {
     let scene = pendulum_chain::scene();
     let state = pendulum_chain::initial_state();
     let options = SimulationOptions::default();
-    let mut dense = Simulation::new(&scene, NoLoads, &[], options).expect("dense");
-    let mut sparse = SparseSimulation::new(&scene, NoLoads, &[], options).expect("sparse");
+    let mut dense = DenseSimulation::new(&scene, NoLoads, &[], options).expect("dense");
+    let mut sparse = Simulation::new(&scene, NoLoads, &[], options).expect("sparse");
     let (d, s) = (dense.dynamics(&state).expect("dense"), sparse.dynamics(&state).expect("sparse"));
     for block in pendulum_chain::Chain::BLOCKS {
         let (a, b) = (dense.reactions(&state, &d.lambda, block), sparse.reactions(&state, &s.lambda, block));
@@ -343,8 +344,8 @@ fn same_implicit<S, const NB: usize, const NV: usize, const M: usize, const NNZ:
     on_dense_stack(|| {
         let mut options = SimulationOptions::default();
         options.integrator = integrator;
-        let mut dense = Simulation::new(scene, NoLoads, springs, options).expect("dense");
-        let mut sparse = SparseSimulation::new(scene, NoLoads, springs, options).expect("sparse");
+        let mut dense = DenseSimulation::new(scene, NoLoads, springs, options).expect("dense");
+        let mut sparse = Simulation::new(scene, NoLoads, springs, options).expect("sparse");
         let (mut a, mut b) = (state, state);
         let (mut dense_iterations, mut sparse_iterations) = (0, 0);
         for _ in 0..steps {
@@ -452,7 +453,7 @@ fn alpha_options(rho: f64) -> SimulationOptions {
 fn generalised_alpha_on_a_200_body_chain_converges_at_second_order() {
     let start = scaling::chain_start::<200>();
     let run = |options: SimulationOptions, h: f64| {
-        let mut sim = SparseSimulation::new(&Chain200, NoLoads, &[], options).expect("sparse");
+        let mut sim = Simulation::new(&Chain200, NoLoads, &[], options).expect("sparse");
         let mut state = start;
         let steps = (0.02 / h).round() as usize;
         for _ in 0..steps {
@@ -478,7 +479,7 @@ fn generalised_alpha_on_a_200_body_chain_converges_at_second_order() {
 /// energy kept by the undamped method (ρ∞ = 1).
 #[test]
 fn generalised_alpha_takes_the_40_loop_ladder_through_its_singular_positions() {
-    let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], alpha_options(1.0)).expect("sparse");
+    let mut sim = Simulation::new(&Ladder40, NoLoads, &[], alpha_options(1.0)).expect("sparse");
     let state = scaling::ladder_start::<81>();
     let (passages, worst_branch, worst_energy) = through_singular_positions(&mut sim, state);
     assert_eq!(sim.factor().dropped().len(), 3 * 40);
@@ -501,8 +502,8 @@ fn implicit_steps_without_second_order_terms_take_differences() {
     let start = scaling::chain_start::<5>();
     for integrator in [Integrator::GeneralisedAlpha, Integrator::ImplicitMidpoint] {
         let options = alpha_options(0.9).with_integrator(integrator);
-        let mut plain = SparseSimulation::new(&Plain5, NoLoads, &[], options).expect("sparse");
-        let mut full = SparseSimulation::new(&Full5, NoLoads, &[], options).expect("sparse");
+        let mut plain = Simulation::new(&Plain5, NoLoads, &[], options).expect("sparse");
+        let mut full = Simulation::new(&Full5, NoLoads, &[], options).expect("sparse");
         let (mut a, mut b, mut iterations) = (start, start, [0, 0]);
         for _ in 0..100 {
             iterations[0] += plain.step(&mut a, 2e-3).expect("differences").newton_iterations;
@@ -533,8 +534,8 @@ fn same_integrate<S, const NB: usize, const NV: usize, const M: usize, const NNZ
     on_dense_stack(|| {
         let options = SimulationOptions::default();
         let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
-        let mut dense = Simulation::new(scene, NoLoads, springs, options).expect("dense");
-        let mut sparse = SparseSimulation::new(scene, NoLoads, springs, options).expect("sparse");
+        let mut dense = DenseSimulation::new(scene, NoLoads, springs, options).expect("dense");
+        let mut sparse = Simulation::new(scene, NoLoads, springs, options).expect("sparse");
         let (mut a, mut b) = (state, state);
         let d = dense.integrate(&mut a, t_end, method, tolerance).expect("dense integrate");
         let s = sparse.integrate(&mut b, t_end, method, tolerance).expect("sparse integrate");
@@ -574,7 +575,7 @@ fn error_controlled_steps_on_a_200_body_chain() {
     let start = scaling::chain_start::<200>();
     let t_end = 0.02;
     let mut reference = start;
-    let mut sim = SparseSimulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).expect("sparse");
+    let mut sim = Simulation::new(&Chain200, NoLoads, &[], SimulationOptions::default()).expect("sparse");
     for _ in 0..200 {
         sim.step(&mut reference, t_end / 200.0).expect("reference steps");
     }
@@ -621,7 +622,7 @@ fn implicit_midpoint_on_a_200_body_chain_converges_at_second_order() {
     let run = |integrator: Integrator, h: f64| {
         let mut options = SimulationOptions::default();
         options.integrator = integrator;
-        let mut sim = SparseSimulation::new(&Chain200, NoLoads, &[], options).expect("sparse");
+        let mut sim = Simulation::new(&Chain200, NoLoads, &[], options).expect("sparse");
         let (mut state, mut iterations) = (start, 0);
         let steps = (0.02 / h).round() as usize;
         for _ in 0..steps {
@@ -650,7 +651,7 @@ fn implicit_midpoint_on_a_200_body_chain_converges_at_second_order() {
 fn implicit_midpoint_takes_the_40_loop_ladder_through_its_singular_positions() {
     let mut options = SimulationOptions::default();
     options.integrator = Integrator::ImplicitMidpoint;
-    let mut sim = SparseSimulation::new(&Ladder40, NoLoads, &[], options).expect("sparse");
+    let mut sim = Simulation::new(&Ladder40, NoLoads, &[], options).expect("sparse");
     let (passages, worst_branch, worst_energy) = through_singular_positions(&mut sim, scaling::ladder_start::<81>());
     assert_eq!(sim.factor().dropped().len(), 3 * 40);
     println!(
@@ -667,14 +668,14 @@ fn implicit_midpoint_takes_the_40_loop_ladder_through_its_singular_positions() {
 #[test]
 fn generalised_alpha_starts_afresh_after_another_integrator() {
     let scene = four_bar::scene();
-    let mut sim = SparseSimulation::new(&scene, NoLoads, &[], alpha_options(0.9)).expect("sparse");
+    let mut sim = Simulation::new(&scene, NoLoads, &[], alpha_options(0.9)).expect("sparse");
     let mut state = four_bar::initial_state();
     for _ in 0..3 {
         sim.step(&mut state, 1e-3).expect("generalised-α");
     }
     sim.options.integrator = Integrator::ImplicitMidpoint;
     sim.step(&mut state, 1e-3).expect("midpoint");
-    let mut fresh = SparseSimulation::new(&scene, NoLoads, &[], alpha_options(0.9)).expect("sparse");
+    let mut fresh = Simulation::new(&scene, NoLoads, &[], alpha_options(0.9)).expect("sparse");
     let mut other = state;
     sim.options.integrator = Integrator::GeneralisedAlpha;
     sim.step(&mut state, 1e-3).expect("generalised-α again");
@@ -705,8 +706,8 @@ fn stiff_user_loads_enter_the_sparse_newton_matrices() {
     };
     for integrator in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha, Integrator::RadauIIA] {
         let options = SimulationOptions::default().with_integrator(integrator);
-        let mut dense = Simulation::new(&Full5, loads, &[], options).expect("dense");
-        let mut sparse = SparseSimulation::new(&Full5, loads, &[], options).expect("sparse");
+        let mut dense = DenseSimulation::new(&Full5, loads, &[], options).expect("dense");
+        let mut sparse = Simulation::new(&Full5, loads, &[], options).expect("sparse");
         let (mut a, mut b, mut iterations) = (start, start, [0, 0]);
         for _ in 0..50 {
             iterations[0] += dense.step(&mut a, 2e-3).expect("dense").newton_iterations;

@@ -7,10 +7,9 @@
 use joint_examples::{bricard, press};
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{
-    Adaptive, IntegrationReport, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, SpringDamper,
-    StepReport, Tolerance,
+    Adaptive, DenseSimulation, IntegrationReport, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions,
+    SpringDamper, StepReport, Tolerance,
 };
-use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 /// How a run advances.
@@ -36,7 +35,26 @@ trait Steps<const NB: usize> {
 }
 
 impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Steps<NB>
-    for Simulation<'_, S, NoLoads, NB, NV, M>
+    for DenseSimulation<'_, S, NoLoads, NB, NV, M>
+{
+    fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
+        DenseSimulation::step(self, state, h)
+    }
+    fn integrate(
+        &mut self,
+        state: &mut SystemState<NB>,
+        t_end: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+    ) -> Result<IntegrationReport, AnalysisError> {
+        DenseSimulation::integrate(self, state, t_end, method, tolerance)
+    }
+}
+
+impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Steps<NB>
+    for Simulation<'_, S, NoLoads, NB, NV, M, NNZ>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
         Simulation::step(self, state, h)
@@ -49,25 +67,6 @@ impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Step
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
         Simulation::integrate(self, state, t_end, method, tolerance)
-    }
-}
-
-impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Steps<NB>
-    for SparseSimulation<'_, S, NoLoads, NB, NV, M, NNZ>
-where
-    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
-{
-    fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
-        SparseSimulation::step(self, state, h)
-    }
-    fn integrate(
-        &mut self,
-        state: &mut SystemState<NB>,
-        t_end: f64,
-        method: Adaptive,
-        tolerance: Tolerance,
-    ) -> Result<IntegrationReport, AnalysisError> {
-        SparseSimulation::integrate(self, state, t_end, method, tolerance)
     }
 }
 
@@ -106,7 +105,7 @@ fn run<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     t_end: f64,
     how: Run,
 ) -> (SystemState<NB>, Counts) {
-    let mut sim = Simulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
+    let mut sim = DenseSimulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
     advance(&mut sim, start, t_end, how)
 }
 
@@ -121,7 +120,7 @@ fn run_sparse<S, const NB: usize, const NV: usize, const M: usize, const NNZ: us
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let mut sim = SparseSimulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
+    let mut sim = Simulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
     advance(&mut sim, start, t_end, how)
 }
 
@@ -202,12 +201,12 @@ fn radau_is_fifth_order() {
 fn radau_starts_afresh_after_a_switch_and_fails_cleanly() {
     let (scene, springs) = (press::scene(), press::springs());
     let options = SimulationOptions::default().with_integrator(Integrator::RadauIIA);
-    let mut sim = Simulation::new(&scene, NoLoads, &springs, options).expect("simulation");
+    let mut sim = DenseSimulation::new(&scene, NoLoads, &springs, options).expect("simulation");
     let mut state = press::initial_state().expect("assembled");
     sim.step(&mut state, 1e-3).expect("Radau step");
     sim.options.integrator = Integrator::Rk4;
     sim.step(&mut state, 1e-4).expect("RK4 step");
-    let mut fresh = Simulation::new(&scene, NoLoads, &springs, options).expect("simulation");
+    let mut fresh = DenseSimulation::new(&scene, NoLoads, &springs, options).expect("simulation");
     let mut other = state;
     sim.options.integrator = Integrator::RadauIIA;
     sim.step(&mut state, 1e-3).expect("Radau step");
@@ -262,8 +261,8 @@ fn sparse_newton_matrices_by_differences() {
     for integrator in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha] {
         let generated = SimulationOptions::default().with_integrator(integrator);
         let differences = generated.with_newton_matrix(NewtonMatrix::FiniteDifferences);
-        let mut a = SparseSimulation::new(&scene, NoLoads, &springs, generated).expect("generated");
-        let mut b = SparseSimulation::new(&scene, NoLoads, &springs, differences).expect("differences");
+        let mut a = Simulation::new(&scene, NoLoads, &springs, generated).expect("generated");
+        let mut b = Simulation::new(&scene, NoLoads, &springs, differences).expect("differences");
         let (mut x, mut y, mut iterations) = (start, start, [0, 0]);
         for _ in 0..50 {
             iterations[0] += a.step(&mut x, 1e-3).expect("generated").newton_iterations;
@@ -277,7 +276,7 @@ fn sparse_newton_matrices_by_differences() {
         assert!(iterations[1] <= iterations[0] + 10, "{integrator:?}: {iterations:?}");
     }
     let options = SimulationOptions::default().with_newton_matrix(NewtonMatrix::FiniteDifferences);
-    let mut sparse = SparseSimulation::new(&scene, NoLoads, &springs, options).expect("RK4 takes the option");
+    let mut sparse = Simulation::new(&scene, NoLoads, &springs, options).expect("RK4 takes the option");
     let mut state = start;
     let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
     sparse.integrate(&mut state, 0.01, Adaptive::GeneralisedAlpha, tolerance).expect("differences");
@@ -297,8 +296,8 @@ fn midpoint_refuses_a_spurious_solution() {
     let (scene, springs) = (press::scene(), press::springs());
     let start = press::initial_state().expect("assembled");
     let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint);
-    let mut dense = Simulation::new(&scene, NoLoads, &springs, options).expect("dense");
-    let mut sparse = SparseSimulation::new(&scene, NoLoads, &springs, options).expect("sparse");
+    let mut dense = DenseSimulation::new(&scene, NoLoads, &springs, options).expect("dense");
+    let mut sparse = Simulation::new(&scene, NoLoads, &springs, options).expect("sparse");
     let mut steps: [PressStep; 2] =
         [Box::new(|s, h| dense.step(s, h).map(|_| ())), Box::new(|s, h| sparse.step(s, h).map(|_| ()))];
     for step in &mut steps {

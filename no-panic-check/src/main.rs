@@ -19,7 +19,7 @@
 //! - The double Cardan shaft of `joint_examples::double_cardan`, driven
 //!   (`Scene<3, 18, 19>`, a redundant row) and free (`Scene<3, 18, 18>`): the
 //!   system Φ, Φ_t, J, γ, `evaluate` and the sparse J values; `assemble`,
-//!   `velocities`, `accelerations`; `Simulation::new`, `step`, `dynamics`,
+//!   `velocities`, `accelerations`; `DenseSimulation::new`, `step`, `dynamics`,
 //!   `project`, `reactions` and `energy`; the free shaft's `second_order` and
 //!   `integrate` ([`scenes`]). The integrator,
 //!   stabilisation, projection and springs are run-time options, so every one of

@@ -18,7 +18,7 @@ use joint_runtime::analysis::{
     accelerations_with, assemble, velocities, velocities_with,
 };
 use joint_runtime::dynamics::{Adaptive, IntegrationReport, SpringDamper, StepReport, Tolerance};
-use joint_runtime::dynamics::{AppliedLoads, Dynamics, Energy, Loads, Reaction, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AppliedLoads, DenseSimulation, Dynamics, Energy, Loads, Reaction, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
 use joint_runtime::{Evaluation, RowBlock, Scene, SecondOrder, SparseJacobian, SystemState};
 
@@ -38,7 +38,7 @@ pub mod driven {
     use super::*;
     use joint_examples::double_cardan::DoubleCardan;
 
-    type Sim<'a> = Simulation<'a, DoubleCardan, Push, 3, 18, 19>;
+    type Sim<'a> = DenseSimulation<'a, DoubleCardan, Push, 3, 18, 19>;
 
     checked! {
         fn phi(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.phi(state) }
@@ -82,7 +82,7 @@ pub mod driven {
             springs: &'a [SpringDamper],
             options: SimulationOptions,
         ) -> Result<Sim<'a>, AnalysisError> {
-            Simulation::new(scene, Push, springs, options)
+            DenseSimulation::new(scene, Push, springs, options)
         }
         fn step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
             sim.step(state, h)
@@ -114,7 +114,7 @@ pub mod free {
     use super::*;
     use joint_examples::double_cardan::FreeDoubleCardan;
 
-    type Sim<'a> = Simulation<'a, FreeDoubleCardan, Push, 3, 18, 18>;
+    type Sim<'a> = DenseSimulation<'a, FreeDoubleCardan, Push, 3, 18, 18>;
 
     checked! {
         fn phi(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SVector<f64, 18> { scene.phi(state) }

@@ -23,9 +23,9 @@ use core::panic::PanicInfo;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF32x8, evaluate_batch_simd, splat};
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{DenseSimulation, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
-use joint_runtime::sparse::{SparseAnalysis, SparseSimulation};
+use joint_runtime::sparse::SparseAnalysis;
 use joint_runtime::{Joint, OmegaBody, Scene, SystemState, TwoBodies};
 
 /// A Cardan joint with run-time yokes and offsets.
@@ -95,7 +95,7 @@ pub extern "C" fn joint_pendulum_steps(angle: f64, steps: u32) -> f64 {
     if assemble(&Pendulum, &mut state, &AssemblyOptions::default()).is_err() {
         return f64::NAN;
     }
-    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
+    let Ok(mut sim) = DenseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
         return f64::NAN;
     };
     for _ in 0..steps {
@@ -134,7 +134,7 @@ pub extern "C" fn joint_pendulum_sparse_steps(angle: f64, steps: u32) -> f64 {
     let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
     let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
     let mut state = SystemState { bodies: [link], t: 0.0 };
-    let Ok(mut sim) = SparseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
+    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
         return f64::NAN;
     };
     if sim.project(&mut state, &AssemblyOptions::default()).is_err() {

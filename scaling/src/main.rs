@@ -154,7 +154,7 @@ fn build_time(n: usize, second: bool) -> Result<(f64, Option<f64>), String> {
     );
     std::fs::write(dir.join("Cargo.toml"), manifest).map_err(|e| e.to_string())?;
     let main = format!(
-        "use joint_runtime::dynamics::{{NoLoads, SimulationOptions}};\nuse joint_runtime::sparse::SparseSimulation;\n\
+        "use joint_runtime::dynamics::{{NoLoads, Simulation, SimulationOptions}};\n\
          #[derive(joint_runtime::Scene)]\n#[scene(gravity = [0, 0, -9.81]{option})]\n\
          #[body(bar[{n}], mass = 1.0, inertia = [0.00125, 0.084, 0.084])]\n\
          #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]\n\
@@ -162,7 +162,7 @@ fn build_time(n: usize, second: bool) -> Result<(f64, Option<f64>), String> {
          struct Chain;\n\
          fn main() {{\n    let mut state = joint_runtime::SystemState {{ bodies: [joint_runtime::OmegaBody::default(); {n}], t: 0.0 }};\n    \
          let mut options = SimulationOptions::default();\n    {integrator}\n    \
-         if let Ok(mut sim) = SparseSimulation::new(&Chain, NoLoads, &[], options) {{ let _ = sim.step(&mut state, 1e-3); }}\n}}\n"
+         if let Ok(mut sim) = Simulation::new(&Chain, NoLoads, &[], options) {{ let _ = sim.step(&mut state, 1e-3); }}\n}}\n"
     );
     std::fs::write(dir.join("src/main.rs"), main).map_err(|e| e.to_string())?;
     let target = root.join("target");
@@ -232,7 +232,7 @@ fn run() -> Result<(), String> {
     let mut md = String::from("# Scenes that scale\n\n");
     md += "Written by `cargo run --release -p joint-scaling`. µs per step with projection \
            (`SimulationOptions::default()` with the integrator named, h = 1 ms), median of 3 rounds, one core. \
-           The sparse path is `joint_runtime::sparse::SparseSimulation`; the dense one `dynamics::Simulation` \
+           The sparse path is `joint_runtime::dynamics::Simulation` (the block factor); the dense one `dynamics::DenseSimulation` \
            (run in a thread with a 256 MiB stack, as its `M × NV` matrices are on the stack). Generalised-α \
            (ρ∞ = 0.9, the default; index 3) builds its exact iteration matrix from the scenes' generated second-order \
            terms: on the sparse path a saddle-point matrix over bodies and joints factorised on its fixed \

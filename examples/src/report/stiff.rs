@@ -11,8 +11,8 @@
 //!
 //! Integrators: fixed steps of RK4, the implicit midpoint rule,
 //! generalised-α (ρ∞ = 0.8) and Radau IIA, the implicit ones with the
-//! generated iteration matrix, on the dense path and on the sparse path
-//! (`SparseSimulation`); and the error-controlled
+//! generated iteration matrix, on the dense path (`DenseSimulation`) and on the sparse path
+//! (`Simulation`); and the error-controlled
 //! Dormand–Prince 5(4), generalised-α and Radau IIA over a range of
 //! tolerances (`rtol = atol`). Every run projects after each
 //! step (the default options). The error is the largest `|r − r_ref| +
@@ -22,8 +22,9 @@
 
 use std::time::Instant;
 
-use joint_runtime::dynamics::{Adaptive, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance};
-use joint_runtime::sparse::SparseSimulation;
+use joint_runtime::dynamics::{
+    Adaptive, DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance,
+};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 use super::simulation::Series;
@@ -36,9 +37,9 @@ pub const TARGET_ERROR: f64 = 1e-8;
 /// How a run advances.
 #[derive(Clone, Copy, Debug)]
 enum Run {
-    /// Fixed steps, dense `Simulation`.
+    /// Fixed steps, `DenseSimulation`.
     Fixed(Integrator, usize),
-    /// Fixed steps, `SparseSimulation`.
+    /// Fixed steps, `Simulation`.
     Sparse(Integrator, usize),
     /// Error-controlled steps to a tolerance, dense.
     Adaptive(Adaptive, f64),
@@ -68,21 +69,21 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         let mut state = self.start;
         match run {
             Run::Fixed(_, steps) => {
-                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let mut sim = DenseSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 let h = self.t_end / steps as f64;
                 for _ in 0..steps {
                     sim.step(&mut state, h).map_err(text)?;
                 }
             }
             Run::Sparse(_, steps) => {
-                let mut sim = SparseSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 let h = self.t_end / steps as f64;
                 for _ in 0..steps {
                     sim.step(&mut state, h).map_err(text)?;
                 }
             }
             Run::Adaptive(method, tol) => {
-                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let mut sim = DenseSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 sim.integrate(&mut state, self.t_end, method, Tolerance { rtol: tol, atol: tol }).map_err(text)?;
             }
         }

@@ -392,7 +392,8 @@ fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
 }
 
 /// `compile_error!` for every error, plus, when the bodies and the number of
-/// rows are known, a stub `Scene` of that shape and the inherent constants, so
+/// rows are known, a stub `Scene` (and `SparseJacobian`) of that shape and the
+/// inherent constants, so
 /// that the scene's uses (a `Simulation`, `Shaft::INPUT`) type-check and one
 /// mistake gives one message.
 fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) -> TokenStream {
@@ -419,6 +420,17 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
             #methods
             fn inertias(&self) -> [#k::BodyInertia; #nb] { loop {} }
             fn gravity(&self) -> #k::nalgebra::Vector3<f64> { loop {} }
+        }
+        #lints
+        impl #ig #k::SparseJacobian<#nb, 0> for #ident #tg #wc {
+            const ROW_STARTS: &'static [usize] = &[];
+            const COLUMNS: [usize; 0] = [];
+            const BLOCK_BODIES: &'static [[::core::option::Option<usize>; 2]] = &[];
+            const ELIMINATION: &'static [usize] = &[];
+            const FACTOR_STARTS: &'static [usize] = &[];
+            const FACTOR_BELOW: &'static [usize] = &[];
+            type Factor = #k::sparse::FactorArrays<0, 0, 0, 0, 0, 0>;
+            fn jacobian_values_into(&self, _: &#k::SystemState<#nb>, _: &mut [f64; 0]) { loop {} }
         }
     }
 }

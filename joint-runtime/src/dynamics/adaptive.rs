@@ -1,4 +1,4 @@
-//! Error-controlled variable steps: [`Simulation::integrate`] advances a state
+//! Error-controlled variable steps: [`Simulation::integrate`](super::Simulation::integrate) advances a state
 //! to a given time with steps chosen so that each step's local error estimate
 //! meets `rtol`, `atol` (Hairer, Nørsett & Wanner, *Solving ODEs I*, II.4).
 //!
@@ -28,11 +28,11 @@
 
 use nalgebra::{SVector, Vector3};
 
-use super::{AppliedLoads, Integrator, Rate, Simulation, advance};
+use super::{AppliedLoads, DenseSimulation, Integrator, Rate, advance};
 use crate::analysis::{AnalysisError, check_state, velocity_vector};
 use crate::scene::{Scene, SystemState};
 
-/// The error-controlled integrators of [`Simulation::integrate`].
+/// The error-controlled integrators of [`Simulation::integrate`](super::Simulation::integrate).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
@@ -69,7 +69,7 @@ pub struct Tolerance {
     pub atol: f64,
 }
 
-/// What one [`Simulation::integrate`] did.
+/// What one [`Simulation::integrate`](super::Simulation::integrate) did.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
@@ -88,7 +88,7 @@ pub struct IntegrationReport {
     pub last_step: f64,
 }
 
-/// Steps allowed to one [`Simulation::integrate`].
+/// Steps allowed to one [`Simulation::integrate`](super::Simulation::integrate).
 const MAX_STEPS: usize = 10_000_000;
 
 /// Dormand–Prince's stage coefficients `a_ij` (row `i` for stage `i + 1`).
@@ -127,7 +127,7 @@ pub(crate) trait AdaptiveSteps<const NB: usize, const NV: usize> {
     fn accept(&mut self, next: SystemState<NB>, method: Adaptive) -> Result<SystemState<NB>, AnalysisError>;
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
@@ -136,11 +136,7 @@ where
     /// `method`, projecting after every accepted step if the options say so.
     ///
     /// # Errors
-    /// [`AnalysisError::BadOption`] for tolerances that are not positive and
-    /// finite or a `t_end` before the state's time; failures of the dynamics or
-    /// of the projection; [`AnalysisError::StepTooSmall`] when the step size
-    /// falls below `1e-14 (1 + |t|)` or past ten million steps. On error
-    /// `state` holds the last accepted step.
+    /// As [`Simulation::integrate`](super::Simulation::integrate).
     pub fn integrate(
         &mut self,
         state: &mut SystemState<NB>,
@@ -158,7 +154,8 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> AdaptiveSteps<NB, NV> for Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> AdaptiveSteps<NB, NV>
+    for DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
@@ -223,7 +220,7 @@ where
     }
 }
 
-/// [`Simulation::integrate`] on any simulation: the checks, the first step
+/// [`Simulation::integrate`](super::Simulation::integrate) on any simulation: the checks, the first step
 /// size and the loop of trial steps.
 pub(crate) fn integrate<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
     sim: &mut T,

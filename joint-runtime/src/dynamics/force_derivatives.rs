@@ -9,7 +9,7 @@
 
 use nalgebra::{SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Attachment, Loads, Simulation, SpringDamper};
+use super::{AppliedLoads, Attachment, DenseSimulation, Loads, SpringDamper};
 use crate::analysis::{apply_increment, set_velocities, velocity_vector};
 use crate::rotation_matrix;
 use crate::scene::{BodyInertia, Scene, SystemState};
@@ -20,7 +20,7 @@ pub(crate) const LOAD_STEP: f64 = 1e-6;
 /// A direction of the state: `(δr, δθ')` and `(δṙ, δω')` per body.
 pub type Direction<const NB: usize> = [[Vector3<f64>; 4]; NB];
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,

@@ -34,7 +34,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::newton_matrix::{times_update, update_blocks};
-use super::{AppliedLoads, ModifiedNewton, Simulation, StepRule, generalised_forces};
+use super::{AppliedLoads, DenseSimulation, ModifiedNewton, StepRule, generalised_forces};
 use crate::analysis::{AnalysisError, apply_increment, check_output, set_velocities, velocity_vector};
 use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
@@ -177,7 +177,7 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,

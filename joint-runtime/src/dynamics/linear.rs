@@ -30,7 +30,7 @@ use alloc::vec::Vec;
 use nalgebra::{Complex, DMatrix, SMatrix, SVector};
 
 use super::newton_matrix::update_blocks;
-use super::{AppliedLoads, Simulation};
+use super::{AppliedLoads, DenseSimulation};
 use crate::analysis::{AnalysisError, check_state, velocity_vector};
 use crate::scene::{Scene, SystemState};
 
@@ -40,7 +40,7 @@ const NULL_TOLERANCE: f64 = 1e-9;
 const DECOMPOSITION_ITERATIONS: usize = 0;
 
 /// The linearised dynamics `ẋ = A x + B u` of a scene about a state, in the
-/// minimal coordinates `x = (z, w)` of [`Simulation::linearise`].
+/// minimal coordinates `x = (z, w)` of [`Simulation::linearise`](super::Simulation::linearise).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Linearisation {
     /// The state matrix, `2n × 2n` (`n` freedoms).
@@ -71,7 +71,7 @@ impl Linearisation {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
@@ -210,7 +210,7 @@ fn null_space(j: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>), Analysis
     Ok((null, pinv))
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
@@ -227,7 +227,7 @@ where
     ///
     /// # Errors
     /// [`AnalysisError::NoSecondOrder`] for a scene derived without
-    /// `second_order`; as [`Simulation::step`] otherwise. On error `state` is
+    /// `second_order`; as [`DenseSimulation::step`] otherwise. On error `state` is
     /// unchanged.
     pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
         let (y0, mut rule) = self.step_start(state, h)?;
@@ -249,7 +249,7 @@ where
 /// The state-transition Jacobian of a midpoint step of velocity `w` and size
 /// `h` from the Newton matrix `r_w = ∂R/∂w` and the accelerations'
 /// derivative `a_q` at the midpoint (both `NV × NV`; see
-/// [`Simulation::transition`]).
+/// [`DenseSimulation::transition`]).
 pub(crate) fn transition_matrix<const NB: usize, const NV: usize>(
     w: &SVector<f64, NV>,
     h: f64,

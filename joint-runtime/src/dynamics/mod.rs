@@ -4,6 +4,14 @@
 //! allocation-free and panic-free (the linearisation, behind `alloc`, allocates
 //! its run-time-sized matrices).
 //!
+//! [`Simulation`] is the one simulation for every scene: it solves the
+//! equations below on the scene's compile-time block pattern (the block factor
+//! of `J M⁻¹ Jᵀ` in arrays the derive sizes, the implicit integrators'
+//! saddle-point matrices; see [`sparse`](crate::sparse)), in time and memory
+//! proportional to the scene. [`DenseSimulation`] solves the same equations
+//! with dense matrices and is kept only until its two remaining advantages
+//! move over (see its docs).
+//!
 //! # Equations and sign convention
 //!
 //! Per body (frame origin at the centre of mass) the velocities are `ṙ`
@@ -50,7 +58,9 @@
 //!   `p ← p ⊗ q((h/2) ω')`),
 //!   `w = v_n + (h/2) a(q_½, w, t_n + h/2)`, then `q_{n+1} = q_n ⊕ h w` and
 //!   `v_{n+1} = 2w − v_n`. The `NV` equations are solved by (modified) Newton
-//!   with the iteration matrix `I − (h/2) ∂a/∂w` factorised by [`Lu`]: exact,
+//!   (on [`DenseSimulation`] with the iteration matrix `I − (h/2) ∂a/∂w`
+//!   factorised by [`Lu`]; on [`Simulation`] the same step in saddle-point
+//!   form, `δw` and `δλ` unknown): exact,
 //!   from the scene's generated second-order terms (`#[scene(second_order)]`,
 //!   [`NewtonMatrix::Generated`], `newton_matrix.rs`: one factorisation of
 //!   `J M⁻¹ Jᵀ` and `NV` solves), or by forward differences of the residual
@@ -104,6 +114,7 @@ pub(crate) mod linear;
 mod newton_matrix;
 pub(crate) mod radau;
 
+pub use crate::sparse::Simulation;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
@@ -566,9 +577,14 @@ pub(crate) fn advance_into<'r, const NB: usize, const NV: usize>(
     y.t = t;
 }
 
-/// A scene with loads, springs and options: computes constrained dynamics and
-/// advances a [`SystemState`] with a fixed step.
-pub struct Simulation<'a, S, L, const NB: usize, const NV: usize, const M: usize> {
+/// The dense reference path: [`Simulation`]'s equations with the full `J`
+/// (`M × NV`) and `J M⁻¹ Jᵀ` (`M × M`) on the stack, so its step's stack
+/// grows with the square of the scene (a 40-body chain overflows a 2 MiB
+/// thread). Use [`Simulation`]; this type stays, with the same methods, only
+/// while it still does two things the one simulation does not yet: its
+/// implicit integrators and `integrate` run without `alloc`, and its steps
+/// carry the no-panic proof (`no-panic-check`). It goes when those move over.
+pub struct DenseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize> {
     scene: &'a S,
     loads: L,
     springs: &'a [SpringDamper],
@@ -605,9 +621,9 @@ struct StepRule<const M: usize> {
 
 /// Shows the options and the mechanical data; the scene and the loads are shown
 /// by type (neither needs to be `Debug`).
-impl<S, L, const NB: usize, const NV: usize, const M: usize> core::fmt::Debug for Simulation<'_, S, L, NB, NV, M> {
+impl<S, L, const NB: usize, const NV: usize, const M: usize> core::fmt::Debug for DenseSimulation<'_, S, L, NB, NV, M> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("Simulation")
+        f.debug_struct("DenseSimulation")
             .field("scene", &core::any::type_name::<S>())
             .field("loads", &core::any::type_name::<L>())
             .field("springs", &self.springs)
@@ -618,7 +634,7 @@ impl<S, L, const NB: usize, const NV: usize, const M: usize> core::fmt::Debug fo
     }
 }
 
-impl<'a, S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'a, S, L, NB, NV, M>
+impl<'a, S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'a, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
@@ -638,7 +654,7 @@ where
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
-        Ok(Simulation { scene, loads, springs, inertias, inverse, gravity, history: None, radau: None, options })
+        Ok(DenseSimulation { scene, loads, springs, inertias, inverse, gravity, history: None, radau: None, options })
     }
 
     /// The scene.
@@ -757,7 +773,7 @@ where
     }
 
     /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every body,
-    /// from the multipliers `lambda` of [`Simulation::dynamics`] at `state`:
+    /// from the multipliers `lambda` of [`DenseSimulation::dynamics`] at `state`:
     /// `−J_kᵀ λ_k` split by body. Rows outside `0..M` are ignored.
     pub fn reactions(&self, state: &SystemState<NB>, lambda: &SVector<f64, M>, block: &RowBlock) -> [Reaction; NB] {
         let j = self.scene.jacobian(state);
@@ -957,7 +973,7 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M> {
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M> {
     /// The histories after a step of `integrator` was accepted at `state`:
     /// its own follows the state, the others are dropped.
     fn follow(&mut self, state: SystemState<NB>, integrator: Integrator) {
@@ -1011,7 +1027,7 @@ pub(crate) fn midpoint_end<const NB: usize, const NV: usize>(
 }
 
 /// The work done over an implicit midpoint step by the forces that the
-/// energy of [`Simulation::energy`] does not hold: the user's loads and the
+/// energy of [`DenseSimulation::energy`] does not hold: the user's loads and the
 /// constraint forces (`constraint_power = −λᵀ J w`, nonzero where drivers
 /// move the mechanism), both at the midpoint with its velocity `w`. Gravity
 /// and the springs are in the energy; the dampers and the gyroscopic terms only
@@ -1147,7 +1163,7 @@ impl<const NB: usize> Mechanics<NB> {
     /// The mechanics of `scene` with `springs`.
     ///
     /// # Errors
-    /// As [`Simulation::new`].
+    /// As [`DenseSimulation::new`].
     pub(crate) fn new<S: Scene<NB, NV, M>, const NV: usize, const M: usize>(
         scene: &S,
         springs: &[SpringDamper],

@@ -25,7 +25,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{AppliedLoads, Dynamics, Factored, Simulation, StepRule, midpoint_state};
+use super::{AppliedLoads, DenseSimulation, Dynamics, Factored, StepRule, midpoint_state};
 use crate::analysis::{AnalysisError, InverseMass, jacobian_times_metric, velocity_vector};
 use crate::linalg::PivotedCholesky;
 use crate::scene::{Scene, SystemState};
@@ -71,7 +71,7 @@ impl<const NB: usize, const NV: usize, const M: usize> Tangent<NB, NV, M> {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,

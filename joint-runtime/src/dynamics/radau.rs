@@ -83,7 +83,7 @@
 use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
 use super::adaptive::{Tolerance, increment_error};
-use super::{AppliedLoads, Factored, NewtonMatrix, Simulation, StepRule, displaced, newton_done};
+use super::{AppliedLoads, DenseSimulation, Factored, NewtonMatrix, StepRule, displaced, newton_done};
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
@@ -150,7 +150,7 @@ pub(crate) struct RadauHistory<const NB: usize, const NV: usize, J> {
     jacobian: J,
 }
 
-/// What the Radau step needs of a simulation (the dense [`Simulation`] and
+/// What the Radau step needs of a simulation (the dense [`DenseSimulation`] and
 /// the sparse one): the accelerations under the step's rule for redundant
 /// rows, the Jacobian of the index-1 equations, and the real and complex
 /// stage systems `(μ − [[0, I], [A_q, A_v]]) (x, y) = (r, s)` factorised and
@@ -389,10 +389,10 @@ fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
 /// `A_q` and `A_v`, dense.
 pub(crate) type DenseJacobian<const NV: usize> = (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>);
 
-/// The dense [`Simulation`] under the rule of a step, as a [`RadauHost`]:
+/// The dense [`DenseSimulation`] under the rule of a step, as a [`RadauHost`]:
 /// `A_q`, `A_v` dense and the stage systems factorised by [`Lu`].
 pub(super) struct DenseRadau<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> {
-    pub(super) sim: &'r mut Simulation<'a, S, L, NB, NV, M>,
+    pub(super) sim: &'r mut DenseSimulation<'a, S, L, NB, NV, M>,
     pub(super) rule: &'r mut StepRule<M>,
     /// The start's factorisation, for the generated Jacobian.
     start: Option<Factored<NV, M>>,
@@ -400,7 +400,7 @@ pub(super) struct DenseRadau<'r, 'a, S, L, const NB: usize, const NV: usize, con
 
 impl<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> DenseRadau<'r, 'a, S, L, NB, NV, M> {
     /// The host of one step of `sim` under `rule`.
-    pub(super) fn new(sim: &'r mut Simulation<'a, S, L, NB, NV, M>, rule: &'r mut StepRule<M>) -> Self {
+    pub(super) fn new(sim: &'r mut DenseSimulation<'a, S, L, NB, NV, M>, rule: &'r mut StepRule<M>) -> Self {
         DenseRadau { sim, rule, start: None }
     }
 }
@@ -463,7 +463,7 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> Simulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,

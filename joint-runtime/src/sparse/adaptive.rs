@@ -1,35 +1,35 @@
-//! Error-controlled variable steps on the sparse path: the dense
-//! [`Simulation::integrate`](crate::dynamics::Simulation::integrate)'s driver
-//! (`dynamics/adaptive.rs`, written once for both paths) over this path's
-//! stages, generalised-α step and projection.
+//! [`Simulation::integrate`]: the error-controlled driver of
+//! `dynamics/adaptive.rs` (written once for both paths) over the block path's
+//! stages, generalised-α and Radau steps and projection.
 
-use super::SparseSimulation;
+use super::Simulation;
 use crate::analysis::{AnalysisError, check_state};
 use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
 use crate::dynamics::radau::step_radau;
 use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Rate, Tolerance};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
     /// Advances `state` to time `t_end` with error-controlled steps of
-    /// `method`, projecting after every accepted step if the options say so:
-    /// [`Simulation::integrate`](crate::dynamics::Simulation::integrate) in
-    /// time and memory proportional to the scene. Generalised-α's workspace
-    /// is allocated here if [`SparseSimulation::new`] did not (once, not per
-    /// step).
+    /// `method`, projecting after every accepted step if the options say so,
+    /// in time and memory proportional to the scene. An implicit method's
+    /// workspace is allocated here if [`Simulation::new`] did not (once, not
+    /// per step).
     ///
     /// # Errors
-    /// As the dense `integrate`.
+    /// [`AnalysisError::BadOption`] for tolerances that are not positive and
+    /// finite or a `t_end` before the state's time; failures of the dynamics or
+    /// of the projection; [`AnalysisError::StepTooSmall`] when the step size
+    /// falls below `1e-14 (1 + |t|)` or past ten million steps. On error
+    /// `state` holds the last accepted step.
     ///
     /// # Examples
     /// ```
-    /// use joint_runtime::dynamics::{Adaptive, NoLoads, SimulationOptions, Tolerance};
-    /// use joint_runtime::sparse::SparseSimulation;
+    /// use joint_runtime::dynamics::{Adaptive, NoLoads, Simulation, SimulationOptions, Tolerance};
     /// use joint_runtime::{OmegaBody, Scene, SystemState};
     /// use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
     ///
@@ -43,7 +43,7 @@ where
     /// let level = UnitQuaternion::identity();
     /// let bar = OmegaBody::from_rotation(Vector3::new(0.5, 0.0, 0.0), &level, Vector3::zeros(), Vector3::zeros());
     /// let mut state = SystemState { bodies: [bar], t: 0.0 };
-    /// let mut sim = SparseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default())?;
+    /// let mut sim = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default())?;
     /// let tolerance = Tolerance { rtol: 1e-8, atol: 1e-8 };
     /// let report = sim.integrate(&mut state, 0.5, Adaptive::DormandPrince, tolerance)?;
     /// assert_eq!(state.t, 0.5);
@@ -69,7 +69,7 @@ where
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AdaptiveSteps<NB, NV>
-    for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+    for Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

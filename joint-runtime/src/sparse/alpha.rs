@@ -22,7 +22,7 @@ use alloc::vec::Vec;
 
 use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::SparseSimulation;
+use super::Simulation;
 use super::differences::DifferenceTerms;
 use super::kkt::{Block, Kkt};
 use super::loads::LoadColouring;
@@ -163,8 +163,7 @@ fn add3(block: &mut Block, r: usize, c: usize, x: &Matrix3<f64>, s: f64) {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

@@ -53,8 +53,10 @@ enum Place {
 /// diagonal) and `U_kj = A_kj`, `U_kk = D_k`, blocks by elimination position.
 #[derive(Clone, Debug)]
 pub(super) struct Kkt<T = f64> {
-    /// Each node's size, by node.
+    /// Each node's size, by node, and where each node's entries start in a
+    /// vector by node (`starts[node]`; `n + 1` entries, made once).
     sizes: Vec<usize>,
+    starts: Vec<usize>,
     /// Node at each elimination position, and the position of each node.
     order: Vec<usize>,
     position: Vec<usize>,
@@ -127,8 +129,13 @@ impl<T: Entry> Kkt<T> {
         for (k, &node) in order.iter().enumerate() {
             position[node] = k;
         }
+        let mut starts = vec![0; n + 1];
+        for (node, size) in sizes.iter().enumerate() {
+            starts[node + 1] = starts[node] + size;
+        }
         let mut kkt = Kkt {
             sizes,
+            starts,
             order,
             position,
             adj_start: Vec::new(),
@@ -317,6 +324,7 @@ impl<T: Entry> Kkt<T> {
     pub(super) fn like<U: Entry>(&self) -> Kkt<U> {
         Kkt {
             sizes: self.sizes.clone(),
+            starts: self.starts.clone(),
             order: self.order.clone(),
             position: self.position.clone(),
             adj_start: self.adj_start.clone(),
@@ -350,11 +358,8 @@ impl<T: Entry> Kkt<T> {
     /// `out = A x` for the assembled (not factorised) matrix, both by node as
     /// in [`Kkt::solve`].
     pub(super) fn times(&self, x: &[T], out: &mut [T]) {
-        let mut start = vec![0; self.sizes.len() + 1];
-        for (node, size) in self.sizes.iter().enumerate() {
-            start[node + 1] = start[node] + size;
-        }
         out.fill(T::zero());
+        let start = &self.starts;
         let mut add = |block: &Block<T>, row: usize, column: usize| {
             let (r0, c0) = (start[row], start[column]);
             for r in 0..self.sizes[row] {

@@ -1,4 +1,4 @@
-//! [`SparseSimulation::linearise`] and [`SparseSimulation::transition`]: the
+//! [`Simulation::linearise`] and [`Simulation::transition`]: the
 //! dense path's linearisation and state-transition Jacobian
 //! (`dynamics/linear.rs`, whose module docs give the equations) from the
 //! block factor and the scene's sparse second-order terms.
@@ -18,16 +18,16 @@ use alloc::vec;
 
 use nalgebra::{DMatrix, SVector};
 
-use super::SparseSimulation;
+use super::Simulation;
 use super::second_order::{RowTerm, SecondOrderLayout};
-use super::simulation::SparseDynamics;
+use super::simulation::Accelerations;
 use crate::analysis::{AnalysisError, apply_metric, velocity_vector};
 use crate::dynamics::linear::{check_inputs, minimal, transition_matrix, update_times};
 use crate::dynamics::{AppliedLoads, Linearisation, force_column, midpoint_state, update_blocks};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The linearised equations of motion at one state, dense: `δa` along any
-/// `(δq, δv)` is [`SparseSimulation::accelerations`] of
+/// `(δq, δv)` is [`Simulation::accelerations`] of
 /// `R1 = R1q δq + R1v δv` and `R2 = R2q δq + R2v δv` (as the dense path's
 /// `Tangent`).
 struct DenseTangent {
@@ -41,27 +41,27 @@ struct DenseTangent {
     r2v: DMatrix<f64>,
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
     /// The linearised dynamics about `state` (which should satisfy the
-    /// constraints), with `inputs` the generalised-force direction of each
-    /// input (`NV × k`): [`Simulation::linearise`](crate::dynamics::Simulation::linearise)
-    /// on the block factor.
+    /// constraints: assemble it first), with `inputs` the generalised-force
+    /// direction of each input (`NV × k`, columns laid out as `Q`: forces
+    /// inertial, torques in body components; `k = 0` for none), in the minimal
+    /// coordinates of [`Linearisation`](crate::dynamics::Linearisation); each
+    /// column one solve on the block factor.
     ///
     /// # Errors
-    /// As [`Simulation::linearise`](crate::dynamics::Simulation::linearise):
     /// [`AnalysisError::NoSecondOrder`] for a scene derived without
     /// `second_order`, [`AnalysisError::BadOption`] if `inputs` does not have
-    /// `NV` rows, failures of the dynamics or of the SVD of J.
+    /// `NV` rows, non-finite inputs, failures of the dynamics or of the SVD
+    /// of J.
     ///
     /// ```
-    /// use joint_runtime::dynamics::{NoLoads, SimulationOptions};
+    /// use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
     /// use joint_runtime::nalgebra::{DMatrix, UnitQuaternion, Vector3};
-    /// use joint_runtime::sparse::SparseSimulation;
     /// use joint_runtime::{OmegaBody, Scene, SystemState};
     ///
     /// #[derive(Scene)]
@@ -73,7 +73,7 @@ where
     /// let rest = UnitQuaternion::identity();
     /// let link = OmegaBody::from_rotation(Vector3::new(0.0, 0.0, -0.5), &rest, Vector3::zeros(), Vector3::zeros());
     /// let hanging = SystemState { bodies: [link], t: 0.0 };
-    /// let mut sim = SparseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default())?;
+    /// let mut sim = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default())?;
     /// let lin = sim.linearise(&hanging, &DMatrix::zeros(6, 0))?;
     /// // One freedom, swinging at ω² = m g l / (I + m l²).
     /// assert_eq!(lin.freedoms, 1);
@@ -108,13 +108,16 @@ where
 
     /// One step of the implicit midpoint rule from `state` (without
     /// projection, whatever the options say) and its state-transition
-    /// Jacobian, exact (`2 NV × 2 NV`): [`Simulation::transition`](crate::dynamics::Simulation::transition)
-    /// on the block factor. The step is the sparse midpoint rule's, whatever
-    /// the configured integrator.
+    /// Jacobian, exact: `(δq₁, δv₁) = Φ (δq₀, δv₀)` in the increments of
+    /// [`Linearisation`](crate::dynamics::Linearisation) (`2 NV × 2 NV`), what
+    /// an extended Kalman filter or an MPC propagates (the equations are in
+    /// `dynamics/linear.rs`). The step is the midpoint rule's, whatever the
+    /// configured integrator.
     ///
     /// # Errors
-    /// As [`Simulation::transition`](crate::dynamics::Simulation::transition).
-    /// On error `state` is unchanged.
+    /// [`AnalysisError::NoSecondOrder`] for a scene derived without
+    /// `second_order`; as [`Simulation::step`] otherwise. On error `state` is
+    /// unchanged.
     pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
@@ -147,7 +150,7 @@ where
     fn dense_tangent(
         &mut self,
         state: &SystemState<NB>,
-        d: &SparseDynamics<NV, M>,
+        d: &Accelerations<NV, M>,
         needed: AnalysisError,
     ) -> Result<DenseTangent, AnalysisError> {
         let (alpha, beta) = self.options.stabilisation.coefficients();

@@ -28,11 +28,11 @@ use alloc::boxed::Box;
 
 use nalgebra::{Matrix3, SVector};
 
-use super::SparseSimulation;
+use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, missing, spring_blocks, times_update};
 use super::kkt::Kkt;
 use super::second_order::{RowTerm, SecondOrderLayout};
-use super::simulation::SparseDynamics;
+use super::simulation::Accelerations;
 use super::solver::j_mul;
 use crate::OmegaBody;
 use crate::analysis::{AnalysisError, velocity_vector};
@@ -45,7 +45,7 @@ use crate::scene::{Scene, SparseJacobian, SystemState};
 /// The midpoint's state, its dynamics and its Jacobian's values at one `w`.
 struct Midpoint<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
     state: SystemState<NB>,
-    dynamics: SparseDynamics<NV, M>,
+    dynamics: Accelerations<NV, M>,
     values: [f64; NNZ],
 }
 
@@ -65,7 +65,7 @@ pub(super) struct MidpointWork<const NB: usize, const NV: usize, const M: usize,
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> MidpointWork<NB, NV, M, NNZ> {
     pub(super) fn new() -> Box<Self> {
         let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
-        let dynamics = SparseDynamics { vdot: SVector::zeros(), lambda: SVector::zeros() };
+        let dynamics = Accelerations { vdot: SVector::zeros(), lambda: SVector::zeros() };
         let zero = SVector::zeros();
         Box::new(MidpointWork {
             v0: zero,
@@ -77,8 +77,7 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Midpoin
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

@@ -1,6 +1,6 @@
 //! Scenes that scale: the constrained dynamics of a [`Scene`](crate::Scene)
 //! through its compile-time structure, in time and memory proportional to the
-//! scene (the block factor, [`SparseAnalysis`] and [`SparseSimulation`]'s RK4
+//! scene (the block factor, [`SparseAnalysis`] and [`Simulation`]'s RK4
 //! without an allocator; its implicit integrators with feature `alloc`).
 //!
 //! The derive fixes, for every scene, which bodies each joint connects, a
@@ -21,8 +21,8 @@
 //! largest diagonal of `J M⁻¹ Jᵀ` marks its row redundant (dropped, λ = 0). The
 //! elimination order is the derive's, not the order the rows were written in.
 //!
-//! [`SparseSimulation`] integrates with RK4 and the mass-metric projection of
-//! the dense [`Simulation`](crate::dynamics::Simulation), and [`SparseAnalysis`]
+//! [`Simulation`], the one simulation, runs on
+//! this factor (RK4 with the mass-metric projection), and [`SparseAnalysis`]
 //! assembles and runs velocity and acceleration analysis, reading only Φ, Φ_t,
 //! γ and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
 //! With [`Integrator::GeneralisedAlpha`](crate::dynamics::Integrator) the
@@ -33,13 +33,13 @@
 //! for a scene derived without them, by central differences of its `J`, `γ`
 //! and `Φ_t` ([`DifferenceTerms`]: bodies coloured so that a chain of any
 //! length costs 24 evaluations per colour, two colours).
-//! [`SparseSimulation::integrate`] runs the dense path's error-controlled
+//! [`Simulation::integrate`] runs the dense path's error-controlled
 //! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
 //! The implicit midpoint rule runs there too, its Newton matrix in the same
 //! saddle-point form (`midpoint.rs`; the dense `I − (h/2) ∂a/∂w` is full).
 //! Radau IIA runs there as well (`radau.rs`): its real and complex stage
 //! systems on the same pattern, the real and complex block LU of `kkt.rs`.
-//! [`SparseSimulation::linearise`] and [`SparseSimulation::transition`] give
+//! [`Simulation::linearise`] and [`Simulation::transition`] give
 //! the dense path's linearisation and state-transition Jacobian (`linear.rs`):
 //! dense outputs, built column by column on the block factor.
 
@@ -74,4 +74,6 @@ pub use factor::{BlockFactor, FactorArrays, FactorStorage};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use second_order::{RowTerm, SecondOrderLayout};
-pub use simulation::{SparseDynamics, SparseSimulation};
+// The one simulation's public path is `dynamics::Simulation`.
+#[doc(hidden)]
+pub use simulation::Simulation;

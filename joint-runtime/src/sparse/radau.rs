@@ -29,11 +29,11 @@ use alloc::vec::Vec;
 
 use nalgebra::{Complex, Matrix3, SVector};
 
-use super::SparseSimulation;
+use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
 use super::kkt::Kkt;
 use super::midpoint::{RowTerms, add_row_terms};
-use super::simulation::SparseDynamics;
+use super::simulation::Accelerations;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
@@ -57,17 +57,24 @@ pub(super) struct RadauWorkspace {
 }
 
 impl RadauWorkspace {
-    fn new(pattern: &Kkt, len: usize) -> Self {
+    /// On generalised-α's pattern, for `len = NV + M` unknowns, `nnz`
+    /// entries of `J` and `m` rows (reserved here: a step allocates nothing).
+    fn new(pattern: &Kkt, len: usize, nnz: usize, m: usize) -> Self {
         RadauWorkspace {
             parts: [pattern.like(), pattern.like(), pattern.like()],
             real: pattern.like(),
             complex: pattern.like(),
-            values: Vec::new(),
-            dropped: Vec::new(),
+            values: Vec::with_capacity(nnz),
+            dropped: Vec::with_capacity(m),
             rhs: vec![0.0; len],
             complex_rhs: vec![Complex::new(0.0, 0.0); len],
             product: vec![0.0; len],
         }
+    }
+
+    /// [`RadauWorkspace::new`] for a scene's sizes, boxed.
+    pub(super) fn boxed<const NV: usize, const M: usize, const NNZ: usize>(pattern: &Kkt) -> alloc::boxed::Box<Self> {
+        alloc::boxed::Box::new(RadauWorkspace::new(pattern, NV + M, NNZ, M))
     }
 
     /// `P₁ r` by node (bodies' rows, then joints'), into `product`.
@@ -81,7 +88,7 @@ impl RadauWorkspace {
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> RadauHost<NB, NV>
-    for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+    for Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
@@ -117,7 +124,7 @@ where
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let u = d.vdot + velocity_vector::<NB, NV>(y0) * (2.0 * stabilisation.0);
         ws.fill_terms(self.scene, y0, &d.lambda, &u, by_differences)?;
-        let radau = self.radau.get_or_insert_with(|| alloc::boxed::Box::new(RadauWorkspace::new(&ws.kkt, NV + M)));
+        let radau = self.radau.get_or_insert_with(|| RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
         radau.values.clear();
         radau.values.extend_from_slice(&values);
         radau.dropped.clear();
@@ -226,15 +233,14 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
     /// The dynamics at the step's start `y0` under its rule: those the
     /// step's start solved (the factor still holds them), or solved here.
-    fn radau_start_dynamics(&mut self, y0: &SystemState<NB>) -> Result<SparseDynamics<NV, M>, AnalysisError> {
+    fn radau_start_dynamics(&mut self, y0: &SystemState<NB>) -> Result<Accelerations<NV, M>, AnalysisError> {
         match self.radau_start {
             Some((at, d)) if at == *y0 => Ok(d),
             _ => {

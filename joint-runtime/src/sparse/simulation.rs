@@ -1,6 +1,5 @@
-//! RK4 with projection on the block factor: the dense
-//! [`Simulation`](crate::dynamics::Simulation)'s equations, in time and memory
-//! proportional to the scene.
+//! The one simulation: the equations of [`dynamics`](crate::dynamics) on the
+//! scene's block factor, in time and memory proportional to the scene.
 
 use nalgebra::{SVector, Vector3};
 
@@ -20,31 +19,35 @@ use crate::analysis::{
 #[cfg(feature = "alloc")]
 use crate::dynamics::radau::{RadauHistory, step_radau};
 use crate::dynamics::{
-    AppliedLoads, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper, Stabilisation,
-    StepReport, advance_into, check_redundant, generalised_forces, near_enough, rk4_weights,
+    AppliedLoads, Dynamics, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper,
+    Stabilisation, StepReport, advance_into, check_redundant, generalised_forces, near_enough, rk4_weights,
 };
 use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
-/// Constrained accelerations and multipliers at one state.
+/// Constrained accelerations and multipliers at one state: what the
+/// integrators read of a solve ([`Dynamics`] without its copies of `Q` and
+/// the dropped rows).
+#[cfg(feature = "alloc")]
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[non_exhaustive]
-pub struct SparseDynamics<const NV: usize, const M: usize> {
+pub(crate) struct Accelerations<const NV: usize, const M: usize> {
     /// `v̇ = [r̈_0, ω̇'_0, ...]`.
     pub vdot: SVector<f64, NV>,
     /// Lagrange multipliers (`M v̇ + Jᵀ λ = Q`); zero on redundant rows.
     pub lambda: SVector<f64, M>,
 }
 
-/// A scene with loads, springs and options, integrated on the sparse block
-/// factor of `J M⁻¹ Jᵀ` (see the [module docs](super)): RK4, generalised-α
-/// or the implicit midpoint rule (the implicit ones with their exact
-/// iteration matrices in saddle-point form), with the mass-metric projection
-/// of [`Simulation`](crate::dynamics::Simulation). The workspace is
-/// allocated once, in [`SparseSimulation::new`] (or at the first implicit
-/// step of a simulation made for RK4); a step allocates nothing. Without
-/// feature `alloc`, RK4 runs with every workspace inline (the block factor's
-/// arrays sized by the derive) and `new` refuses the implicit integrators.
-pub struct SparseSimulation<
+/// A scene with loads, springs and options: constrained dynamics, reactions,
+/// energy and fixed or error-controlled steps; the one simulation for every
+/// scene ([`dynamics`](crate::dynamics) gives the equations, integrators and
+/// signs). It solves on the scene's compile-time block pattern: the block
+/// factor of `J M⁻¹ Jᵀ` (see [`sparse`](super)) and, for the implicit
+/// integrators, their exact Newton matrices in saddle-point form over bodies
+/// and joints. The workspaces of the configured integrator are made in
+/// [`Simulation::new`]; a step allocates nothing. Without feature `alloc`,
+/// RK4 runs with every workspace inline (the factor's arrays sized by the
+/// derive) and `new` refuses the implicit integrators, which
+/// [`DenseSimulation`](crate::dynamics::DenseSimulation) runs without it.
+pub struct Simulation<
     'a,
     S: SparseJacobian<NB, NNZ>,
     L,
@@ -76,7 +79,7 @@ pub struct SparseSimulation<
     #[cfg(feature = "alloc")]
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again).
-    pub(super) radau_start: Option<(SystemState<NB>, SparseDynamics<NV, M>)>,
+    pub(super) radau_start: Option<(SystemState<NB>, Accelerations<NV, M>)>,
     /// The implicit midpoint rule's iterate (with `alpha`).
     #[cfg(feature = "alloc")]
     pub(super) midpoint: Option<alloc::boxed::Box<MidpointWork<NB, NV, M, NNZ>>>,
@@ -88,7 +91,7 @@ pub struct SparseSimulation<
     work: Boxed<SolveWork<NV, M, NNZ>>,
     rk4: Option<Boxed<Rk4Work<NB, NV>>>,
     /// The options (may be changed between steps; an implicit integrator's
-    /// workspace is built in [`SparseSimulation::new`] or at its first step).
+    /// workspace is built in [`Simulation::new`] or at its first step).
     pub options: SimulationOptions,
 }
 
@@ -166,10 +169,10 @@ impl<const NB: usize, const NV: usize> Rk4Work<NB, NV> {
 }
 
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
-    for SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+    for Simulation<'_, S, L, NB, NV, M, NNZ>
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("SparseSimulation")
+        f.debug_struct("Simulation")
             .field("scene", &core::any::type_name::<S>())
             .field("factor_blocks", &self.solver.factor.factor_blocks())
             .field("options", &self.options)
@@ -177,41 +180,34 @@ impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: u
     }
 }
 
-impl<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'a, S, L, NB, NV, M, NNZ>
+impl<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'a, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
     /// A simulation of `scene` with user `loads` and `springs`; the block
-    /// factor's schedule is built here, once.
+    /// factor's schedule and the workspaces of `options.integrator` are
+    /// built here, once (an integrator switched to later builds its own at
+    /// its first step).
     ///
     /// # Errors
-    /// As [`Simulation::new`](crate::dynamics::Simulation::new).
+    /// [`AnalysisError::BadInertia`] for a non-positive or non-finite mass or a
+    /// singular inertia tensor, [`AnalysisError::BadOption`] for a spring attached
+    /// to a body that does not exist or with non-finite coefficients (or, without
+    /// feature `alloc`, an implicit integrator), [`AnalysisError::Dimensions`] if
+    /// `NV ≠ 6 NB` or the scene's factor storage does not fit its pattern.
     pub fn new(
         scene: &'a S,
         loads: L,
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        #[cfg(feature = "alloc")]
-        let alpha = match options.integrator {
-            Integrator::Rk4 => None,
-            Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint | Integrator::RadauIIA => {
-                Some(AlphaWorkspace::new::<S, NNZ>(springs)?)
-            }
-        };
-        // The implicit integrators' vectors with their pattern: a step
-        // allocates nothing.
-        #[cfg(feature = "alloc")]
-        let (alpha_work, midpoint) =
-            (alpha.as_ref().map(|_| AlphaWork::new()), alpha.as_ref().map(|_| MidpointWork::new()));
         #[cfg(not(feature = "alloc"))]
         implicit_needs_alloc(options.integrator)?;
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
         let projected = boxed((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
-        Ok(SparseSimulation {
+        let sim = Simulation {
             scene,
             loads,
             springs,
@@ -221,7 +217,7 @@ where
             solver,
             projected,
             #[cfg(feature = "alloc")]
-            alpha,
+            alpha: None,
             #[cfg(feature = "alloc")]
             radau: None,
             #[cfg(feature = "alloc")]
@@ -229,13 +225,22 @@ where
             #[cfg(feature = "alloc")]
             radau_start: None,
             #[cfg(feature = "alloc")]
-            midpoint,
+            midpoint: None,
             #[cfg(feature = "alloc")]
-            alpha_work,
+            alpha_work: None,
             work: SolveWork::new(),
             rk4: Some(Rk4Work::new()),
             options,
-        })
+        };
+        // The implicit integrators' workspaces with their pattern: a step
+        // allocates nothing.
+        #[cfg(feature = "alloc")]
+        let sim = {
+            let mut sim = sim;
+            sim.prepare(options.integrator)?;
+            sim
+        };
+        Ok(sim)
     }
 
     /// The scene.
@@ -272,23 +277,26 @@ where
     /// # Errors
     /// Non-finite inputs or outputs; [`AnalysisError::Inconsistent`] when
     /// redundant constraints contradict each other.
-    pub fn dynamics(&mut self, state: &SystemState<NB>) -> Result<SparseDynamics<NV, M>, AnalysisError> {
-        self.solve(state, false, true)
+    pub fn dynamics(&mut self, state: &SystemState<NB>) -> Result<Dynamics<NV, M>, AnalysisError> {
+        self.solve_into(state, false, true)?;
+        let w = &self.work;
+        Ok(Dynamics { vdot: w.vdot, lambda: w.lambda, forces: w.forces, redundant: self.solver.redundant() })
     }
 
     /// The dynamics; `keep` factorises under the step's rule, `check` holds the
     /// dropped rows to [`REDUNDANT_TOLERANCE`].
+    #[cfg(feature = "alloc")]
     pub(super) fn solve(
         &mut self,
         state: &SystemState<NB>,
         keep: bool,
         check: bool,
-    ) -> Result<SparseDynamics<NV, M>, AnalysisError> {
+    ) -> Result<Accelerations<NV, M>, AnalysisError> {
         self.solve_into(state, keep, check)?;
-        Ok(SparseDynamics { vdot: self.work.vdot, lambda: self.work.lambda })
+        Ok(Accelerations { vdot: self.work.vdot, lambda: self.work.lambda })
     }
 
-    /// [`SparseSimulation::solve`] into the workspace (`v̇`, `λ` in
+    /// [`Simulation::solve`] into the workspace (`v̇`, `λ` in
     /// `self.work`): no vector of the scene's size in this frame but the
     /// stabilisation's.
     fn solve_into(&mut self, state: &SystemState<NB>, keep: bool, check: bool) -> Result<(), AnalysisError> {
@@ -337,7 +345,7 @@ where
     }
 
     /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every
-    /// body, from the multipliers of [`SparseSimulation::dynamics`] at `state`:
+    /// body, from the multipliers of [`Simulation::dynamics`] at `state`:
     /// `−J_kᵀ λ_k` split by body, from the Jacobian's nonzero entries. Rows
     /// outside `0..M` are ignored.
     pub fn reactions(&self, state: &SystemState<NB>, lambda: &SVector<f64, M>, block: &RowBlock) -> [Reaction; NB] {
@@ -370,11 +378,14 @@ where
     }
 
     /// Advances `state` by one step `h` of the configured integrator (RK4,
-    /// generalised-α or the implicit midpoint rule), then projects onto the
-    /// constraints if configured. On error `state` is unchanged.
+    /// the implicit midpoint rule, generalised-α or Radau IIA), then projects
+    /// onto the constraints if configured. On error `state` is unchanged.
     ///
     /// # Errors
-    /// As [`Simulation::step`](crate::dynamics::Simulation::step). The
+    /// [`AnalysisError::BadOption`] for a step that is not positive and finite;
+    /// non-finite inputs; failures of the dynamics, of the implicit iteration
+    /// (or a midpoint solution its energy balance refuses,
+    /// [`AnalysisError::SpuriousSolution`]) or of the projection. The
     /// implicit integrators' Newton matrices take the scene's generated
     /// second-order terms, or differences of `J`, `γ` and `Φ_t` for a scene
     /// derived without `second_order` ([`DifferenceTerms`](super::DifferenceTerms)).
@@ -382,6 +393,8 @@ where
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
+        #[cfg(feature = "alloc")]
+        self.prepare(self.options.integrator)?;
         let mut report = StepReport::default();
         // Each integrator in a frame of its own: a step's stack is the one
         // integrator's, not the sum of all four.
@@ -520,10 +533,10 @@ where
     pub(super) fn step_start(
         &mut self,
         state: &SystemState<NB>,
-    ) -> Result<(SystemState<NB>, SparseDynamics<NV, M>), AnalysisError> {
+    ) -> Result<(SystemState<NB>, Accelerations<NV, M>), AnalysisError> {
         let mut y0 = *state;
         self.begin(state, &mut y0)?;
-        Ok((y0, SparseDynamics { vdot: self.work.vdot, lambda: self.work.lambda }))
+        Ok((y0, Accelerations { vdot: self.work.vdot, lambda: self.work.lambda }))
     }
 
     /// [`step_start`](Self::step_start) into `y0` and the workspace (`v̇`,
@@ -540,7 +553,7 @@ where
 
     #[cfg(feature = "alloc")]
     /// Generalised-α's workspace, built at its first use if
-    /// [`SparseSimulation::new`] did not (another integrator, then
+    /// [`Simulation::new`] did not (another integrator, then
     /// [`integrate`](Self::integrate) with it): allocated once.
     pub(super) fn alpha_workspace(&mut self) -> Result<(), AnalysisError> {
         if self.alpha.is_none() {
@@ -549,6 +562,24 @@ where
             self.midpoint = Some(MidpointWork::new());
         }
         Ok(())
+    }
+
+    #[cfg(feature = "alloc")]
+    /// The workspaces `integrator` steps in, built here unless they exist:
+    /// [`Simulation::new`] calls it, so that no step allocates; a step with
+    /// an integrator the simulation was not made for calls it once.
+    fn prepare(&mut self, integrator: Integrator) -> Result<(), AnalysisError> {
+        match integrator {
+            Integrator::Rk4 => Ok(()),
+            Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => self.alpha_workspace(),
+            Integrator::RadauIIA => {
+                self.alpha_workspace()?;
+                if let (None, Some(ws)) = (&self.radau, &self.alpha) {
+                    self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
+                }
+                Ok(())
+            }
+        }
     }
 
     /// One RK4 step from `state` (checked and normalised into `w.y0`) under
@@ -607,7 +638,8 @@ where
     /// ‖Φ‖ and ‖J v + Φ_t‖ afterwards.
     ///
     /// # Errors
-    /// As [`Simulation::project`](crate::dynamics::Simulation::project).
+    /// As [`crate::analysis::assemble`], except that stopping short of the
+    /// tolerance by less than a factor 1000 (round-off floor) is accepted.
     pub fn project(
         &mut self,
         state: &mut SystemState<NB>,
@@ -625,7 +657,7 @@ where
         Ok((iterations, residual, velocity_residual))
     }
 
-    /// The velocity half of [`SparseSimulation::project`] (`factored`: Newton
+    /// The velocity half of [`Simulation::project`] (`factored`: Newton
     /// converged, so the factor and the values buffer hold `J` at `state`);
     /// returns ‖J v + Φ_t‖. In a frame of its own, apart from Newton's.
     #[inline(never)]
@@ -658,7 +690,7 @@ where
 
 #[cfg(feature = "alloc")]
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    SparseSimulation<'_, S, L, NB, NV, M, NNZ>
+    Simulation<'_, S, L, NB, NV, M, NNZ>
 {
     /// The histories after a step of `integrator` was accepted at `state`:
     /// its own follows the state, the others' are dropped (as on the dense

@@ -1,10 +1,10 @@
-//! The linearisation (`Simulation::linearise`) against closed forms and
+//! The linearisation (`DenseSimulation::linearise`) against closed forms and
 //! against differences of the dynamics: a ball-jointed pendulum's swing
 //! frequency `√(m g l / (I + m l²))`, a hanging double compound pendulum's two
 //! frequencies from its textbook 2 × 2 eigenproblem, and, at a swinging
 //! state of the double pendulum, `T A = F T` (the full linearisation `F`
 //! leaves the constraints' tangent space invariant) with `F`'s acceleration
-//! rows against central differences of `Simulation::dynamics` and against
+//! rows against central differences of `DenseSimulation::dynamics` and against
 //! dual numbers through a hand-written model of the same pendulum; the
 //! midpoint step's state-transition Jacobian against differences of the step
 //! and against dual numbers through the same step of that model.
@@ -12,11 +12,10 @@
 #![allow(missing_docs)]
 
 use joint_runtime::dynamics::{
-    AppliedLoads, Attachment, Direction, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper,
-    Stabilisation,
+    AppliedLoads, Attachment, DenseSimulation, Direction, Integrator, Loads, NoLoads, Simulation, SimulationOptions,
+    SpringDamper, Stabilisation,
 };
 use joint_runtime::nalgebra::{Complex, DMatrix, Matrix2, Matrix3, RealField, SMatrix, SVector, Vector3, Vector4};
-use joint_runtime::sparse::SparseSimulation;
 use joint_runtime::{Scene, SystemState};
 use joint_tests::scenes::hanging_rods;
 use num_dual::Dual64;
@@ -34,7 +33,7 @@ fn sorted(mut e: Vec<Complex<f64>>) -> Vec<Complex<f64>> {
 #[test]
 fn pendulum_swing_frequency_is_the_closed_form() {
     let scene = pendulum();
-    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = DenseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
     let lin = sim.linearise(&swung(0.0), &DMatrix::zeros(6, 0)).unwrap();
     assert_eq!(lin.freedoms, 3);
     // Point of suspension 1 m above the centre of mass, I = 0.01 about it.
@@ -62,7 +61,7 @@ fn double_pendulum_frequencies_are_the_compound_pendulum_ones() {
     want.sort_by(|a, b| b.total_cmp(a));
 
     let scene = DoublePendulum;
-    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = DenseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
     let lin = sim.linearise(&hanging_rods([0.0, 0.0]), &DMatrix::zeros(12, 0)).unwrap();
     assert_eq!(lin.freedoms, 6);
     let e = sorted(lin.eigenvalues().unwrap());
@@ -128,7 +127,7 @@ fn full_linearisation_at_a_swinging_state_matches_differences_of_the_dynamics() 
 
 fn check_full<L: AppliedLoads<2>>(loads: L, springs: &[SpringDamper]) {
     let scene = DoublePendulum;
-    let mut sim = Simulation::new(&scene, loads, springs, SimulationOptions::default()).unwrap();
+    let mut sim = DenseSimulation::new(&scene, loads, springs, SimulationOptions::default()).unwrap();
     let state = double_start();
     // A load input: a horizontal force on the lower rod's centre.
     let mut inputs = DMatrix::zeros(12, 1);
@@ -176,7 +175,7 @@ fn check_full<L: AppliedLoads<2>>(loads: L, springs: &[SpringDamper]) {
     // of the dynamics under that load.
     let pushed = |f: f64| {
         let load = move |_: &SystemState<2>, l: &mut Loads<2>| l.force[1].x += f;
-        let mut sim = Simulation::new(&scene, load, &[], SimulationOptions::default()).unwrap();
+        let mut sim = DenseSimulation::new(&scene, load, &[], SimulationOptions::default()).unwrap();
         sim.dynamics(&state).unwrap().vdot
     };
     let fd = (pushed(1e-3) - pushed(-1e-3)) / 2e-3;
@@ -204,8 +203,8 @@ fn compare_paths<L: AppliedLoads<2> + Copy>(loads: L, springs: &[SpringDamper], 
     let state = double_start();
     let mut inputs = DMatrix::zeros(12, 2);
     (inputs[(6, 0)], inputs[(3, 1)]) = (1.0, 0.5);
-    let mut dense = Simulation::new(&DoublePendulum, loads, springs, options).unwrap();
-    let mut sparse = SparseSimulation::new(&DoublePendulum, loads, springs, options).unwrap();
+    let mut dense = DenseSimulation::new(&DoublePendulum, loads, springs, options).unwrap();
+    let mut sparse = Simulation::new(&DoublePendulum, loads, springs, options).unwrap();
     assert_eq!(dense.forces(&state), sparse.forces(&state));
     let (d, s) = (dense.linearise(&state, &inputs).unwrap(), sparse.linearise(&state, &inputs).unwrap());
     assert_eq!(d.freedoms, s.freedoms);
@@ -232,7 +231,7 @@ fn sparse_linearise_without_second_order_is_an_error() {
     #[body(bob, mass = 1.0, inertia = [1, 1, 1])]
     #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
     struct Plain;
-    let mut sim = SparseSimulation::new(&Plain, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = Simulation::new(&Plain, NoLoads, &[], SimulationOptions::default()).unwrap();
     let e = sim.linearise(&swung(0.0), &DMatrix::zeros(6, 0)).unwrap_err();
     assert!(e.to_string().contains("#[scene(second_order)]"), "{e}");
     let mut end = swung(0.3);
@@ -245,7 +244,7 @@ fn sparse_linearise_without_second_order_is_an_error() {
 #[test]
 fn at_an_equilibrium_minimal_coordinates_lose_nothing() {
     let scene = DoublePendulum;
-    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = DenseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
     let lin = sim.linearise(&hanging_rods([0.0, 0.0]), &DMatrix::zeros(12, 0)).unwrap();
     let gap = (&lin.basis * &lin.a - &lin.full * &lin.basis).amax();
     assert!(gap < 1e-12 * (1.0 + lin.full.amax()), "{gap:e}");
@@ -258,7 +257,7 @@ fn linearise_without_second_order_is_an_error() {
     #[body(bob, mass = 1.0, inertia = [1, 1, 1])]
     #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
     struct Plain;
-    let mut sim = Simulation::new(&Plain, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = DenseSimulation::new(&Plain, NoLoads, &[], SimulationOptions::default()).unwrap();
     let e = sim.linearise(&swung(0.0), &DMatrix::zeros(6, 0)).unwrap_err();
     assert!(e.to_string().contains("#[scene(second_order)]"), "{e}");
 }
@@ -269,12 +268,12 @@ fn linearise_without_second_order_is_an_error() {
 fn midpoint_transition(
     start: &SystemState<2>,
     h: f64,
-) -> (Simulation<'static, DoublePendulum, NoLoads, 2, 12, 6>, SystemState<2>, DMatrix<f64>) {
+) -> (DenseSimulation<'static, DoublePendulum, NoLoads, 2, 12, 6>, SystemState<2>, DMatrix<f64>) {
     let options = SimulationOptions::default()
         .with_integrator(Integrator::ImplicitMidpoint)
         .with_projection(None)
         .with_newton_tolerance(1e-15);
-    let mut sim = Simulation::new(&DoublePendulum, NoLoads, &[], options).unwrap();
+    let mut sim = DenseSimulation::new(&DoublePendulum, NoLoads, &[], options).unwrap();
     let mut end = *start;
     let phi = sim.transition(&mut end, h).unwrap();
     (sim, end, phi)
@@ -416,7 +415,7 @@ fn rotation<T: RealField + Copy>(p: &Vector4<f64>) -> Matrix3<T> {
 #[test]
 fn full_linearisation_matches_dual_numbers_through_a_hand_written_model() {
     let scene = DoublePendulum;
-    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sim = DenseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
     let state = double_start();
     let lin = sim.linearise(&state, &DMatrix::zeros(12, 0)).unwrap();
     let a0: [Matrix3<f64>; 2] = core::array::from_fn(|b| rotation(&state.bodies[b].p));
@@ -432,7 +431,7 @@ fn full_linearisation_matches_dual_numbers_through_a_hand_written_model() {
     println!("full linearisation against dual numbers of a hand-written model: worst {worst:e}");
     assert!(worst < 1e-12, "{worst:e}");
     // The sparse path's, through the block factor and the sparse second-order terms.
-    let mut sparse = SparseSimulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut sparse = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).unwrap();
     let worst = against_dual_accelerations(&sparse.linearise(&state, &DMatrix::zeros(12, 0)).unwrap().full, &state);
     println!("sparse full linearisation against dual numbers of a hand-written model: worst {worst:e}");
     assert!(worst < 1e-12, "{worst:e}");
@@ -483,7 +482,7 @@ fn transition_jacobian_matches_dual_numbers_through_a_hand_written_step() {
         .with_integrator(Integrator::ImplicitMidpoint)
         .with_projection(None)
         .with_newton_tolerance(1e-15);
-    let mut sparse = SparseSimulation::new(&DoublePendulum, NoLoads, &[], options).unwrap();
+    let mut sparse = Simulation::new(&DoublePendulum, NoLoads, &[], options).unwrap();
     let mut sparse_end = start;
     let sparse_phi = sparse.transition(&mut sparse_end, h).unwrap();
     assert!((sparse_end.bodies[1].r - end.bodies[1].r).norm() < 1e-13, "the same step");
