@@ -21,7 +21,10 @@
 //!   system Φ, Φ_t, J, γ, `evaluate` and the sparse J values; `assemble`,
 //!   `velocities`, `accelerations`; `DenseSimulation::new`, `step`, `dynamics`,
 //!   `project`, `reactions` and `energy`; the free shaft's `second_order` and
-//!   `integrate` ([`scenes`]). The integrator,
+//!   `integrate` ([`scenes`]); and the free shaft on the one `Simulation` (the
+//!   block factor of `J M⁻¹ Jᵀ`): an RK4 `step` with every stabilisation and
+//!   projection option, Dormand–Prince `integrate`, `dynamics`, `project`,
+//!   `reactions` and `energy`. The integrator,
 //!   stabilisation, projection and springs are run-time options, so every one of
 //!   them is inside the checked `step`.
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`
@@ -82,7 +85,7 @@ mod canary {
 
 fn main() {
     let joints = joints::keep();
-    let scenes = scenes::driven::keep() + scenes::free::keep();
+    let scenes = scenes::driven::keep() + scenes::free::keep() + scenes::block::keep();
     let batches = batch::keep();
     #[cfg(feature = "canary")]
     let scenes = scenes + canary::keep();

@@ -9,6 +9,12 @@
 //!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`,
 //!   derived with `second_order`: its `step` checks the implicit integrators'
 //!   exact Newton matrices, and `integrate` the error-controlled steps.
+//! - [`block`]: the free shaft on the one `Simulation` (the block factor):
+//!   RK4 steps, Dormand–Prince `integrate`, `dynamics`, `project`,
+//!   `reactions`, `energy`. Its implicit integrators (saddle-point matrices in
+//!   run-time-sized storage) and `new` (which allocates its workspaces with
+//!   `alloc`, and an allocation's failure path counts as a panic) are not
+//!   checked yet.
 //!
 //! Every branch the options select at run time (integrator, stabilisation,
 //! projection, springs) is part of the checked code: the options are arguments.
@@ -155,6 +161,53 @@ pub mod free {
             tolerance: Tolerance,
         ) -> Result<IntegrationReport, AnalysisError> {
             sim.integrate(state, t_end, method, tolerance)
+        }
+    }
+}
+
+/// The free shaft on the one [`Simulation`](joint_runtime::dynamics::Simulation)
+/// (the block factor of `J M⁻¹ Jᵀ`). The wrappers fix the integrator (RK4,
+/// Dormand–Prince), so the implicit integrators' branches are not part of the
+/// checked code.
+pub mod block {
+    use super::*;
+    use joint_examples::double_cardan::FreeDoubleCardan;
+    use joint_runtime::dynamics::{Integrator, Simulation};
+
+    type Sim<'a> = Simulation<'a, FreeDoubleCardan, Push, 3, 18, 18, 60>;
+
+    checked! {
+        fn rk4_step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
+            sim.options.integrator = Integrator::Rk4;
+            sim.step(state, h)
+        }
+        fn dynamics(sim: &mut Sim<'_>, state: &SystemState<3>) -> Result<Dynamics<18, 18>, AnalysisError> {
+            sim.dynamics(state)
+        }
+        fn project(
+            sim: &mut Sim<'_>,
+            state: &mut SystemState<3>,
+            options: &AssemblyOptions,
+        ) -> Result<(usize, f64, f64), AnalysisError> {
+            sim.project(state, options)
+        }
+        fn reactions(
+            sim: &Sim<'_>,
+            state: &SystemState<3>,
+            lambda: &SVector<f64, 18>,
+            block: &RowBlock,
+        ) -> [Reaction; 3] {
+            sim.reactions(state, lambda, block)
+        }
+        fn energy(sim: &Sim<'_>, state: &SystemState<3>) -> Energy { sim.energy(state) }
+        fn dormand_prince(
+            sim: &mut Sim<'_>,
+            state: &mut SystemState<3>,
+            t_end: f64,
+            tolerance: Tolerance,
+        ) -> Result<IntegrationReport, AnalysisError> {
+            sim.options.integrator = Integrator::Rk4;
+            sim.integrate(state, t_end, Adaptive::DormandPrince, tolerance)
         }
     }
 }

@@ -171,6 +171,23 @@ impl<F: FactorStorage> BlockFactor<F> {
     }
 }
 
+/// Sorts a few indices (a factorisation's dropped rows) ascending: by
+/// insertion, which has no panic path, where the standard sort keeps one for
+/// orderings that are not total (`no-panic-check`).
+fn insertion_sort(v: &mut [usize]) {
+    for i in 1..v.len() {
+        let mut j = i;
+        while j > 0 {
+            let (Some(&a), Some(&b)) = (v.get(j - 1), v.get(j)) else { break };
+            if a <= b {
+                break;
+            }
+            v.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
 // The algorithms on the storage's slices: compiled once, not per scene.
 impl Parts<'_> {
     /// The factorisation of [`BlockFactor::factor`]; returns how many rows
@@ -181,18 +198,23 @@ impl Parts<'_> {
         }
         // Entries outside the pattern were zeroed at construction and are
         // never written: no clearing here.
+        // The schedule's indices are in range (`build.rs` checks them against
+        // the storage); every read below still goes through `get`, so that a
+        // step has no panic path (`no-panic-check`).
         for (&(s, o), &v) in self.scatter.iter().zip(values) {
-            self.jb[s][o] = v;
+            if let Some(x) = self.jb.get_mut(s).and_then(|b| b.get_mut(o)) {
+                *x = v;
+            }
         }
         self.times_metric(w);
         // The diagonal blocks of `A` first: their largest entry scales the
         // rank tolerance, and each is factorised where it was formed.
         let mut largest = 0.0f64;
         for k in 0..self.joints.len() {
-            let s = self.col_range[k].0;
+            let Some(&(s, _)) = self.col_range.get(k) else { continue };
             self.gram(s, k);
-            let d = &self.l[s];
-            largest = (0..self.joints[k].rows).fold(largest, |m, r| m.max(d[7 * r]));
+            let (Some(d), Some(joint)) = (self.l.get(s), self.joints.get(k)) else { continue };
+            largest = (0..joint.rows.min(6)).fold(largest, |m, r| m.max(d[7 * r]));
         }
         let tolerance = if tolerance > 0.0 { tolerance * largest } else { 0.0 };
         let mut dropped = 0;
@@ -201,7 +223,7 @@ impl Parts<'_> {
             dropped = self.factor_column(k, tolerance, rule, dropped);
         }
         if let Some(d) = self.dropped.get_mut(..dropped) {
-            d.sort_unstable();
+            insertion_sort(d);
         }
         Ok(dropped)
     }
@@ -215,23 +237,28 @@ impl Parts<'_> {
                     // A side on the ground: its J block is zero, so is J W.
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::times_metric::<R>(&self.jb[s], m, &mut self.jw[s]));
+                let (Some(jb), Some(jw)) = (self.jb.get(s), self.jw.get_mut(s)) else { continue };
+                with_rows!(joint.rows, R => kernels::times_metric::<R>(jb, m, jw));
             }
         }
     }
 
     /// `A_ik = Σ_b (J W)_i,b J_k,bᵀ` for slot `s = (i, k)`, written into `l[s]`.
     fn gram(&mut self, s: usize, k: usize) {
-        let i = self.col[s];
-        let (ri, rk) = (self.joints[i].rows, self.joints[k].rows);
-        let out = &mut self.l[s];
+        let Some(&i) = self.col.get(s) else { return };
+        let (Some(ri), Some(rk)) = (self.rows(i), self.rows(k)) else { return };
+        let (Some(out), Some(&(a, b))) = (self.l.get_mut(s), self.shared_range.get(s)) else { return };
         // Only the `ri × rk` entries are ever nonzero (the kernels keep it so).
         with_rows!(ri, RI => with_rows!(rk, RK => kernels::clear::<RI, RK>(out)));
-        let (a, b) = self.shared_range[s];
-        for &(si, sk, _) in &self.shared[a..b] {
-            let (jw, jb) = (&self.jw[2 * i + si], &self.jb[2 * k + sk]);
+        for &(si, sk, _) in self.shared.get(a..b).unwrap_or_default() {
+            let (Some(jw), Some(jb)) = (self.jw.get(2 * i + si), self.jb.get(2 * k + sk)) else { continue };
             with_rows!(ri, RI => with_rows!(rk, RK => kernels::add_abt::<RI, RK, 6>(jw, jb, out, 1.0)));
         }
+    }
+
+    /// The rows of joint `k`.
+    fn rows(&self, k: usize) -> Option<usize> {
+        self.joints.get(k).map(|j| j.rows)
     }
 
     /// Column `k`: the diagonal block by pivoted Cholesky, the blocks below by
@@ -239,14 +266,18 @@ impl Parts<'_> {
     /// columns before it (left-looking: `A_ik − Σ_j L_ij L_kjᵀ`). Its dropped
     /// rows are appended to the `dropped` before; returns the new count.
     fn factor_column(&mut self, k: usize, tolerance: f64, rule: Option<([usize; 6], usize)>, dropped: usize) -> usize {
-        let ((d, end), rows) = (self.col_range[k], self.joints[k].rows);
+        let (Some(&(d, end)), Some(&JointRows { start, rows, .. })) = (self.col_range.get(k), self.joints.get(k))
+        else {
+            return dropped;
+        };
         self.update(d, k);
-        let (perm, rank) = with_rows!(rows, R => kernels::pivoted_cholesky::<R>(&mut self.l[d], tolerance, rule));
-        self.perm[k] = perm;
-        self.rank[k] = rank;
-        let start = self.joints[k].start;
+        let Some(diagonal) = self.l.get_mut(d) else { return dropped };
+        let (perm, rank) = with_rows!(rows, R => kernels::pivoted_cholesky::<R>(diagonal, tolerance, rule));
+        if let (Some(p), Some(r)) = (self.perm.get_mut(k), self.rank.get_mut(k)) {
+            (*p, *r) = (perm, rank);
+        }
         let mut count = dropped;
-        for &r in &perm[rank..rows] {
+        for &r in perm.iter().take(rows).skip(rank) {
             if let Some(x) = self.dropped.get_mut(count) {
                 *x = start + r;
                 count += 1;
@@ -255,9 +286,9 @@ impl Parts<'_> {
         for s in d + 1..end {
             self.gram(s, k);
             self.update(s, k);
-            let ri = self.joints[self.col[s]].rows;
+            let Some(ri) = self.col.get(s).and_then(|&i| self.rows(i)) else { continue };
             // Every slot of column k comes after its diagonal slot `d`.
-            let (before, rest) = self.l.split_at_mut(s);
+            let Some((before, rest)) = self.l.split_at_mut_checked(s) else { continue };
             let (Some(lkk), Some(out)) = (before.get(d), rest.first_mut()) else { continue };
             with_rows!(ri, RI => with_rows!(rows, RK => kernels::solve_below::<RI, RK>(lkk, &perm, rank, out)));
         }
@@ -267,11 +298,11 @@ impl Parts<'_> {
     /// `l[s] −= Σ_j L_ij L_kjᵀ` for slot `s = (i, k)` (the scheduled products,
     /// all from earlier columns, so from slots before `s`).
     fn update(&mut self, s: usize, k: usize) {
-        let (ri, rk) = (self.joints[self.col[s]].rows, self.joints[k].rows);
-        let (before, rest) = self.l.split_at_mut(s);
+        let (Some(ri), Some(rk)) = (self.col.get(s).and_then(|&i| self.rows(i)), self.rows(k)) else { return };
+        let Some(&(a, b)) = self.sched_range.get(s) else { return };
+        let Some((before, rest)) = self.l.split_at_mut_checked(s) else { return };
         let Some(out) = rest.first_mut() else { return };
-        let (a, b) = self.sched_range[s];
-        for &(j, sij, skj) in &self.sched[a..b] {
+        for &(j, sij, skj) in self.sched.get(a..b).unwrap_or_default() {
             let (Some(lij), Some(lkj), Some(rj)) =
                 (before.get(sij), before.get(skj), self.joints.get(j).map(|j| j.rows))
             else {
@@ -283,30 +314,41 @@ impl Parts<'_> {
 
     /// Solves `A λ = b` on the rows kept (λ = 0 on the dropped ones), in place.
     fn solve(&mut self, b: &mut [f64]) {
-        let n = self.joints.len();
-        let (z, lambda) = (&mut *self.z, &mut *self.lambda);
+        let (z, lambda, l) = (&mut *self.z, &mut *self.lambda, &*self.l);
+        let n = self.joints.len().min(z.len()).min(lambda.len());
+        let diagonal = |k: usize| {
+            let d = self.col_range.get(k).and_then(|&(d, _)| l.get(d));
+            Some((d?, self.perm.get(k)?, *self.rank.get(k)?))
+        };
         for k in 0..n {
             let JointRows { start, rows, .. } = self.joints[k];
             let mut c = [0.0; 6];
             for (x, cx) in c.iter_mut().enumerate().take(rows) {
                 *cx = b.get(start + x).copied().unwrap_or(0.0);
             }
-            let (a, e) = self.row_range[k];
-            for &(j, s) in &self.row[a..e] {
-                let rj = self.joints[j].rows;
-                with_rows!(rows, R => with_rows!(rj, RJ => kernels::add_av::<R, RJ>(&self.l[s], &z[j], &mut c, -1.0)));
+            let &(a, e) = self.row_range.get(k).unwrap_or(&(0, 0));
+            for &(j, s) in self.row.get(a..e).unwrap_or_default() {
+                let (Some(rj), Some(lkj), Some(zj)) = (self.joints.get(j).map(|j| j.rows), l.get(s), z.get(j)) else {
+                    continue;
+                };
+                with_rows!(rows, R => with_rows!(rj, RJ => kernels::add_av::<R, RJ>(lkj, zj, &mut c, -1.0)));
             }
-            let d = self.col_range[k].0;
-            z[k] = with_rows!(rows, R => kernels::forward::<R>(&self.l[d], &self.perm[k], self.rank[k], &c));
+            let Some((lkk, perm, rank)) = diagonal(k) else { continue };
+            z[k] = with_rows!(rows, R => kernels::forward::<R>(lkk, perm, rank, &c));
         }
         lambda.fill([0.0; 6]);
         for k in (0..n).rev() {
-            let ((d, end), mut c, rk) = (self.col_range[k], z[k], self.joints[k].rows);
+            let (Some(&(d, end)), mut c, rk) = (self.col_range.get(k), z[k], self.joints[k].rows) else { continue };
             for s in d + 1..end {
-                let i = self.col[s];
-                with_rows!(self.joints[i].rows, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(&self.l[s], &lambda[i], &mut c, -1.0)));
+                let Some(&i) = self.col.get(s) else { continue };
+                let (Some(ri), Some(lik), Some(li)) = (self.joints.get(i).map(|j| j.rows), l.get(s), lambda.get(i))
+                else {
+                    continue;
+                };
+                with_rows!(ri, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(lik, li, &mut c, -1.0)));
             }
-            lambda[k] = kernels::backward(&self.l[d], &self.perm[k], self.rank[k], &c);
+            let (Some((lkk, perm, rank)), Some(out)) = (diagonal(k), lambda.get_mut(k)) else { continue };
+            *out = kernels::backward(lkk, perm, rank, &c);
         }
         for (joint, values) in self.joints.iter().zip(lambda.iter()) {
             for (x, &v) in values.iter().enumerate().take(joint.rows) {
@@ -329,9 +371,10 @@ impl View<'_> {
                 else {
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::add_av::<R, 6>(&self.jb[2 * k + side], x, &mut acc, 1.0));
+                let Some(jb) = self.jb.get(2 * k + side) else { continue };
+                with_rows!(joint.rows, R => kernels::add_av::<R, 6>(jb, x, &mut acc, 1.0));
             }
-            for (o, &a) in out.iter_mut().skip(joint.start).zip(&acc[..joint.rows]) {
+            for (o, &a) in out.iter_mut().skip(joint.start).zip(acc.iter().take(joint.rows)) {
                 *o = a;
             }
         }
@@ -351,7 +394,8 @@ impl View<'_> {
                 else {
                     continue;
                 };
-                with_rows!(joint.rows, R => kernels::add_atv::<R, 6>(&self.jb[2 * k + side], &yk, o, 1.0));
+                let Some(jb) = self.jb.get(2 * k + side) else { continue };
+                with_rows!(joint.rows, R => kernels::add_atv::<R, 6>(jb, &yk, o, 1.0));
             }
         }
     }

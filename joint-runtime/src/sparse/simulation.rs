@@ -424,8 +424,15 @@ where
         h: f64,
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
-        let mut w = self.rk4.take().unwrap_or_else(Rk4Work::new);
-        let stepped = self.step_rk4(&mut w, state, h).and_then(|()| {
+        // Taken out while the step borrows `self`, and always put back: `new`
+        // made it, so a step never allocates (nor has an allocation's failure
+        // path). Held without drop glue: a box dropped on unwinding would
+        // keep a cleanup path that `no-panic-check` counts as a panic, and
+        // nothing here unwinds.
+        let Some(w) = self.rk4.take() else { return Err(AnalysisError::BadOption { name: "workspace" }) };
+        let mut held = core::mem::ManuallyDrop::new(w);
+        let w: &mut Rk4Work<NB, NV> = &mut held;
+        let stepped = self.step_rk4(w, state, h).and_then(|()| {
             if let Some(options) = self.options.projection {
                 report.projection_iterations = self.settle(&mut w.end, &w.stage, &options);
             }
@@ -434,7 +441,7 @@ where
         if stepped.is_ok() {
             *state = w.end;
         }
-        self.rk4 = Some(w);
+        self.rk4 = Some(core::mem::ManuallyDrop::into_inner(held));
         stepped
     }
 

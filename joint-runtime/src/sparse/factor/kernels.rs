@@ -8,6 +8,15 @@
 use super::Block;
 use crate::analysis::InverseMass;
 
+/// `i` clamped into `0..n` (`0` for `n = 0`). A block's pivots are a
+/// permutation of `0..n`, so clamping one never changes it: it only lets the
+/// compiler see every pivoted index in bounds, so that no panic path is left
+/// (`no-panic-check`); a `min` costs less than the bounds check it replaces.
+#[inline(always)]
+fn below(i: usize, n: usize) -> usize {
+    i.min(n.saturating_sub(1))
+}
+
 /// `out = J W` for a block of `R` rows: the translational columns times
 /// `1/m`, the rotational ones times the inverse inertia.
 #[inline(always)]
@@ -75,12 +84,16 @@ pub(super) fn pivoted_cholesky<const N: usize>(
     clear::<N, N>(l);
     let mut rank = 0;
     for c in 0..N {
-        let Some(p) = (c..N).max_by(|&a, &b| w[perm[a]][perm[a]].total_cmp(&w[perm[b]][perm[b]])) else { break };
-        let pivot = w[perm[p]][perm[p]];
+        let diagonal = |a: usize| {
+            let q = below(perm[below(a, 6)], N);
+            w[q][q]
+        };
+        let Some(p) = (c..N).max_by(|&a, &b| diagonal(a).total_cmp(&diagonal(b))) else { break };
+        let pivot = diagonal(p);
         if pivot.is_nan() || pivot <= tolerance || pivot <= 0.0 {
             break;
         }
-        perm.swap(c, p);
+        perm.swap(below(c, 6), below(p, 6));
         eliminate::<N>(&mut w, l, &perm, c);
         rank = c + 1;
     }
@@ -103,8 +116,9 @@ pub(super) fn clear<const R: usize, const C: usize>(l: &mut Block) {
 fn in_order<const N: usize>(d: &[[f64; N]; N], perm: &[usize; 6], rank: usize, l: &mut Block) -> bool {
     let mut w = *d;
     clear::<N, N>(l);
-    for c in 0..rank {
-        let pivot = w[perm[c]][perm[c]];
+    for c in 0..rank.min(N) {
+        let q = below(perm[c], N);
+        let pivot = w[q][q];
         if pivot.is_nan() || pivot <= 0.0 {
             return false;
         }
@@ -116,14 +130,18 @@ fn in_order<const N: usize>(d: &[[f64; N]; N], perm: &[usize; 6], rank: usize, l
 /// Column `c` of the factor at pivot `perm[c]`, and the update of the rest.
 #[inline(always)]
 fn eliminate<const N: usize>(w: &mut [[f64; N]; N], l: &mut Block, perm: &[usize; 6], c: usize) {
-    let p = perm[c];
+    let (c, rest) = (below(c, N), perm.iter().take(N).skip(c + 1));
+    let p = below(perm[below(c, 6)], N);
     let root = libm::sqrt(w[p][p]);
     l[6 * p + c] = root;
-    for &r in &perm[c + 1..N] {
+    for &r in rest.clone() {
+        let r = below(r, N);
         l[6 * r + c] = w[r][p] / root;
     }
-    for &r in &perm[c + 1..N] {
-        for &s in &perm[c + 1..N] {
+    for &r in rest.clone() {
+        let r = below(r, N);
+        for &s in rest.clone() {
+            let s = below(s, N);
             w[r][s] -= l[6 * r + c] * l[6 * s + c];
         }
     }
@@ -143,13 +161,16 @@ pub(super) fn solve_below<const RI: usize, const RK: usize>(
     for x in 0..RI {
         let mut y = [0.0; RK];
         for a in 0..rank {
+            let pa = below(perm[a], RK);
             let mut sum = 0.0;
             for (c, yc) in y.iter().enumerate().take(a) {
-                sum += lkk[6 * perm[a] + c] * yc;
+                sum += lkk[6 * pa + c] * yc;
             }
-            y[a] = (out[6 * x + perm[a]] - sum) / lkk[6 * perm[a] + a];
+            y[a] = (out[6 * x + pa] - sum) / lkk[6 * pa + a];
         }
-        out[6 * x..6 * x + RK].copy_from_slice(&y);
+        for (o, &v) in out.iter_mut().skip(6 * x).zip(&y) {
+            *o = v;
+        }
     }
 }
 
@@ -187,11 +208,12 @@ pub(super) fn add_atv<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], o
 pub(super) fn forward<const R: usize>(l: &Block, perm: &[usize; 6], rank: usize, c: &[f64; 6]) -> [f64; 6] {
     let mut z = [0.0; 6];
     for a in 0..rank.min(R) {
+        let pa = below(perm[a], R);
         let mut sum = 0.0;
         for y in 0..a {
-            sum += l[6 * perm[a] + y] * z[y];
+            sum += l[6 * pa + y] * z[y];
         }
-        z[a] = (c[perm[a]] - sum) / l[6 * perm[a] + a];
+        z[a] = (c[pa] - sum) / l[6 * pa + a];
     }
     z
 }
@@ -202,15 +224,16 @@ pub(super) fn backward(l: &Block, perm: &[usize; 6], rank: usize, c: &[f64; 6]) 
     let rank = rank.min(6);
     let mut y = [0.0; 6];
     for a in (0..rank).rev() {
+        let a = below(a, 6);
         let mut sum = 0.0;
-        for e in a + 1..rank {
-            sum += l[6 * perm[e] + a] * y[e];
+        for (&pe, ye) in perm.iter().zip(&y).take(rank).skip(a + 1) {
+            sum += l[6 * below(pe, 6) + a] * ye;
         }
-        y[a] = (c[a] - sum) / l[6 * perm[a] + a];
+        y[a] = (c[a] - sum) / l[6 * below(perm[a], 6) + a];
     }
     let mut lambda = [0.0; 6];
     for a in 0..rank {
-        lambda[perm[a]] = y[a];
+        lambda[below(perm[a], 6)] = y[a];
     }
     lambda
 }
