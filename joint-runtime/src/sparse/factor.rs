@@ -348,7 +348,7 @@ impl Parts<'_> {
                 with_rows!(ri, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(lik, li, &mut c, -1.0)));
             }
             let (Some((lkk, perm, rank)), Some(out)) = (diagonal(k), lambda.get_mut(k)) else { continue };
-            *out = kernels::backward(lkk, perm, rank, &c);
+            *out = with_rows!(rk, R => kernels::backward::<R>(lkk, perm, rank, &c));
         }
         for (joint, values) in self.joints.iter().zip(lambda.iter()) {
             for (x, &v) in values.iter().enumerate().take(joint.rows) {

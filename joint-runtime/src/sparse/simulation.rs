@@ -195,7 +195,9 @@ where
     /// singular inertia tensor, [`AnalysisError::BadOption`] for a spring attached
     /// to a body that does not exist or with non-finite coefficients (or, without
     /// feature `alloc`, an implicit integrator), [`AnalysisError::Dimensions`] if
-    /// `NV ≠ 6 NB` or the scene's factor storage does not fit its pattern.
+    /// `NV ≠ 6 NB`, [`AnalysisError::Linalg`] if the scene's block pattern or
+    /// factor storage is inconsistent (a hand-written
+    /// [`SparseJacobian`](crate::SparseJacobian); the derive's never is).
     pub fn new(
         scene: &'a S,
         loads: L,
