@@ -1,8 +1,8 @@
 //! Forward dynamics of any [`Scene`]: constrained accelerations, Lagrange
 //! multipliers and joint reactions, constraint stabilisation, four fixed-step
-//! integrators on the rotation group and error-controlled steps; all
-//! allocation-free and panic-free (the linearisation, behind `alloc`, allocates
-//! its run-time-sized matrices).
+//! integrators on the rotation group and error-controlled steps. A step
+//! allocates nothing (the workspaces are made in `new`; the linearisation,
+//! behind `alloc`, allocates its run-time-sized matrices).
 //!
 //! [`Simulation`] is the one simulation for every scene: it solves the
 //! equations below on the scene's compile-time block pattern (the block factor
@@ -582,8 +582,9 @@ pub(crate) fn advance_into<'r, const NB: usize, const NV: usize>(
 /// grows with the square of the scene (a 40-body chain overflows a 2 MiB
 /// thread). Use [`Simulation`]; this type stays, with the same methods, only
 /// while it still does two things the one simulation does not yet: its
-/// implicit integrators and `integrate` run without `alloc`, and its steps
-/// carry the no-panic proof (`no-panic-check`). It goes when those move over.
+/// implicit integrators and `integrate` run without `alloc`, and its `new`
+/// and implicit steps carry the no-panic proof (`no-panic-check`; the one
+/// simulation's RK4 steps do too). It goes when those move over.
 pub struct DenseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize> {
     scene: &'a S,
     loads: L,

@@ -258,16 +258,13 @@ impl<T: Entry> Kkt<T> {
     pub(super) fn solve(&mut self, b: &mut [T]) {
         let n = self.order.len();
         // Gather by position.
-        let mut node_start = 0;
         for node in 0..n {
-            let k = self.position[node];
-            let size = self.sizes[node];
+            let (k, size, start) = (self.position[node], self.sizes[node], self.starts[node]);
             let mut v = [T::zero(); 6];
             for (r, x) in v.iter_mut().enumerate().take(size) {
-                *x = b.get(node_start + r).copied().unwrap_or_else(T::zero);
+                *x = b.get(start + r).copied().unwrap_or_else(T::zero);
             }
             self.x[k] = v;
-            node_start += size;
         }
         // Forward: y = L⁻¹ b.
         for k in 0..n {
@@ -303,15 +300,13 @@ impl<T: Entry> Kkt<T> {
             }
             self.x[k] = out;
         }
-        let mut node_start = 0;
         for node in 0..n {
-            let (k, size) = (self.position[node], self.sizes[node]);
+            let (k, size, start) = (self.position[node], self.sizes[node], self.starts[node]);
             for r in 0..size {
-                if let Some(x) = b.get_mut(node_start + r) {
+                if let Some(x) = b.get_mut(start + r) {
                     *x = self.x[k][r];
                 }
             }
-            node_start += size;
         }
     }
 

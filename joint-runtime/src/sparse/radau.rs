@@ -37,7 +37,7 @@ use super::simulation::Accelerations;
 use super::solver::j_mul;
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
-use crate::dynamics::{AppliedLoads, NewtonMatrix, mass_times};
+use crate::dynamics::{AppliedLoads, Integrator, NewtonMatrix, mass_times};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// Radau's matrices on the pattern and the scratch of their solves,
@@ -116,7 +116,9 @@ where
 
     /// `P₀`, `P₁`, `P₂` at `y0` (see the module docs).
     fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<((), usize), AnalysisError> {
-        self.alpha_workspace()?;
+        // Built here only for `integrate` with Radau on a simulation made
+        // for another integrator (a step builds it first).
+        self.prepare(Integrator::RadauIIA)?;
         let d = self.radau_start_dynamics(y0)?;
         let values = self.scene.jacobian_values(y0);
         let stabilisation = self.options.stabilisation.coefficients();
@@ -124,7 +126,7 @@ where
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let u = d.vdot + velocity_vector::<NB, NV>(y0) * (2.0 * stabilisation.0);
         ws.fill_terms(self.scene, y0, &d.lambda, &u, by_differences)?;
-        let radau = self.radau.get_or_insert_with(|| RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
+        let radau = self.radau.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         radau.values.clear();
         radau.values.extend_from_slice(&values);
         radau.dropped.clear();

@@ -577,7 +577,7 @@ where
     /// The workspaces `integrator` steps in, built here unless they exist:
     /// [`Simulation::new`] calls it, so that no step allocates; a step with
     /// an integrator the simulation was not made for calls it once.
-    fn prepare(&mut self, integrator: Integrator) -> Result<(), AnalysisError> {
+    pub(super) fn prepare(&mut self, integrator: Integrator) -> Result<(), AnalysisError> {
         match integrator {
             Integrator::Rk4 => Ok(()),
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => self.alpha_workspace(),
