@@ -15,6 +15,7 @@ mod generate;
 mod joints;
 mod kinematics;
 mod lower;
+mod normal;
 mod second_order;
 
 #[cfg(test)]

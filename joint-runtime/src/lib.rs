@@ -47,5 +47,6 @@ pub mod __private {
     /// Implemented by the stub the derive emits beside a compile error.
     pub trait FallbackJoint {}
 
+    pub use crate::analysis::InverseMass;
     pub use crate::scene::dense_from_csr;
 }

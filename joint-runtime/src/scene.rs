@@ -167,6 +167,22 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
         self.jacobian_values_into(state, &mut out);
         out
     }
+
+    /// The blocks of `J W Jᵀ` on the factor's pattern (each slot's rows ×
+    /// columns, nothing else) for the entries `values` and the inverse masses
+    /// `w`, written into `factor`; `false` if not written, and then the factor
+    /// forms them itself. The derive writes this straight-line, skipping the
+    /// entries of `J` that are structurally zero and folding the constant ones.
+    #[doc(hidden)]
+    #[inline]
+    fn normal_blocks_into(
+        values: &[f64; NNZ],
+        w: &[crate::analysis::InverseMass; NB],
+        factor: &mut Self::Factor,
+    ) -> bool {
+        let _ = (values, w, factor);
+        false
+    }
 }
 
 /// The dense matrix of a CSR one (the pattern of [`SparseJacobian`]): what a

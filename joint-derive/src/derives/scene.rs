@@ -127,8 +127,18 @@ fn print(
     let z = sizes(s.bodies.len(), d.phi.len());
     let sty = ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true };
     // The sparse Jacobian first (its printer's bindings do not depend on the methods).
-    let (mut sparse, nnz, sparse_ops) = sparse_jacobian(d, &generate::print_none(d, &sty), &z);
-    sparse.extend(block_structure(s, &nnz, &z.m));
+    let (mut sparse, csr, sparse_ops) = sparse_jacobian(d, &generate::print_none(d, &sty), &z);
+    let nnz = Literal::usize_unsuffixed(csr.columns.len());
+    let elimination = elimination(s);
+    sparse.extend(block_structure(s, &elimination, &nnz, &z.m));
+    let normal = crate::normal::method(&csr, &joint_rows(s, blocks), &elimination, s.bodies.len(), &k);
+    let normal_text = match normal {
+        Some((method, ops)) => {
+            sparse.extend(method);
+            format!(", normal blocks {ops}")
+        }
+        None => String::new(),
+    };
     let large = (d.phi.len() * 6 * s.bodies.len() > DENSE_LIMIT).then(|| from_sparse(d, &z, &nnz, sparse_ops));
     let printed = generate::print(d, &sty, large.as_ref());
     let blocks = blocks.iter().map(|b| {
@@ -164,7 +174,7 @@ fn print(
         None => String::new(),
     };
     let doc = format!(
-        " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}{second_text}.",
+        " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}{normal_text}{second_text}.",
         s.bodies.len(),
         d.phi.len(),
         6 * s.bodies.len(),
@@ -220,10 +230,20 @@ fn from_sparse(d: &Derived, z: &Sizes, nnz: &Literal, sparse_ops: usize) -> gene
     generate::FromSparse { jacobian, evaluate, ops }
 }
 
+/// Each joint's rows and bodies, in `BLOCKS` order.
+fn joint_rows(s: &SceneDecl, blocks: &[Block]) -> Vec<crate::normal::JointRows> {
+    s.joints
+        .iter()
+        .zip(blocks)
+        .map(|(j, b)| crate::normal::JointRows { start: b.start, rows: b.rows, bodies: j.bodies })
+        .collect()
+}
+
 /// The sparse form: the entries of J that are not structurally zero, row by
 /// row (CSR), and the function that computes them. Returns the items, the
-/// number of entries and the function's operation count.
-fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, Literal, usize) {
+/// pattern (with the entries the engine folded to constants) and the
+/// function's operation count.
+fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, crate::normal::Csr, usize) {
     let mut row_starts = vec![0usize];
     let (mut columns, mut entries) = (Vec::new(), Vec::new());
     for row in &d.jacobian {
@@ -237,8 +257,10 @@ fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, L
     }
     let nnz = Literal::usize_unsuffixed(columns.len());
     let (body, values, ops) = printed.emit(&entries);
-    let row_starts = row_starts.iter().map(|&x| Literal::usize_unsuffixed(x));
-    let columns = columns.iter().map(|&x| Literal::usize_unsuffixed(x));
+    let constants = entries.iter().map(|&e| d.kinematics.g.as_const(e)).collect();
+    let csr = crate::normal::Csr { row_starts, columns, constants };
+    let row_starts = csr.row_starts.iter().map(|&x| Literal::usize_unsuffixed(x));
+    let columns = csr.columns.iter().map(|&x| Literal::usize_unsuffixed(x));
     let state = &z.signature.state;
     let items = quote! {
         const ROW_STARTS: &'static [usize] = &[#(#row_starts),*];
@@ -246,13 +268,27 @@ fn sparse_jacobian(d: &Derived, printed: &Printed, z: &Sizes) -> (TokenStream, L
         #[inline]
         fn jacobian_values_into(&self, state: &#state, out: &mut [f64; #nnz]) { #body *out = [#(#values),*]; }
     };
-    (items, nnz, ops)
+    (items, csr, ops)
 }
 
-/// The joints' bodies and the elimination order of the joint blocks of
-/// `J M⁻¹ Jᵀ` (two blocks are coupled when their joints share a body), with the
-/// pattern of its block factor: fixed here, at compile time.
-fn block_structure(s: &SceneDecl, nnz: &Literal, m: &Literal) -> TokenStream {
+/// The elimination order of the joint blocks of `J M⁻¹ Jᵀ` (two blocks are
+/// coupled when their joints share a body) and its fill: fixed here.
+fn elimination(s: &SceneDecl) -> crate::engine::order::Elimination {
+    let adjacency: Vec<Vec<usize>> = s
+        .joints
+        .iter()
+        .map(|a| {
+            let shares =
+                |b: &crate::front::scene::JointDecl| a.bodies.iter().flatten().any(|x| b.bodies.contains(&Some(*x)));
+            s.joints.iter().enumerate().filter(|(_, b)| shares(b)).map(|(i, _)| i).collect()
+        })
+        .collect();
+    crate::engine::order::minimum_degree(&adjacency)
+}
+
+/// The joints' bodies and the elimination order `e` of the joint blocks of
+/// `J M⁻¹ Jᵀ`, with the pattern of its block factor: fixed at compile time.
+fn block_structure(s: &SceneDecl, e: &crate::engine::order::Elimination, nnz: &Literal, m: &Literal) -> TokenStream {
     let bodies = |j: &crate::front::scene::JointDecl| {
         j.bodies.map(|b| match b {
             Some(i) => {
@@ -266,16 +302,6 @@ fn block_structure(s: &SceneDecl, nnz: &Literal, m: &Literal) -> TokenStream {
         let [a, b] = bodies(j);
         quote!([#a, #b])
     });
-    let adjacency: Vec<Vec<usize>> = s
-        .joints
-        .iter()
-        .map(|a| {
-            let shares =
-                |b: &crate::front::scene::JointDecl| a.bodies.iter().flatten().any(|x| b.bodies.contains(&Some(*x)));
-            s.joints.iter().enumerate().filter(|(_, b)| shares(b)).map(|(i, _)| i).collect()
-        })
-        .collect();
-    let e = crate::engine::order::minimum_degree(&adjacency);
     let lit = |v: &[usize]| {
         let v = v.iter().map(|&x| Literal::usize_unsuffixed(x));
         quote!(&[#(#v),*])
@@ -286,7 +312,7 @@ fn block_structure(s: &SceneDecl, nnz: &Literal, m: &Literal) -> TokenStream {
         below.extend(b.iter().copied());
         starts.push(below.len());
     }
-    let [n, slots, updates, shared] = factor_sizes(s, &e).map(Literal::usize_unsuffixed);
+    let [n, slots, updates, shared] = factor_sizes(s, e).map(Literal::usize_unsuffixed);
     let (order, starts, below) = (lit(&e.order), lit(&starts), lit(&below));
     let k = krate();
     quote! {

@@ -35,8 +35,9 @@ pub(crate) use motion::{
 };
 pub(crate) use newton::newton;
 pub(crate) use newton::{Directions, damped_newton};
+pub use solve::InverseMass;
 pub(crate) use solve::apply_metric_into;
-pub(crate) use solve::{InverseMass, Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
+pub(crate) use solve::{Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
 
 use crate::linalg::DEFAULT_RANK_TOLERANCE;
 use crate::scene::{Scene, SystemState};

@@ -7,11 +7,24 @@ use super::{Analysis, AnalysisError, RowList, WorstRows};
 use crate::linalg::PivotedCholesky;
 use crate::scene::Scene;
 
-/// Inverse mass of one body: `1/m` and `J'⁻¹`.
+/// Inverse mass of one body: `1/m` and `J'⁻¹` (public only for the code the
+/// derive writes: [`SparseJacobian::normal_blocks_into`](crate::SparseJacobian)).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct InverseMass {
+#[doc(hidden)]
+pub struct InverseMass {
     pub(crate) inv_mass: f64,
     pub(crate) inv_inertia: Matrix3<f64>,
+}
+
+impl InverseMass {
+    /// `1/m`, then `J'⁻¹` row by row: the numbers generated code reads (by
+    /// constant index, so without a bounds check).
+    #[doc(hidden)]
+    #[inline(always)]
+    pub fn entries(&self) -> [f64; 10] {
+        let w = &self.inv_inertia;
+        [self.inv_mass, w.m11, w.m12, w.m13, w.m21, w.m22, w.m23, w.m31, w.m32, w.m33]
+    }
 }
 
 /// The metric of a minimum-norm solve: Euclidean, or the inverse mass matrix

@@ -127,20 +127,29 @@ impl<F: FactorStorage> BlockFactor<F> {
     /// order) and the inverse masses `w`. With `keep`, each block keeps the
     /// pivots and rank [`BlockFactor::keep_rule`] took, so that nearby
     /// matrices drop the same rows; without it, pivots are chosen here.
-    /// `tolerance` is relative to the largest diagonal entry.
+    /// `tolerance` is relative to the largest diagonal entry. `normal` writes
+    /// the blocks of `J W Jᵀ` into the storage and says whether it did (the
+    /// scene's generated [`normal_blocks_into`]); if not, they are formed here.
     ///
     /// # Errors
     /// [`LinalgError::NonFinite`] for a non-finite entry.
+    ///
+    /// [`normal_blocks_into`]: crate::SparseJacobian::normal_blocks_into
     pub(crate) fn factor(
         &mut self,
         values: &[f64],
         w: &[InverseMass],
         tolerance: f64,
         keep: bool,
+        normal: impl FnOnce(&mut F) -> bool,
     ) -> Result<(), LinalgError> {
         self.factorisations = self.factorisations.wrapping_add(1);
         self.dropped = 0;
-        self.dropped = self.store.parts().factor(values, w, tolerance, keep)?;
+        if values.len() != self.store.view().nonzeros || !values.iter().all(|x| x.is_finite()) {
+            return Err(LinalgError::NonFinite);
+        }
+        let formed = normal(&mut self.store);
+        self.dropped = self.store.parts().factor(values, w, tolerance, keep, formed)?;
         Ok(())
     }
 
@@ -192,10 +201,16 @@ fn insertion_sort(v: &mut [usize]) {
 impl Parts<'_> {
     /// The factorisation of [`BlockFactor::factor`]; returns how many rows
     /// it dropped (the first entries of `dropped`, ascending).
-    fn factor(&mut self, values: &[f64], w: &[InverseMass], tolerance: f64, keep: bool) -> Result<usize, LinalgError> {
-        if values.len() != self.scatter.len() || !values.iter().all(|x| x.is_finite()) {
-            return Err(LinalgError::NonFinite);
-        }
+    /// With `formed`, the blocks of `J W Jᵀ` are already in `l` (written by
+    /// the scene's generated code): only `J`'s blocks are scattered.
+    fn factor(
+        &mut self,
+        values: &[f64],
+        w: &[InverseMass],
+        tolerance: f64,
+        keep: bool,
+        formed: bool,
+    ) -> Result<usize, LinalgError> {
         // Entries outside the pattern were zeroed at construction and are
         // never written: no clearing here.
         // The schedule's indices are in range (`build.rs` checks them against
@@ -206,13 +221,17 @@ impl Parts<'_> {
                 *x = v;
             }
         }
-        self.times_metric(w);
+        if !formed {
+            self.times_metric(w);
+        }
         // The diagonal blocks of `A` first: their largest entry scales the
         // rank tolerance, and each is factorised where it was formed.
         let mut largest = 0.0f64;
         for k in 0..self.joints.len() {
             let Some(&(s, _)) = self.col_range.get(k) else { continue };
-            self.gram(s, k);
+            if !formed {
+                self.gram(s, k);
+            }
             let (Some(d), Some(joint)) = (self.l.get(s), self.joints.get(k)) else { continue };
             largest = (0..joint.rows.min(6)).fold(largest, |m, r| m.max(d[7 * r]));
         }
@@ -220,7 +239,7 @@ impl Parts<'_> {
         let mut dropped = 0;
         for k in 0..self.joints.len() {
             let rule = if keep { self.kept.get(k).copied() } else { None };
-            dropped = self.factor_column(k, tolerance, rule, dropped);
+            dropped = self.factor_column(k, tolerance, rule, dropped, formed);
         }
         if let Some(d) = self.dropped.get_mut(..dropped) {
             insertion_sort(d);
@@ -265,7 +284,15 @@ impl Parts<'_> {
     /// triangular solves against it, each slot updated in place by the
     /// columns before it (left-looking: `A_ik − Σ_j L_ij L_kjᵀ`). Its dropped
     /// rows are appended to the `dropped` before; returns the new count.
-    fn factor_column(&mut self, k: usize, tolerance: f64, rule: Option<([usize; 6], usize)>, dropped: usize) -> usize {
+    /// With `formed`, the blocks of `A` are already in place.
+    fn factor_column(
+        &mut self,
+        k: usize,
+        tolerance: f64,
+        rule: Option<([usize; 6], usize)>,
+        dropped: usize,
+        formed: bool,
+    ) -> usize {
         let (Some(&(d, end)), Some(&JointRows { start, rows, .. })) = (self.col_range.get(k), self.joints.get(k))
         else {
             return dropped;
@@ -284,7 +311,9 @@ impl Parts<'_> {
             }
         }
         for s in d + 1..end {
-            self.gram(s, k);
+            if !formed {
+                self.gram(s, k);
+            }
             self.update(s, k);
             let Some(ri) = self.col.get(s).and_then(|&i| self.rows(i)) else { continue };
             // Every slot of column k comes after its diagonal slot `d`.
@@ -475,7 +504,7 @@ mod tests {
         let b = DVector::from_fn(6, |i, _| 1.0 + i as f64);
         let expected = a.lu().solve(&b).expect("a nonsingular J W Jᵀ");
         let mut f = factor::<Right>().expect("the pattern's sizes");
-        f.factor(&values, &w, 1e-12, false).expect("finite");
+        f.factor(&values, &w, 1e-12, false, |_| false).expect("finite");
         let mut x = b.clone();
         f.solve(x.as_mut_slice());
         assert_eq!((f.rank(), f.dropped()), (6, &[][..]));

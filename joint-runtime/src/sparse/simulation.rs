@@ -324,7 +324,12 @@ where
         // next step starts from, with no rule and the same tolerance.
         let (at, made): &(SystemState<NB>, Option<(u64, f64)>) = &self.projected;
         if keep || *made != Some((factor.factorisations(), self.options.rank_tolerance)) || at != state {
-            factor.factor(&w.values, &self.inverse, self.options.rank_tolerance, keep).map_err(|_| non_finite("J"))?;
+            let (values, inverse) = (&w.values, &self.inverse);
+            factor
+                .factor(values, inverse, self.options.rank_tolerance, keep, |f| {
+                    S::normal_blocks_into(values, inverse, f)
+                })
+                .map_err(|_| non_finite("J"))?;
         }
         // The products on the factor's own blocks of `J` (the values just
         // factorised, or the same ones at the same state).

@@ -113,7 +113,9 @@ where
         w: &[InverseMass; NB],
         tolerance: f64,
     ) -> Result<(), AnalysisError> {
-        self.factor.factor(values, w, tolerance, false).map_err(|_| non_finite("J"))
+        self.factor
+            .factor(values, w, tolerance, false, |f| S::normal_blocks_into(values, w, f))
+            .map_err(|_| non_finite("J"))
     }
 
     /// [`Solver::min_norm`] on the factor as it stands: `values` and `w` must

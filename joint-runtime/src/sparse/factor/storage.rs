@@ -121,6 +121,19 @@ pub struct View<'a> {
     pub(super) dropped: &'a [usize],
 }
 
+impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: usize, const M: usize>
+    FactorArrays<N, S, T, U, NNZ, M>
+{
+    /// The factor's blocks, by slot: where the derive's
+    /// [`normal_blocks_into`](crate::SparseJacobian::normal_blocks_into)
+    /// writes `J W Jᵀ` (by constant index, so without a bounds check).
+    #[doc(hidden)]
+    #[inline(always)]
+    pub fn blocks_mut(&mut self) -> &mut [[f64; 36]; S] {
+        &mut self.l
+    }
+}
+
 impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: usize, const M: usize> sealed::Sealed
     for FactorArrays<N, S, T, U, NNZ, M>
 {

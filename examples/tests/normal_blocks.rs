@@ -1,0 +1,129 @@
+//! The derive's straight-line blocks of `J W Jᵀ` (`SparseJacobian::
+//! normal_blocks_into`) against the block factor's own (formed from dense
+//! 6-column blocks of `J`): the same scene behind a wrapper that forwards
+//! everything but the generated blocks gives the same dynamics, the same
+//! redundant rows and the same steps to round-off, on scenes with redundant
+//! rows (Bricard, the double Cardan's bearings), closed loops whose
+//! elimination fills in (the ladder), and one large enough (200 bodies) that
+//! the derive groups its statements.
+
+use joint_examples::{bricard, double_cardan, four_bar, scaling};
+use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
+use joint_runtime::{BodyInertia, Evaluation, Ops, RowBlock, Scene, SparseJacobian, SystemState};
+
+/// `S` without its generated `normal_blocks_into`: the factor forms the blocks.
+struct Unformed<'a, S>(&'a S);
+
+impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Scene<NB, NV, M> for Unformed<'_, S> {
+    const BODIES: [&'static str; NB] = S::BODIES;
+    const BLOCKS: &'static [RowBlock] = S::BLOCKS;
+    const OPS: Ops = S::OPS;
+    fn phi(&self, state: &SystemState<NB>) -> SVector<f64, M> {
+        self.0.phi(state)
+    }
+    fn phi_t(&self, state: &SystemState<NB>) -> SVector<f64, M> {
+        self.0.phi_t(state)
+    }
+    fn jacobian(&self, state: &SystemState<NB>) -> SMatrix<f64, M, NV> {
+        self.0.jacobian(state)
+    }
+    fn gamma(&self, state: &SystemState<NB>) -> SVector<f64, M> {
+        self.0.gamma(state)
+    }
+    fn evaluate(&self, state: &SystemState<NB>) -> Evaluation<f64, M, NV> {
+        self.0.evaluate(state)
+    }
+    fn inertias(&self) -> [BodyInertia; NB] {
+        self.0.inertias()
+    }
+    fn gravity(&self) -> Vector3<f64> {
+        self.0.gravity()
+    }
+}
+
+impl<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize> SparseJacobian<NB, NNZ> for Unformed<'_, S> {
+    const ROW_STARTS: &'static [usize] = S::ROW_STARTS;
+    const COLUMNS: [usize; NNZ] = S::COLUMNS;
+    const BLOCK_BODIES: &'static [[Option<usize>; 2]] = S::BLOCK_BODIES;
+    const ELIMINATION: &'static [usize] = S::ELIMINATION;
+    const FACTOR_STARTS: &'static [usize] = S::FACTOR_STARTS;
+    const FACTOR_BELOW: &'static [usize] = S::FACTOR_BELOW;
+    type Factor = S::Factor;
+    fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]) {
+        self.0.jacobian_values_into(state, out);
+    }
+}
+
+/// `|a − b| ≤ tol (1 + max |b|)` entry by entry.
+#[track_caller]
+fn close(what: &str, a: &[f64], b: &[f64], tol: f64) {
+    let scale = 1.0 + b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!((x - y).abs() <= tol * scale, "{what}[{i}]: generated {x:e}, formed {y:e}");
+    }
+}
+
+/// The dynamics at `state`, then `steps` RK4 steps with projection, with the
+/// generated blocks and with the formed ones; `redundant` rows are dropped
+/// (where the count is known independently).
+fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    scene: &S,
+    mut state: SystemState<NB>,
+    steps: usize,
+    redundant: Option<usize>,
+) where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let options = SimulationOptions::default();
+    let unformed = Unformed(scene);
+    let mut generated = Simulation::new(scene, NoLoads, &[], options).expect("generated");
+    let mut formed = Simulation::new(&unformed, NoLoads, &[], options).expect("formed");
+    let (a, b) = (generated.dynamics(&state).expect("generated"), formed.dynamics(&state).expect("formed"));
+    assert_eq!(a.redundant, b.redundant);
+    if let Some(n) = redundant {
+        assert_eq!(a.redundant.len(), n);
+    }
+    close("v̇", a.vdot.as_slice(), b.vdot.as_slice(), 1e-11);
+    close("λ", a.lambda.as_slice(), b.lambda.as_slice(), 1e-11);
+    let mut other = state;
+    for _ in 0..steps {
+        generated.step(&mut state, 1e-3).expect("generated step");
+        formed.step(&mut other, 1e-3).expect("formed step");
+    }
+    for (x, y) in state.bodies.iter().zip(&other.bodies) {
+        close("r", x.r.as_slice(), y.r.as_slice(), 1e-10);
+        close("ω'", x.omega.as_slice(), y.omega.as_slice(), 1e-9);
+    }
+}
+
+#[test]
+fn bricard_with_its_redundant_row() {
+    same(&bricard::scene(), bricard::initial_state(), 50, Some(1));
+}
+
+#[test]
+fn four_bar() {
+    same(&four_bar::scene(), four_bar::initial_state(), 50, None);
+}
+
+#[test]
+fn double_cardan_with_its_bearings() {
+    let geometry = double_cardan::Geometry::new(0.4, double_cardan::Arrangement::W, double_cardan::Phasing::InPhase)
+        .expect("valid bend");
+    let shaft = double_cardan::DoubleCardan::new(geometry, 10.0);
+    same(&shaft, shaft.initial_state().expect("consistent start"), 50, None);
+}
+
+joint_examples::ladder_scene!(Ladder8, 8, 9);
+joint_examples::chain_scene!(Chain200, 200);
+
+#[test]
+fn a_ladder_of_eight_loops_whose_elimination_fills_in() {
+    same(&Ladder8, scaling::ladder_start::<17>(), 50, Some(3 * 8));
+}
+
+#[test]
+fn a_200_body_chain() {
+    same(&Chain200, scaling::chain_start::<200>(), 20, Some(0));
+}
