@@ -16,6 +16,8 @@ mod joints;
 mod kinematics;
 mod lower;
 mod normal;
+mod products;
+mod program;
 mod second_order;
 
 #[cfg(test)]

@@ -183,6 +183,49 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
         let _ = (values, w, factor);
         false
     }
+
+    /// Factorises the blocks of `J W Jᵀ` in `factor` (formed) with the rank
+    /// tolerance `tolerance` (relative to the largest diagonal entry) and,
+    /// with `keep`, the kept pivots: the block factor's schedule unrolled
+    /// for this scene, one call per block operation with its sizes and
+    /// slots as constants. Returns the count of dropped rows; `None` if not
+    /// written, and then the factor runs its schedule.
+    #[doc(hidden)]
+    #[inline]
+    fn factor_program(factor: &mut Self::Factor, tolerance: f64, keep: bool) -> Option<usize> {
+        let _ = (factor, tolerance, keep);
+        None
+    }
+
+    /// Solves `J W Jᵀ λ = b` in place on the factor
+    /// [`factor_program`](Self::factor_program) left, unrolled as it is;
+    /// `false` if not written.
+    #[doc(hidden)]
+    #[inline]
+    fn solve_program(factor: &mut Self::Factor, b: &mut [f64]) -> bool {
+        let _ = (factor, b);
+        false
+    }
+
+    /// `out = J x` for the entries `values`, `x` of length `6 NB` and `out`
+    /// of the scene's row count; `false` if not written (other lengths, or a
+    /// scene without it: the caller walks the CSR pattern). The derive writes
+    /// one sum per row over its nonzero entries, constants folded.
+    #[doc(hidden)]
+    #[inline]
+    fn j_mul_into(values: &[f64; NNZ], x: &[f64], out: &mut [f64]) -> bool {
+        let _ = (values, x, out);
+        false
+    }
+
+    /// `out = Jᵀ y` (`y` of the row count, `out` of length `6 NB`), as
+    /// [`j_mul_into`](Self::j_mul_into): one sum per column.
+    #[doc(hidden)]
+    #[inline]
+    fn jt_mul_into(values: &[f64; NNZ], y: &[f64], out: &mut [f64]) -> bool {
+        let _ = (values, y, out);
+        false
+    }
 }
 
 /// The dense matrix of a CSR one (the pattern of [`SparseJacobian`]): what a

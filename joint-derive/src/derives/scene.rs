@@ -131,14 +131,20 @@ fn print(
     let nnz = Literal::usize_unsuffixed(csr.columns.len());
     let elimination = elimination(s);
     sparse.extend(block_structure(s, &elimination, &nnz, &z.m));
-    let normal = crate::normal::method(&csr, &joint_rows(s, blocks), &elimination, s.bodies.len(), &k);
-    let normal_text = match normal {
+    let rows = joint_rows(s, blocks);
+    let normal = crate::normal::method(&csr, &rows, &elimination, s.bodies.len(), &k);
+    let mut normal_text = match normal {
         Some((method, ops)) => {
             sparse.extend(method);
             format!(", normal blocks {ops}")
         }
         None => String::new(),
     };
+    if let Some((methods, calls)) = crate::program::methods(&rows, &elimination) {
+        sparse.extend(methods);
+        normal_text.push_str(&format!(", factor program {calls} block operations"));
+    }
+    sparse.extend(crate::products::methods(&csr, 6 * s.bodies.len()));
     let large = (d.phi.len() * 6 * s.bodies.len() > DENSE_LIMIT).then(|| from_sparse(d, &z, &nnz, sparse_ops));
     let printed = generate::print(d, &sty, large.as_ref());
     let blocks = blocks.iter().map(|b| {

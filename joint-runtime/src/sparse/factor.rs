@@ -28,10 +28,11 @@ macro_rules! with_rows {
 
 mod build;
 mod kernels;
+mod program;
 mod storage;
 
+use storage::Parts;
 pub use storage::{FactorArrays, FactorStorage};
-use storage::{Parts, View};
 
 /// A dense block of at most 6 × 6, row-major (`6 r + c`).
 type Block = [f64; 36];
@@ -129,12 +130,16 @@ impl<F: FactorStorage> BlockFactor<F> {
     /// matrices drop the same rows; without it, pivots are chosen here.
     /// `tolerance` is relative to the largest diagonal entry. `normal` writes
     /// the blocks of `J W Jᵀ` into the storage and says whether it did (the
-    /// scene's generated [`normal_blocks_into`]); if not, they are formed here.
+    /// scene's generated [`normal_blocks_into`]); if not, they are formed
+    /// here. `program` factorises them (the scene's generated
+    /// [`factor_program`]: the schedule unrolled) and returns the count of
+    /// dropped rows; `None`: the schedule is run here.
     ///
     /// # Errors
     /// [`LinalgError::NonFinite`] for a non-finite entry.
     ///
     /// [`normal_blocks_into`]: crate::SparseJacobian::normal_blocks_into
+    /// [`factor_program`]: crate::SparseJacobian::factor_program
     pub(crate) fn factor(
         &mut self,
         values: &[f64],
@@ -142,14 +147,20 @@ impl<F: FactorStorage> BlockFactor<F> {
         tolerance: f64,
         keep: bool,
         normal: impl FnOnce(&mut F) -> bool,
+        program: impl FnOnce(&mut F, f64, bool) -> Option<usize>,
     ) -> Result<(), LinalgError> {
         self.factorisations = self.factorisations.wrapping_add(1);
         self.dropped = 0;
         if values.len() != self.store.view().nonzeros || !values.iter().all(|x| x.is_finite()) {
             return Err(LinalgError::NonFinite);
         }
-        let formed = normal(&mut self.store);
-        self.dropped = self.store.parts().factor(values, w, tolerance, keep, formed)?;
+        if !normal(&mut self.store) {
+            self.store.parts().form(values, w);
+        }
+        self.dropped = match program(&mut self.store, tolerance, keep) {
+            Some(dropped) => dropped,
+            None => self.store.parts().factor(tolerance, keep),
+        };
         Ok(())
     }
 
@@ -162,21 +173,19 @@ impl<F: FactorStorage> BlockFactor<F> {
         }
     }
 
-    /// `out = J x` from the Jacobian of the last factorisation, block by
-    /// block (regular six-column rows with their structural zeros, which
-    /// beats the CSR walk's indirection at these sizes).
-    pub(crate) fn j_mul(&self, x: &[f64], out: &mut [f64]) {
-        self.store.view().j_mul(x, out);
-    }
-
-    /// `out = Jᵀ y` from the Jacobian of the last factorisation, block by block.
-    pub(crate) fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
-        self.store.view().jt_mul(y, out);
-    }
-
     /// Solves `A λ = b` on the rows kept (λ = 0 on the dropped ones), in place.
     pub fn solve(&mut self, b: &mut [f64]) {
         self.store.parts().solve(b);
+    }
+
+    /// [`BlockFactor::solve`] by `program` (the scene's generated
+    /// [`solve_program`]) where it returns `true`.
+    ///
+    /// [`solve_program`]: crate::SparseJacobian::solve_program
+    pub(crate) fn solve_by(&mut self, b: &mut [f64], program: impl FnOnce(&mut F, &mut [f64]) -> bool) {
+        if !program(&mut self.store, b) {
+            self.store.parts().solve(b);
+        }
     }
 }
 
@@ -199,18 +208,10 @@ fn insertion_sort(v: &mut [usize]) {
 
 // The algorithms on the storage's slices: compiled once, not per scene.
 impl Parts<'_> {
-    /// The factorisation of [`BlockFactor::factor`]; returns how many rows
-    /// it dropped (the first entries of `dropped`, ascending).
-    /// With `formed`, the blocks of `J W Jᵀ` are already in `l` (written by
-    /// the scene's generated code): only `J`'s blocks are scattered.
-    fn factor(
-        &mut self,
-        values: &[f64],
-        w: &[InverseMass],
-        tolerance: f64,
-        keep: bool,
-        formed: bool,
-    ) -> Result<usize, LinalgError> {
+    /// `J W Jᵀ` into the factor's slots from the Jacobian entries `values`:
+    /// `J` scattered into six-column blocks, `J W` per joint side, then each
+    /// slot's products over the bodies its two joints share.
+    fn form(&mut self, values: &[f64], w: &[InverseMass]) {
         // Entries outside the pattern were zeroed at construction and are
         // never written: no clearing here.
         // The schedule's indices are in range (`build.rs` checks them against
@@ -221,30 +222,36 @@ impl Parts<'_> {
                 *x = v;
             }
         }
-        if !formed {
-            self.times_metric(w);
-        }
-        // The diagonal blocks of `A` first: their largest entry scales the
-        // rank tolerance, and each is factorised where it was formed.
-        let mut largest = 0.0f64;
+        self.times_metric(w);
         for k in 0..self.joints.len() {
-            let Some(&(s, _)) = self.col_range.get(k) else { continue };
-            if !formed {
+            let Some(&(d, end)) = self.col_range.get(k) else { continue };
+            for s in d..end {
                 self.gram(s, k);
             }
-            let (Some(d), Some(joint)) = (self.l.get(s), self.joints.get(k)) else { continue };
+        }
+    }
+
+    /// The factorisation of [`BlockFactor::factor`] on the blocks of
+    /// `J W Jᵀ` in place; returns how many rows it dropped (the first
+    /// entries of `dropped`, ascending).
+    fn factor(&mut self, tolerance: f64, keep: bool) -> usize {
+        // The diagonal blocks' largest entry scales the rank tolerance.
+        let mut largest = 0.0f64;
+        for k in 0..self.joints.len() {
+            let (Some(&(s, _)), Some(joint)) = (self.col_range.get(k), self.joints.get(k)) else { continue };
+            let Some(d) = self.l.get(s) else { continue };
             largest = (0..joint.rows.min(6)).fold(largest, |m, r| m.max(d[7 * r]));
         }
         let tolerance = if tolerance > 0.0 { tolerance * largest } else { 0.0 };
         let mut dropped = 0;
         for k in 0..self.joints.len() {
             let rule = if keep { self.kept.get(k).copied() } else { None };
-            dropped = self.factor_column(k, tolerance, rule, dropped, formed);
+            dropped = self.factor_column(k, tolerance, rule, dropped);
         }
         if let Some(d) = self.dropped.get_mut(..dropped) {
             insertion_sort(d);
         }
-        Ok(dropped)
+        dropped
     }
 
     /// `J W` per joint and side.
@@ -284,15 +291,7 @@ impl Parts<'_> {
     /// triangular solves against it, each slot updated in place by the
     /// columns before it (left-looking: `A_ik − Σ_j L_ij L_kjᵀ`). Its dropped
     /// rows are appended to the `dropped` before; returns the new count.
-    /// With `formed`, the blocks of `A` are already in place.
-    fn factor_column(
-        &mut self,
-        k: usize,
-        tolerance: f64,
-        rule: Option<([usize; 6], usize)>,
-        dropped: usize,
-        formed: bool,
-    ) -> usize {
+    fn factor_column(&mut self, k: usize, tolerance: f64, rule: Option<([usize; 6], usize)>, dropped: usize) -> usize {
         let (Some(&(d, end)), Some(&JointRows { start, rows, .. })) = (self.col_range.get(k), self.joints.get(k))
         else {
             return dropped;
@@ -311,9 +310,6 @@ impl Parts<'_> {
             }
         }
         for s in d + 1..end {
-            if !formed {
-                self.gram(s, k);
-            }
             self.update(s, k);
             let Some(ri) = self.col.get(s).and_then(|&i| self.rows(i)) else { continue };
             // Every slot of column k comes after its diagonal slot `d`.
@@ -384,47 +380,6 @@ impl Parts<'_> {
                 if let Some(out) = b.get_mut(joint.start + x) {
                     *out = v;
                 }
-            }
-        }
-    }
-}
-
-impl View<'_> {
-    /// `out = J x`, block by block.
-    fn j_mul(&self, x: &[f64], out: &mut [f64]) {
-        out.fill(0.0);
-        for (k, joint) in self.joints.iter().enumerate() {
-            let mut acc = [0.0; 6];
-            for (side, body) in joint.bodies.iter().enumerate() {
-                let Some(x) = body.and_then(|b| x.get(6 * b..6 * b + 6)).and_then(|x| <&[f64; 6]>::try_from(x).ok())
-                else {
-                    continue;
-                };
-                let Some(jb) = self.jb.get(2 * k + side) else { continue };
-                with_rows!(joint.rows, R => kernels::add_av::<R, 6>(jb, x, &mut acc, 1.0));
-            }
-            for (o, &a) in out.iter_mut().skip(joint.start).zip(acc.iter().take(joint.rows)) {
-                *o = a;
-            }
-        }
-    }
-
-    /// `out = Jᵀ y`, block by block.
-    fn jt_mul(&self, y: &[f64], out: &mut [f64]) {
-        out.fill(0.0);
-        for (k, joint) in self.joints.iter().enumerate() {
-            let mut yk = [0.0; 6];
-            for (v, &w) in yk.iter_mut().zip(y.iter().skip(joint.start).take(joint.rows)) {
-                *v = w;
-            }
-            for (side, body) in joint.bodies.iter().enumerate() {
-                let Some(o) =
-                    body.and_then(|b| out.get_mut(6 * b..6 * b + 6)).and_then(|o| <&mut [f64; 6]>::try_from(o).ok())
-                else {
-                    continue;
-                };
-                let Some(jb) = self.jb.get(2 * k + side) else { continue };
-                with_rows!(joint.rows, R => kernels::add_atv::<R, 6>(jb, &yk, o, 1.0));
             }
         }
     }
@@ -504,7 +459,7 @@ mod tests {
         let b = DVector::from_fn(6, |i, _| 1.0 + i as f64);
         let expected = a.lu().solve(&b).expect("a nonsingular J W Jᵀ");
         let mut f = factor::<Right>().expect("the pattern's sizes");
-        f.factor(&values, &w, 1e-12, false, |_| false).expect("finite");
+        f.factor(&values, &w, 1e-12, false, |_| false, |_, _, _| None).expect("finite");
         let mut x = b.clone();
         f.solve(x.as_mut_slice());
         assert_eq!((f.rank(), f.dropped()), (6, &[][..]));

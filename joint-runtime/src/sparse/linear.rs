@@ -21,6 +21,7 @@ use nalgebra::{DMatrix, SVector};
 use super::Simulation;
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::Accelerations;
+use super::solver::{j_mul, jt_mul};
 use crate::analysis::{AnalysisError, apply_metric, velocity_vector};
 use crate::dynamics::linear::{check_inputs, minimal, transition_matrix, update_times};
 use crate::dynamics::{AppliedLoads, Linearisation, force_column, midpoint_state, update_blocks};
@@ -204,14 +205,12 @@ where
         let mut out = DMatrix::zeros(NV, r1.ncols());
         for (k, (c1, c2)) in r1.column_iter().zip(r2.column_iter()).enumerate() {
             let x = apply_metric::<NB, NV>(Some(&self.inverse), &SVector::from_iterator(c1.iter().copied()));
-            let mut b = SVector::<f64, M>::zeros();
-            self.solver.factor.j_mul(x.as_slice(), b.as_mut_slice());
+            let mut b = j_mul::<S, NB, NNZ, NV, M>(self.solved_values(), &x);
             for (bi, r) in b.iter_mut().zip(c2.iter()) {
                 *bi -= r;
             }
-            self.solver.factor.solve(b.as_mut_slice());
-            let mut jt = SVector::<f64, NV>::zeros();
-            self.solver.factor.jt_mul(b.as_slice(), jt.as_mut_slice());
+            self.solver.solve(b.as_mut_slice());
+            let jt = jt_mul::<S, NB, NNZ, NV, M>(self.solved_values(), &b);
             out.set_column(k, &(x - apply_metric::<NB, NV>(Some(&self.inverse), &jt)));
         }
         out

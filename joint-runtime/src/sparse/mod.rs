@@ -11,10 +11,13 @@
 //! [`BlockFactor`] turns that pattern, once, into a compact static schedule
 //! (which factor blocks update which) in those arrays; every factorisation then
 //! runs the schedule on blocks of at most 6 × 6, with no search and no
-//! allocation. Why a schedule rather than generated factorisation code: the
-//! code would grow with the factor's operation count and rustc's time with it
-//! (a 160-body chain's dense Jacobian alone is 460 000 literal entries), while
-//! the schedule is a few integers per block pair and the kernels stay in cache.
+//! allocation. For scenes up to 1 500 block operations the derive also writes
+//! the schedule unrolled (`SparseJacobian::factor_program`): one call per
+//! block operation with its sizes and slots constant, the same kernels in the
+//! same order, so the same bits without the look-ups and the dispatch. Above
+//! that the interpreter runs: unrolled code grows with the factor's operation
+//! count and rustc's time faster, while the schedule is a few integers per
+//! block pair and the kernels stay in cache.
 //!
 //! Redundant rows are found as in the dense path: each diagonal block is
 //! factorised with diagonal pivoting, and a pivot below `rank_tolerance ×` the

@@ -10,7 +10,7 @@ use super::alpha::{AlphaWork, AlphaWorkspace};
 use super::midpoint::MidpointWork;
 #[cfg(feature = "alloc")]
 use super::radau::RadauWorkspace;
-use super::solver::{Solver, j_mul, non_finite};
+use super::solver::{Solver, j_mul, j_mul_into, jt_mul_into, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric_into, check_output,
@@ -319,36 +319,35 @@ where
             return Err(non_finite("forces"));
         }
         apply_metric_into(&self.inverse, &w.forces, &mut w.minv_q);
-        let factor = &mut self.solver.factor;
         // The last step's projection factorised `J W Jᵀ` at the state the
         // next step starts from, with no rule and the same tolerance.
         let (at, made): &(SystemState<NB>, Option<(u64, f64)>) = &self.projected;
-        if keep || *made != Some((factor.factorisations(), self.options.rank_tolerance)) || at != state {
-            let (values, inverse) = (&w.values, &self.inverse);
-            factor
-                .factor(values, inverse, self.options.rank_tolerance, keep, |f| {
-                    S::normal_blocks_into(values, inverse, f)
-                })
-                .map_err(|_| non_finite("J"))?;
+        let count = self.solver.factor.factorisations();
+        if keep || *made != Some((count, self.options.rank_tolerance)) || at != state {
+            self.solver.factorise_by(&w.values, &self.inverse, self.options.rank_tolerance, keep)?;
         }
-        // The products on the factor's own blocks of `J` (the values just
-        // factorised, or the same ones at the same state).
-        factor.j_mul(w.minv_q.as_slice(), w.lambda.as_mut_slice());
+        j_mul_into::<S, NB, NNZ>(&w.values, w.minv_q.as_slice(), w.lambda.as_mut_slice());
         w.lambda -= &w.gamma;
-        factor.solve(w.lambda.as_mut_slice());
-        factor.jt_mul(w.lambda.as_slice(), w.jt_lambda.as_mut_slice());
+        self.solver.solve(w.lambda.as_mut_slice());
+        jt_mul_into::<S, NB, NNZ>(&w.values, w.lambda.as_slice(), w.jt_lambda.as_mut_slice());
         // v̇ = W Q − W Jᵀ λ.
         apply_metric_into(&self.inverse, &w.jt_lambda, &mut w.vdot);
         for (v, &q) in w.vdot.iter_mut().zip(w.minv_q.iter()) {
             *v = q - *v;
         }
-        factor.j_mul(w.vdot.as_slice(), w.r.as_mut_slice());
+        j_mul_into::<S, NB, NNZ>(&w.values, w.vdot.as_slice(), w.r.as_mut_slice());
         w.r -= &w.gamma;
         if !w.r.norm().is_finite() || !w.vdot.iter().all(|x| x.is_finite()) {
             return Err(non_finite("accelerations"));
         }
         let scale = 1.0 + w.gamma.norm() + libm::sqrt(w.values.iter().map(|x| x * x).sum::<f64>()) * w.vdot.norm();
         check_redundant::<S, NB, NV, M>(&w.r, self.solver.factor.dropped(), scale, check)
+    }
+
+    /// `J`'s entries at the state of the last solve.
+    #[cfg(feature = "alloc")]
+    pub(super) fn solved_values(&self) -> &[f64; NNZ] {
+        &self.work.values
     }
 
     /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every

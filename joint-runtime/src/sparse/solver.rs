@@ -17,13 +17,36 @@ pub(crate) fn unit_metric<const NB: usize>() -> [InverseMass; NB] {
     [InverseMass { inv_mass: 1.0, inv_inertia: Matrix3::identity() }; NB]
 }
 
-/// `J x` from the CSR entries.
+/// `J x`: the scene's generated product, or a walk of the CSR entries.
 pub(crate) fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
     values: &[f64; NNZ],
     x: &SVector<f64, NV>,
 ) -> SVector<f64, M> {
     let mut out = SVector::<f64, M>::zeros();
-    let x = x.as_slice();
+    j_mul_into::<S, NB, NNZ>(values, x.as_slice(), out.as_mut_slice());
+    out
+}
+
+/// `Jᵀ y`: the scene's generated product, or a walk of the CSR entries.
+pub(crate) fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
+    values: &[f64; NNZ],
+    y: &SVector<f64, M>,
+) -> SVector<f64, NV> {
+    let mut out = SVector::<f64, NV>::zeros();
+    jt_mul_into::<S, NB, NNZ>(values, y.as_slice(), out.as_mut_slice());
+    out
+}
+
+/// `out = J x` into a vector of the scene's rows.
+pub(crate) fn j_mul_into<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+    values: &[f64; NNZ],
+    x: &[f64],
+    out: &mut [f64],
+) {
+    if S::j_mul_into(values, x, out) {
+        return;
+    }
+    out.fill(0.0);
     for (o, (row, columns)) in out.iter_mut().zip(rows::<S, NB, NNZ>(values)) {
         let mut sum = 0.0;
         for (v, &c) in row.iter().zip(columns) {
@@ -31,24 +54,25 @@ pub(crate) fn j_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usiz
         }
         *o = sum;
     }
-    out
 }
 
-/// `Jᵀ y` from the CSR entries.
-pub(crate) fn jt_mul<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NV: usize, const M: usize>(
+/// `out = Jᵀ y` into a vector of the scene's columns.
+pub(crate) fn jt_mul_into<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
     values: &[f64; NNZ],
-    y: &SVector<f64, M>,
-) -> SVector<f64, NV> {
-    let mut out = SVector::<f64, NV>::zeros();
-    let o = out.as_mut_slice();
+    y: &[f64],
+    out: &mut [f64],
+) {
+    if S::jt_mul_into(values, y, out) {
+        return;
+    }
+    out.fill(0.0);
     for (&yr, (row, columns)) in y.iter().zip(rows::<S, NB, NNZ>(values)) {
         for (v, &c) in row.iter().zip(columns) {
-            if let Some(o) = o.get_mut(c) {
+            if let Some(o) = out.get_mut(c) {
                 *o += v * yr;
             }
         }
     }
-    out
 }
 
 /// Each row's entries and their columns, in row order.
@@ -113,9 +137,27 @@ where
         w: &[InverseMass; NB],
         tolerance: f64,
     ) -> Result<(), AnalysisError> {
+        self.factorise_by(values, w, tolerance, false)
+    }
+
+    /// `J W Jᵀ` factorised for the values `values`, under the kept pivot
+    /// rule with `keep`: by the scene's generated blocks and program where
+    /// it has them.
+    pub(crate) fn factorise_by(
+        &mut self,
+        values: &[f64; NNZ],
+        w: &[InverseMass; NB],
+        tolerance: f64,
+        keep: bool,
+    ) -> Result<(), AnalysisError> {
         self.factor
-            .factor(values, w, tolerance, false, |f| S::normal_blocks_into(values, w, f))
+            .factor(values, w, tolerance, keep, |f| S::normal_blocks_into(values, w, f), S::factor_program)
             .map_err(|_| non_finite("J"))
+    }
+
+    /// Solves `J W Jᵀ λ = b` in place on the last factorisation.
+    pub(crate) fn solve(&mut self, b: &mut [f64]) {
+        self.factor.solve_by(b, S::solve_program);
     }
 
     /// [`Solver::min_norm`] on the factor as it stands: `values` and `w` must
@@ -127,7 +169,7 @@ where
         w: &[InverseMass; NB],
     ) -> SVector<f64, NV> {
         let mut y = b;
-        self.factor.solve(y.as_mut_slice());
+        self.solve(y.as_mut_slice());
         apply_metric::<NB, NV>(Some(w), &jt_mul::<S, NB, NNZ, NV, M>(values, &y))
     }
 

@@ -75,14 +75,14 @@ pub struct FactorArrays<
     scatter: Buf<(usize, usize), NNZ>,
     jb: Buf<[Block; 2], N>,
     jw: Buf<[Block; 2], N>,
-    l: Buf<Block, S>,
-    perm: Buf<[usize; 6], N>,
-    rank: Buf<usize, N>,
+    pub(super) l: Buf<Block, S>,
+    pub(super) perm: Buf<[usize; 6], N>,
+    pub(super) rank: Buf<usize, N>,
     /// The pivots and ranks a later factorisation keeps (`BlockFactor::keep_rule`).
-    kept: Buf<([usize; 6], usize), N>,
-    dropped: Buf<usize, M>,
-    z: Buf<[f64; 6], N>,
-    lambda: Buf<[f64; 6], N>,
+    pub(super) kept: Buf<([usize; 6], usize), N>,
+    pub(super) dropped: Buf<usize, M>,
+    pub(super) z: Buf<[f64; 6], N>,
+    pub(super) lambda: Buf<[f64; 6], N>,
 }
 
 /// A factor's arrays, borrowed at once (pattern and numbers).
@@ -110,13 +110,11 @@ pub struct Parts<'a> {
     pub(super) lambda: &'a mut [[f64; 6]],
 }
 
-/// What a factorisation leaves to read: `J`, the ranks and the redundant rows.
+/// What a factorisation leaves to read: the ranks and the redundant rows.
 #[derive(Clone, Copy, Debug)]
 pub struct View<'a> {
-    pub(super) joints: &'a [JointRows],
     pub(super) slots: usize,
     pub(super) nonzeros: usize,
-    pub(super) jb: &'a [Block],
     pub(super) rank: &'a [usize],
     pub(super) dropped: &'a [usize],
 }
@@ -192,13 +190,6 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
     }
 
     fn view(&self) -> View<'_> {
-        View {
-            joints: &self.joints[..],
-            slots: S,
-            nonzeros: NNZ,
-            jb: self.jb.as_flattened(),
-            rank: &self.rank[..],
-            dropped: &self.dropped[..],
-        }
+        View { slots: S, nonzeros: NNZ, rank: &self.rank[..], dropped: &self.dropped[..] }
     }
 }
