@@ -189,6 +189,27 @@ impl<F: FactorStorage> BlockFactor<F> {
     }
 }
 
+/// The rows a diagonal block dropped (`start + r` for each of its `rows`
+/// pivots past the `rank`) appended to `dropped` after the `count` before:
+/// the new count. The interpreter and the unrolled program both record so.
+fn append_dropped(
+    dropped: &mut [usize],
+    count: usize,
+    start: usize,
+    perm: &[usize; 6],
+    rows: usize,
+    rank: usize,
+) -> usize {
+    let mut count = count;
+    for &r in perm.iter().take(rows).skip(rank) {
+        if let Some(x) = dropped.get_mut(count) {
+            *x = start + r;
+            count += 1;
+        }
+    }
+    count
+}
+
 /// Sorts a few indices (a factorisation's dropped rows) ascending: by
 /// insertion, which has no panic path, where the standard sort keeps one for
 /// orderings that are not total (`no-panic-check`).
@@ -302,13 +323,7 @@ impl Parts<'_> {
         if let (Some(p), Some(r)) = (self.perm.get_mut(k), self.rank.get_mut(k)) {
             (*p, *r) = (perm, rank);
         }
-        let mut count = dropped;
-        for &r in perm.iter().take(rows).skip(rank) {
-            if let Some(x) = self.dropped.get_mut(count) {
-                *x = start + r;
-                count += 1;
-            }
-        }
+        let count = append_dropped(self.dropped, dropped, start, &perm, rows, rank);
         for s in d + 1..end {
             self.update(s, k);
             let Some(ri) = self.col.get(s).and_then(|&i| self.rows(i)) else { continue };
@@ -356,7 +371,7 @@ impl Parts<'_> {
                 let (Some(rj), Some(lkj), Some(zj)) = (self.joints.get(j).map(|j| j.rows), l.get(s), z.get(j)) else {
                     continue;
                 };
-                with_rows!(rows, R => with_rows!(rj, RJ => kernels::add_av::<R, RJ>(lkj, zj, &mut c, -1.0)));
+                with_rows!(rows, R => with_rows!(rj, RJ => kernels::sub_av::<R, RJ>(lkj, zj, &mut c)));
             }
             let Some((lkk, perm, rank)) = diagonal(k) else { continue };
             z[k] = with_rows!(rows, R => kernels::forward::<R>(lkk, perm, rank, &c));
@@ -370,7 +385,7 @@ impl Parts<'_> {
                 else {
                     continue;
                 };
-                with_rows!(ri, R => with_rows!(rk, RK => kernels::add_atv::<R, RK>(lik, li, &mut c, -1.0)));
+                with_rows!(ri, R => with_rows!(rk, RK => kernels::sub_atv::<R, RK>(lik, li, &mut c)));
             }
             let (Some((lkk, perm, rank)), Some(out)) = (diagonal(k), lambda.get_mut(k)) else { continue };
             *out = with_rows!(rk, R => kernels::backward::<R>(lkk, perm, rank, &c));

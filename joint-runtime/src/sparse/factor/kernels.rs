@@ -3,7 +3,9 @@
 //! compiler unrolls), chosen once per block by `with_rows!`. A block is 6 × 6
 //! row-major (`6 r + c`); entries past a block's rows, and an `L` block's
 //! columns past its rank, are zero, so a product runs over six columns for a
-//! `J` block and over the column block's rows for an `L` block.
+//! `J` block and over the column block's rows for an `L` block. A diagonal
+//! block of `L` holds the reciprocals of its diagonal entries (each pivot's
+//! `1/√d`), which is all the solves read of them.
 
 use super::Block;
 use crate::analysis::InverseMass;
@@ -54,7 +56,8 @@ pub(super) fn add_abt<const RI: usize, const RK: usize, const C: usize>(
 }
 
 /// Pivoted Cholesky of the `N × N` block `l`, in place: on return `l` holds
-/// the factor's columns (rows in the block's order, column `c` at `6 r + c`)
+/// the factor's columns (rows in the block's order, column `c` at `6 r + c`,
+/// the diagonal entries as reciprocals)
 /// and the pivot order and rank are returned. A pivot at or below
 /// `tolerance` (or not positive) ends the factor: its row and the rest are
 /// dropped as redundant. With `rule`, its pivots are kept (falling back to
@@ -137,11 +140,14 @@ fn in_order<const N: usize>(d: &[[f64; N]; N], perm: &[usize; 6], rank: usize, l
 fn eliminate<const N: usize>(w: &mut [[f64; N]; N], l: &mut Block, perm: &[usize; 6], c: usize) {
     let c = below(c, N);
     let p = below(perm[c], N);
-    let root = libm::sqrt(w[p][p]);
-    l[6 * p + c] = root;
+    // The diagonal is stored as its reciprocal: every use divides by it,
+    // and the solves then multiply (a division's latency is several
+    // multiplications', and the solves are chains of them).
+    let inverse = 1.0 / libm::sqrt(w[p][p]);
+    l[6 * p + c] = inverse;
     for i in c + 1..N {
         let r = below(perm[i], N);
-        l[6 * r + c] = w[r][p] / root;
+        l[6 * r + c] = w[r][p] * inverse;
     }
     for i in c + 1..N {
         let r = below(perm[i], N);
@@ -171,7 +177,7 @@ pub(super) fn solve_below<const RI: usize, const RK: usize>(
             for (c, yc) in y.iter().enumerate().take(a) {
                 sum += lkk[6 * pa + c] * yc;
             }
-            y[a] = (out[6 * x + pa] - sum) / lkk[6 * pa + a];
+            y[a] = (out[6 * x + pa] - sum) * lkk[6 * pa + a];
         }
         for (o, &v) in out.iter_mut().skip(6 * x).zip(&y) {
             *o = v;
@@ -179,31 +185,29 @@ pub(super) fn solve_below<const RI: usize, const RK: usize>(
     }
 }
 
-/// `out[x] += sign Σ_y a[x][y] v[y]` for `x < R`, `y < C`: the forward
-/// solve's update (`sign = −1`, `C` the rows of the column's block) and one
-/// side of a joint's rows of `J x` (`+1`, `C = 6`).
+/// `out[x] −= Σ_y a[x][y] v[y]` for `x < R`, `y < C`: the forward solve's
+/// update (`C` the rows of the column's block).
 #[inline(always)]
-pub(super) fn add_av<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
+pub(super) fn sub_av<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6]) {
     for x in 0..R {
         let mut sum = 0.0;
         for y in 0..C {
             sum += a[6 * x + y] * v[y];
         }
-        out[x] += sign * sum;
+        out[x] -= sum;
     }
 }
 
-/// `out[y] += sign Σ_x a[x][y] v[x]` over the `R` rows of `a`, `y < C`: the
-/// backward solve's update (`sign = −1`, `C` the rows of the column's block)
-/// and one side of a joint's part of `Jᵀ v` (`+1`, `C = 6`).
+/// `out[y] −= Σ_x a[x][y] v[x]` over the `R` rows of `a`, `y < C`: the
+/// backward solve's update (`C` the rows of the column's block).
 #[inline(always)]
-pub(super) fn add_atv<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6], sign: f64) {
+pub(super) fn sub_atv<const R: usize, const C: usize>(a: &Block, v: &[f64; 6], out: &mut [f64; 6]) {
     for y in 0..C {
         let mut sum = 0.0;
         for x in 0..R {
             sum += a[6 * x + y] * v[x];
         }
-        out[y] += sign * sum;
+        out[y] -= sum;
     }
 }
 
@@ -218,7 +222,7 @@ pub(super) fn forward<const R: usize>(l: &Block, perm: &[usize; 6], rank: usize,
         for y in 0..a {
             sum += l[6 * pa + y] * z[y];
         }
-        z[a] = (c[pa] - sum) / l[6 * pa + a];
+        z[a] = (c[pa] - sum) * l[6 * pa + a];
     }
     z
 }
@@ -240,7 +244,7 @@ pub(super) fn backward<const R: usize>(l: &Block, perm: &[usize; 6], rank: usize
                 sum += l[6 * below(perm[e], R) + a] * y[e];
             }
         }
-        y[a] = (c[a] - sum) / l[6 * below(perm[a], R) + a];
+        y[a] = (c[a] - sum) * l[6 * below(perm[a], R) + a];
     }
     let mut lambda = [0.0; 6];
     for a in 0..R {

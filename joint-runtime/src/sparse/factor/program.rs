@@ -87,14 +87,7 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
         if let (Some(p), Some(r)) = (self.perm.get_mut(k), self.rank.get_mut(k)) {
             (*p, *r) = (perm, rank);
         }
-        let mut count = dropped;
-        for &r in perm.iter().take(R).skip(rank) {
-            if let Some(x) = self.dropped.get_mut(count) {
-                *x = start + r;
-                count += 1;
-            }
-        }
-        count
+        super::append_dropped(&mut self.dropped[..], dropped, start, &perm, R, rank)
     }
 
     /// The `RI × RK` slot `s` below the diagonal slot `d` of position `k`,
@@ -140,7 +133,7 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
     #[inline(always)]
     pub fn forward_update<const R: usize, const RJ: usize>(&self, s: usize, j: usize, c: &mut [f64; 6]) {
         if let (Some(lkj), Some(zj)) = (self.l.get(s), self.z.get(j)) {
-            kernels::add_av::<R, RJ>(lkj, zj, c, -1.0);
+            kernels::sub_av::<R, RJ>(lkj, zj, c);
         }
     }
 
@@ -171,7 +164,7 @@ impl<const N: usize, const S: usize, const T: usize, const U: usize, const NNZ: 
     #[inline(always)]
     pub fn backward_update<const RI: usize, const RK: usize>(&self, s: usize, i: usize, c: &mut [f64; 6]) {
         if let (Some(lik), Some(li)) = (self.l.get(s), self.lambda.get(i)) {
-            kernels::add_atv::<RI, RK>(lik, li, c, -1.0);
+            kernels::sub_atv::<RI, RK>(lik, li, c);
         }
     }
 }
