@@ -32,12 +32,13 @@ pub(crate) use diagnostics::{check_dims, check_output, check_state};
 pub use error::{Analysis, AnalysisError};
 pub(crate) use motion::{
     apply_increment, normalise_orientations, quat_mul, rotate_body, set_velocities, velocity_vector,
+    velocity_vector_into,
 };
 pub(crate) use newton::newton;
-pub(crate) use newton::{Directions, damped_newton};
+pub(crate) use newton::{Directions, NewtonWork, damped_newton};
 pub use solve::InverseMass;
-pub(crate) use solve::apply_metric_into;
 pub(crate) use solve::{Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
+pub(crate) use solve::{apply_metric_in_place, apply_metric_into};
 
 use crate::linalg::DEFAULT_RANK_TOLERANCE;
 use crate::scene::{Scene, SystemState};

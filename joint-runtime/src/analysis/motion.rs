@@ -68,6 +68,17 @@ pub(crate) fn apply_increment<const NB: usize, const NV: usize>(
 /// The bodies' velocities `[ṙ_0, ω'_0, ...]`.
 pub(crate) fn velocity_vector<const NB: usize, const NV: usize>(state: &SystemState<NB>) -> SVector<f64, NV> {
     let mut v = SVector::<f64, NV>::zeros();
+    velocity_vector_into(state, &mut v);
+    v
+}
+
+/// [`velocity_vector`] written into `v` (entries past the bodies zeroed): a
+/// workspace's vector rather than one in the caller's frame.
+pub(crate) fn velocity_vector_into<const NB: usize, const NV: usize>(
+    state: &SystemState<NB>,
+    v: &mut SVector<f64, NV>,
+) {
+    v.fill(0.0);
     for (i, b) in state.bodies.iter().enumerate() {
         if 6 * i + 6 > NV {
             break;
@@ -75,7 +86,6 @@ pub(crate) fn velocity_vector<const NB: usize, const NV: usize>(state: &SystemSt
         v.fixed_rows_mut::<3>(6 * i).copy_from(&b.rdot);
         v.fixed_rows_mut::<3>(6 * i + 3).copy_from(&b.omega);
     }
-    v
 }
 
 /// Writes `[ṙ_0, ω'_0, ...]` into the bodies.

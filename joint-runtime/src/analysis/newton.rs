@@ -19,15 +19,43 @@ where
     S: Scene<NB, NV, M>,
 {
     let mut dense = Dense { scene, metric, rank_tolerance: options.rank_tolerance, redundant: RowList::default() };
-    let (iterations, residual) = damped_newton(scene, state, options, &mut dense)?;
+    let (iterations, residual) = damped_newton(scene, state, options, &mut dense, &mut NewtonWork::new())?;
     Ok(Assembly { iterations, residual, redundant: dense.redundant })
+}
+
+/// Damped Newton's vectors (Φ, the right-hand side `−Φ`, a trial's Φ, the
+/// direction, a trial state) and a velocity: where a simulation keeps them
+/// (boxed with its workspace), none is in a Newton step's frame.
+#[derive(Clone, Debug)]
+pub(crate) struct NewtonWork<const NB: usize, const NV: usize, const M: usize> {
+    pub(crate) phi: SVector<f64, M>,
+    pub(crate) b: SVector<f64, M>,
+    pub(crate) p: SVector<f64, M>,
+    pub(crate) delta: SVector<f64, NV>,
+    pub(crate) v: SVector<f64, NV>,
+    pub(crate) trial: SystemState<NB>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize> NewtonWork<NB, NV, M> {
+    /// Zeros.
+    pub(crate) fn new() -> Self {
+        let (m, v) = (SVector::zeros(), SVector::zeros());
+        let trial = SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 };
+        NewtonWork { phi: m, b: m, p: m, delta: v, v, trial }
+    }
 }
 
 /// What Newton asks of a linear solver: a step, and at the end only the
 /// factorisation (no step nobody uses), whose redundant rows the solver keeps.
 pub(crate) trait Directions<const NB: usize, const NV: usize, const M: usize> {
-    /// `Δ` with `J Δ = b` at `state`, of minimum norm in the metric.
-    fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError>;
+    /// `Δ` with `J Δ = b` at `state`, of minimum norm in the metric, into
+    /// `delta` (`b` is the solver's to overwrite).
+    fn step(
+        &mut self,
+        state: &SystemState<NB>,
+        b: &mut SVector<f64, M>,
+        delta: &mut SVector<f64, NV>,
+    ) -> Result<(), AnalysisError>;
     /// Factorises at the converged `state` (its redundant rows, kept by the solver).
     fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError>;
 }
@@ -43,10 +71,16 @@ struct Dense<'s, S, const NB: usize, const M: usize> {
 impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Directions<NB, NV, M>
     for Dense<'_, S, NB, M>
 {
-    fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError> {
+    fn step(
+        &mut self,
+        state: &SystemState<NB>,
+        b: &mut SVector<f64, M>,
+        delta: &mut SVector<f64, NV>,
+    ) -> Result<(), AnalysisError> {
         let j = self.scene.jacobian(state);
         check_output::<S, NB, NV, M, NV>("J", &j)?;
-        Ok(min_norm(&j, b, self.metric, self.rank_tolerance)?.x)
+        *delta = min_norm(&j, b, self.metric, self.rank_tolerance)?.x;
+        Ok(())
     }
 
     fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
@@ -67,6 +101,7 @@ pub(crate) fn damped_newton<S, const NB: usize, const NV: usize, const M: usize>
     state: &mut SystemState<NB>,
     options: &AssemblyOptions,
     directions: &mut impl Directions<NB, NV, M>,
+    work: &mut NewtonWork<NB, NV, M>,
 ) -> Result<(usize, f64), AnalysisError>
 where
     S: Scene<NB, NV, M>,
@@ -79,9 +114,9 @@ where
         return Err(AnalysisError::BadOption { name: "min_step" });
     }
     normalise_orientations::<S, NB, NV, M>(state)?;
-    let mut phi = scene.phi(state);
-    check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
-    let mut norm = phi.norm();
+    work.phi = scene.phi(state);
+    check_output::<S, NB, NV, M, 1>("Φ", &work.phi)?;
+    let mut norm = work.phi.norm();
     let mut iterations = 0;
     loop {
         if norm <= options.tolerance {
@@ -92,20 +127,23 @@ where
             return Err(AnalysisError::NotConverged {
                 residual: norm,
                 iterations,
-                worst: WorstRows::of::<S, NB, NV, M>(&phi),
+                worst: WorstRows::of::<S, NB, NV, M>(&work.phi),
             });
         }
-        let delta = directions.step(state, &-phi)?;
+        for (b, p) in work.b.iter_mut().zip(work.phi.iter()) {
+            *b = -p;
+        }
+        directions.step(state, &mut work.b, &mut work.delta)?;
         let mut alpha = 1.0;
         loop {
-            let mut trial = *state;
-            apply_increment(&mut trial, &delta, alpha);
-            let p = scene.phi(&trial);
-            let n = p.norm();
+            work.trial.clone_from(state);
+            apply_increment(&mut work.trial, &work.delta, alpha);
+            work.p = scene.phi(&work.trial);
+            let n = work.p.norm();
             // Armijo on ‖Φ‖ (the Gauss-Newton direction decreases it at rate 1).
             if n.is_finite() && n <= (1.0 - 1e-4 * alpha) * norm {
-                *state = trial;
-                phi = p;
+                state.clone_from(&work.trial);
+                work.phi.copy_from(&work.p);
                 norm = n;
                 break;
             }
@@ -114,7 +152,7 @@ where
                 return Err(AnalysisError::NoProgress {
                     residual: norm,
                     iterations,
-                    worst: WorstRows::of::<S, NB, NV, M>(&phi),
+                    worst: WorstRows::of::<S, NB, NV, M>(&work.phi),
                 });
             }
         }

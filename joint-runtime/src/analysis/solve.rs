@@ -60,6 +60,20 @@ pub(crate) fn apply_metric_into<const NB: usize, const NV: usize>(
     }
 }
 
+/// `x = W x` in place, body by body (the same operations as
+/// [`apply_metric_into`]).
+pub(crate) fn apply_metric_in_place<const NB: usize, const NV: usize>(w: &[InverseMass; NB], x: &mut SVector<f64, NV>) {
+    for (i, m) in w.iter().enumerate() {
+        if 6 * i + 6 > NV {
+            break;
+        }
+        let f = x.fixed_rows::<3>(6 * i) * m.inv_mass;
+        let t = m.inv_inertia * x.fixed_rows::<3>(6 * i + 3);
+        x.fixed_rows_mut::<3>(6 * i).copy_from(&f);
+        x.fixed_rows_mut::<3>(6 * i + 3).copy_from(&t);
+    }
+}
+
 /// `J W` for the block-diagonal metric.
 pub(crate) fn jacobian_times_metric<const NB: usize, const NV: usize, const M: usize>(
     metric: Metric<'_, NB>,

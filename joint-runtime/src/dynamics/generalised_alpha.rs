@@ -90,6 +90,19 @@ impl Coefficients {
         (past.vdot - past.a * self.alpha_m) / (1.0 - self.alpha_m)
     }
 
+    #[cfg(feature = "alloc")]
+    /// [`predicted`](Self::predicted) into `out`, entry by entry (the same
+    /// operations, so the same bits).
+    pub(crate) fn predicted_into<const NB: usize, const NV: usize, const M: usize>(
+        &self,
+        past: &AlphaHistory<NB, NV, M>,
+        out: &mut SVector<f64, NV>,
+    ) {
+        for ((o, v), a) in out.iter_mut().zip(past.vdot.iter()).zip(past.a.iter()) {
+            *o = (v - a * self.alpha_m) / (1.0 - self.alpha_m);
+        }
+    }
+
     fn new(rho: f64) -> Self {
         let alpha_m = (2.0 * rho - 1.0) / (rho + 1.0);
         let alpha_f = rho / (rho + 1.0);
@@ -174,6 +187,15 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
     /// What the next step starts from.
     pub(crate) fn history(&self) -> AlphaHistory<NB, NV, M> {
         AlphaHistory { state: self.state, vdot: self.vdot, a: self.a, lambda: self.lambda }
+    }
+
+    #[cfg(feature = "alloc")]
+    /// [`history`](Self::history) written over `out`.
+    pub(crate) fn history_into(&self, out: &mut AlphaHistory<NB, NV, M>) {
+        out.state.clone_from(&self.state);
+        out.vdot.copy_from(&self.vdot);
+        out.a.copy_from(&self.a);
+        out.lambda.copy_from(&self.lambda);
     }
 }
 
@@ -309,6 +331,17 @@ pub(crate) fn mass_times<const NB: usize, const NV: usize>(
     x: &SVector<f64, NV>,
 ) -> SVector<f64, NV> {
     let mut y = *x;
+    mass_times_into(inertias, x, &mut y);
+    y
+}
+
+/// [`mass_times`] into `y` (entries past the bodies copied from `x`).
+pub(crate) fn mass_times_into<const NB: usize, const NV: usize>(
+    inertias: &[crate::scene::BodyInertia; NB],
+    x: &SVector<f64, NV>,
+    y: &mut SVector<f64, NV>,
+) {
+    y.copy_from(x);
     for (b, inertia) in inertias.iter().enumerate() {
         if 6 * b + 6 > NV {
             break;
@@ -320,7 +353,6 @@ pub(crate) fn mass_times<const NB: usize, const NV: usize>(
             y[6 * b + 3 + k] = r[k];
         }
     }
-    y
 }
 
 /// The factorised iteration matrix: `S` and the Schur complement `J T S⁻¹ Jᵀ`

@@ -120,12 +120,12 @@ pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
 pub(crate) use force_derivatives::{LOAD_STEP, force_column, load_differences_along, spring_column};
 #[cfg(feature = "alloc")]
-pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times};
+pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times, mass_times_into};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use linear::Linearisation;
 #[cfg(feature = "alloc")]
-pub(crate) use newton_matrix::update_blocks;
+pub(crate) use newton_matrix::{update_blocks, update_blocks_into};
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector4};
 
@@ -158,6 +158,11 @@ impl<const NB: usize> Default for Loads<NB> {
 }
 
 impl<const NB: usize> Loads<NB> {
+    /// Every force and torque back to zero (a workspace's loads reused).
+    pub(crate) fn clear(&mut self) {
+        self.force.iter_mut().chain(self.torque.iter_mut()).for_each(|x| *x = Vector3::zeros());
+    }
+
     /// Adds `force` (inertial components) acting at the body-fixed point `point`
     /// (body components, from the centre of mass) of body `body`: the force and its
     /// moment `point × Aᵀ force`. An out-of-range `body` is ignored.
@@ -999,10 +1004,23 @@ pub(crate) fn displaced<const NB: usize, const NV: usize>(
     t: f64,
 ) -> SystemState<NB> {
     let mut y = *y0;
-    apply_increment(&mut y, u, s);
-    set_velocities(&mut y, v);
-    y.t = t;
+    displaced_into(y0, u, s, v, t, &mut y);
     y
+}
+
+/// [`displaced`] written into `y` (a workspace's state).
+pub(crate) fn displaced_into<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    u: &SVector<f64, NV>,
+    s: f64,
+    v: &SVector<f64, NV>,
+    t: f64,
+    y: &mut SystemState<NB>,
+) {
+    y.clone_from(y0);
+    apply_increment(y, u, s);
+    set_velocities(y, v);
+    y.t = t;
 }
 
 /// The implicit midpoint rule's midpoint: `q_n ⊕ (h/2) w` with velocities
@@ -1287,8 +1305,24 @@ pub(crate) fn generalised_forces<L: AppliedLoads<NB>, const NB: usize, const NV:
     gravity: &Vector3<f64>,
     state: &SystemState<NB>,
 ) -> SVector<f64, NV> {
-    let mut loads = Loads::<NB>::default();
-    user.apply(state, &mut loads);
+    let (mut loads, mut q) = (Loads::<NB>::default(), SVector::<f64, NV>::zeros());
+    generalised_forces_into(user, springs, inertias, gravity, state, &mut loads, &mut q);
+    q
+}
+
+/// [`generalised_forces`] into `q`, the loads gathered in `loads`: both a
+/// workspace's, so that no array of the scene's size sits in the caller's frame.
+pub(crate) fn generalised_forces_into<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
+    user: &mut L,
+    springs: &[SpringDamper],
+    inertias: &[BodyInertia; NB],
+    gravity: &Vector3<f64>,
+    state: &SystemState<NB>,
+    loads: &mut Loads<NB>,
+    q: &mut SVector<f64, NV>,
+) {
+    loads.clear();
+    user.apply(state, loads);
     for s in springs {
         let (xa, va, a) = point_motion(state, &s.a);
         let (xb, vb, b) = point_motion(state, &s.b);
@@ -1307,7 +1341,7 @@ pub(crate) fn generalised_forces<L: AppliedLoads<NB>, const NB: usize, const NV:
             loads.add_force_at(state, body, &(u * -tension), &point);
         }
     }
-    let mut q = SVector::<f64, NV>::zeros();
+    q.fill(0.0);
     for (i, ((b, inertia), (f, t))) in
         state.bodies.iter().zip(inertias.iter()).zip(loads.force.iter().zip(loads.torque.iter())).enumerate()
     {
@@ -1319,7 +1353,6 @@ pub(crate) fn generalised_forces<L: AppliedLoads<NB>, const NB: usize, const NV:
         q.fixed_rows_mut::<3>(6 * i).copy_from(&force);
         q.fixed_rows_mut::<3>(6 * i + 3).copy_from(&torque);
     }
-    q
 }
 
 /// Kinetic, gravitational and elastic energy at `state`.

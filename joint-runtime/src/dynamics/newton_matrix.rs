@@ -154,10 +154,21 @@ where
 /// the translation blocks are the identity. Both are scaled by `s` in
 /// [`times_update`].
 pub(crate) fn update_blocks<const NB: usize, const NV: usize>(w: &SVector<f64, NV>, s: f64) -> [Matrix3<f64>; NB] {
-    core::array::from_fn(|b| {
-        let at = |k: usize| w.get(6 * b + 3 + k).copied().unwrap_or(0.0) * s;
-        right_jacobian(&Vector3::new(at(0), at(1), at(2)))
-    })
+    core::array::from_fn(|b| update_block(w, s, b))
+}
+
+/// Body `b`'s block of [`update_blocks`].
+fn update_block<const NV: usize>(w: &SVector<f64, NV>, s: f64, b: usize) -> Matrix3<f64> {
+    let at = |k: usize| w.get(6 * b + 3 + k).copied().unwrap_or(0.0) * s;
+    right_jacobian(&Vector3::new(at(0), at(1), at(2)))
+}
+
+#[cfg(feature = "alloc")]
+/// [`update_blocks`] into `out` (a workspace's, one block per body).
+pub(crate) fn update_blocks_into<const NV: usize>(w: &SVector<f64, NV>, s: f64, out: &mut [Matrix3<f64>]) {
+    for (b, o) in out.iter_mut().enumerate() {
+        *o = update_block(w, s, b);
+    }
 }
 
 /// `A · s blockdiag(I, J_r,0, I, J_r,1, ...)`: `O(R · NV)` where a dense product

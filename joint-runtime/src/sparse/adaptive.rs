@@ -86,7 +86,7 @@ where
         tolerance: Tolerance,
         report: &mut IntegrationReport,
     ) -> Result<(SystemState<NB>, f64), AnalysisError> {
-        let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|past| past.state == *y0);
+        let continuing = self.alpha.as_ref().and_then(|w| w.history.as_ref()).is_some_and(|past| past.state == *y0);
         let (y, d) = self.step_start(y0)?;
         match method {
             Adaptive::DormandPrince => {
@@ -105,7 +105,7 @@ where
                 };
                 let (y1, iterations, matrices) =
                     self.step_alpha(&y, h, continuing, (d.vdot, d.lambda)).inspect_err(|_| restore(self))?;
-                let after = self.alpha.as_ref().and_then(|w| w.history).map_or(before, |past| past.a);
+                let after = self.alpha.as_ref().and_then(|w| w.history.as_ref()).map_or(before, |past| past.a);
                 let rho = self.options.spectral_radius;
                 let err = alpha_estimate(y0, &y1, &(after - before), h, rho, tolerance, report, (iterations, matrices));
                 if err > 1.0 {

@@ -23,16 +23,16 @@ use alloc::vec::Vec;
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::Simulation;
-use super::differences::DifferenceTerms;
+use super::differences::{DifferenceTerms, DifferenceWork};
 use super::kkt::{Block, Kkt};
 use super::loads::LoadColouring;
 use super::second_order::SecondOrderLayout;
-use super::solver::{jt_mul, non_finite};
+use super::solver::{jt_mul_into, non_finite};
 use crate::OmegaBody;
-use crate::analysis::{AnalysisError, check_output, velocity_vector};
+use crate::analysis::{AnalysisError, check_output, velocity_vector_into};
 use crate::dynamics::{
-    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, generalised_forces,
-    mass_times, spring_column, update_blocks,
+    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, mass_times_into,
+    spring_column, update_blocks_into,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -41,7 +41,7 @@ use crate::scene::{Scene, SparseJacobian, SystemState};
 /// pattern and its factor, the layout of the second-order terms and scratch,
 /// all allocated once.
 #[derive(Clone, Debug)]
-pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usize> {
+pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
     pub(super) kkt: Kkt,
     pub(super) layout: SecondOrderLayout,
     pub(super) terms: Vec<f64>,
@@ -51,15 +51,17 @@ pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usiz
     /// Body-body blocks of `S` (the diagonal included), for `T`'s product.
     pub(super) body_pairs: Vec<(usize, usize)>,
     pub(super) history: Option<AlphaHistory<NB, NV, M>>,
-    /// The terms by differences, for scenes without generated ones.
+    /// The terms by differences, for scenes without generated ones, and
+    /// their scratch.
     differences: DifferenceTerms,
+    difference_work: Box<DifferenceWork<NB, NV, M, NNZ>>,
     /// The colouring of the user loads' derivatives.
     pub(super) user: LoadColouring,
 }
 
-impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M> {
+impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWorkspace<NB, NV, M, NNZ> {
     /// The pattern of `scene` with `springs`.
-    pub(super) fn new<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>, const NNZ: usize>(
+    pub(super) fn new<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>>(
         springs: &[crate::dynamics::SpringDamper],
     ) -> Result<Self, AnalysisError> {
         let bad = |_| non_finite("scene structure");
@@ -98,13 +100,14 @@ impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M>
             body_pairs: pairs,
             history: None,
             differences: DifferenceTerms::new(S::BLOCKS, S::BLOCK_BODIES, NB),
+            difference_work: DifferenceWork::boxed(),
         })
     }
 
     /// The second-order terms at `state` (`λ`, and `u` of `∂(J u)/∂q`) into
     /// `terms`: the scene's generated ones, or central differences of its `J`,
     /// `γ` and `Φ_t` when it has none or `by_differences` asks for them.
-    pub(super) fn fill_terms<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>, const NNZ: usize>(
+    pub(super) fn fill_terms<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>>(
         &mut self,
         scene: &S,
         state: &SystemState<NB>,
@@ -113,7 +116,7 @@ impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M>
         by_differences: bool,
     ) -> Result<(), AnalysisError> {
         if (by_differences || !scene.second_order_values(state, lambda, u, &mut self.terms))
-            && !self.differences.values(scene, state, lambda, u, &mut self.terms)
+            && !self.differences.values_in(scene, state, (lambda, u), &mut self.terms, &mut self.difference_work)
         {
             return Err(missing());
         }
@@ -129,6 +132,11 @@ impl<const NB: usize, const NV: usize, const M: usize> AlphaWorkspace<NB, NV, M>
 /// Generalised-α's history, iterate and Newton vectors, boxed and made with
 /// the implicit integrators' pattern: a step's frames hold none of them.
 pub(super) struct AlphaWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    /// The step's start (normalised) and its accelerations and multipliers.
+    y0: SystemState<NB>,
+    start: (SVector<f64, NV>, SVector<f64, M>),
+    /// The step's end (projected in place).
+    end: SystemState<NB>,
     past: AlphaHistory<NB, NV, M>,
     v0: SVector<f64, NV>,
     it: Iterate<NB, NV, M>,
@@ -136,6 +144,11 @@ pub(super) struct AlphaWork<const NB: usize, const NV: usize, const M: usize, co
     dlambda: SVector<f64, M>,
     values: [f64; NNZ],
     phi: SVector<f64, M>,
+    /// The residual's parts: `Q`, `M v̇`, `Jᵀ λ`; and the rotation updates `T`.
+    q: SVector<f64, NV>,
+    mass: SVector<f64, NV>,
+    jt: SVector<f64, NV>,
+    t: [Matrix3<f64>; NB],
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWork<NB, NV, M, NNZ> {
@@ -143,6 +156,9 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWo
         let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
         let (v, l) = (SVector::zeros(), SVector::zeros());
         Box::new(AlphaWork {
+            y0: state,
+            start: (v, l),
+            end: state,
             past: AlphaHistory { state, vdot: v, a: v, lambda: l },
             v0: v,
             it: Iterate { dq: v, a: v, v, vdot: v, lambda: l, state },
@@ -150,6 +166,10 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWo
             dlambda: l,
             values: [0.0; NNZ],
             phi: l,
+            q: v,
+            mass: v,
+            jt: v,
+            t: [Matrix3::identity(); NB],
         })
     }
 }
@@ -182,73 +202,126 @@ where
         let c = Coefficients::checked(self.options.spectral_radius)?;
         // Made with the implicit pattern (`alpha_workspace`).
         let mut w = self.alpha_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let step = self.alpha_newton(&mut w, y0, h, continuing, start, c);
+        (w.y0, w.start) = (*y0, start);
+        let step = self.alpha_newton(&mut w, h, continuing, c).map(|(i, m)| (w.it.state, i, m));
         self.alpha_work = Some(w);
         step
     }
 
-    /// [`step_alpha`](Self::step_alpha)'s Newton iteration on the iterate
-    /// and vectors of `w`.
+    /// A generalised-α step from `state` (checked, normalised and solved
+    /// at into the boxed work), projected, into `state`: no state or vector
+    /// of the scene's size in this frame or those it calls.
+    pub(super) fn alpha_in_work(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        continuing: bool,
+        report: &mut crate::dynamics::StepReport,
+    ) -> Result<(), AnalysisError> {
+        let c = Coefficients::checked(self.options.spectral_radius)?;
+        let mut w = self.alpha_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let step = self.alpha_started(&mut w, state, h, continuing, c, report);
+        self.alpha_work = Some(w);
+        step
+    }
+
+    /// [`alpha_in_work`](Self::alpha_in_work) on the taken-out work `w`.
+    fn alpha_started(
+        &mut self,
+        w: &mut AlphaWork<NB, NV, M, NNZ>,
+        state: &mut SystemState<NB>,
+        h: f64,
+        continuing: bool,
+        c: Coefficients,
+        report: &mut crate::dynamics::StepReport,
+    ) -> Result<(), AnalysisError> {
+        self.begin(state, &mut w.y0)?;
+        let (vdot, lambda) = self.solved();
+        w.start.0.copy_from(vdot);
+        w.start.1.copy_from(lambda);
+        (report.newton_iterations, report.newton_matrices) = self.alpha_newton(w, h, continuing, c)?;
+        w.end.clone_from(&w.it.state);
+        self.finish(&mut w.end, report)?;
+        state.clone_from(&w.end);
+        Ok(())
+    }
+
+    /// Generalised-α's Newton iteration from `w.y0` and `w.start` on the
+    /// iterate and vectors of `w`: the end in `w.it.state`; returns the
+    /// Newton iterations and iteration matrices built.
     fn alpha_newton(
         &mut self,
         w: &mut AlphaWork<NB, NV, M, NNZ>,
-        y0: &SystemState<NB>,
         h: f64,
         continuing: bool,
-        start: (SVector<f64, NV>, SVector<f64, M>),
         c: Coefficients,
-    ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
+    ) -> Result<(usize, usize), AnalysisError> {
+        // Field by field: no history or vector of the scene's size in this frame.
         match (continuing, self.alpha.as_ref().and_then(|w| w.history.as_ref())) {
-            (true, Some(past)) => w.past = *past,
-            _ => w.past = AlphaHistory { state: *y0, vdot: start.0, a: start.0, lambda: start.1 },
+            (true, Some(past)) => {
+                w.past.state.clone_from(&past.state);
+                w.past.vdot.copy_from(&past.vdot);
+                w.past.a.copy_from(&past.a);
+                w.past.lambda.copy_from(&past.lambda);
+            }
+            _ => {
+                w.past.state.clone_from(&w.y0);
+                w.past.vdot.copy_from(&w.start.0);
+                w.past.a.copy_from(&w.start.0);
+                w.past.lambda.copy_from(&w.start.1);
+            }
         }
-        w.v0 = velocity_vector::<NB, NV>(y0);
-        w.it.a = c.predicted(&w.past);
-        w.it.lambda = w.past.lambda;
-        w.it.follow(y0, &w.v0, &w.past, h, c);
+        velocity_vector_into(&w.y0, &mut w.v0);
+        c.predicted_into(&w.past, &mut w.it.a);
+        w.it.lambda.copy_from(&w.past.lambda);
+        w.it.follow(&w.y0, &w.v0, &w.past, h, c);
         let mut newton = ModifiedNewton::new(&self.options);
         loop {
             newton.next()?;
-            self.alpha_residual(&w.it, &mut w.values, &mut w.phi)?;
+            self.alpha_residual(w)?;
             if newton.stale() {
-                self.alpha_matrix(&w.it, &w.values, h, c)?;
+                self.alpha_matrix(w, h, c)?;
                 newton.built();
             }
             self.alpha_solve(&w.phi, h, &mut w.x, &mut w.dlambda)?;
-            w.it.correct(y0, &w.v0, &w.past, &w.x, &w.dlambda, h, c);
+            w.it.correct(&w.y0, &w.v0, &w.past, &w.x, &w.dlambda, h, c);
             if newton.converged(w.x.norm(), 1.0 + w.it.dq.norm())? {
                 break;
             }
         }
         if let Some(a) = self.alpha.as_mut() {
-            a.history = Some(w.it.history());
+            match &mut a.history {
+                Some(past) => w.it.history_into(past),
+                None => {
+                    w.it.history_into(&mut w.past);
+                    first_history(&mut a.history, &w.past);
+                }
+            }
         }
-        let (iterations, matrices) = newton.counts();
-        Ok((w.it.state, iterations, matrices))
+        Ok(newton.counts())
     }
 
     /// `M v̇ + Jᵀ λ − Q` into the workspace's right-hand side; the Jacobian's
-    /// values and `Φ` at the iterate into `values` and `phi`.
+    /// values and `Φ` at the iterate into `w.values` and `w.phi`.
     #[inline(never)]
-    fn alpha_residual(
-        &mut self,
-        it: &Iterate<NB, NV, M>,
-        values: &mut [f64; NNZ],
-        phi: &mut SVector<f64, M>,
-    ) -> Result<(), AnalysisError> {
-        self.scene.jacobian_values_into(&it.state, values);
-        if !values.iter().all(|x| x.is_finite()) {
+    fn alpha_residual(&mut self, w: &mut AlphaWork<NB, NV, M, NNZ>) -> Result<(), AnalysisError> {
+        self.scene.jacobian_values_into(&w.it.state, &mut w.values);
+        if !w.values.iter().all(|x| x.is_finite()) {
             return Err(non_finite("J"));
         }
-        *phi = self.scene.phi(&it.state);
-        check_output::<S, NB, NV, M, 1>("Φ", phi)?;
-        let q = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, &it.state);
-        let r1 = mass_times(&self.inertias, &it.vdot) + jt_mul::<S, NB, NNZ, NV, M>(values, &it.lambda) - q;
-        if !r1.iter().all(|x| x.is_finite()) {
+        w.phi = self.scene.phi(&w.it.state);
+        check_output::<S, NB, NV, M, 1>("Φ", &w.phi)?;
+        self.forces_into(&w.it.state, &mut w.q);
+        mass_times_into(&self.inertias, &w.it.vdot, &mut w.mass);
+        jt_mul_into::<S, NB, NNZ>(&w.values, w.it.lambda.as_slice(), w.jt.as_mut_slice());
+        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let parts = w.mass.iter().zip(w.jt.iter()).zip(w.q.iter());
+        for (r, ((m, j), q)) in ws.rhs.iter_mut().take(NV).zip(parts) {
+            *r = m + j - q;
+        }
+        if !ws.rhs.iter().take(NV).all(|x| x.is_finite()) {
             return Err(non_finite("forces"));
         }
-        let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        w.rhs[..NV].copy_from_slice(r1.as_slice());
         Ok(())
     }
 
@@ -282,32 +355,44 @@ where
     #[inline(never)]
     fn alpha_matrix(
         &mut self,
-        it: &Iterate<NB, NV, M>,
-        values: &[f64; NNZ],
+        w: &mut AlphaWork<NB, NV, M, NNZ>,
         h: f64,
         c: Coefficients,
     ) -> Result<(), AnalysisError> {
-        let t = update_blocks::<NB, NV>(&it.dq, h);
+        update_blocks_into(&w.it.dq, h, &mut w.t);
+        let (it, t) = (&w.it, &w.t);
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
-        let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        w.fill_terms(self.scene, &it.state, &it.lambda, &it.v, by_differences)?;
-        let kkt = &mut w.kkt;
+        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        ws.fill_terms(self.scene, &it.state, &it.lambda, &it.v, by_differences)?;
+        let kkt = &mut ws.kkt;
         kkt.clear();
         // h (K − Q_q), then times T on the right; then c₁ M − c₂ Q_v; then J T and Jᵀ.
-        add_stiffness(kkt, &w.layout, &w.terms, h)?;
+        add_stiffness(kkt, &ws.layout, &ws.terms, h)?;
         for s in self.springs {
             spring_blocks(kkt, s, &it.state, false, -h)?;
         }
-        w.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, false, -h)?;
-        times_update(kkt, &w.body_pairs, &t)?;
+        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, false, -h)?;
+        times_update(kkt, &ws.body_pairs, t)?;
         for s in self.springs {
             spring_blocks(kkt, s, &it.state, true, -c.gamma / c.beta)?;
         }
-        w.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, true, -c.gamma / c.beta)?;
+        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, true, -c.gamma / c.beta)?;
         add_mass(kkt, &self.inertias, &it.state, c.mass_factor(h), c.gamma / c.beta)?;
-        add_rows::<S, NB, NNZ>(kkt, values, &w.row_joint, self.solver.factor.dropped(), &t)?;
-        w.kkt.factor().map_err(AnalysisError::from)
+        add_rows::<S, NB, NNZ>(kkt, &w.values, &ws.row_joint, self.solver.factor.dropped(), t)?;
+        ws.kkt.factor().map_err(AnalysisError::from)
     }
+}
+
+/// The first history of generalised-α (none kept before): made once, in a
+/// frame of its own.
+#[cold]
+#[inline(never)]
+fn first_history<const NB: usize, const NV: usize, const M: usize>(
+    history: &mut Option<AlphaHistory<NB, NV, M>>,
+    past: &AlphaHistory<NB, NV, M>,
+) {
+    // Copied from a place (the boxed work's), not built in this frame.
+    *history = Some(*past);
 }
 
 /// A pattern the scene's structure should have had.
@@ -340,11 +425,7 @@ pub(super) fn add_stiffness(
 
 /// Every body-body block `(a, b)` times `T_b` on the right (`T_b` the right
 /// Jacobian of body `b`'s rotation update on its rotation columns).
-pub(super) fn times_update<const NB: usize>(
-    kkt: &mut Kkt,
-    pairs: &[(usize, usize)],
-    t: &[Matrix3<f64>; NB],
-) -> Result<(), AnalysisError> {
+pub(super) fn times_update(kkt: &mut Kkt, pairs: &[(usize, usize)], t: &[Matrix3<f64>]) -> Result<(), AnalysisError> {
     for &(a, b) in pairs {
         let out = kkt.block_mut(a, b).ok_or_else(missing)?;
         let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
@@ -384,7 +465,7 @@ pub(super) fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: u
     values: &[f64; NNZ],
     row_joint: &[(usize, usize)],
     dropped: &[usize],
-    t: &[Matrix3<f64>; NB],
+    t: &[Matrix3<f64>],
 ) -> Result<(), AnalysisError> {
     for (r, (window, &(joint, local))) in S::ROW_STARTS.windows(2).zip(row_joint).enumerate() {
         if dropped.binary_search(&r).is_ok() {

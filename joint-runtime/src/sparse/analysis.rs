@@ -3,8 +3,8 @@
 //! and errors, a workspace allocated once and no `M × NV` matrix.
 
 use crate::analysis::{
-    AccelerationAnalysis, Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, VelocityAnalysis,
-    check_state, set_velocities,
+    AccelerationAnalysis, Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, NewtonWork,
+    VelocityAnalysis, check_state, set_velocities,
 };
 use crate::linalg::DEFAULT_RANK_TOLERANCE;
 use crate::scene::{Scene, SparseJacobian, SystemState};
@@ -63,7 +63,8 @@ where
         options: &AssemblyOptions,
     ) -> Result<Assembly<M>, AnalysisError> {
         let unit = self.unit;
-        let (iterations, residual) = self.solver.newton(scene, state, options, &unit, &mut [0.0; NNZ])?;
+        let (iterations, residual) =
+            self.solver.newton(scene, state, options, &unit, &mut [0.0; NNZ], &mut NewtonWork::new())?;
         Ok(Assembly { iterations, residual, redundant: self.solver.redundant() })
     }
 

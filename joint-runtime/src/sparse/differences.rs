@@ -19,17 +19,51 @@
 //! velocity derivative is exact but for round-off): a Newton matrix that good
 //! keeps Newton's convergence.
 
+use alloc::boxed::Box;
 use alloc::vec;
 use alloc::vec::Vec;
 
 use nalgebra::SVector;
 
 use super::second_order::{RowTerm, SecondOrderLayout};
-use crate::analysis::{apply_increment, set_velocities, velocity_vector};
+use crate::OmegaBody;
+use crate::analysis::{apply_increment, set_velocities, velocity_vector_into};
 use crate::scene::{RowBlock, Scene, SparseJacobian, SystemState};
 
 /// The relative step of the differences.
 const STEP: f64 = 1e-6;
+
+/// What one direction of the differences moves and evaluates: the step, the
+/// two moved states and the scene's `J`, `γ`, `Φ_t` at them, the velocities.
+/// Boxed and kept by the implicit integrators, so that a step's frames hold
+/// none of the scene's size.
+#[derive(Clone, Debug)]
+pub(super) struct DifferenceWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    delta: SVector<f64, NV>,
+    v: SVector<f64, NV>,
+    moved_v: SVector<f64, NV>,
+    states: [SystemState<NB>; 2],
+    j: [[f64; NNZ]; 2],
+    gamma: [SVector<f64, M>; 2],
+    phi_t: [SVector<f64, M>; 2],
+}
+
+impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> DifferenceWork<NB, NV, M, NNZ> {
+    /// A zeroed work, boxed.
+    pub(super) fn boxed() -> Box<Self> {
+        let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
+        let (v, m) = (SVector::zeros(), SVector::zeros());
+        Box::new(DifferenceWork {
+            delta: v,
+            v,
+            moved_v: v,
+            states: [state; 2],
+            j: [[0.0; NNZ]; 2],
+            gamma: [m; 2],
+            phi_t: [m; 2],
+        })
+    }
+}
 
 /// A scene's sparse second-order terms by central differences, in the
 /// layout of [`SecondOrderLayout`]; the colouring of its bodies is found once,
@@ -100,7 +134,8 @@ impl DifferenceTerms {
     /// The terms of [`Scene::second_order_values`] at `state` for the
     /// multipliers `lambda` and the velocity `u` of `∂(J u)/∂q`, by central
     /// differences, written into `out`; `false` (and nothing written) when
-    /// `out` is not exactly the layout's length.
+    /// `out` is not exactly the layout's length. Allocates its scratch (the
+    /// moved states and the scene's values at them) for the call.
     pub fn values<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
         &self,
         scene: &S,
@@ -112,14 +147,29 @@ impl DifferenceTerms {
     where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
+        self.values_in::<S, NB, NV, M, NNZ>(scene, state, (lambda, u), out, &mut DifferenceWork::boxed())
+    }
+
+    /// [`values`](Self::values) (for `(λ, u)`) with the scratch `work`.
+    pub(super) fn values_in<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+        &self,
+        scene: &S,
+        state: &SystemState<NB>,
+        (lambda, u): (&SVector<f64, M>, &SVector<f64, NV>),
+        out: &mut [f64],
+        work: &mut DifferenceWork<NB, NV, M, NNZ>,
+    ) -> bool
+    where
+        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+    {
         if out.len() != self.layout.len() {
             return false;
         }
         out.fill(0.0);
         for (colour, bodies) in self.colours.iter().enumerate() {
             for k in 0..6 {
-                self.position_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), lambda, u, out);
-                self.velocity_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), out);
+                self.position_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), (lambda, u), out, work);
+                self.velocity_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), out, work);
             }
         }
         true
@@ -134,28 +184,28 @@ impl DifferenceTerms {
         scene: &S,
         state: &SystemState<NB>,
         (colour, bodies, k): (usize, &[usize], usize),
-        lambda: &SVector<f64, M>,
-        u: &SVector<f64, NV>,
+        (lambda, u): (&SVector<f64, M>, &SVector<f64, NV>),
         out: &mut [f64],
+        work: &mut DifferenceWork<NB, NV, M, NNZ>,
     ) where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
-        let mut delta = SVector::<f64, NV>::zeros();
+        let DifferenceWork { delta, states, j, gamma, phi_t, .. } = work;
+        delta.fill(0.0);
         for &b in bodies {
             let (Some(d), Some(body)) = (delta.get_mut(6 * b + k), state.bodies.get(b)) else { continue };
             *d = STEP * if k < 3 { 1.0 + body.r.amax() } else { 1.0 };
         }
-        let (mut plus, mut minus) = (*state, *state);
-        apply_increment(&mut plus, &delta, 1.0);
-        apply_increment(&mut minus, &delta, -1.0);
-        let moved = Moved {
-            colour,
-            k,
-            delta: &delta,
-            j: [scene.jacobian_values(&plus), scene.jacobian_values(&minus)],
-            gamma: [scene.gamma(&plus), scene.gamma(&minus)],
-            phi_t: [scene.phi_t(&plus), scene.phi_t(&minus)],
-        };
+        for (((moved, sign), j), (gamma, phi_t)) in
+            states.iter_mut().zip([1.0, -1.0]).zip(j.iter_mut()).zip(gamma.iter_mut().zip(phi_t.iter_mut()))
+        {
+            moved.clone_from(state);
+            apply_increment(moved, delta, sign);
+            scene.jacobian_values_into(moved, j);
+            *gamma = scene.gamma(moved);
+            *phi_t = scene.phi_t(moved);
+        }
+        let moved = Moved { colour, k, delta, j, gamma, phi_t };
         self.positions::<S, NB, NV, M, NNZ>(&moved, lambda, u, out);
     }
 
@@ -167,22 +217,29 @@ impl DifferenceTerms {
         state: &SystemState<NB>,
         (colour, bodies, k): (usize, &[usize], usize),
         out: &mut [f64],
+        work: &mut DifferenceWork<NB, NV, M, NNZ>,
     ) where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
-        let v = velocity_vector::<NB, NV>(state);
-        let mut dv = SVector::<f64, NV>::zeros();
+        let DifferenceWork { delta: dv, v, moved_v, states, gamma, .. } = work;
+        velocity_vector_into(state, v);
+        dv.fill(0.0);
         for &b in bodies {
             let speed = state.bodies.get(b).map_or(0.0, |x| x.rdot.amax().max(x.omega.amax()));
             if let Some(d) = dv.get_mut(6 * b + k) {
                 *d = STEP * (1.0 + speed);
             }
         }
-        let (mut plus, mut minus) = (*state, *state);
-        set_velocities(&mut plus, &(v + dv));
-        set_velocities(&mut minus, &(v - dv));
-        let (gp, gm) = (scene.gamma(&plus), scene.gamma(&minus));
-        self.each_row::<S, NB, NV, M, NNZ>(colour, k, &dv, |r, h, lc, _| {
+        for ((moved, sign), g) in states.iter_mut().zip([1.0, -1.0]).zip(gamma.iter_mut()) {
+            for ((m, v), d) in moved_v.iter_mut().zip(v.iter()).zip(dv.iter()) {
+                *m = if sign > 0.0 { v + d } else { v - d };
+            }
+            moved.clone_from(state);
+            set_velocities(moved, moved_v);
+            *g = scene.gamma(moved);
+        }
+        let [gp, gm] = &*gamma;
+        self.each_row::<S, NB, NV, M, NNZ>(colour, k, dv, |r, h, lc, _| {
             let d = (gp.get(r).copied().unwrap_or(0.0) - gm.get(r).copied().unwrap_or(0.0)) / (2.0 * h);
             if let Some((_, at)) = self.layout.row_at(RowTerm::GammaV, r)
                 && let Some(o) = out.get_mut(at + lc)
@@ -203,7 +260,7 @@ impl DifferenceTerms {
     ) where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
-        let [jp, jm] = &moved.j;
+        let [jp, jm] = moved.j;
         let difference = |pair: &[SVector<f64, M>; 2], r: usize, h: f64| {
             (pair[0].get(r).copied().unwrap_or(0.0) - pair[1].get(r).copied().unwrap_or(0.0)) / (2.0 * h)
         };
@@ -226,8 +283,8 @@ impl DifferenceTerms {
             }
             let terms = [
                 (RowTerm::JacobianQ, ju),
-                (RowTerm::GammaQ, difference(&moved.gamma, r, h)),
-                (RowTerm::PhiTQ, difference(&moved.phi_t, r, h)),
+                (RowTerm::GammaQ, difference(moved.gamma, r, h)),
+                (RowTerm::PhiTQ, difference(moved.phi_t, r, h)),
             ];
             for (term, value) in terms {
                 if let Some((_, at)) = self.layout.row_at(term, r)
@@ -292,7 +349,7 @@ struct Moved<'d, const NV: usize, const M: usize, const NNZ: usize> {
     colour: usize,
     k: usize,
     delta: &'d SVector<f64, NV>,
-    j: [[f64; NNZ]; 2],
-    gamma: [SVector<f64, M>; 2],
-    phi_t: [SVector<f64, M>; 2],
+    j: &'d [[f64; NNZ]; 2],
+    gamma: &'d [SVector<f64, M>; 2],
+    phi_t: &'d [SVector<f64, M>; 2],
 }

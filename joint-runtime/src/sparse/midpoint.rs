@@ -33,12 +33,11 @@ use super::alpha::{add_mass, add_rows, add_stiffness, missing, spring_blocks, ti
 use super::kkt::Kkt;
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::Accelerations;
-use super::solver::j_mul;
+use super::solver::j_mul_into;
 use crate::OmegaBody;
-use crate::analysis::{AnalysisError, velocity_vector};
+use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::dynamics::{
-    AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times, midpoint_end, midpoint_state,
-    midpoint_work, update_blocks,
+    AppliedLoads, ModifiedNewton, NewtonMatrix, displaced_into, energy_balance, mass_times_into, update_blocks_into,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -55,11 +54,22 @@ struct Midpoint<const NB: usize, const NV: usize, const M: usize, const NNZ: usi
 /// first implicit step of a simulation made for RK4) and kept: a step's
 /// frames hold no vector of the scene's size but its end.
 pub(super) struct MidpointWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    /// The step's start (normalised), its accelerations, and its end.
+    y0: SystemState<NB>,
+    a0: SVector<f64, NV>,
+    end: SystemState<NB>,
     v0: SVector<f64, NV>,
     w: SVector<f64, NV>,
     r: SVector<f64, NV>,
     dw: SVector<f64, NV>,
     mid: Midpoint<NB, NV, M, NNZ>,
+    /// Scratch: `u` of the second-order terms (and the end's velocities,
+    /// the midpoint's), `M R` (and the user's forces), `J R` (and `J w`),
+    /// the rotation updates `T`.
+    u: SVector<f64, NV>,
+    mr: SVector<f64, NV>,
+    jr: SVector<f64, M>,
+    t: [Matrix3<f64>; NB],
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> MidpointWork<NB, NV, M, NNZ> {
@@ -68,11 +78,18 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Midpoin
         let dynamics = Accelerations { vdot: SVector::zeros(), lambda: SVector::zeros() };
         let zero = SVector::zeros();
         Box::new(MidpointWork {
+            y0: state,
+            a0: zero,
+            end: state,
             v0: zero,
             w: zero,
             r: zero,
             dw: zero,
             mid: Midpoint { state, dynamics, values: [0.0; NNZ] },
+            u: zero,
+            mr: zero,
+            jr: SVector::zeros(),
+            t: [Matrix3::identity(); NB],
         })
     }
 }
@@ -95,73 +112,106 @@ where
         // Made with the implicit pattern (`alpha_workspace`): no constructor
         // (and its temporaries) in this frame.
         let mut m = self.midpoint.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let step = self.midpoint_newton(&mut m, y0, vdot, h);
+        m.y0.clone_from(y0);
+        m.a0.copy_from(vdot);
+        let step = self.midpoint_newton(&mut m, h).map(|(i, n)| (m.end, i, n));
         self.midpoint = Some(m);
         step
     }
 
-    /// [`step_midpoint`](Self::step_midpoint)'s Newton iteration on the
-    /// iterate `m`, then the step's end, checked against the energy balance.
+    /// An implicit midpoint step from `state` (checked, normalised and
+    /// solved at into the boxed work), projected, into `state`: no state or
+    /// vector of the scene's size in this frame.
+    pub(super) fn midpoint_in_work(
+        &mut self,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut crate::dynamics::StepReport,
+    ) -> Result<(), AnalysisError> {
+        let mut m = self.midpoint.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let step = self.midpoint_started(&mut m, state, h, report);
+        self.midpoint = Some(m);
+        step
+    }
+
+    /// [`midpoint_in_work`](Self::midpoint_in_work) on the taken-out work `m`.
+    fn midpoint_started(
+        &mut self,
+        m: &mut MidpointWork<NB, NV, M, NNZ>,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut crate::dynamics::StepReport,
+    ) -> Result<(), AnalysisError> {
+        self.begin(state, &mut m.y0)?;
+        m.a0.copy_from(self.solved().0);
+        (report.newton_iterations, report.newton_matrices) = self.midpoint_newton(m, h)?;
+        self.finish(&mut m.end, report)?;
+        state.clone_from(&m.end);
+        Ok(())
+    }
+
+    /// The midpoint rule's Newton iteration from `m.y0` (accelerations
+    /// `m.a0`) on the iterate `m`, then the step's end into `m.end`, checked
+    /// against the energy balance. Returns the Newton iterations and
+    /// iteration matrices built.
     fn midpoint_newton(
         &mut self,
         m: &mut MidpointWork<NB, NV, M, NNZ>,
-        y0: &SystemState<NB>,
-        vdot: &SVector<f64, NV>,
         h: f64,
-    ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
-        m.v0 = velocity_vector::<NB, NV>(y0);
+    ) -> Result<(usize, usize), AnalysisError> {
+        velocity_vector_into(&m.y0, &mut m.v0);
         // Explicit predictor.
-        for ((w, v), a) in m.w.iter_mut().zip(m.v0.iter()).zip(vdot.iter()) {
+        for ((w, v), a) in m.w.iter_mut().zip(m.v0.iter()).zip(m.a0.iter()) {
             *w = v + a * (0.5 * h);
         }
-        self.midpoint_residual(y0, m, h)?;
+        self.midpoint_residual(m, h)?;
         let mut newton = ModifiedNewton::new(&self.options);
         loop {
             newton.next()?;
             if newton.stale() {
-                self.midpoint_matrix(&m.mid, &m.w, h)?;
+                self.midpoint_matrix(m, h)?;
                 newton.built();
             }
-            self.midpoint_solve(&m.mid.values, &m.r, &mut m.dw)?;
+            self.midpoint_solve(m)?;
             m.w += &m.dw;
-            self.midpoint_residual(y0, m, h)?;
+            self.midpoint_residual(m, h)?;
             if newton.converged(m.dw.norm(), 1.0 + m.w.norm())? {
                 break;
             }
         }
-        let end = self.midpoint_end(m, y0, h)?;
-        let (iterations, matrices) = newton.counts();
-        Ok((end, iterations, matrices))
+        self.midpoint_end(m, h)?;
+        Ok(newton.counts())
     }
 
-    /// The step's end from the converged iterate, refused if it gains
-    /// energy no work explains (a spurious Newton solution). In a frame of
-    /// its own, apart from the iteration's.
+    /// The step's end from the converged iterate into `m.end`, refused if it
+    /// gains energy no work explains (a spurious Newton solution). In a frame
+    /// of its own, apart from the iteration's.
     #[inline(never)]
-    fn midpoint_end(
-        &mut self,
-        m: &MidpointWork<NB, NV, M, NNZ>,
-        y0: &SystemState<NB>,
-        h: f64,
-    ) -> Result<SystemState<NB>, AnalysisError> {
-        let end = midpoint_end(y0, &m.v0, &m.w, h);
-        let constraint_power = -m.mid.dynamics.lambda.dot(&j_mul::<S, NB, NNZ, NV, M>(&m.mid.values, &m.w));
-        let work = midpoint_work::<L, NB, NV>(&mut self.loads, &self.inertias, &m.mid.state, constraint_power, h);
-        energy_balance(&self.energy(y0), &self.energy(&end), work)?;
-        Ok(end)
+    fn midpoint_end(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>, h: f64) -> Result<(), AnalysisError> {
+        // q_n ⊕ h w with v_{n+1} = 2w − v_n (`dynamics::midpoint_end`).
+        for ((u, w), v) in m.u.iter_mut().zip(m.w.iter()).zip(m.v0.iter()) {
+            *u = w * 2.0 - v;
+        }
+        displaced_into(&m.y0, &m.w, h, &m.u, m.y0.t + h, &mut m.end);
+        // The work of `dynamics::midpoint_work`: the user's loads and the
+        // constraint forces at the midpoint.
+        j_mul_into::<S, NB, NNZ>(&m.mid.values, m.w.as_slice(), m.jr.as_mut_slice());
+        let constraint_power = -m.mid.dynamics.lambda.dot(&m.jr);
+        self.user_forces_into(&m.mid.state, &mut m.mr);
+        velocity_vector_into(&m.mid.state, &mut m.u);
+        let work = h * (m.mr.dot(&m.u) + constraint_power);
+        energy_balance(&self.energy(&m.y0), &self.energy(&m.end), work)
     }
 
     /// `R = w − v_n − (h/2) a(q_n ⊕ (h/2) w, w)` under the step's rule, and the
     /// midpoint it was evaluated at, into `m`.
     #[inline(never)]
-    fn midpoint_residual(
-        &mut self,
-        y0: &SystemState<NB>,
-        m: &mut MidpointWork<NB, NV, M, NNZ>,
-        h: f64,
-    ) -> Result<(), AnalysisError> {
-        m.mid.state = midpoint_state(y0, &m.w, h);
-        m.mid.dynamics = self.solve(&m.mid.state, true, false)?;
+    fn midpoint_residual(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>, h: f64) -> Result<(), AnalysisError> {
+        displaced_into(&m.y0, &m.w, 0.5 * h, &m.w, m.y0.t + 0.5 * h, &mut m.mid.state);
+        self.solve_in_work(&m.mid.state, true, false)?;
+        let (vdot, lambda) = self.solved();
+        m.mid.dynamics.vdot.copy_from(vdot);
+        m.mid.dynamics.lambda.copy_from(lambda);
         self.scene.jacobian_values_into(&m.mid.state, &mut m.mid.values);
         let vdot = &m.mid.dynamics.vdot;
         for (((r, w), v), a) in m.r.iter_mut().zip(m.w.iter()).zip(m.v0.iter()).zip(vdot.iter()) {
@@ -171,24 +221,22 @@ where
     }
 
     /// Assembles and factorises the saddle-point Newton matrix at the midpoint
-    /// `mid` of the velocity `w` (see the module docs).
+    /// `m.mid` of the velocity `m.w` (see the module docs).
     #[inline(never)]
-    fn midpoint_matrix(
-        &mut self,
-        mid: &Midpoint<NB, NV, M, NNZ>,
-        w: &SVector<f64, NV>,
-        h: f64,
-    ) -> Result<(), AnalysisError> {
-        let t = update_blocks::<NB, NV>(w, 0.5 * h);
+    fn midpoint_matrix(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>, h: f64) -> Result<(), AnalysisError> {
+        update_blocks_into(&m.w, 0.5 * h, &mut m.t);
         let quarter = 0.25 * h * h;
         let dropped = self.solver.factor.dropped();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
         let stabilisation = self.options.stabilisation.coefficients();
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let (state, d) = (&mid.state, &mid.dynamics);
+        let (state, d) = (&m.mid.state, &m.mid.dynamics);
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
-        let u = d.vdot + velocity_vector::<NB, NV>(state) * (2.0 * stabilisation.0);
-        ws.fill_terms(self.scene, state, &d.lambda, &u, by_differences)?;
+        velocity_vector_into(state, &mut m.u);
+        for (u, a) in m.u.iter_mut().zip(d.vdot.iter()) {
+            *u = a + *u * (2.0 * stabilisation.0);
+        }
+        ws.fill_terms(self.scene, state, &d.lambda, &m.u, by_differences)?;
         let kkt = &mut ws.kkt;
         kkt.clear();
         // (h²/4)(K − Q_q), times T; then M − (h/2) Q_v; then J with its terms, and Jᵀ.
@@ -197,43 +245,40 @@ where
             spring_blocks(kkt, s, state, false, -quarter)?;
         }
         ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, state, false, -quarter)?;
-        times_update(kkt, &ws.body_pairs, &t)?;
+        times_update(kkt, &ws.body_pairs, &m.t)?;
         for s in self.springs {
             spring_blocks(kkt, s, state, true, -0.5 * h)?;
         }
         ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, state, true, -0.5 * h)?;
         add_mass(kkt, &self.inertias, state, 1.0, 0.5 * h)?;
-        add_rows::<S, NB, NNZ>(kkt, &mid.values, &ws.row_joint, dropped, &[Matrix3::identity(); NB])?;
+        // J itself on the velocity columns (no rotation update: an empty `T`).
+        add_rows::<S, NB, NNZ>(kkt, &m.mid.values, &ws.row_joint, dropped, &[])?;
         let rows = RowTerms { layout: &ws.layout, terms: &ws.terms, row_joint: &ws.row_joint, dropped, stabilisation };
-        add_row_terms::<S, NB, NNZ>(kkt, &rows, &mid.values, &t, (quarter, 0.5 * h))?;
+        add_row_terms::<S, NB, NNZ>(kkt, &rows, &m.mid.values, &m.t, (quarter, 0.5 * h))?;
         ws.kkt.factor().map_err(AnalysisError::from)
     }
 
-    /// The Newton correction `δw` for the residual `r`: the saddle-point
-    /// matrix solved for `[−M R; −J R]` (zero on the dropped rows).
+    /// The Newton correction `δw` for the residual `m.r` into `m.dw`: the
+    /// saddle-point matrix solved for `[−M R; −J R]` (zero on the dropped rows).
     #[inline(never)]
-    fn midpoint_solve(
-        &mut self,
-        values: &[f64; NNZ],
-        r: &SVector<f64, NV>,
-        dw: &mut SVector<f64, NV>,
-    ) -> Result<(), AnalysisError> {
-        let (mr, jr) = (mass_times(&self.inertias, r), j_mul::<S, NB, NNZ, NV, M>(values, r));
+    fn midpoint_solve(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>) -> Result<(), AnalysisError> {
+        mass_times_into(&self.inertias, &m.r, &mut m.mr);
+        j_mul_into::<S, NB, NNZ>(&m.mid.values, m.r.as_slice(), m.jr.as_mut_slice());
         let dropped = self.solver.factor.dropped();
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        for (out, x) in ws.rhs.iter_mut().zip(mr.iter()) {
+        for (out, x) in ws.rhs.iter_mut().zip(m.mr.iter()) {
             *out = -x;
         }
-        for (row, x) in jr.iter().enumerate() {
+        for (row, x) in m.jr.iter().enumerate() {
             if let Some(out) = ws.rhs.get_mut(NV + row) {
                 *out = if dropped.binary_search(&row).is_ok() { 0.0 } else { -x };
             }
         }
         ws.kkt.solve(&mut ws.rhs);
-        for (d, &x) in dw.iter_mut().zip(ws.rhs.iter()) {
+        for (d, &x) in m.dw.iter_mut().zip(ws.rhs.iter()) {
             *d = x;
         }
-        if !dw.iter().all(|x| x.is_finite()) {
+        if !m.dw.iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFiniteOutput { quantity: "Newton correction", row: None });
         }
         Ok(())
@@ -260,7 +305,7 @@ pub(super) fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const N
     kkt: &mut Kkt,
     rows: &RowTerms<'_>,
     values: &[f64; NNZ],
-    t: &[Matrix3<f64>; NB],
+    t: &[Matrix3<f64>],
     (cq, cv): (f64, f64),
 ) -> Result<(), AnalysisError> {
     let (alpha, beta) = rows.stabilisation;

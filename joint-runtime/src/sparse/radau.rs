@@ -131,7 +131,8 @@ where
         radau.values.extend_from_slice(&values);
         radau.dropped.clear();
         radau.dropped.extend_from_slice(self.solver.factor.dropped());
-        let identity = [Matrix3::identity(); NB];
+        // No rotation update: the blocks as they are (an empty `t`).
+        let identity: &[Matrix3<f64>] = &[];
         let rows = RowTerms {
             layout: &ws.layout,
             terms: &ws.terms,
@@ -145,21 +146,21 @@ where
         }
         // P₀ = [M, Jᵀ; J, 0].
         add_mass(p0, &self.inertias, y0, 1.0, 0.0)?;
-        add_rows::<S, NB, NNZ>(p0, &values, &ws.row_joint, &radau.dropped, &identity)?;
+        add_rows::<S, NB, NNZ>(p0, &values, &ws.row_joint, &radau.dropped, identity)?;
         // P₁ = [−Q_v, 0; −∂γ̂/∂v, 0].
         add_mass(p1, &self.inertias, y0, 0.0, 1.0)?;
         for s in self.springs {
             spring_blocks(p1, s, y0, true, -1.0)?;
         }
         ws.user.add_blocks::<L, NB, NV>(p1, &mut self.loads, y0, true, -1.0)?;
-        add_row_terms::<S, NB, NNZ>(p1, &rows, &values, &identity, (0.0, 1.0))?;
+        add_row_terms::<S, NB, NNZ>(p1, &rows, &values, identity, (0.0, 1.0))?;
         // P₂ = [K − Q_q, 0; ∂(J a)/∂q − ∂γ̂/∂q, 0].
         add_stiffness(p2, &ws.layout, &ws.terms, 1.0)?;
         for s in self.springs {
             spring_blocks(p2, s, y0, false, -1.0)?;
         }
         ws.user.add_blocks::<L, NB, NV>(p2, &mut self.loads, y0, false, -1.0)?;
-        add_row_terms::<S, NB, NNZ>(p2, &rows, &values, &identity, (1.0, 0.0))?;
+        add_row_terms::<S, NB, NNZ>(p2, &rows, &values, identity, (1.0, 0.0))?;
         Ok(((), 1))
     }
 

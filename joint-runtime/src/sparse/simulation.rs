@@ -13,14 +13,15 @@ use super::radau::RadauWorkspace;
 use super::solver::{Solver, j_mul, j_mul_into, jt_mul_into, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{
-    AnalysisError, AssemblyOptions, InverseMass, RowList, apply_increment, apply_metric_into, check_output,
-    check_state, normalise_orientations, set_velocities, velocity_vector,
+    AnalysisError, AssemblyOptions, InverseMass, NewtonWork, RowList, apply_increment, apply_metric_into, check_output,
+    check_state, normalise_orientations, set_velocities, velocity_vector, velocity_vector_into,
 };
 #[cfg(feature = "alloc")]
 use crate::dynamics::radau::{RadauHistory, step_radau};
 use crate::dynamics::{
-    AppliedLoads, Dynamics, Energy, Integrator, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper,
-    Stabilisation, StepReport, advance_into, check_redundant, generalised_forces, near_enough, rk4_weights,
+    AppliedLoads, Dynamics, Energy, Integrator, Loads, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper,
+    Stabilisation, StepReport, advance_into, check_redundant, generalised_forces, generalised_forces_into, near_enough,
+    rk4_weights,
 };
 use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 
@@ -70,7 +71,7 @@ pub struct Simulation<
     #[cfg(feature = "alloc")]
     /// Generalised-α's pattern, factor and history (the implicit
     /// integrators only).
-    pub(super) alpha: Option<AlphaWorkspace<NB, NV, M>>,
+    pub(super) alpha: Option<AlphaWorkspace<NB, NV, M, NNZ>>,
     #[cfg(feature = "alloc")]
     /// Radau IIA's matrices on that pattern, and its history.
     pub(super) radau: Option<alloc::boxed::Box<RadauWorkspace>>,
@@ -88,7 +89,7 @@ pub struct Simulation<
     pub(super) alpha_work: Option<alloc::boxed::Box<AlphaWork<NB, NV, M, NNZ>>>,
     /// The vectors of a solve and the stages of an RK4 step, kept here
     /// rather than in a step's frames (allocated once, in `new`).
-    work: Boxed<SolveWork<NV, M, NNZ>>,
+    work: Boxed<SolveWork<NB, NV, M, NNZ>>,
     rk4: Option<Boxed<Rk4Work<NB, NV>>>,
     /// The options (may be changed between steps; an implicit integrator's
     /// workspace is built in [`Simulation::new`] or at its first step).
@@ -124,10 +125,13 @@ fn boxed<T>(x: T) -> Boxed<T> {
     }
 }
 
-/// A solve's vectors: `J`'s values, `γ`, `Q`, `W Q`, `λ`, `Jᵀ λ`, `v̇` and
-/// the residual `J v̇ − γ`.
-struct SolveWork<const NV: usize, const M: usize, const NNZ: usize> {
+/// A solve's vectors: `J`'s values, `γ`, the loads and `Q`, `W Q`, `λ`,
+/// `Jᵀ λ`, `v̇` and the residual `J v̇ − γ`.
+struct SolveWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
     values: [f64; NNZ],
+    loads: Loads<NB>,
+    /// The projection's vectors and trial state.
+    newton: NewtonWork<NB, NV, M>,
     gamma: SVector<f64, M>,
     forces: SVector<f64, NV>,
     minv_q: SVector<f64, NV>,
@@ -137,10 +141,12 @@ struct SolveWork<const NV: usize, const M: usize, const NNZ: usize> {
     r: SVector<f64, M>,
 }
 
-impl<const NV: usize, const M: usize, const NNZ: usize> SolveWork<NV, M, NNZ> {
+impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> SolveWork<NB, NV, M, NNZ> {
     fn new() -> Boxed<Self> {
         boxed(SolveWork {
             values: [0.0; NNZ],
+            loads: Loads::default(),
+            newton: NewtonWork::new(),
             gamma: SVector::zeros(),
             forces: SVector::zeros(),
             minv_q: SVector::zeros(),
@@ -166,6 +172,27 @@ impl<const NB: usize, const NV: usize> Rk4Work<NB, NV> {
         let k = Rate::new(&y, SVector::zeros());
         boxed(Rk4Work { y0: y, k: [k; 4], stage: y, end: y })
     }
+}
+
+/// Baumgarte's `γ − 2α (J v + Φ_t) − β² Φ` into the workspace's `γ` (its
+/// `J` values at `state` already there). In a frame of its own: its vectors
+/// sit on the stack only with the stabilisation on.
+#[inline(never)]
+fn baumgarte<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    scene: &S,
+    state: &SystemState<NB>,
+    w: &mut SolveWork<NB, NV, M, NNZ>,
+    (alpha, beta): (f64, f64),
+) -> Result<(), AnalysisError>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let (phi, phi_t) = (scene.phi(state), scene.phi_t(state));
+    check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
+    check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
+    let phi_dot = j_mul::<S, NB, NNZ, NV, M>(&w.values, &velocity_vector::<NB, NV>(state)) + phi_t;
+    w.gamma -= phi_dot * (2.0 * alpha) + phi * (beta * beta);
+    Ok(())
 }
 
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
@@ -280,7 +307,7 @@ where
     /// Non-finite inputs or outputs; [`AnalysisError::Inconsistent`] when
     /// redundant constraints contradict each other.
     pub fn dynamics(&mut self, state: &SystemState<NB>) -> Result<Dynamics<NV, M>, AnalysisError> {
-        self.solve_into(state, false, true)?;
+        self.solve_in_work(state, false, true)?;
         let w = &self.work;
         Ok(Dynamics { vdot: w.vdot, lambda: w.lambda, forces: w.forces, redundant: self.solver.redundant() })
     }
@@ -294,27 +321,36 @@ where
         keep: bool,
         check: bool,
     ) -> Result<Accelerations<NV, M>, AnalysisError> {
-        self.solve_into(state, keep, check)?;
+        self.solve_in_work(state, keep, check)?;
         Ok(Accelerations { vdot: self.work.vdot, lambda: self.work.lambda })
     }
 
     /// [`Simulation::solve`] into the workspace (`v̇`, `λ` in
     /// `self.work`): no vector of the scene's size in this frame but the
     /// stabilisation's.
-    fn solve_into(&mut self, state: &SystemState<NB>, keep: bool, check: bool) -> Result<(), AnalysisError> {
+    pub(super) fn solve_in_work(
+        &mut self,
+        state: &SystemState<NB>,
+        keep: bool,
+        check: bool,
+    ) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
-        let w: &mut SolveWork<NV, M, NNZ> = &mut self.work;
+        let w: &mut SolveWork<NB, NV, M, NNZ> = &mut self.work;
         self.scene.jacobian_values_into(state, &mut w.values);
         w.gamma = self.scene.gamma(state);
         check_output::<S, NB, NV, M, 1>("γ", &w.gamma)?;
         if let Stabilisation::Baumgarte { alpha, beta } = self.options.stabilisation {
-            let (phi, phi_t) = (self.scene.phi(state), self.scene.phi_t(state));
-            check_output::<S, NB, NV, M, 1>("Φ", &phi)?;
-            check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
-            let phi_dot = j_mul::<S, NB, NNZ, NV, M>(&w.values, &velocity_vector::<NB, NV>(state)) + phi_t;
-            w.gamma -= phi_dot * (2.0 * alpha) + phi * (beta * beta);
+            baumgarte::<S, NB, NV, M, NNZ>(self.scene, state, w, (alpha, beta))?;
         }
-        w.forces = generalised_forces(&mut self.loads, self.springs, &self.inertias, &self.gravity, state);
+        generalised_forces_into(
+            &mut self.loads,
+            self.springs,
+            &self.inertias,
+            &self.gravity,
+            state,
+            &mut w.loads,
+            &mut w.forces,
+        );
         if !w.forces.iter().all(|x| x.is_finite()) {
             return Err(non_finite("forces"));
         }
@@ -462,10 +498,8 @@ where
     ) -> Result<(), AnalysisError> {
         self.alpha_workspace()?;
         // Generalised-α goes on from its last step only if handed back its state.
-        let continuing = self.alpha.as_ref().and_then(|w| w.history).is_some_and(|h| h.state == *state);
-        let (y0, d1) = self.step_start(state)?;
-        let (y, iterations, matrices) = self.step_alpha(&y0, h, continuing, (d1.vdot, d1.lambda))?;
-        self.conclude(state, y, (iterations, matrices), report)
+        let continuing = self.alpha.as_ref().and_then(|w| w.history.as_ref()).is_some_and(|h| h.state == *state);
+        self.alpha_in_work(state, h, continuing, report)
     }
 
     #[cfg(feature = "alloc")]
@@ -494,9 +528,7 @@ where
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
         self.alpha_workspace()?;
-        let (y0, d1) = self.step_start(state)?;
-        let (y, iterations, matrices) = self.step_midpoint(&y0, &d1.vdot, h)?;
-        self.conclude(state, y, (iterations, matrices), report)
+        self.midpoint_in_work(state, h, report)
     }
 
     #[cfg(feature = "alloc")]
@@ -518,7 +550,7 @@ where
     /// A step's end: the projection if configured (its iterations added to
     /// the report's), and the residuals the report gives either way.
     #[inline(never)]
-    fn finish(&mut self, y: &mut SystemState<NB>, report: &mut StepReport) -> Result<(), AnalysisError> {
+    pub(super) fn finish(&mut self, y: &mut SystemState<NB>, report: &mut StepReport) -> Result<(), AnalysisError> {
         match self.options.projection {
             Some(options) => {
                 let (it, c, v) = self.project(y, &options)?;
@@ -552,14 +584,37 @@ where
         Ok((y0, Accelerations { vdot: self.work.vdot, lambda: self.work.lambda }))
     }
 
+    #[cfg(feature = "alloc")]
+    /// The generalised forces at `state` into `q`, their loads gathered in
+    /// the workspace.
+    pub(super) fn forces_into(&mut self, state: &SystemState<NB>, q: &mut SVector<f64, NV>) {
+        let (springs, loads) = (self.springs, &mut self.work.loads);
+        generalised_forces_into(&mut self.loads, springs, &self.inertias, &self.gravity, state, loads, q);
+    }
+
+    #[cfg(feature = "alloc")]
+    /// The user's loads and the gyroscopic terms at `state` (the generalised
+    /// forces without gravity or springs) into `q`.
+    pub(super) fn user_forces_into(&mut self, state: &SystemState<NB>, q: &mut SVector<f64, NV>) {
+        let (zero, loads) = (Vector3::zeros(), &mut self.work.loads);
+        generalised_forces_into(&mut self.loads, &[], &self.inertias, &zero, state, loads, q);
+    }
+
+    #[cfg(feature = "alloc")]
+    /// The accelerations and multipliers of the last solve (in the
+    /// workspace): after [`begin`](Self::begin), the step's start's.
+    pub(super) fn solved(&self) -> (&SVector<f64, NV>, &SVector<f64, M>) {
+        (&self.work.vdot, &self.work.lambda)
+    }
+
     /// [`step_start`](Self::step_start) into `y0` and the workspace (`v̇`,
     /// `λ` in `self.work`): `state` checked, copied and normalised, solved
     /// at, and the step's rule taken from that factorisation.
-    fn begin(&mut self, state: &SystemState<NB>, y0: &mut SystemState<NB>) -> Result<(), AnalysisError> {
+    pub(super) fn begin(&mut self, state: &SystemState<NB>, y0: &mut SystemState<NB>) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)?;
         *y0 = *state;
         normalise_orientations::<S, NB, NV, M>(y0)?;
-        self.solve_into(y0, false, true)?;
+        self.solve_in_work(y0, false, true)?;
         self.solver.factor.keep_rule();
         Ok(())
     }
@@ -570,10 +625,20 @@ where
     /// [`integrate`](Self::integrate) with it): allocated once.
     pub(super) fn alpha_workspace(&mut self) -> Result<(), AnalysisError> {
         if self.alpha.is_none() {
-            self.alpha = Some(AlphaWorkspace::new::<S, NNZ>(self.springs)?);
-            self.alpha_work = Some(AlphaWork::new());
-            self.midpoint = Some(MidpointWork::new());
+            self.make_alpha_workspace()?;
         }
+        Ok(())
+    }
+
+    #[cfg(feature = "alloc")]
+    /// [`alpha_workspace`](Self::alpha_workspace)'s construction, in a frame
+    /// of its own: a step that finds the workspace made never enters it.
+    #[cold]
+    #[inline(never)]
+    fn make_alpha_workspace(&mut self) -> Result<(), AnalysisError> {
+        self.alpha = Some(AlphaWorkspace::new::<S>(self.springs)?);
+        self.alpha_work = Some(AlphaWork::new());
+        self.midpoint = Some(MidpointWork::new());
         Ok(())
     }
 
@@ -587,11 +652,21 @@ where
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => self.alpha_workspace(),
             Integrator::RadauIIA => {
                 self.alpha_workspace()?;
-                if let (None, Some(ws)) = (&self.radau, &self.alpha) {
-                    self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
+                if self.radau.is_none() {
+                    self.make_radau_workspace();
                 }
                 Ok(())
             }
+        }
+    }
+
+    #[cfg(feature = "alloc")]
+    /// Radau's workspace on the implicit pattern, in a frame of its own.
+    #[cold]
+    #[inline(never)]
+    fn make_radau_workspace(&mut self) {
+        if let Some(ws) = &self.alpha {
+            self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
         }
     }
 
@@ -605,7 +680,7 @@ where
         w.k[0].assign(&w.y0, &self.work.vdot);
         for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
             advance_into(&w.y0, [(&w.k[stage - 1], c)], h, t0 + c * h, &mut w.stage);
-            self.solve_into(&w.stage, true, false)?;
+            self.solve_in_work(&w.stage, true, false)?;
             w.k[stage].assign(&w.stage, &self.work.vdot);
         }
         let [k1, k2, k3, k4] = &w.k;
@@ -625,22 +700,28 @@ where
     // through the projection's Newton, which runs after it.
     #[inline(never)]
     fn settle(&mut self, y: &mut SystemState<NB>, at: &SystemState<NB>, options: &AssemblyOptions) -> usize {
-        let values = &mut self.work.values;
+        let w: &mut SolveWork<NB, NV, M, NNZ> = &mut self.work;
+        let SolveWork { values, newton: nw, .. } = w;
         self.scene.jacobian_values_into(at, values);
         let inverse = &self.inverse;
-        let mut phi = self.scene.phi(y);
-        let mut norm = phi.norm();
+        nw.phi = self.scene.phi(y);
+        let mut norm = nw.phi.norm();
         let mut iterations = 0;
         while norm > options.tolerance && iterations < options.max_iterations {
-            let delta = self.solver.min_norm_factored(values, -phi, inverse);
-            let mut trial = *y;
-            apply_increment(&mut trial, &delta, 1.0);
-            let p = self.scene.phi(&trial);
-            let n = p.norm();
+            for (b, p) in nw.b.iter_mut().zip(nw.phi.iter()) {
+                *b = -p;
+            }
+            self.solver.min_norm_factored_in_place(values, &mut nw.b, inverse, &mut nw.delta);
+            nw.trial.clone_from(y);
+            apply_increment(&mut nw.trial, &nw.delta, 1.0);
+            nw.p = self.scene.phi(&nw.trial);
+            let n = nw.p.norm();
             if n.is_nan() || n > 0.5 * norm {
                 break;
             }
-            (*y, phi, norm) = (trial, p, n);
+            y.clone_from(&nw.trial);
+            nw.phi.copy_from(&nw.p);
+            norm = n;
             iterations += 1;
         }
         iterations
@@ -658,8 +739,9 @@ where
         state: &mut SystemState<NB>,
         options: &AssemblyOptions,
     ) -> Result<(usize, f64, f64), AnalysisError> {
-        let (inverse, values) = (&self.inverse, &mut self.work.values);
-        let newton = self.solver.newton(self.scene, state, options, inverse, values);
+        let w: &mut SolveWork<NB, NV, M, NNZ> = &mut self.work;
+        let SolveWork { values, newton: work, .. } = w;
+        let newton = self.solver.newton(self.scene, state, options, &self.inverse, values, work);
         // A converged Newton factorised `J W Jᵀ` last at the state it returns
         // (to list its redundant rows), in this metric and with this
         // tolerance: the velocities are projected on that factor. Stopping
@@ -680,24 +762,33 @@ where
         factored: bool,
         options: &AssemblyOptions,
     ) -> Result<f64, AnalysisError> {
-        let (inverse, values) = (&self.inverse, &mut self.work.values);
+        let (inverse, w): (_, &mut SolveWork<NB, NV, M, NNZ>) = (&self.inverse, &mut self.work);
+        let SolveWork { values, newton: nw, .. } = w;
         if !factored {
             self.scene.jacobian_values_into(state, values);
         }
-        let phi_t = self.scene.phi_t(state);
-        let v = velocity_vector::<NB, NV>(state);
-        let b = -(j_mul::<S, NB, NNZ, NV, M>(values, &v) + phi_t);
-        let dv = if factored {
-            self.solver.min_norm_factored(values, b, inverse)
+        // b = −(J v + Φ_t), v += W Jᵀ (J W Jᵀ)⁻¹ b; ‖J v + Φ_t‖ after.
+        nw.p = self.scene.phi_t(state);
+        velocity_vector_into(state, &mut nw.v);
+        j_mul_into::<S, NB, NNZ>(values, nw.v.as_slice(), nw.phi.as_mut_slice());
+        for ((b, jv), pt) in nw.b.iter_mut().zip(nw.phi.iter()).zip(nw.p.iter()) {
+            *b = -(jv + pt);
+        }
+        if factored {
+            self.solver.min_norm_factored_in_place(values, &mut nw.b, inverse, &mut nw.delta);
         } else {
-            self.solver.min_norm(values, b, inverse, options.rank_tolerance)?
-        };
-        let v = v + dv;
-        set_velocities(state, &v);
+            self.solver.min_norm_in_place(values, &mut nw.b, inverse, options.rank_tolerance, &mut nw.delta)?;
+        }
+        nw.v += &nw.delta;
+        set_velocities(state, &nw.v);
         // Velocities do not enter `J`: the factor is `J W Jᵀ` at `state`.
         self.projected.0 = *state;
         self.projected.1 = factored.then(|| (self.solver.factor.factorisations(), options.rank_tolerance));
-        Ok((j_mul::<S, NB, NNZ, NV, M>(values, &v) + phi_t).norm())
+        j_mul_into::<S, NB, NNZ>(values, nw.v.as_slice(), nw.phi.as_mut_slice());
+        for ((b, jv), pt) in nw.b.iter_mut().zip(nw.phi.iter()).zip(nw.p.iter()) {
+            *b = jv + pt;
+        }
+        Ok(nw.b.norm())
     }
 }
 

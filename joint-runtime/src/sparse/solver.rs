@@ -8,7 +8,8 @@ use nalgebra::{Matrix3, SVector};
 
 use super::BlockFactor;
 use crate::analysis::{
-    Analysis, AnalysisError, AssemblyOptions, Directions, InverseMass, RowList, WorstRows, apply_metric, damped_newton,
+    Analysis, AnalysisError, AssemblyOptions, Directions, InverseMass, NewtonWork, RowList, WorstRows, apply_metric,
+    apply_metric_in_place, damped_newton,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -173,6 +174,34 @@ where
         apply_metric::<NB, NV>(Some(w), &jt_mul::<S, NB, NNZ, NV, M>(values, &y))
     }
 
+    /// [`Solver::min_norm_factored`] with `b` solved in place (it becomes
+    /// `y`) and `x` written into `out`: no vector in this frame.
+    pub(crate) fn min_norm_factored_in_place(
+        &mut self,
+        values: &[f64; NNZ],
+        b: &mut SVector<f64, M>,
+        w: &[InverseMass; NB],
+        out: &mut SVector<f64, NV>,
+    ) {
+        self.solve(b.as_mut_slice());
+        jt_mul_into::<S, NB, NNZ>(values, b.as_slice(), out.as_mut_slice());
+        apply_metric_in_place(w, out);
+    }
+
+    /// [`Solver::min_norm`] in place, as [`Solver::min_norm_factored_in_place`].
+    pub(crate) fn min_norm_in_place(
+        &mut self,
+        values: &[f64; NNZ],
+        b: &mut SVector<f64, M>,
+        w: &[InverseMass; NB],
+        tolerance: f64,
+        out: &mut SVector<f64, NV>,
+    ) -> Result<(), AnalysisError> {
+        self.factorise(values, w, tolerance)?;
+        self.min_norm_factored_in_place(values, b, w, out);
+        Ok(())
+    }
+
     /// [`Solver::min_norm`], then the consistency check of the dense
     /// `solve_linear`: the residual within round-off of `b` and `J x`.
     pub(crate) fn solve_linear(
@@ -210,12 +239,14 @@ where
         options: &AssemblyOptions,
         w: &[InverseMass; NB],
         values: &mut [f64; NNZ],
+        work: &mut NewtonWork<NB, NV, M>,
     ) -> Result<(usize, f64), AnalysisError> {
         damped_newton(
             scene,
             state,
             options,
             &mut Sparse { solver: self, scene, w, values, rank_tolerance: options.rank_tolerance },
+            work,
         )
     }
 }
@@ -236,9 +267,14 @@ impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Dire
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    fn step(&mut self, state: &SystemState<NB>, b: &SVector<f64, M>) -> Result<SVector<f64, NV>, AnalysisError> {
+    fn step(
+        &mut self,
+        state: &SystemState<NB>,
+        b: &mut SVector<f64, M>,
+        delta: &mut SVector<f64, NV>,
+    ) -> Result<(), AnalysisError> {
         self.scene.jacobian_values_into(state, self.values);
-        self.solver.min_norm(self.values, *b, self.w, self.rank_tolerance)
+        self.solver.min_norm_in_place(self.values, b, self.w, self.rank_tolerance, delta)
     }
 
     fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
