@@ -188,6 +188,11 @@ impl<const NB: usize> Loads<NB> {
 /// the state and loads zeroed; add to them. Implemented by every closure
 /// `FnMut(&SystemState<NB>, &mut Loads<NB>)` and by [`NoLoads`].
 pub trait AppliedLoads<const NB: usize> {
+    /// `true` when [`apply`](Self::apply) never adds a load (as for
+    /// [`NoLoads`]): the dynamics then neither zero nor read a [`Loads`].
+    /// `false` unless an implementation says otherwise.
+    const NONE: bool = false;
+
     /// Adds this evaluation's loads.
     fn apply(&mut self, state: &SystemState<NB>, loads: &mut Loads<NB>);
 
@@ -213,6 +218,8 @@ impl<const NB: usize, F: FnMut(&SystemState<NB>, &mut Loads<NB>)> AppliedLoads<N
 pub struct NoLoads;
 
 impl<const NB: usize> AppliedLoads<NB> for NoLoads {
+    const NONE: bool = true;
+
     fn apply(&mut self, _state: &SystemState<NB>, _loads: &mut Loads<NB>) {}
 
     fn derivative(&mut self, _state: &SystemState<NB>, _direction: &Direction<NB>, _loads: &mut Loads<NB>) -> bool {
@@ -1321,8 +1328,13 @@ pub(crate) fn generalised_forces_into<L: AppliedLoads<NB>, const NB: usize, cons
     loads: &mut Loads<NB>,
     q: &mut SVector<f64, NV>,
 ) {
-    loads.clear();
-    user.apply(state, loads);
+    // Without user loads or springs the loads are zero: not gathered, so a
+    // step's forces cost what the gravity and gyroscopic terms do.
+    let gathered = !(L::NONE && springs.is_empty());
+    if gathered {
+        loads.clear();
+        user.apply(state, loads);
+    }
     for s in springs {
         let (xa, va, a) = point_motion(state, &s.a);
         let (xb, vb, b) = point_motion(state, &s.b);
@@ -1341,17 +1353,19 @@ pub(crate) fn generalised_forces_into<L: AppliedLoads<NB>, const NB: usize, cons
             loads.add_force_at(state, body, &(u * -tension), &point);
         }
     }
-    q.fill(0.0);
-    for (i, ((b, inertia), (f, t))) in
-        state.bodies.iter().zip(inertias.iter()).zip(loads.force.iter().zip(loads.torque.iter())).enumerate()
-    {
-        if 6 * i + 6 > NV {
-            break;
-        }
+    let bodies = state.bodies.iter().zip(inertias.iter()).zip(loads.force.iter().zip(loads.torque.iter()));
+    let mut written = 0;
+    for (((b, inertia), (f, t)), out) in bodies.zip(q.as_mut_slice().chunks_exact_mut(6)) {
+        let (f, t) = if gathered { (*f, *t) } else { (Vector3::zeros(), Vector3::zeros()) };
         let force = gravity * inertia.mass + f;
         let torque = t - b.omega.cross(&(inertia.inertia * b.omega));
-        q.fixed_rows_mut::<3>(6 * i).copy_from(&force);
-        q.fixed_rows_mut::<3>(6 * i + 3).copy_from(&torque);
+        for (o, x) in out.iter_mut().zip(force.iter().chain(torque.iter())) {
+            *o = *x;
+        }
+        written += 6;
+    }
+    if let Some(rest) = q.as_mut_slice().get_mut(written..) {
+        rest.fill(0.0);
     }
 }
 
