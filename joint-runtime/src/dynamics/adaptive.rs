@@ -201,7 +201,13 @@ where
             Adaptive::RadauIIA => {
                 let (mut y, mut rule) = self.step_start(y0, h)?;
                 let mut host = super::radau::DenseRadau::new(self, &mut rule);
-                let step = super::radau::step_radau(&mut host, &mut y, h, Some(tolerance))?;
+                let step = super::radau::step_radau(
+                    &mut host,
+                    &mut super::radau::RadauWork::new(),
+                    &mut y,
+                    h,
+                    Some(tolerance),
+                )?;
                 report.newton_iterations += step.iterations;
                 report.newton_matrices += step.matrices;
                 report.evaluations += step.evaluations;

@@ -120,7 +120,7 @@ pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
 pub(crate) use force_derivatives::{LOAD_STEP, force_column, load_differences_along, spring_column};
 #[cfg(feature = "alloc")]
-pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times, mass_times_into};
+pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times_into};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use linear::Linearisation;
@@ -962,7 +962,8 @@ where
             Integrator::ImplicitMidpoint => self.step_midpoint(&mut y, h, &mut rule)?,
             Integrator::GeneralisedAlpha => self.step_alpha(&mut y, h, continuing, &mut rule)?,
             Integrator::RadauIIA => {
-                let step = radau::step_radau(&mut radau::DenseRadau::new(self, &mut rule), &mut y, h, None)?;
+                let (mut host, mut work) = (radau::DenseRadau::new(self, &mut rule), radau::RadauWork::new());
+                let step = radau::step_radau(&mut host, &mut work, &mut y, h, None)?;
                 (step.iterations, step.matrices)
             }
         };
@@ -995,7 +996,7 @@ impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_,
             _ => self.history = None,
         }
         match (&mut self.radau, integrator) {
-            (Some(radau), Integrator::RadauIIA) => radau.end = Some(state),
+            (Some(radau), Integrator::RadauIIA) => radau.accept(&state),
             _ => self.radau = None,
         }
     }

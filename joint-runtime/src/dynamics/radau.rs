@@ -83,8 +83,8 @@
 use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
 use super::adaptive::{Tolerance, increment_error};
-use super::{AppliedLoads, DenseSimulation, Factored, NewtonMatrix, StepRule, displaced, newton_done};
-use crate::analysis::{AnalysisError, velocity_vector};
+use super::{AppliedLoads, DenseSimulation, Factored, NewtonMatrix, StepRule, displaced, displaced_into, newton_done};
+use crate::analysis::{AnalysisError, velocity_vector, velocity_vector_into};
 use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
 
@@ -138,8 +138,9 @@ pub(crate) struct RadauStep {
 /// dense path's matrices, or nothing where the host keeps them).
 #[derive(Clone, Copy)]
 pub(crate) struct RadauHistory<const NB: usize, const NV: usize, J> {
-    /// The accepted (projected) end of the step; `None` until accepted.
-    pub(crate) end: Option<SystemState<NB>>,
+    /// The accepted (projected) end of the step, once `accepted`.
+    end: SystemState<NB>,
+    accepted: bool,
     h: f64,
     zu: Stages<NV>,
     zv: Stages<NV>,
@@ -164,30 +165,111 @@ pub(crate) trait RadauHost<const NB: usize, const NV: usize> {
     fn newton_limits(&self) -> (usize, f64);
     /// The history, kept between steps.
     fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, Self::Jacobian>>;
-    /// The accelerations at the step's start `y0` (whose rule the stages keep).
-    fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError>;
-    /// The accelerations at a stage, under the rule of the start.
-    fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError>;
+    /// The accelerations at the step's start `y0` (whose rule the stages
+    /// keep), into `out`.
+    fn start(&mut self, y0: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError>;
+    /// The accelerations at a stage, under the rule of the start, into `out`.
+    fn accelerations(&mut self, state: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError>;
     /// The Jacobian at the start `y0`, and the dynamics evaluations spent.
     fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<(Self::Jacobian, usize), AnalysisError>;
     /// Factorises the two systems of a step `h` on `jacobian`.
     fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, AnalysisError>;
-    /// `(γ̂/h − [[0, I], [A_q, A_v]])⁻¹ (r, s)`.
+    /// `(γ̂/h − [[0, I], [A_q, A_v]])⁻¹ (r, s)` for `rs = (r, s)`, into
+    /// `xy = (x, y)`.
     fn solve_real(
         &mut self,
         factors: &Self::Factors,
-        r: &SVector<f64, NV>,
-        s: &SVector<f64, NV>,
-    ) -> (SVector<f64, NV>, SVector<f64, NV>);
+        rs: (&SVector<f64, NV>, &SVector<f64, NV>),
+        xy: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    );
     /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
-    /// imaginary parts of `x`, then of `y`.
+    /// imaginary parts of `x` into `x`, of `y` into `y`.
     #[allow(clippy::type_complexity)]
     fn solve_complex(
         &mut self,
         factors: &Self::Factors,
         r: (&SVector<f64, NV>, &SVector<f64, NV>),
         s: (&SVector<f64, NV>, &SVector<f64, NV>),
-    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>));
+        x: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+        y: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    );
+}
+
+/// A Radau step's states and vectors: the start, the end and a stage's
+/// state, the start's rates, the stages `Z` and their transforms `W`, the
+/// rates `F` (then the residuals), the corrections in both bases, and the
+/// estimate's vectors. The sparse simulation keeps it boxed, so a step's
+/// frames hold none of the scene's size.
+#[derive(Clone, Debug)]
+pub(crate) struct RadauWork<const NB: usize, const NV: usize> {
+    y0: SystemState<NB>,
+    y1: SystemState<NB>,
+    stage: SystemState<NB>,
+    v0: SVector<f64, NV>,
+    a0: SVector<f64, NV>,
+    v: SVector<f64, NV>,
+    a: SVector<f64, NV>,
+    zu: Stages<NV>,
+    zv: Stages<NV>,
+    wu: Stages<NV>,
+    wv: Stages<NV>,
+    fu: Stages<NV>,
+    fv: Stages<NV>,
+    du: Stages<NV>,
+    dv: Stages<NV>,
+    dzu: Stages<NV>,
+    dzv: Stages<NV>,
+    pu: SVector<f64, NV>,
+    pv: SVector<f64, NV>,
+    eu: SVector<f64, NV>,
+    ev: SVector<f64, NV>,
+    r: SVector<f64, NV>,
+    s: SVector<f64, NV>,
+}
+
+impl<const NB: usize, const NV: usize> RadauWork<NB, NV> {
+    /// The step's start, where [`step_radau_in`] reads it.
+    #[cfg(feature = "alloc")]
+    pub(crate) fn start_mut(&mut self) -> &mut SystemState<NB> {
+        &mut self.y0
+    }
+
+    /// The step's end, where [`step_radau_in`] leaves it.
+    #[cfg(feature = "alloc")]
+    pub(crate) fn end_mut(&mut self) -> &mut SystemState<NB> {
+        &mut self.y1
+    }
+
+    /// Zeros.
+    pub(crate) fn new() -> Self {
+        let state = SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 };
+        let (v, z) = (SVector::zeros(), [SVector::zeros(); 3]);
+        RadauWork {
+            y0: state,
+            y1: state,
+            stage: state,
+            v0: v,
+            a0: v,
+            v,
+            a: v,
+            zu: z,
+            zv: z,
+            wu: z,
+            wv: z,
+            fu: z,
+            fv: z,
+            du: z,
+            dv: z,
+            dzu: z,
+            dzv: z,
+            pu: v,
+            pv: v,
+            eu: v,
+            ev: v,
+            r: v,
+            s: v,
+        }
+    }
 }
 
 /// RADAU5's bound on the contraction below which the next step keeps the
@@ -195,43 +277,63 @@ pub(crate) trait RadauHost<const NB: usize, const NV: usize> {
 const KEEP_JACOBIAN: f64 = 1e-3;
 
 /// When the simplified Newton iteration stops (see the module documentation).
-enum Stop<const NB: usize> {
+#[derive(Clone, Copy)]
+enum Stop {
     /// Fixed steps: the correction relative to `1 + ‖Z‖`.
     Relative(f64),
     /// Error-controlled steps: `κ` in the error norm at the step's start.
-    Scaled { kappa: f64, tolerance: Tolerance, start: SystemState<NB> },
+    Scaled { kappa: f64, tolerance: Tolerance },
 }
 
 /// One Radau IIA step from the normalised `state`; with a `tolerance`,
 /// Newton stops as the error control needs and the step's error norm is
 /// estimated. The stages are kept in the host's history (not yet accepted).
+/// Every vector lives in `w`, written in place (the same operations as
+/// sums of whole vectors, entry by entry).
 pub(crate) fn step_radau<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
     host: &mut H,
+    w: &mut RadauWork<NB, NV>,
     state: &mut SystemState<NB>,
     h: f64,
     tolerance: Option<Tolerance>,
 ) -> Result<RadauStep, AnalysisError> {
-    let y0 = *state;
-    let v0 = velocity_vector::<NB, NV>(&y0);
-    let a0 = host.start(&y0)?;
-    let z = starting_values(host.history().as_ref(), &y0, &v0, h);
+    w.y0.clone_from(state);
+    let step = step_radau_in(host, w, h, tolerance)?;
+    state.clone_from(&w.y1);
+    Ok(step)
+}
+
+/// [`step_radau`] from the start in the work ([`RadauWork::start_mut`]), its
+/// end left there ([`RadauWork::end_mut`]).
+pub(crate) fn step_radau_in<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+    host: &mut H,
+    w: &mut RadauWork<NB, NV>,
+    h: f64,
+    tolerance: Option<Tolerance>,
+) -> Result<RadauStep, AnalysisError> {
+    velocity_vector_into(&w.y0, &mut w.v0);
+    host.start(&w.y0, &mut w.a0)?;
+    starting_values(host.history().as_ref(), w, h);
     let mut step = RadauStep { iterations: 0, matrices: 1, evaluations: 1, error: 0.0 };
-    let (at, jacobian) = match *host.history() {
-        // A retry from the same state, or a last iteration that converged fast.
-        Some(past) if past.at == y0 || past.theta <= KEEP_JACOBIAN => (past.at, past.jacobian),
-        _ => {
-            // No history while the host's matrices change.
-            *host.history() = None;
-            let (jacobian, evaluations) = host.jacobian(&y0)?;
-            step.evaluations += evaluations;
-            (y0, jacobian)
+    // A retry from the same state, or a last iteration that converged fast.
+    let keep = matches!(host.history(), Some(past) if past.at == w.y0 || past.theta <= KEEP_JACOBIAN);
+    let fresh = if keep {
+        None
+    } else {
+        // No usable history while the host's matrices change.
+        if let Some(past) = host.history() {
+            past.forget();
         }
+        let (jacobian, evaluations) = host.jacobian(&w.y0)?;
+        step.evaluations += evaluations;
+        Some(jacobian)
     };
     // Kept before Newton runs: a step that fails retries on it from the
     // same state, and no other step keeps it (θ infinite until Newton
     // converges).
-    let pending = RadauHistory { end: None, h, zu: z.0, zv: z.1, at, theta: f64::INFINITY, jacobian };
-    *host.history() = Some(pending);
+    let Some(jacobian) = pending(host.history(), w, h, fresh) else {
+        return Err(AnalysisError::BadOption { name: "Radau history" });
+    };
     let factors = host.factor(&jacobian, h)?;
     // RADAU5's mapping: the estimate is of the embedded third-order
     // solution, far above the fifth-order one's error at tight tolerances.
@@ -243,100 +345,180 @@ pub(crate) fn step_radau<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>
     let stop = match tolerance {
         Some(t) => {
             let kappa = (10.0 * f64::EPSILON / t.rtol).max(libm::sqrt(t.rtol).min(0.03));
-            Stop::Scaled { kappa, tolerance: t, start: y0 }
+            Stop::Scaled { kappa, tolerance: t }
         }
         None => Stop::Relative(newton_tolerance),
     };
-    let newton = Newton { y0: &y0, v0: &v0, h, stop: &stop, max_iterations };
-    let (zu, zv, theta) = radau_newton(host, &newton, z, &factors, &mut step)?;
-    *host.history() = Some(RadauHistory { zu, zv, theta, ..pending });
-    let y1 = displaced(&y0, &zu[2], 1.0, &(v0 + zv[2]), y0.t + h);
-    if let Some(tol) = tolerance {
-        step.error = radau_estimate(host, (&y0, &y1, h), (&v0, &a0), (&zu, &zv), &factors, tol, &mut step)?;
+    let newton = Newton { h, stop, max_iterations };
+    let theta = radau_newton(host, w, &newton, &factors, &mut step)?;
+    if let Some(past) = host.history() {
+        for k in 0..3 {
+            past.zu[k].copy_from(&w.zu[k]);
+            past.zv[k].copy_from(&w.zv[k]);
+        }
+        past.theta = theta;
     }
-    *state = y1;
+    add_into(&w.v0, &w.zv[2], &mut w.v);
+    displaced_into(&w.y0, &w.zu[2], 1.0, &w.v, w.y0.t + h, &mut w.y1);
+    if let Some(tol) = tolerance {
+        step.error = radau_estimate(host, w, h, &factors, tol, &mut step)?;
+    }
     Ok(step)
 }
 
-/// The stages Newton starts from: the last accepted step's collocation
-/// polynomial extrapolated to this step if it ended at `y0`, else
-/// positions moving at the start's velocities.
+impl<const NB: usize, const NV: usize, J> RadauHistory<NB, NV, J> {
+    /// The step was accepted at `state` (projected): the next step starts
+    /// from its stages if it starts there.
+    pub(crate) fn accept(&mut self, state: &SystemState<NB>) {
+        self.end.clone_from(state);
+        self.accepted = true;
+    }
+
+    /// Made unusable (as no history): no later step keeps its Jacobian or
+    /// starts from its stages until a step writes it again.
+    fn forget(&mut self) {
+        self.accepted = false;
+        self.at.t = f64::NAN;
+        self.theta = f64::INFINITY;
+    }
+}
+
+/// The pending history of a step from `w.y0` of size `h` (its starting
+/// stages, θ infinite, not accepted), written over `history` in place: with
+/// the `fresh` Jacobian evaluated at `w.y0`, or keeping the one it has.
+/// Returns the Jacobian (`None`: no history and none fresh, which the caller
+/// never asks).
+fn pending<J: Copy, const NB: usize, const NV: usize>(
+    history: &mut Option<RadauHistory<NB, NV, J>>,
+    w: &RadauWork<NB, NV>,
+    h: f64,
+    fresh: Option<J>,
+) -> Option<J> {
+    match history {
+        Some(past) => {
+            if let Some(jacobian) = fresh {
+                past.at.clone_from(&w.y0);
+                past.jacobian = jacobian;
+            }
+            past.accepted = false;
+            past.h = h;
+            for k in 0..3 {
+                past.zu[k].copy_from(&w.zu[k]);
+                past.zv[k].copy_from(&w.zv[k]);
+            }
+            past.theta = f64::INFINITY;
+            Some(past.jacobian)
+        }
+        None => {
+            let jacobian = fresh?;
+            first_history(history, w, h, jacobian);
+            Some(jacobian)
+        }
+    }
+}
+
+/// A simulation's first Radau history, once, in a frame of its own.
+#[cold]
+#[inline(never)]
+fn first_history<J, const NB: usize, const NV: usize>(
+    history: &mut Option<RadauHistory<NB, NV, J>>,
+    w: &RadauWork<NB, NV>,
+    h: f64,
+    jacobian: J,
+) {
+    let (end, accepted, theta) = (w.y0, false, f64::INFINITY);
+    *history = Some(RadauHistory { end, accepted, h, zu: w.zu, zv: w.zv, at: w.y0, theta, jacobian });
+}
+
+/// The stages Newton starts from, into `w.zu`, `w.zv`: the last accepted
+/// step's collocation polynomial extrapolated to this step if it ended at
+/// `w.y0`, else positions moving at the start's velocities.
 fn starting_values<J, const NB: usize, const NV: usize>(
     history: Option<&RadauHistory<NB, NV, J>>,
-    y0: &SystemState<NB>,
-    v0: &SVector<f64, NV>,
+    w: &mut RadauWork<NB, NV>,
     h: f64,
-) -> (Stages<NV>, Stages<NV>) {
+) {
     match history {
-        Some(past) if past.end.as_ref() == Some(y0) => {
+        Some(past) if past.accepted && past.end == w.y0 => {
             let grow = h / past.h;
-            let at = |z: &Stages<NV>, i: usize| {
-                let w = collocation_weights(1.0 + C[i] * grow);
-                z[0] * w[0] + z[1] * w[1] + z[2] * (w[2] - 1.0)
-            };
-            ([0, 1, 2].map(|i| at(&past.zu, i)), [0, 1, 2].map(|i| at(&past.zv, i)))
+            for ((c, zu), zv) in C.iter().zip(w.zu.iter_mut()).zip(w.zv.iter_mut()) {
+                let l = collocation_weights(1.0 + c * grow);
+                let weights = [l[0], l[1], l[2] - 1.0];
+                combine_into(&weights, &past.zu, zu);
+                combine_into(&weights, &past.zv, zv);
+            }
         }
-        _ => (C.map(|c| v0 * (c * h)), [SVector::zeros(); 3]),
+        _ => {
+            for (i, c) in C.iter().enumerate() {
+                for (z, v) in w.zu[i].iter_mut().zip(w.v0.iter()) {
+                    *z = v * (c * h);
+                }
+                w.zv[i].fill(0.0);
+            }
+        }
     }
 }
 
 /// What one step's Newton iteration is about.
-struct Newton<'a, const NB: usize, const NV: usize> {
-    y0: &'a SystemState<NB>,
-    v0: &'a SVector<f64, NV>,
+struct Newton {
     h: f64,
-    stop: &'a Stop<NB>,
+    stop: Stop,
     max_iterations: usize,
 }
 
-/// Simplified Newton on the transformed stage equations from the stages
-/// `z`; returns the converged stages and the largest contraction seen.
+/// Simplified Newton on the transformed stage equations from the stages in
+/// `w`; leaves the converged stages there and returns the largest
+/// contraction seen.
 fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
     host: &mut H,
-    newton: &Newton<'_, NB, NV>,
-    (mut zu, mut zv): (Stages<NV>, Stages<NV>),
+    w: &mut RadauWork<NB, NV>,
+    newton: &Newton,
     factors: &H::Factors,
     step: &mut RadauStep,
-) -> Result<(Stages<NV>, Stages<NV>, f64), AnalysisError> {
-    let Newton { y0, v0, h, stop, max_iterations } = *newton;
-    let (mut wu, mut wv) = (mix(&TI, &zu), mix(&TI, &zv));
+) -> Result<f64, AnalysisError> {
+    let Newton { h, stop, max_iterations } = *newton;
+    mix_into(&TI, &w.zu, &mut w.wu);
+    mix_into(&TI, &w.zv, &mut w.wv);
     let (mut last, mut contraction) = (f64::INFINITY, 0.0f64);
     loop {
         if step.iterations >= max_iterations {
             return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: last });
         }
-        // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z).
-        let mut fu: Stages<NV> = [SVector::zeros(); 3];
-        let mut fv: Stages<NV> = [SVector::zeros(); 3];
-        for i in 0..3 {
-            let v = v0 + zv[i];
-            fv[i] = host.accelerations(&displaced(y0, &zu[i], 1.0, &v, y0.t + C[i] * h))?;
-            fu[i] = position_rates::<NV>(&zu[i], &v);
+        // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z), into `dz` (free here).
+        for (i, c) in C.iter().enumerate() {
+            let RadauWork { y0, stage, v0, v, zu, zv, fu, fv, .. } = &mut *w;
+            let (Some(zu), Some(zv), Some(fu), Some(fv)) = (zu.get(i), zv.get(i), fu.get_mut(i), fv.get_mut(i)) else {
+                continue;
+            };
+            add_into(v0, zv, v);
+            displaced_into(y0, zu, 1.0, v, y0.t + c * h, stage);
+            host.accelerations(stage, fv)?;
+            position_rates_into(zu, v, fu);
         }
         step.evaluations += 3;
-        let (gu, gv) = (mix(&TI, &fu), mix(&TI, &fv));
+        mix_into(&TI, &w.fu, &mut w.dzu);
+        mix_into(&TI, &w.fv, &mut w.dzv);
         // Residuals G − h⁻¹ Λ W, solved block by block.
-        let residual = |g: &Stages<NV>, w: &Stages<NV>| {
-            [
-                g[0] - w[0] * (GAMMA / h),
-                g[1] - (w[1] * ALPHA - w[2] * BETA) / h,
-                g[2] - (w[1] * BETA + w[2] * ALPHA) / h,
-            ]
-        };
-        let (ru, rv) = (residual(&gu, &wu), residual(&gv, &wv));
-        let (du0, dv0) = host.solve_real(factors, &ru[0], &rv[0]);
-        let ((du1, du2), (dv1, dv2)) = host.solve_complex(factors, (&ru[1], &ru[2]), (&rv[1], &rv[2]));
-        let (du, dv) = ([du0, du1, du2], [dv0, dv1, dv2]);
-        for k in 0..3 {
-            wu[k] += du[k];
-            wv[k] += dv[k];
+        residual_in_place(&mut w.dzu, &w.wu, h);
+        residual_in_place(&mut w.dzv, &w.wv, h);
+        {
+            let RadauWork { dzu: ru, dzv: rv, du, dv, .. } = &mut *w;
+            let ([du0, du1, du2], [dv0, dv1, dv2]) = (du, dv);
+            host.solve_real(factors, (&ru[0], &rv[0]), (du0, dv0));
+            host.solve_complex(factors, (&ru[1], &ru[2]), (&rv[1], &rv[2]), (du1, du2), (dv1, dv2));
         }
-        (zu, zv) = (mix(&T, &wu), mix(&T, &wv));
+        for k in 0..3 {
+            w.wu[k] += &w.du[k];
+            w.wv[k] += &w.dv[k];
+        }
+        mix_into(&T, &w.wu, &mut w.zu);
+        mix_into(&T, &w.wv, &mut w.zv);
         step.iterations += 1;
-        let (dzu, dzv) = (mix(&T, &du), mix(&T, &dv));
+        mix_into(&T, &w.du, &mut w.dzu);
+        mix_into(&T, &w.dv, &mut w.dzv);
         let (size, bound) = match stop {
-            Stop::Relative(tolerance) => (euclidean(&dzu, &dzv), tolerance * (1.0 + euclidean(&zu, &zv))),
-            Stop::Scaled { kappa, tolerance, start } => (stage_norm(start, &dzu, &dzv, *tolerance), *kappa),
+            Stop::Relative(tolerance) => (euclidean(&w.dzu, &w.dzv), tolerance * (1.0 + euclidean(&w.zu, &w.zv))),
+            Stop::Scaled { kappa, tolerance } => (stage_norm(&w.y0, &w.dzu, &w.dzv, tolerance), kappa),
         };
         let theta = size / last;
         if step.iterations >= 2 {
@@ -346,11 +528,11 @@ fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
         // contraction predicts (θ/(1 − θ) of it), is within the bound; at
         // fixed steps also at the round-off floor, where θ may exceed 1.
         let floor = match stop {
-            Stop::Relative(tolerance) => newton_done(size, last, bound / tolerance, *tolerance),
+            Stop::Relative(tolerance) => newton_done(size, last, bound / tolerance, tolerance),
             Stop::Scaled { .. } => size <= 1e-2 * bound,
         };
         if floor || (step.iterations >= 2 && theta < 1.0 && theta / (1.0 - theta) * size <= bound) {
-            return Ok((zu, zv, contraction));
+            return Ok(contraction);
         }
         if !size.is_finite() || (step.iterations >= 2 && theta >= 1.0) {
             return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: size });
@@ -359,31 +541,60 @@ fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
     }
 }
 
-/// RADAU5's error norm of the step from `y0` (its rates `v0`, `a0`) to `y1`
-/// with the stage increments `z` (see the module documentation).
-#[allow(clippy::type_complexity)]
+/// `G − h⁻¹ Λ W` over `g` in place: `Λ = diag(γ̂, [[α, −β], [β, α]])`.
+fn residual_in_place<const NV: usize>(g: &mut Stages<NV>, w: &Stages<NV>, h: f64) {
+    let [g0, g1, g2] = g;
+    for (g, w) in g0.iter_mut().zip(w[0].iter()) {
+        *g -= w * (GAMMA / h);
+    }
+    for ((g1, g2), (w1, w2)) in g1.iter_mut().zip(g2.iter_mut()).zip(w[1].iter().zip(w[2].iter())) {
+        *g1 -= (w1 * ALPHA - w2 * BETA) / h;
+        *g2 -= (w1 * BETA + w2 * ALPHA) / h;
+    }
+}
+
+/// RADAU5's error norm of the step from `w.y0` (its rates `w.v0`, `w.a0`)
+/// to `w.y1` with the stage increments `w.zu`, `w.zv` (see the module
+/// documentation).
 fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
     host: &mut H,
-    (y0, y1, h): (&SystemState<NB>, &SystemState<NB>, f64),
-    (v0, a0): (&SVector<f64, NV>, &SVector<f64, NV>),
-    (zu, zv): (&Stages<NV>, &Stages<NV>),
+    w: &mut RadauWork<NB, NV>,
+    h: f64,
     factors: &H::Factors,
     tolerance: Tolerance,
     step: &mut RadauStep,
 ) -> Result<f64, AnalysisError> {
-    let weigh = |z: &Stages<NV>| (z[0] * D[0] + z[1] * D[1] + z[2] * D[2]) / h;
-    let (pu, pv) = (weigh(zu), weigh(zv));
-    let (eu, ev) = host.solve_real(factors, &(v0 + pu), &(a0 + pv));
-    let err = increment_error(y0, y1, &eu, &ev, tolerance);
+    let weigh = |z: &Stages<NV>, out: &mut SVector<f64, NV>| {
+        for (o, ((a, b), c)) in out.iter_mut().zip(z[0].iter().zip(z[1].iter()).zip(z[2].iter())) {
+            *o = (a * D[0] + b * D[1] + c * D[2]) / h;
+        }
+    };
+    weigh(&w.zu, &mut w.pu);
+    weigh(&w.zv, &mut w.pv);
+    add_into(&w.v0, &w.pu, &mut w.r);
+    add_into(&w.a0, &w.pv, &mut w.s);
+    host.solve_real(factors, (&w.r, &w.s), (&mut w.eu, &mut w.ev));
+    let err = increment_error(&w.y0, &w.y1, &w.eu, &w.ev, tolerance);
     if err <= 1.0 {
         return Ok(err);
     }
     // The stiff components' overestimate removed: f at y_n + e.
-    let v = v0 + ev;
-    let a = host.accelerations(&displaced(y0, &eu, 1.0, &v, y0.t))?;
+    add_into(&w.v0, &w.ev, &mut w.v);
+    displaced_into(&w.y0, &w.eu, 1.0, &w.v, w.y0.t, &mut w.stage);
+    host.accelerations(&w.stage, &mut w.a)?;
     step.evaluations += 1;
-    let (eu, ev) = host.solve_real(factors, &(position_rates::<NV>(&eu, &v) + pu), &(a + pv));
-    Ok(increment_error(y0, y1, &eu, &ev, tolerance))
+    position_rates_into(&w.eu, &w.v, &mut w.r);
+    w.r += &w.pu;
+    add_into(&w.a, &w.pv, &mut w.s);
+    host.solve_real(factors, (&w.r, &w.s), (&mut w.eu, &mut w.ev));
+    Ok(increment_error(&w.y0, &w.y1, &w.eu, &w.ev, tolerance))
+}
+
+/// `out = a + b`, entry by entry.
+fn add_into<const NV: usize>(a: &SVector<f64, NV>, b: &SVector<f64, NV>, out: &mut SVector<f64, NV>) {
+    for (o, (a, b)) in out.iter_mut().zip(a.iter().zip(b.iter())) {
+        *o = a + b;
+    }
 }
 
 /// `A_q` and `A_v`, dense.
@@ -421,14 +632,16 @@ where
         &mut self.sim.radau
     }
 
-    fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
+    fn start(&mut self, y0: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError> {
         let start = self.sim.solve_factored(y0, Some(self.rule))?;
         self.start = Some(start);
-        Ok(start.dynamics.vdot)
+        *out = start.dynamics.vdot;
+        Ok(())
     }
 
-    fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
-        Ok(self.sim.solve(state, Some(self.rule))?.vdot)
+    fn accelerations(&mut self, state: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError> {
+        *out = self.sim.solve(state, Some(self.rule))?.vdot;
+        Ok(())
     }
 
     fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<(Self::Jacobian, usize), AnalysisError> {
@@ -447,10 +660,10 @@ where
     fn solve_real(
         &mut self,
         factors: &Self::Factors,
-        r: &SVector<f64, NV>,
-        s: &SVector<f64, NV>,
-    ) -> (SVector<f64, NV>, SVector<f64, NV>) {
-        factors.solve_real(r, s)
+        (r, s): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (x, y): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    ) {
+        (*x, *y) = factors.solve_real(r, s);
     }
 
     fn solve_complex(
@@ -458,8 +671,11 @@ where
         factors: &Self::Factors,
         r: (&SVector<f64, NV>, &SVector<f64, NV>),
         s: (&SVector<f64, NV>, &SVector<f64, NV>),
-    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
-        factors.solve_complex(r, s)
+        x: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+        y: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    ) {
+        let ((xr, xi), (yr, yi)) = factors.solve_complex(r, s);
+        (*x.0, *x.1, *y.0, *y.1) = (xr, xi, yr, yi);
     }
 }
 
@@ -557,15 +773,24 @@ fn collocation_weights(s: f64) -> [f64; 3] {
     ]
 }
 
-/// `Σ_j m_ij x_j` for each `i`.
-fn mix<const NV: usize>(m: &[[f64; 3]; 3], x: &Stages<NV>) -> Stages<NV> {
-    m.map(|row| x[0] * row[0] + x[1] * row[1] + x[2] * row[2])
+/// `out_i = Σ_j m_ij x_j` for each `i`.
+fn mix_into<const NV: usize>(m: &[[f64; 3]; 3], x: &Stages<NV>, out: &mut Stages<NV>) {
+    for (row, o) in m.iter().zip(out.iter_mut()) {
+        combine_into(row, x, o);
+    }
 }
 
-/// `U̇` at the increment `u` with velocities `v`: `ṙ` for the translations,
-/// `J_r(u_θ)⁻¹ ω'` for the rotations.
-fn position_rates<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>) -> SVector<f64, NV> {
-    let mut out = *v;
+/// `out = Σ_j c_j x_j`, entry by entry (`x₀ c₀ + x₁ c₁ + x₂ c₂`).
+fn combine_into<const NV: usize>(c: &[f64; 3], x: &Stages<NV>, out: &mut SVector<f64, NV>) {
+    for (o, ((a, b), d)) in out.iter_mut().zip(x[0].iter().zip(x[1].iter()).zip(x[2].iter())) {
+        *o = a * c[0] + b * c[1] + d * c[2];
+    }
+}
+
+/// `U̇` at the increment `u` with velocities `v`, into `out`: `ṙ` for the
+/// translations, `J_r(u_θ)⁻¹ ω'` for the rotations.
+fn position_rates_into<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>, out: &mut SVector<f64, NV>) {
+    out.copy_from(v);
     for b in 0..NV / 6 {
         let at = |x: &SVector<f64, NV>, k: usize| x.get(6 * b + 3 + k).copied().unwrap_or(0.0);
         let phi = Vector3::new(at(u, 0), at(u, 1), at(u, 2));
@@ -577,7 +802,6 @@ fn position_rates<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>) -
             }
         }
     }
-    out
 }
 
 /// `J_r(φ)⁻¹ ω = ω + ½ φ × ω + c(θ) φ × (φ × ω)`, `c = (1 − (θ/2) cot(θ/2))/θ²`,

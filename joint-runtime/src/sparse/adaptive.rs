@@ -115,8 +115,13 @@ where
             }
             Adaptive::RadauIIA => {
                 let mut y1 = y;
-                self.radau_start = Some((y, d));
-                let step = step_radau(self, &mut y1, h, Some(tolerance))?;
+                // `step_start` left its solve at `y` in the workspace.
+                self.prepare(crate::dynamics::Integrator::RadauIIA)?;
+                self.remember_radau_start(&y);
+                let mut w = self.radau_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+                let step = step_radau(self, &mut w, &mut y1, h, Some(tolerance));
+                self.radau_work = Some(w);
+                let step = step?;
                 report.newton_iterations += step.iterations;
                 report.newton_matrices += step.matrices;
                 report.evaluations += step.evaluations;

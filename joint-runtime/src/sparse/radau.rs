@@ -33,11 +33,10 @@ use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
 use super::kkt::Kkt;
 use super::midpoint::{RowTerms, add_row_terms};
-use super::simulation::Accelerations;
-use super::solver::j_mul;
-use crate::analysis::{AnalysisError, velocity_vector};
+use super::solver::j_mul_into;
+use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
-use crate::dynamics::{AppliedLoads, Integrator, NewtonMatrix, mass_times};
+use crate::dynamics::{AppliedLoads, Integrator, NewtonMatrix, mass_times_into};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// Radau's matrices on the pattern and the scratch of their solves,
@@ -87,6 +86,50 @@ impl RadauWorkspace {
     }
 }
 
+/// The start's dynamics a Radau step's stages keep (solved at `at`), and
+/// the sparse host's vectors: `u` (real, or the complex one's real and
+/// imaginary parts), `M u` and `J u` of each. Boxed with the workspace.
+#[derive(Clone, Debug)]
+pub(super) struct RadauScratch<const NB: usize, const NV: usize, const M: usize> {
+    at: SystemState<NB>,
+    solved: bool,
+    vdot: SVector<f64, NV>,
+    lambda: SVector<f64, M>,
+    u: SVector<f64, NV>,
+    ui: SVector<f64, NV>,
+    mass: SVector<f64, NV>,
+    mass_i: SVector<f64, NV>,
+    j: SVector<f64, M>,
+    j_i: SVector<f64, M>,
+}
+
+impl<const NB: usize, const NV: usize, const M: usize> RadauScratch<NB, NV, M> {
+    /// Zeros, boxed; no start solved.
+    pub(super) fn boxed() -> alloc::boxed::Box<Self> {
+        let (v, m) = (SVector::zeros(), SVector::zeros());
+        alloc::boxed::Box::new(RadauScratch {
+            at: SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 },
+            solved: false,
+            vdot: v,
+            lambda: m,
+            u: v,
+            ui: v,
+            mass: v,
+            mass_i: v,
+            j: m,
+            j_i: m,
+        })
+    }
+
+    /// The dynamics `(vdot, lambda)` solved at `at`, as the step's start.
+    pub(super) fn start(&mut self, at: &SystemState<NB>, vdot: &SVector<f64, NV>, lambda: &SVector<f64, M>) {
+        self.at.clone_from(at);
+        self.vdot.copy_from(vdot);
+        self.lambda.copy_from(lambda);
+        self.solved = true;
+    }
+}
+
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> RadauHost<NB, NV>
     for Simulation<'_, S, L, NB, NV, M, NNZ>
 where
@@ -106,12 +149,17 @@ where
         &mut self.radau_history
     }
 
-    fn start(&mut self, y0: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
-        Ok(self.radau_start_dynamics(y0)?.vdot)
+    fn start(&mut self, y0: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError> {
+        self.radau_start_ready(y0)?;
+        let sc = self.radau_scratch.as_deref().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        out.copy_from(&sc.vdot);
+        Ok(())
     }
 
-    fn accelerations(&mut self, state: &SystemState<NB>) -> Result<SVector<f64, NV>, AnalysisError> {
-        Ok(self.solve(state, true, false)?.vdot)
+    fn accelerations(&mut self, state: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError> {
+        self.solve_in_work(state, true, false)?;
+        out.copy_from(self.solved().0);
+        Ok(())
     }
 
     /// `P₀`, `P₁`, `P₂` at `y0` (see the module docs).
@@ -119,16 +167,25 @@ where
         // Built here only for `integrate` with Radau on a simulation made
         // for another integrator (a step builds it first).
         self.prepare(Integrator::RadauIIA)?;
-        let d = self.radau_start_dynamics(y0)?;
-        let values = self.scene.jacobian_values(y0);
+        self.radau_start_ready(y0)?;
         let stabilisation = self.options.stabilisation.coefficients();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
-        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let u = d.vdot + velocity_vector::<NB, NV>(y0) * (2.0 * stabilisation.0);
-        ws.fill_terms(self.scene, y0, &d.lambda, &u, by_differences)?;
-        let radau = self.radau.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        radau.values.clear();
-        radau.values.extend_from_slice(&values);
+        let bad = || AnalysisError::BadOption { name: "integrator" };
+        let (Some(ws), Some(radau), Some(sc)) =
+            (self.alpha.as_mut(), self.radau.as_deref_mut(), self.radau_scratch.as_deref_mut())
+        else {
+            return Err(bad());
+        };
+        radau.values.resize(NNZ, 0.0);
+        let values = <&mut [f64; NNZ]>::try_from(&mut radau.values[..]).map_err(|_| bad())?;
+        self.scene.jacobian_values_into(y0, values);
+        let values: &[f64; NNZ] = values;
+        // u = a + 2α v (as the midpoint rule's).
+        velocity_vector_into(y0, &mut sc.u);
+        for (u, a) in sc.u.iter_mut().zip(sc.vdot.iter()) {
+            *u = a + *u * (2.0 * stabilisation.0);
+        }
+        ws.fill_terms(self.scene, y0, &sc.lambda, &sc.u, by_differences)?;
         radau.dropped.clear();
         radau.dropped.extend_from_slice(self.solver.factor.dropped());
         // No rotation update: the blocks as they are (an empty `t`).
@@ -146,21 +203,21 @@ where
         }
         // P₀ = [M, Jᵀ; J, 0].
         add_mass(p0, &self.inertias, y0, 1.0, 0.0)?;
-        add_rows::<S, NB, NNZ>(p0, &values, &ws.row_joint, &radau.dropped, identity)?;
+        add_rows::<S, NB, NNZ>(p0, values, &ws.row_joint, &radau.dropped, identity)?;
         // P₁ = [−Q_v, 0; −∂γ̂/∂v, 0].
         add_mass(p1, &self.inertias, y0, 0.0, 1.0)?;
         for s in self.springs {
             spring_blocks(p1, s, y0, true, -1.0)?;
         }
         ws.user.add_blocks::<L, NB, NV>(p1, &mut self.loads, y0, true, -1.0)?;
-        add_row_terms::<S, NB, NNZ>(p1, &rows, &values, identity, (0.0, 1.0))?;
+        add_row_terms::<S, NB, NNZ>(p1, &rows, values, identity, (0.0, 1.0))?;
         // P₂ = [K − Q_q, 0; ∂(J a)/∂q − ∂γ̂/∂q, 0].
         add_stiffness(p2, &ws.layout, &ws.terms, 1.0)?;
         for s in self.springs {
             spring_blocks(p2, s, y0, false, -1.0)?;
         }
         ws.user.add_blocks::<L, NB, NV>(p2, &mut self.loads, y0, false, -1.0)?;
-        add_row_terms::<S, NB, NNZ>(p2, &rows, &values, identity, (1.0, 0.0))?;
+        add_row_terms::<S, NB, NNZ>(p2, &rows, values, identity, (1.0, 0.0))?;
         Ok(((), 1))
     }
 
@@ -180,23 +237,32 @@ where
     fn solve_real(
         &mut self,
         &h: &f64,
-        r: &SVector<f64, NV>,
-        s: &SVector<f64, NV>,
-    ) -> (SVector<f64, NV>, SVector<f64, NV>) {
+        (r, s): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (x, y): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    ) {
         let mu = GAMMA / h;
-        let u = s / (mu * mu) + r / mu;
-        let (mu_u, ju) = (mass_times(&self.inertias, &u), self.radau_j_mul(&u));
-        let Some(radau) = self.radau.as_deref_mut() else { return (SVector::zeros(), SVector::zeros()) };
+        let (Some(radau), Some(sc)) = (self.radau.as_deref_mut(), self.radau_scratch.as_deref_mut()) else {
+            x.fill(0.0);
+            y.fill(0.0);
+            return;
+        };
+        for (u, (s, r)) in sc.u.iter_mut().zip(s.iter().zip(r.iter())) {
+            *u = s / (mu * mu) + r / mu;
+        }
+        mass_times_into(&self.inertias, &sc.u, &mut sc.mass);
+        j_mul_at::<S, NB, NV, M, NNZ>(&radau.values, &sc.u, &mut sc.j);
         radau.p1_times(r);
         let scale = 1.0 / (mu * mu);
         for (i, (o, p)) in radau.rhs.iter_mut().zip(&radau.product).enumerate() {
-            let base = if i < NV { mu_u.get(i) } else { ju.get(i - NV) };
+            let base = if i < NV { sc.mass.get(i) } else { sc.j.get(i - NV) };
             *o = base.copied().unwrap_or(0.0) + p * scale;
         }
         zero_dropped(&mut radau.rhs, &radau.dropped, NV);
         radau.real.solve(&mut radau.rhs);
-        let x = SVector::<f64, NV>::from_iterator(radau.rhs.iter().copied());
-        (x, x * mu - r)
+        for ((x, y), (v, r)) in x.iter_mut().zip(y.iter_mut()).zip(radau.rhs.iter().zip(r.iter())) {
+            *x = *v;
+            *y = v * mu - r;
+        }
     }
 
     fn solve_complex(
@@ -204,23 +270,35 @@ where
         &h: &f64,
         (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
         (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),
-    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
+        (xr, xi): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+        (yr, yi): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    ) {
         let mu = Complex::new(ALPHA, BETA) / h;
-        let (r, s) = (r2.zip_map(r3, Complex::new), s2.zip_map(s3, Complex::new));
         let (i1, i2) = (mu.inv(), (mu * mu).inv());
-        let u = s * i2 + r * i1;
-        let (ur, ui) = (u.map(|z| z.re), u.map(|z| z.im));
-        let (mr, mi) = (mass_times(&self.inertias, &ur), mass_times(&self.inertias, &ui));
-        let (jr, ji) = (self.radau_j_mul(&ur), self.radau_j_mul(&ui));
-        let zero = (SVector::zeros(), SVector::zeros());
-        let Some(radau) = self.radau.as_deref_mut() else { return (zero, zero) };
+        let (Some(radau), Some(sc)) = (self.radau.as_deref_mut(), self.radau_scratch.as_deref_mut()) else {
+            for v in [xr, xi, yr, yi] {
+                v.fill(0.0);
+            }
+            return;
+        };
+        // u = s/μ² + r/μ, its real and imaginary parts.
+        let rs = r2.iter().zip(r3.iter()).zip(s2.iter().zip(s3.iter()));
+        for ((ur, ui), ((&r2, &r3), (&s2, &s3))) in sc.u.iter_mut().zip(sc.ui.iter_mut()).zip(rs) {
+            let u = Complex::new(s2, s3) * i2 + Complex::new(r2, r3) * i1;
+            (*ur, *ui) = (u.re, u.im);
+        }
+        mass_times_into(&self.inertias, &sc.u, &mut sc.mass);
+        mass_times_into(&self.inertias, &sc.ui, &mut sc.mass_i);
+        j_mul_at::<S, NB, NV, M, NNZ>(&radau.values, &sc.u, &mut sc.j);
+        j_mul_at::<S, NB, NV, M, NNZ>(&radau.values, &sc.ui, &mut sc.j_i);
         radau.p1_times(r2);
         for (o, p) in radau.complex_rhs.iter_mut().zip(&radau.product) {
             *o = Complex::new(*p, 0.0) * i2;
         }
         radau.p1_times(r3);
         for (i, (o, p)) in radau.complex_rhs.iter_mut().zip(&radau.product).enumerate() {
-            let (re, im) = if i < NV { (mr.get(i), mi.get(i)) } else { (jr.get(i - NV), ji.get(i - NV)) };
+            let (re, im) =
+                if i < NV { (sc.mass.get(i), sc.mass_i.get(i)) } else { (sc.j.get(i - NV), sc.j_i.get(i - NV)) };
             let base = Complex::new(re.copied().unwrap_or(0.0), im.copied().unwrap_or(0.0));
             *o += base + Complex::new(0.0, *p) * i2;
         }
@@ -230,9 +308,12 @@ where
             }
         }
         radau.complex.solve(&mut radau.complex_rhs);
-        let x = SVector::<Complex<f64>, NV>::from_iterator(radau.complex_rhs.iter().copied());
-        let y = x * mu - r;
-        ((x.map(|z| z.re), x.map(|z| z.im)), (y.map(|z| z.re), y.map(|z| z.im)))
+        let outs = xr.iter_mut().zip(xi.iter_mut()).zip(yr.iter_mut().zip(yi.iter_mut()));
+        for (((xr, xi), (yr, yi)), (x, (&r2, &r3))) in outs.zip(radau.complex_rhs.iter().zip(r2.iter().zip(r3.iter())))
+        {
+            let y = x * mu - Complex::new(r2, r3);
+            (*xr, *xi, *yr, *yi) = (x.re, x.im, y.re, y.im);
+        }
     }
 }
 
@@ -241,25 +322,28 @@ where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
-    /// The dynamics at the step's start `y0` under its rule: those the
-    /// step's start solved (the factor still holds them), or solved here.
-    fn radau_start_dynamics(&mut self, y0: &SystemState<NB>) -> Result<Accelerations<NV, M>, AnalysisError> {
-        match self.radau_start {
-            Some((at, d)) if at == *y0 => Ok(d),
-            _ => {
-                let d = self.solve(y0, true, false)?;
-                self.radau_start = Some((*y0, d));
-                Ok(d)
-            }
+    /// The dynamics at the step's start `y0` under its rule in the scratch:
+    /// those the step's start solved (the factor still holds them), or
+    /// solved here.
+    fn radau_start_ready(&mut self, y0: &SystemState<NB>) -> Result<(), AnalysisError> {
+        if !self.radau_scratch.as_deref().is_some_and(|sc| sc.solved && sc.at == *y0) {
+            self.solve_in_work(y0, true, false)?;
+            self.remember_radau_start(y0);
         }
+        Ok(())
     }
+}
 
-    /// `J x` with `J` at the Jacobian's state.
-    fn radau_j_mul(&self, x: &SVector<f64, NV>) -> SVector<f64, M> {
-        match self.radau.as_deref().and_then(|r| <&[f64; NNZ]>::try_from(&r.values[..]).ok()) {
-            Some(values) => j_mul::<S, NB, NNZ, NV, M>(values, x),
-            None => SVector::zeros(),
-        }
+/// `out = J x` with `J`'s entries `values` (zeros if they are not the
+/// scene's count).
+fn j_mul_at<S: SparseJacobian<NB, NNZ>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    values: &[f64],
+    x: &SVector<f64, NV>,
+    out: &mut SVector<f64, M>,
+) {
+    match <&[f64; NNZ]>::try_from(values) {
+        Ok(values) => j_mul_into::<S, NB, NNZ>(values, x.as_slice(), out.as_mut_slice()),
+        Err(_) => out.fill(0.0),
     }
 }
 

@@ -9,7 +9,7 @@ use super::alpha::{AlphaWork, AlphaWorkspace};
 #[cfg(feature = "alloc")]
 use super::midpoint::MidpointWork;
 #[cfg(feature = "alloc")]
-use super::radau::RadauWorkspace;
+use super::radau::{RadauScratch, RadauWorkspace};
 use super::solver::{Solver, j_mul, j_mul_into, jt_mul_into, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{
@@ -17,7 +17,7 @@ use crate::analysis::{
     check_state, normalise_orientations, set_velocities, velocity_vector, velocity_vector_into,
 };
 #[cfg(feature = "alloc")]
-use crate::dynamics::radau::{RadauHistory, step_radau};
+use crate::dynamics::radau::{RadauHistory, RadauWork, step_radau_in};
 use crate::dynamics::{
     AppliedLoads, Dynamics, Energy, Integrator, Loads, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper,
     Stabilisation, StepReport, advance_into, check_redundant, generalised_forces, generalised_forces_into, near_enough,
@@ -79,8 +79,12 @@ pub struct Simulation<
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
     #[cfg(feature = "alloc")]
     /// The dynamics a Radau step's start solved, and where (its stages
-    /// start from them rather than solving the start again).
-    pub(super) radau_start: Option<(SystemState<NB>, Accelerations<NV, M>)>,
+    /// start from them rather than solving the start again), and its host's
+    /// vectors.
+    pub(super) radau_scratch: Option<alloc::boxed::Box<RadauScratch<NB, NV, M>>>,
+    #[cfg(feature = "alloc")]
+    /// A Radau step's states and stages.
+    pub(super) radau_work: Option<alloc::boxed::Box<RadauWork<NB, NV>>>,
     /// The implicit midpoint rule's iterate (with `alpha`).
     #[cfg(feature = "alloc")]
     pub(super) midpoint: Option<alloc::boxed::Box<MidpointWork<NB, NV, M, NNZ>>>,
@@ -252,7 +256,9 @@ where
             #[cfg(feature = "alloc")]
             radau_history: None,
             #[cfg(feature = "alloc")]
-            radau_start: None,
+            radau_scratch: None,
+            #[cfg(feature = "alloc")]
+            radau_work: None,
             #[cfg(feature = "alloc")]
             midpoint: None,
             #[cfg(feature = "alloc")]
@@ -512,10 +518,36 @@ where
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
         self.alpha_workspace()?;
-        let (mut y, d) = self.step_start(state)?;
-        self.radau_start = Some((y, d));
-        let step = step_radau(self, &mut y, h, None)?;
-        self.conclude(state, y, (step.iterations, step.matrices), report)
+        let mut w = self.radau_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let stepped = self.radau_started(&mut w, state, h, report);
+        self.radau_work = Some(w);
+        stepped
+    }
+
+    #[cfg(feature = "alloc")]
+    /// [`advance_radau`](Self::advance_radau) on the taken-out work `w`.
+    fn radau_started(
+        &mut self,
+        w: &mut RadauWork<NB, NV>,
+        state: &mut SystemState<NB>,
+        h: f64,
+        report: &mut StepReport,
+    ) -> Result<(), AnalysisError> {
+        self.begin(state, w.start_mut())?;
+        self.remember_radau_start(w.start_mut());
+        let step = step_radau_in(self, w, h, None)?;
+        (report.newton_iterations, report.newton_matrices) = (step.iterations, step.matrices);
+        self.finish(w.end_mut(), report)?;
+        state.clone_from(w.end_mut());
+        Ok(())
+    }
+
+    #[cfg(feature = "alloc")]
+    /// The last solve's dynamics (at `y0`) as a Radau step's start.
+    pub(super) fn remember_radau_start(&mut self, y0: &SystemState<NB>) {
+        if let Some(sc) = self.radau_scratch.as_deref_mut() {
+            sc.start(y0, &self.work.vdot, &self.work.lambda);
+        }
     }
 
     #[cfg(feature = "alloc")]
@@ -529,22 +561,6 @@ where
     ) -> Result<(), AnalysisError> {
         self.alpha_workspace()?;
         self.midpoint_in_work(state, h, report)
-    }
-
-    #[cfg(feature = "alloc")]
-    /// An implicit step's end `y`, its Newton iterations and matrices into the
-    /// report, then [`finish`](Self::finish), then `y` into `state`.
-    fn conclude(
-        &mut self,
-        state: &mut SystemState<NB>,
-        mut y: SystemState<NB>,
-        (iterations, matrices): (usize, usize),
-        report: &mut StepReport,
-    ) -> Result<(), AnalysisError> {
-        (report.newton_iterations, report.newton_matrices) = (iterations, matrices);
-        self.finish(&mut y, report)?;
-        *state = y;
-        Ok(())
     }
 
     /// A step's end: the projection if configured (its iterations added to
@@ -667,6 +683,8 @@ where
     fn make_radau_workspace(&mut self) {
         if let Some(ws) = &self.alpha {
             self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
+            self.radau_scratch = Some(RadauScratch::boxed());
+            self.radau_work = Some(alloc::boxed::Box::new(RadauWork::new()));
         }
     }
 
@@ -807,7 +825,7 @@ impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: u
             }
         }
         match (&mut self.radau_history, integrator) {
-            (Some(radau), Integrator::RadauIIA) => radau.end = Some(*state),
+            (Some(radau), Integrator::RadauIIA) => radau.accept(state),
             _ => self.radau_history = None,
         }
     }
