@@ -130,7 +130,7 @@ where
                 worst: WorstRows::of::<S, NB, NV, M>(&work.phi),
             });
         }
-        for (b, p) in work.b.iter_mut().zip(work.phi.iter()) {
+        for (b, p) in work.b.as_mut_slice().iter_mut().zip(work.phi.as_slice().iter()) {
             *b = -p;
         }
         directions.step(state, &mut work.b, &mut work.delta)?;

@@ -98,7 +98,8 @@ impl Coefficients {
         past: &AlphaHistory<NB, NV, M>,
         out: &mut SVector<f64, NV>,
     ) {
-        for ((o, v), a) in out.iter_mut().zip(past.vdot.iter()).zip(past.a.iter()) {
+        for ((o, v), a) in out.as_mut_slice().iter_mut().zip(past.vdot.as_slice().iter()).zip(past.a.as_slice().iter())
+        {
             *o = (v - a * self.alpha_m) / (1.0 - self.alpha_m);
         }
     }

@@ -450,7 +450,7 @@ fn starting_values<J, const NB: usize, const NV: usize>(
         }
         _ => {
             for (i, c) in C.iter().enumerate() {
-                for (z, v) in w.zu[i].iter_mut().zip(w.v0.iter()) {
+                for (z, v) in w.zu[i].as_mut_slice().iter_mut().zip(w.v0.as_slice().iter()) {
                     *z = v * (c * h);
                 }
                 w.zv[i].fill(0.0);
@@ -544,10 +544,15 @@ fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
 /// `G − h⁻¹ Λ W` over `g` in place: `Λ = diag(γ̂, [[α, −β], [β, α]])`.
 fn residual_in_place<const NV: usize>(g: &mut Stages<NV>, w: &Stages<NV>, h: f64) {
     let [g0, g1, g2] = g;
-    for (g, w) in g0.iter_mut().zip(w[0].iter()) {
+    for (g, w) in g0.as_mut_slice().iter_mut().zip(w[0].as_slice().iter()) {
         *g -= w * (GAMMA / h);
     }
-    for ((g1, g2), (w1, w2)) in g1.iter_mut().zip(g2.iter_mut()).zip(w[1].iter().zip(w[2].iter())) {
+    for ((g1, g2), (w1, w2)) in g1
+        .as_mut_slice()
+        .iter_mut()
+        .zip(g2.as_mut_slice().iter_mut())
+        .zip(w[1].as_slice().iter().zip(w[2].as_slice().iter()))
+    {
         *g1 -= (w1 * ALPHA - w2 * BETA) / h;
         *g2 -= (w1 * BETA + w2 * ALPHA) / h;
     }
@@ -565,7 +570,11 @@ fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
     step: &mut RadauStep,
 ) -> Result<f64, AnalysisError> {
     let weigh = |z: &Stages<NV>, out: &mut SVector<f64, NV>| {
-        for (o, ((a, b), c)) in out.iter_mut().zip(z[0].iter().zip(z[1].iter()).zip(z[2].iter())) {
+        for (o, ((a, b), c)) in out
+            .as_mut_slice()
+            .iter_mut()
+            .zip(z[0].as_slice().iter().zip(z[1].as_slice().iter()).zip(z[2].as_slice().iter()))
+        {
             *o = (a * D[0] + b * D[1] + c * D[2]) / h;
         }
     };
@@ -592,7 +601,7 @@ fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
 
 /// `out = a + b`, entry by entry.
 fn add_into<const NV: usize>(a: &SVector<f64, NV>, b: &SVector<f64, NV>, out: &mut SVector<f64, NV>) {
-    for (o, (a, b)) in out.iter_mut().zip(a.iter().zip(b.iter())) {
+    for (o, (a, b)) in out.as_mut_slice().iter_mut().zip(a.as_slice().iter().zip(b.as_slice().iter())) {
         *o = a + b;
     }
 }
@@ -775,14 +784,18 @@ fn collocation_weights(s: f64) -> [f64; 3] {
 
 /// `out_i = Σ_j m_ij x_j` for each `i`.
 fn mix_into<const NV: usize>(m: &[[f64; 3]; 3], x: &Stages<NV>, out: &mut Stages<NV>) {
-    for (row, o) in m.iter().zip(out.iter_mut()) {
+    for (row, o) in m.iter().zip(out.as_mut_slice().iter_mut()) {
         combine_into(row, x, o);
     }
 }
 
 /// `out = Σ_j c_j x_j`, entry by entry (`x₀ c₀ + x₁ c₁ + x₂ c₂`).
 fn combine_into<const NV: usize>(c: &[f64; 3], x: &Stages<NV>, out: &mut SVector<f64, NV>) {
-    for (o, ((a, b), d)) in out.iter_mut().zip(x[0].iter().zip(x[1].iter()).zip(x[2].iter())) {
+    for (o, ((a, b), d)) in out
+        .as_mut_slice()
+        .iter_mut()
+        .zip(x[0].as_slice().iter().zip(x[1].as_slice().iter()).zip(x[2].as_slice().iter()))
+    {
         *o = a * c[0] + b * c[1] + d * c[2];
     }
 }

@@ -315,7 +315,7 @@ where
         mass_times_into(&self.inertias, &w.it.vdot, &mut w.mass);
         jt_mul_into::<S, NB, NNZ>(&w.values, w.it.lambda.as_slice(), w.jt.as_mut_slice());
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let parts = w.mass.iter().zip(w.jt.iter()).zip(w.q.iter());
+        let parts = w.mass.as_slice().iter().zip(w.jt.as_slice().iter()).zip(w.q.as_slice().iter());
         for (r, ((m, j), q)) in ws.rhs.iter_mut().take(NV).zip(parts) {
             *r = m + j - q;
         }

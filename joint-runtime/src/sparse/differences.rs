@@ -231,7 +231,7 @@ impl DifferenceTerms {
             }
         }
         for ((moved, sign), g) in states.iter_mut().zip([1.0, -1.0]).zip(gamma.iter_mut()) {
-            for ((m, v), d) in moved_v.iter_mut().zip(v.iter()).zip(dv.iter()) {
+            for ((m, v), d) in moved_v.as_mut_slice().iter_mut().zip(v.as_slice().iter()).zip(dv.as_slice().iter()) {
                 *m = if sign > 0.0 { v + d } else { v - d };
             }
             moved.clone_from(state);

@@ -161,7 +161,7 @@ where
     ) -> Result<(usize, usize), AnalysisError> {
         velocity_vector_into(&m.y0, &mut m.v0);
         // Explicit predictor.
-        for ((w, v), a) in m.w.iter_mut().zip(m.v0.iter()).zip(m.a0.iter()) {
+        for ((w, v), a) in m.w.as_mut_slice().iter_mut().zip(m.v0.as_slice().iter()).zip(m.a0.as_slice().iter()) {
             *w = v + a * (0.5 * h);
         }
         self.midpoint_residual(m, h)?;
@@ -189,7 +189,7 @@ where
     #[inline(never)]
     fn midpoint_end(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>, h: f64) -> Result<(), AnalysisError> {
         // q_n ⊕ h w with v_{n+1} = 2w − v_n (`dynamics::midpoint_end`).
-        for ((u, w), v) in m.u.iter_mut().zip(m.w.iter()).zip(m.v0.iter()) {
+        for ((u, w), v) in m.u.as_mut_slice().iter_mut().zip(m.w.as_slice().iter()).zip(m.v0.as_slice().iter()) {
             *u = w * 2.0 - v;
         }
         displaced_into(&m.y0, &m.w, h, &m.u, m.y0.t + h, &mut m.end);
@@ -233,7 +233,7 @@ where
         let (state, d) = (&m.mid.state, &m.mid.dynamics);
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
         velocity_vector_into(state, &mut m.u);
-        for (u, a) in m.u.iter_mut().zip(d.vdot.iter()) {
+        for (u, a) in m.u.as_mut_slice().iter_mut().zip(d.vdot.as_slice().iter()) {
             *u = a + *u * (2.0 * stabilisation.0);
         }
         ws.fill_terms(self.scene, state, &d.lambda, &m.u, by_differences)?;
@@ -266,19 +266,19 @@ where
         j_mul_into::<S, NB, NNZ>(&m.mid.values, m.r.as_slice(), m.jr.as_mut_slice());
         let dropped = self.solver.factor.dropped();
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        for (out, x) in ws.rhs.iter_mut().zip(m.mr.iter()) {
+        for (out, x) in ws.rhs.iter_mut().zip(m.mr.as_slice().iter()) {
             *out = -x;
         }
-        for (row, x) in m.jr.iter().enumerate() {
+        for (row, x) in m.jr.as_slice().iter().enumerate() {
             if let Some(out) = ws.rhs.get_mut(NV + row) {
                 *out = if dropped.binary_search(&row).is_ok() { 0.0 } else { -x };
             }
         }
         ws.kkt.solve(&mut ws.rhs);
-        for (d, &x) in m.dw.iter_mut().zip(ws.rhs.iter()) {
+        for (d, &x) in m.dw.as_mut_slice().iter_mut().zip(ws.rhs.iter()) {
             *d = x;
         }
-        if !m.dw.iter().all(|x| x.is_finite()) {
+        if !m.dw.as_slice().iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFiniteOutput { quantity: "Newton correction", row: None });
         }
         Ok(())

@@ -182,7 +182,7 @@ where
         let values: &[f64; NNZ] = values;
         // u = a + 2α v (as the midpoint rule's).
         velocity_vector_into(y0, &mut sc.u);
-        for (u, a) in sc.u.iter_mut().zip(sc.vdot.iter()) {
+        for (u, a) in sc.u.as_mut_slice().iter_mut().zip(sc.vdot.as_slice().iter()) {
             *u = a + *u * (2.0 * stabilisation.0);
         }
         ws.fill_terms(self.scene, y0, &sc.lambda, &sc.u, by_differences)?;
@@ -246,7 +246,7 @@ where
             y.fill(0.0);
             return;
         };
-        for (u, (s, r)) in sc.u.iter_mut().zip(s.iter().zip(r.iter())) {
+        for (u, (s, r)) in sc.u.as_mut_slice().iter_mut().zip(s.as_slice().iter().zip(r.as_slice().iter())) {
             *u = s / (mu * mu) + r / mu;
         }
         mass_times_into(&self.inertias, &sc.u, &mut sc.mass);
@@ -259,7 +259,9 @@ where
         }
         zero_dropped(&mut radau.rhs, &radau.dropped, NV);
         radau.real.solve(&mut radau.rhs);
-        for ((x, y), (v, r)) in x.iter_mut().zip(y.iter_mut()).zip(radau.rhs.iter().zip(r.iter())) {
+        for ((x, y), (v, r)) in
+            x.as_mut_slice().iter_mut().zip(y.as_mut_slice().iter_mut()).zip(radau.rhs.iter().zip(r.as_slice().iter()))
+        {
             *x = *v;
             *y = v * mu - r;
         }
@@ -282,8 +284,10 @@ where
             return;
         };
         // u = s/μ² + r/μ, its real and imaginary parts.
-        let rs = r2.iter().zip(r3.iter()).zip(s2.iter().zip(s3.iter()));
-        for ((ur, ui), ((&r2, &r3), (&s2, &s3))) in sc.u.iter_mut().zip(sc.ui.iter_mut()).zip(rs) {
+        let rs = r2.as_slice().iter().zip(r3.as_slice().iter()).zip(s2.as_slice().iter().zip(s3.as_slice().iter()));
+        for ((ur, ui), ((&r2, &r3), (&s2, &s3))) in
+            sc.u.as_mut_slice().iter_mut().zip(sc.ui.as_mut_slice().iter_mut()).zip(rs)
+        {
             let u = Complex::new(s2, s3) * i2 + Complex::new(r2, r3) * i1;
             (*ur, *ui) = (u.re, u.im);
         }
@@ -308,8 +312,13 @@ where
             }
         }
         radau.complex.solve(&mut radau.complex_rhs);
-        let outs = xr.iter_mut().zip(xi.iter_mut()).zip(yr.iter_mut().zip(yi.iter_mut()));
-        for (((xr, xi), (yr, yi)), (x, (&r2, &r3))) in outs.zip(radau.complex_rhs.iter().zip(r2.iter().zip(r3.iter())))
+        let outs = xr
+            .as_mut_slice()
+            .iter_mut()
+            .zip(xi.as_mut_slice().iter_mut())
+            .zip(yr.as_mut_slice().iter_mut().zip(yi.as_mut_slice().iter_mut()));
+        for (((xr, xi), (yr, yi)), (x, (&r2, &r3))) in
+            outs.zip(radau.complex_rhs.iter().zip(r2.as_slice().iter().zip(r3.as_slice().iter())))
         {
             let y = x * mu - Complex::new(r2, r3);
             (*xr, *xi, *yr, *yi) = (x.re, x.im, y.re, y.im);

@@ -357,7 +357,7 @@ where
             &mut w.loads,
             &mut w.forces,
         );
-        if !w.forces.iter().all(|x| x.is_finite()) {
+        if !w.forces.as_slice().iter().all(|x| x.is_finite()) {
             return Err(non_finite("forces"));
         }
         apply_metric_into(&self.inverse, &w.forces, &mut w.minv_q);
@@ -374,12 +374,12 @@ where
         jt_mul_into::<S, NB, NNZ>(&w.values, w.lambda.as_slice(), w.jt_lambda.as_mut_slice());
         // v̇ = W Q − W Jᵀ λ.
         apply_metric_into(&self.inverse, &w.jt_lambda, &mut w.vdot);
-        for (v, &q) in w.vdot.iter_mut().zip(w.minv_q.iter()) {
+        for (v, &q) in w.vdot.as_mut_slice().iter_mut().zip(w.minv_q.as_slice().iter()) {
             *v = q - *v;
         }
         j_mul_into::<S, NB, NNZ>(&w.values, w.vdot.as_slice(), w.r.as_mut_slice());
         w.r -= &w.gamma;
-        if !w.r.norm().is_finite() || !w.vdot.iter().all(|x| x.is_finite()) {
+        if !w.r.norm().is_finite() || !w.vdot.as_slice().iter().all(|x| x.is_finite()) {
             return Err(non_finite("accelerations"));
         }
         let scale = 1.0 + w.gamma.norm() + libm::sqrt(w.values.iter().map(|x| x * x).sum::<f64>()) * w.vdot.norm();
@@ -726,7 +726,7 @@ where
         let mut norm = nw.phi.norm();
         let mut iterations = 0;
         while norm > options.tolerance && iterations < options.max_iterations {
-            for (b, p) in nw.b.iter_mut().zip(nw.phi.iter()) {
+            for (b, p) in nw.b.as_mut_slice().iter_mut().zip(nw.phi.as_slice().iter()) {
                 *b = -p;
             }
             self.solver.min_norm_factored_in_place(values, &mut nw.b, inverse, &mut nw.delta);
@@ -789,7 +789,7 @@ where
         nw.p = self.scene.phi_t(state);
         velocity_vector_into(state, &mut nw.v);
         j_mul_into::<S, NB, NNZ>(values, nw.v.as_slice(), nw.phi.as_mut_slice());
-        for ((b, jv), pt) in nw.b.iter_mut().zip(nw.phi.iter()).zip(nw.p.iter()) {
+        for ((b, jv), pt) in nw.b.as_mut_slice().iter_mut().zip(nw.phi.as_slice().iter()).zip(nw.p.as_slice().iter()) {
             *b = -(jv + pt);
         }
         if factored {
@@ -803,7 +803,7 @@ where
         self.projected.0 = *state;
         self.projected.1 = factored.then(|| (self.solver.factor.factorisations(), options.rank_tolerance));
         j_mul_into::<S, NB, NNZ>(values, nw.v.as_slice(), nw.phi.as_mut_slice());
-        for ((b, jv), pt) in nw.b.iter_mut().zip(nw.phi.iter()).zip(nw.p.iter()) {
+        for ((b, jv), pt) in nw.b.as_mut_slice().iter_mut().zip(nw.phi.as_slice().iter()).zip(nw.p.as_slice().iter()) {
             *b = jv + pt;
         }
         Ok(nw.b.norm())

@@ -91,8 +91,17 @@ pub(super) fn pivoted_cholesky<const N: usize>(
             let q = below(perm[below(a, N)], N);
             w[q][q]
         };
-        let Some(p) = (c..N).max_by(|&a, &b| diagonal(a).total_cmp(&diagonal(b))) else { break };
-        let pivot = diagonal(p);
+        // The largest remaining diagonal, the last of equals (as
+        // `max_by(total_cmp)`): a float comparison, the total order only
+        // where a NaN takes part. (They differ only on −0 against +0, a
+        // pivot that ends the factor either way.)
+        let (mut p, mut pivot) = (c, diagonal(c));
+        for a in c + 1..N {
+            let x = diagonal(a);
+            if x >= pivot || ((x.is_nan() || pivot.is_nan()) && x.total_cmp(&pivot).is_ge()) {
+                (p, pivot) = (a, x);
+            }
+        }
         if pivot.is_nan() || pivot <= tolerance || pivot <= 0.0 {
             break;
         }
