@@ -49,15 +49,7 @@ pub(crate) fn apply_metric_into<const NB: usize, const NV: usize>(
     y: &mut SVector<f64, NV>,
 ) {
     y.copy_from(x);
-    for (i, m) in w.iter().enumerate() {
-        if 6 * i + 6 > NV {
-            break;
-        }
-        let f = x.fixed_rows::<3>(6 * i) * m.inv_mass;
-        let t = m.inv_inertia * x.fixed_rows::<3>(6 * i + 3);
-        y.fixed_rows_mut::<3>(6 * i).copy_from(&f);
-        y.fixed_rows_mut::<3>(6 * i + 3).copy_from(&t);
-    }
+    apply_metric_in_place(w, y);
 }
 
 /// `x = W x` in place, body by body (the same operations as
