@@ -50,6 +50,22 @@ pub(crate) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize>
     pub(crate) lambda: SVector<f64, M>,
 }
 
+#[cfg(feature = "alloc")]
+impl<const NB: usize, const NV: usize, const M: usize> AlphaHistory<NB, NV, M> {
+    /// Written over, field by field (no history in the caller's frame).
+    pub(crate) fn set(
+        &mut self,
+        state: &SystemState<NB>,
+        (vdot, a): (&SVector<f64, NV>, &SVector<f64, NV>),
+        lambda: &SVector<f64, M>,
+    ) {
+        self.state.clone_from(state);
+        self.vdot.copy_from(vdot);
+        self.a.copy_from(a);
+        self.lambda.copy_from(lambda);
+    }
+}
+
 /// The method's coefficients for ρ∞.
 #[derive(Clone, Copy)]
 pub(crate) struct Coefficients {
@@ -193,10 +209,7 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
     #[cfg(feature = "alloc")]
     /// [`history`](Self::history) written over `out`.
     pub(crate) fn history_into(&self, out: &mut AlphaHistory<NB, NV, M>) {
-        out.state.clone_from(&self.state);
-        out.vdot.copy_from(&self.vdot);
-        out.a.copy_from(&self.a);
-        out.lambda.copy_from(&self.lambda);
+        out.set(&self.state, (&self.vdot, &self.a), &self.lambda);
     }
 }
 

@@ -1038,7 +1038,19 @@ pub(crate) fn midpoint_state<const NB: usize, const NV: usize>(
     w: &SVector<f64, NV>,
     h: f64,
 ) -> SystemState<NB> {
-    displaced(y0, w, 0.5 * h, w, y0.t + 0.5 * h)
+    let mut mid = *y0;
+    midpoint_state_into(y0, w, h, &mut mid);
+    mid
+}
+
+/// [`midpoint_state`] written into `mid` (a workspace's state).
+pub(crate) fn midpoint_state_into<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    w: &SVector<f64, NV>,
+    h: f64,
+    mid: &mut SystemState<NB>,
+) {
+    displaced_into(y0, w, 0.5 * h, w, y0.t + 0.5 * h, mid);
 }
 
 /// The implicit midpoint rule's end of step from `y0` (velocities `v0`)
@@ -1050,7 +1062,25 @@ pub(crate) fn midpoint_end<const NB: usize, const NV: usize>(
     w: &SVector<f64, NV>,
     h: f64,
 ) -> SystemState<NB> {
-    displaced(y0, w, h, &(w * 2.0 - v0), y0.t + h)
+    let (mut end, mut v) = (*y0, *v0);
+    midpoint_end_into(y0, v0, w, h, &mut v, &mut end);
+    end
+}
+
+/// [`midpoint_end`] written into `end`, the end's velocities into `v`
+/// (both a workspace's).
+pub(crate) fn midpoint_end_into<const NB: usize, const NV: usize>(
+    y0: &SystemState<NB>,
+    v0: &SVector<f64, NV>,
+    w: &SVector<f64, NV>,
+    h: f64,
+    v: &mut SVector<f64, NV>,
+    end: &mut SystemState<NB>,
+) {
+    for (v, (w, v0)) in v.as_mut_slice().iter_mut().zip(w.as_slice().iter().zip(v0.as_slice().iter())) {
+        *v = w * 2.0 - v0;
+    }
+    displaced_into(y0, w, h, v, y0.t + h, end);
 }
 
 /// The work done over an implicit midpoint step by the forces that the

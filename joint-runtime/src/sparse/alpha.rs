@@ -132,9 +132,8 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWo
 /// Generalised-α's history, iterate and Newton vectors, boxed and made with
 /// the implicit integrators' pattern: a step's frames hold none of them.
 pub(super) struct AlphaWork<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
-    /// The step's start (normalised) and its accelerations and multipliers.
+    /// The step's start (normalised).
     y0: SystemState<NB>,
-    start: (SVector<f64, NV>, SVector<f64, M>),
     /// The step's end (projected in place).
     end: SystemState<NB>,
     past: AlphaHistory<NB, NV, M>,
@@ -157,7 +156,6 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWo
         let (v, l) = (SVector::zeros(), SVector::zeros());
         Box::new(AlphaWork {
             y0: state,
-            start: (v, l),
             end: state,
             past: AlphaHistory { state, vdot: v, a: v, lambda: l },
             v0: v,
@@ -202,8 +200,9 @@ where
         let c = Coefficients::checked(self.options.spectral_radius)?;
         // Made with the implicit pattern (`alpha_workspace`).
         let mut w = self.alpha_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        (w.y0, w.start) = (*y0, start);
-        let step = self.alpha_newton(&mut w, h, continuing, c).map(|(i, m)| (w.it.state, i, m));
+        w.y0 = *y0;
+        self.alpha_past(&mut w, continuing, (&start.0, &start.1));
+        let step = self.alpha_newton(&mut w, h, c).map(|(i, m)| (w.it.state, i, m));
         self.alpha_work = Some(w);
         step
     }
@@ -236,41 +235,37 @@ where
         report: &mut crate::dynamics::StepReport,
     ) -> Result<(), AnalysisError> {
         self.begin(state, &mut w.y0)?;
-        let (vdot, lambda) = self.solved();
-        w.start.0.copy_from(vdot);
-        w.start.1.copy_from(lambda);
-        (report.newton_iterations, report.newton_matrices) = self.alpha_newton(w, h, continuing, c)?;
+        self.alpha_past(w, continuing, self.solved());
+        (report.newton_iterations, report.newton_matrices) = self.alpha_newton(w, h, c)?;
         w.end.clone_from(&w.it.state);
         self.finish(&mut w.end, report)?;
         state.clone_from(&w.end);
         Ok(())
     }
 
-    /// Generalised-α's Newton iteration from `w.y0` and `w.start` on the
-    /// iterate and vectors of `w`: the end in `w.it.state`; returns the
-    /// Newton iterations and iteration matrices built.
+    /// The history the step from `w.y0` goes on from, into `w.past`: the
+    /// last step's if `continuing` (and kept), else the start's `(v̇, λ)`.
+    fn alpha_past(
+        &self,
+        w: &mut AlphaWork<NB, NV, M, NNZ>,
+        continuing: bool,
+        (vdot, lambda): (&SVector<f64, NV>, &SVector<f64, M>),
+    ) {
+        match (continuing, self.alpha.as_ref().and_then(|w| w.history.as_ref())) {
+            (true, Some(past)) => w.past.set(&past.state, (&past.vdot, &past.a), &past.lambda),
+            _ => w.past.set(&w.y0, (vdot, vdot), lambda),
+        }
+    }
+
+    /// Generalised-α's Newton iteration from `w.y0` and the history in
+    /// `w.past` on the iterate and vectors of `w`: the end in `w.it.state`;
+    /// returns the Newton iterations and iteration matrices built.
     fn alpha_newton(
         &mut self,
         w: &mut AlphaWork<NB, NV, M, NNZ>,
         h: f64,
-        continuing: bool,
         c: Coefficients,
     ) -> Result<(usize, usize), AnalysisError> {
-        // Field by field: no history or vector of the scene's size in this frame.
-        match (continuing, self.alpha.as_ref().and_then(|w| w.history.as_ref())) {
-            (true, Some(past)) => {
-                w.past.state.clone_from(&past.state);
-                w.past.vdot.copy_from(&past.vdot);
-                w.past.a.copy_from(&past.a);
-                w.past.lambda.copy_from(&past.lambda);
-            }
-            _ => {
-                w.past.state.clone_from(&w.y0);
-                w.past.vdot.copy_from(&w.start.0);
-                w.past.a.copy_from(&w.start.0);
-                w.past.lambda.copy_from(&w.start.1);
-            }
-        }
         velocity_vector_into(&w.y0, &mut w.v0);
         c.predicted_into(&w.past, &mut w.it.a);
         w.it.lambda.copy_from(&w.past.lambda);

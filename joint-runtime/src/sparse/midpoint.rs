@@ -37,7 +37,8 @@ use super::solver::j_mul_into;
 use crate::OmegaBody;
 use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::dynamics::{
-    AppliedLoads, ModifiedNewton, NewtonMatrix, displaced_into, energy_balance, mass_times_into, update_blocks_into,
+    AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times_into, midpoint_end_into,
+    midpoint_state_into, update_blocks_into,
 };
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -188,11 +189,7 @@ where
     /// of its own, apart from the iteration's.
     #[inline(never)]
     fn midpoint_end(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>, h: f64) -> Result<(), AnalysisError> {
-        // q_n ⊕ h w with v_{n+1} = 2w − v_n (`dynamics::midpoint_end`).
-        for ((u, w), v) in m.u.as_mut_slice().iter_mut().zip(m.w.as_slice().iter()).zip(m.v0.as_slice().iter()) {
-            *u = w * 2.0 - v;
-        }
-        displaced_into(&m.y0, &m.w, h, &m.u, m.y0.t + h, &mut m.end);
+        midpoint_end_into(&m.y0, &m.v0, &m.w, h, &mut m.u, &mut m.end);
         // The work of `dynamics::midpoint_work`: the user's loads and the
         // constraint forces at the midpoint.
         j_mul_into::<S, NB, NNZ>(&m.mid.values, m.w.as_slice(), m.jr.as_mut_slice());
@@ -207,7 +204,7 @@ where
     /// midpoint it was evaluated at, into `m`.
     #[inline(never)]
     fn midpoint_residual(&mut self, m: &mut MidpointWork<NB, NV, M, NNZ>, h: f64) -> Result<(), AnalysisError> {
-        displaced_into(&m.y0, &m.w, 0.5 * h, &m.w, m.y0.t + 0.5 * h, &mut m.mid.state);
+        midpoint_state_into(&m.y0, &m.w, h, &mut m.mid.state);
         self.solve_in_work(&m.mid.state, true, false)?;
         let (vdot, lambda) = self.solved();
         m.mid.dynamics.vdot.copy_from(vdot);
