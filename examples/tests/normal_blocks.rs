@@ -64,6 +64,10 @@ impl<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NORMAL
     const FACTOR_STARTS: &'static [usize] = S::FACTOR_STARTS;
     const FACTOR_BELOW: &'static [usize] = S::FACTOR_BELOW;
     type Factor = S::Factor;
+    const KKT_ORDER: &'static [usize] = S::KKT_ORDER;
+    const KKT_STARTS: &'static [usize] = S::KKT_STARTS;
+    const KKT_BELOW: &'static [usize] = S::KKT_BELOW;
+    type Kkt<T: joint_runtime::sparse::KktEntry> = S::Kkt<T>;
     fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]) {
         self.0.jacobian_values_into(state, out);
     }

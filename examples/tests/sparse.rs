@@ -662,6 +662,37 @@ fn implicit_midpoint_takes_the_40_loop_ladder_through_its_singular_positions() {
     assert!(worst_energy < 1e-4, "energy {worst_energy:e}");
 }
 
+/// The saddle-point pattern found at run time (a spring between bodies no
+/// joint joins: the four-bar's first and last crank) against the derive's:
+/// with no stiffness and no damping the spring changes only the order of
+/// elimination, so generalised-α, the midpoint rule and Radau IIA take the
+/// same steps to round-off.
+#[test]
+fn a_spring_outside_the_derived_pattern_gets_a_run_time_one() {
+    use joint_runtime::dynamics::Attachment;
+    let scene = four_bar::scene();
+    let idle = [SpringDamper {
+        a: Attachment::Body { body: 0, point: SVector::zeros() },
+        b: Attachment::Body { body: 8, point: SVector::zeros() },
+        stiffness: 0.0,
+        damping: 0.0,
+        rest_length: 1.0,
+    }];
+    for integrator in [Integrator::GeneralisedAlpha, Integrator::ImplicitMidpoint, Integrator::RadauIIA] {
+        let mut options = alpha_options(0.9);
+        options.integrator = integrator;
+        let mut derived = Simulation::new(&scene, NoLoads, &[], options).expect("derived pattern");
+        let mut found = Simulation::new(&scene, NoLoads, &idle, options).expect("run-time pattern");
+        let (mut a, mut b) = (four_bar::initial_state(), four_bar::initial_state());
+        for _ in 0..20 {
+            derived.step(&mut a, 1e-3).expect("step");
+            found.step(&mut b, 1e-3).expect("step");
+        }
+        close(&format!("{integrator:?}"), &flat(&b), &flat(&a), 1e-12);
+        assert_ne!(derived.iteration_blocks(), found.iteration_blocks(), "{integrator:?}: the patterns differ");
+    }
+}
+
 /// Switching integrators between steps: generalised-α starts afresh after a
 /// step of another one (its history would be stale), exactly as a new
 /// simulation would from that state.

@@ -157,6 +157,23 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     /// from the pattern above ([`FactorArrays`](crate::sparse::FactorArrays)),
     /// so that the sparse solves need no allocator.
     type Factor: crate::sparse::FactorStorage;
+    /// The implicit integrators' saddle-point matrix `[S Jᵀ; J T 0]` over
+    /// bodies (nodes `0..NB`) and joints (node `NB + j`, in
+    /// [`Scene::BLOCKS`] order), bodies coupled where a joint joins them:
+    /// its elimination order (minimum degree, each joint after its bodies,
+    /// computed by the derive), as nodes.
+    const KKT_ORDER: &'static [usize];
+    /// `KKT_STARTS[k]..KKT_STARTS[k + 1]` index the entries of
+    /// [`KKT_BELOW`](Self::KKT_BELOW) for the `k`-th node eliminated.
+    const KKT_STARTS: &'static [usize];
+    /// For each eliminated node, the positions (in
+    /// [`KKT_ORDER`](Self::KKT_ORDER), all later) of the nodes its column
+    /// reaches, fill included.
+    const KKT_BELOW: &'static [usize];
+    /// Where that matrix lives, with entries `T` (`f64`, or Radau IIA's
+    /// `Complex<f64>`): arrays sized by the derive from the pattern above
+    /// ([`KktArrays`](crate::sparse::KktArrays)).
+    type Kkt<T: crate::sparse::KktEntry>: crate::sparse::KktStorage<T>;
     /// The entries' values at `state`, written into `out` (the derive writes
     /// them in place: no array of the scene's size in the caller's frame).
     fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]);

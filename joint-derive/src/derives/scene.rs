@@ -131,6 +131,7 @@ fn print(
     let nnz = Literal::usize_unsuffixed(csr.columns.len());
     let elimination = elimination(s);
     sparse.extend(block_structure(s, &elimination, &nnz, &z.m));
+    sparse.extend(kkt_structure(s));
     let rows = joint_rows(s, blocks);
     let normal = crate::normal::method(&csr, &rows, &elimination, s.bodies.len(), &k);
     let mut normal_text = match normal {
@@ -308,10 +309,6 @@ fn block_structure(s: &SceneDecl, e: &crate::engine::order::Elimination, nnz: &L
         let [a, b] = bodies(j);
         quote!([#a, #b])
     });
-    let lit = |v: &[usize]| {
-        let v = v.iter().map(|&x| Literal::usize_unsuffixed(x));
-        quote!(&[#(#v),*])
-    };
     let mut starts = vec![0];
     let mut below = Vec::new();
     for b in &e.below {
@@ -319,7 +316,7 @@ fn block_structure(s: &SceneDecl, e: &crate::engine::order::Elimination, nnz: &L
         starts.push(below.len());
     }
     let [n, slots, updates, shared] = factor_sizes(s, e).map(Literal::usize_unsuffixed);
-    let (order, starts, below) = (lit(&e.order), lit(&starts), lit(&below));
+    let (order, starts, below) = (usize_slice(&e.order), usize_slice(&starts), usize_slice(&below));
     let k = krate();
     quote! {
         const BLOCK_BODIES: &'static [[::core::option::Option<usize>; 2]] = &[#(#block_bodies),*];
@@ -330,6 +327,53 @@ fn block_structure(s: &SceneDecl, e: &crate::engine::order::Elimination, nnz: &L
         /// Jacobian entries, rows.
         type Factor = #k::sparse::FactorArrays<#n, #slots, #updates, #shared, #nnz, #m>;
     }
+}
+
+/// The implicit integrators' saddle-point matrix `[S Jᵀ; J T 0]`: bodies
+/// (nodes `0..NB`) and joints (node `NB + j`), bodies coupled where a joint
+/// joins two, eliminated by minimum degree with each joint after its bodies
+/// (every pivot block is then a nonsingular saddle-point matrix): its order,
+/// its fill and the sizes of its arrays, fixed here so that the runtime
+/// stores it without an allocator. The runtime's `sparse/kkt/pattern.rs`
+/// finds the same pattern for a scene with more couplings (springs).
+fn kkt_structure(s: &SceneDecl) -> TokenStream {
+    let nb = s.bodies.len();
+    let n = nb + s.joints.len();
+    let (mut adjacency, mut after) = (vec![Vec::new(); n], vec![Vec::new(); n]);
+    for (j, joint) in s.joints.iter().enumerate() {
+        let bodies: Vec<usize> = joint.bodies.iter().flatten().copied().collect();
+        for &b in &bodies {
+            adjacency[nb + j].push(b);
+            adjacency[b].push(nb + j);
+        }
+        if let [a, b] = bodies[..] {
+            adjacency[a].push(b);
+            adjacency[b].push(a);
+        }
+        after[nb + j] = bodies;
+    }
+    let e = crate::engine::order::minimum_degree_after(&adjacency, &after);
+    let (mut starts, mut below) = (vec![0], Vec::new());
+    for b in &e.below {
+        below.extend(b.iter().copied());
+        starts.push(below.len());
+    }
+    let updates: usize = e.below.iter().map(|b| b.len() * b.len()).sum();
+    let [n, a, u] = [n, below.len(), updates].map(Literal::usize_unsuffixed);
+    let (order, starts, below, k) = (usize_slice(&e.order), usize_slice(&starts), usize_slice(&below), krate());
+    quote! {
+        const KKT_ORDER: &'static [usize] = #order;
+        const KKT_STARTS: &'static [usize] = #starts;
+        const KKT_BELOW: &'static [usize] = #below;
+        /// Nodes, block pairs below the diagonal, Schur updates.
+        type Kkt<__Entry: #k::sparse::KktEntry> = #k::sparse::KktArrays<__Entry, #n, #a, #u>;
+    }
+}
+
+/// `&[a, b, ...]`, a constant slice of indices.
+fn usize_slice(v: &[usize]) -> TokenStream {
+    let v = v.iter().map(|&x| Literal::usize_unsuffixed(x));
+    quote!(&[#(#v),*])
 }
 
 /// The block factor's sizes, as the runtime's schedule counts them: joint
@@ -462,6 +506,10 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
             const FACTOR_STARTS: &'static [usize] = &[];
             const FACTOR_BELOW: &'static [usize] = &[];
             type Factor = #k::sparse::FactorArrays<0, 0, 0, 0, 0, 0>;
+            const KKT_ORDER: &'static [usize] = &[];
+            const KKT_STARTS: &'static [usize] = &[];
+            const KKT_BELOW: &'static [usize] = &[];
+            type Kkt<__Entry: #k::sparse::KktEntry> = #k::sparse::KktArrays<__Entry, 0, 0, 0>;
             fn jacobian_values_into(&self, _: &#k::SystemState<#nb>, _: &mut [f64; 0]) { loop {} }
         }
     }

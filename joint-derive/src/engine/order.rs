@@ -22,6 +22,14 @@ pub struct Elimination {
 
 /// Minimum-degree elimination of `adjacency`.
 pub fn minimum_degree(adjacency: &[Vec<usize>]) -> Elimination {
+    minimum_degree_after(adjacency, &vec![Vec::new(); adjacency.len()])
+}
+
+/// Minimum-degree elimination of `adjacency` in which node `i` is eligible
+/// only once every node of `after[i]` is eliminated (a saddle-point matrix's
+/// joint after its bodies, so that no pivot block is a zero block). The
+/// runtime's `sparse/kkt/pattern.rs` runs the same rule and tie-break.
+pub fn minimum_degree_after(adjacency: &[Vec<usize>], after: &[Vec<usize>]) -> Elimination {
     let n = adjacency.len();
     let mut graph: Vec<BTreeSet<usize>> =
         adjacency.iter().enumerate().map(|(i, a)| a.iter().copied().filter(|&j| j != i && j < n).collect()).collect();
@@ -35,7 +43,9 @@ pub fn minimum_degree(adjacency: &[Vec<usize>]) -> Elimination {
     let mut order = Vec::with_capacity(n);
     let mut neighbours = Vec::with_capacity(n);
     for _ in 0..n {
-        let Some(v) = (0..n).filter(|&i| !done[i]).min_by_key(|&i| (graph[i].len(), i)) else { break };
+        let eligible =
+            |i: usize| !done[i] && after.get(i).is_none_or(|a| a.iter().all(|&j| done.get(j) != Some(&false)));
+        let Some(v) = (0..n).filter(|&i| eligible(i)).min_by_key(|&i| (graph[i].len(), i)) else { break };
         let around: Vec<usize> = graph[v].iter().copied().collect();
         for &a in &around {
             graph[a].remove(&v);
@@ -97,6 +107,17 @@ mod tests {
         // The hub goes when one leaf is left (then both have degree 1).
         assert!(e.order[..3].iter().all(|&v| v != 0), "{:?}", e.order);
         assert_eq!(fill(&star), 0);
+    }
+
+    #[test]
+    fn a_node_waits_for_the_nodes_it_comes_after() {
+        // Nodes 0, 1 (bodies); 2 couples 0 and 1, 3 hangs on 0. By degree
+        // alone 3 (one neighbour) would go first.
+        let adjacency = vec![vec![2, 3], vec![2], vec![0, 1], vec![0]];
+        let after = vec![vec![], vec![], vec![0, 1], vec![0]];
+        let e = super::minimum_degree_after(&adjacency, &after);
+        let at = |x: usize| e.order.iter().position(|&y| y == x).expect("every node");
+        assert!(at(3) > at(0) && at(2) > at(0) && at(2) > at(1), "{:?}", e.order);
     }
 
     #[test]

@@ -24,7 +24,7 @@ use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::Simulation;
 use super::differences::{DifferenceTerms, DifferenceWork};
-use super::kkt::{Block, Kkt};
+use super::kkt::{Block, Kkt, KktStorage};
 use super::loads::LoadColouring;
 use super::second_order::SecondOrderLayout;
 use super::solver::{jt_mul_into, non_finite};
@@ -41,8 +41,10 @@ use crate::scene::{Scene, SparseJacobian, SystemState};
 /// pattern and its factor, the layout of the second-order terms and scratch,
 /// all allocated once.
 #[derive(Clone, Debug)]
-pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
-    pub(super) kkt: Kkt,
+pub(super) struct AlphaWorkspace<K, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+    /// The matrix, in the scene's arrays (`SparseJacobian::Kkt`) unless
+    /// springs couple bodies no joint joins.
+    pub(super) kkt: Kkt<f64, K>,
     pub(super) layout: SecondOrderLayout,
     pub(super) terms: Vec<f64>,
     pub(super) rhs: Vec<f64>,
@@ -59,7 +61,9 @@ pub(super) struct AlphaWorkspace<const NB: usize, const NV: usize, const M: usiz
     pub(super) user: LoadColouring,
 }
 
-impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWorkspace<NB, NV, M, NNZ> {
+impl<K: KktStorage<f64>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AlphaWorkspace<K, NB, NV, M, NNZ>
+{
     /// The pattern of `scene` with `springs`.
     pub(super) fn new<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>>(
         springs: &[crate::dynamics::SpringDamper],
@@ -80,7 +84,18 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWo
         pairs.sort_unstable();
         pairs.dedup();
         let couplings: Vec<(usize, usize)> = pairs.iter().copied().filter(|(a, b)| a < b).collect();
-        let kkt = Kkt::new(NB, &rows, S::BLOCK_BODIES, &couplings).map_err(bad)?;
+        // The derive's pattern couples the bodies each joint joins; a spring
+        // between other bodies needs one found at run time.
+        let joined = |&(a, b): &(usize, usize)| {
+            S::BLOCK_BODIES.iter().any(|p| *p == [Some(a), Some(b)] || *p == [Some(b), Some(a)])
+        };
+        let kkt = if couplings.iter().all(joined) {
+            let rows = |j: usize| S::BLOCKS.get(j).map(|b| b.rows);
+            Kkt::fixed(rows, S::BLOCK_BODIES, (S::KKT_ORDER, S::KKT_STARTS, S::KKT_BELOW))
+        } else {
+            Kkt::grown(NB, &rows, S::BLOCK_BODIES, &couplings)
+        }
+        .map_err(bad)?;
         let mut row_joint = vec![(0, 0); M];
         for (k, block) in S::BLOCKS.iter().enumerate() {
             for r in 0..block.rows {
@@ -397,7 +412,7 @@ pub(super) fn missing() -> AnalysisError {
 
 /// `h K`: each joint's stiffness block onto its body pairs.
 pub(super) fn add_stiffness(
-    kkt: &mut Kkt,
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
     layout: &SecondOrderLayout,
     terms: &[f64],
     h: f64,
@@ -420,7 +435,11 @@ pub(super) fn add_stiffness(
 
 /// Every body-body block `(a, b)` times `T_b` on the right (`T_b` the right
 /// Jacobian of body `b`'s rotation update on its rotation columns).
-pub(super) fn times_update(kkt: &mut Kkt, pairs: &[(usize, usize)], t: &[Matrix3<f64>]) -> Result<(), AnalysisError> {
+pub(super) fn times_update(
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
+    pairs: &[(usize, usize)],
+    t: &[Matrix3<f64>],
+) -> Result<(), AnalysisError> {
     for &(a, b) in pairs {
         let out = kkt.block_mut(a, b).ok_or_else(missing)?;
         let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
@@ -436,7 +455,7 @@ pub(super) fn times_update(kkt: &mut Kkt, pairs: &[(usize, usize)], t: &[Matrix3
 
 /// `c₁ M − c₂ Q_v` of the gyroscopic term, body by body.
 pub(super) fn add_mass<const NB: usize>(
-    kkt: &mut Kkt,
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
     inertias: &[crate::scene::BodyInertia; NB],
     state: &SystemState<NB>,
     c1: f64,
@@ -456,7 +475,7 @@ pub(super) fn add_mass<const NB: usize>(
 /// `J T` (the joints' rows) and `Jᵀ` (their columns) from the Jacobian's
 /// values, the `dropped` rows held as identity rows.
 pub(super) fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
-    kkt: &mut Kkt,
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
     values: &[f64; NNZ],
     row_joint: &[(usize, usize)],
     dropped: &[usize],
@@ -487,7 +506,7 @@ pub(super) fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: u
 /// Adds `scale ×` a spring-damper's `∂Q/∂q` (`velocity` false) or `∂Q/∂v`
 /// on the blocks of its bodies.
 pub(super) fn spring_blocks<const NB: usize>(
-    kkt: &mut Kkt,
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
     spring: &crate::dynamics::SpringDamper,
     state: &SystemState<NB>,
     velocity: bool,

@@ -22,7 +22,7 @@ use nalgebra::{SVector, Vector3};
 
 use super::alpha::missing;
 use super::differences::greedy_colours;
-use super::kkt::Kkt;
+use super::kkt::{Kkt, KktStorage};
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::{AppliedLoads, Direction, LOAD_STEP, Loads, load_differences_along};
 use crate::scene::SystemState;
@@ -60,7 +60,7 @@ impl LoadColouring {
     /// at `state` to the body-body blocks of `kkt`.
     pub(super) fn add_blocks<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
         &self,
-        kkt: &mut Kkt,
+        kkt: &mut Kkt<f64, impl KktStorage<f64>>,
         user: &mut L,
         state: &SystemState<NB>,
         velocity: bool,

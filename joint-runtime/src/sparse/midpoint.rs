@@ -30,7 +30,7 @@ use nalgebra::{Matrix3, SVector};
 
 use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, missing, spring_blocks, times_update};
-use super::kkt::Kkt;
+use super::kkt::{Kkt, KktStorage};
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::Accelerations;
 use super::solver::j_mul_into;
@@ -299,7 +299,7 @@ pub(super) struct RowTerms<'a> {
 /// `γ̂ = γ − 2α (J v + Φ_t) − β² Φ`: `∂γ̂/∂q` adds `−2α ∂Φ_t/∂q − β² J` (the
 /// `∂(J v)/∂q` part is in `u`), `∂γ̂/∂v` adds `−2α J`.
 pub(super) fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
-    kkt: &mut Kkt,
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
     rows: &RowTerms<'_>,
     values: &[f64; NNZ],
     t: &[Matrix3<f64>],

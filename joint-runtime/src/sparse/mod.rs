@@ -51,10 +51,10 @@ mod adaptive;
 #[cfg(feature = "alloc")]
 mod alpha;
 mod analysis;
+mod buf;
 #[cfg(feature = "alloc")]
 mod differences;
 mod factor;
-#[cfg(feature = "alloc")]
 mod kkt;
 #[cfg(feature = "alloc")]
 mod linear;
@@ -74,6 +74,7 @@ pub use analysis::SparseAnalysis;
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use differences::DifferenceTerms;
 pub use factor::{BlockFactor, FactorArrays, FactorStorage};
+pub use kkt::{KktArrays, KktEntry, KktStorage};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use second_order::{RowTerm, SecondOrderLayout};

@@ -31,7 +31,7 @@ use nalgebra::{Complex, Matrix3, SVector};
 
 use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
-use super::kkt::Kkt;
+use super::kkt::{Kkt, KktStorage};
 use super::midpoint::{RowTerms, add_row_terms};
 use super::solver::j_mul_into;
 use crate::analysis::{AnalysisError, velocity_vector_into};
@@ -42,11 +42,11 @@ use crate::scene::{Scene, SparseJacobian, SystemState};
 /// Radau's matrices on the pattern and the scratch of their solves,
 /// allocated at the first Radau step.
 #[derive(Clone, Debug)]
-pub(super) struct RadauWorkspace {
+pub(super) struct RadauWorkspace<R, C> {
     /// `P₀`, `P₁`, `P₂` at the Jacobian's state.
-    parts: [Kkt; 3],
-    real: Kkt,
-    complex: Kkt<Complex<f64>>,
+    parts: [Kkt<f64, R>; 3],
+    real: Kkt<f64, R>,
+    complex: Kkt<Complex<f64>, C>,
     /// `J` at the Jacobian's state, and the rows its rule dropped.
     values: Vec<f64>,
     dropped: Vec<usize>,
@@ -55,25 +55,28 @@ pub(super) struct RadauWorkspace {
     product: Vec<f64>,
 }
 
-impl RadauWorkspace {
+impl<R: KktStorage<f64>, C: KktStorage<Complex<f64>>> RadauWorkspace<R, C> {
     /// On generalised-α's pattern, for `len = NV + M` unknowns, `nnz`
     /// entries of `J` and `m` rows (reserved here: a step allocates nothing).
-    fn new(pattern: &Kkt, len: usize, nnz: usize, m: usize) -> Self {
-        RadauWorkspace {
-            parts: [pattern.like(), pattern.like(), pattern.like()],
-            real: pattern.like(),
-            complex: pattern.like(),
+    fn new(pattern: &Kkt<f64, R>, len: usize, nnz: usize, m: usize) -> Result<Self, AnalysisError> {
+        let bad = |_| crate::sparse::solver::non_finite("scene structure");
+        Ok(RadauWorkspace {
+            parts: [pattern.like().map_err(bad)?, pattern.like().map_err(bad)?, pattern.like().map_err(bad)?],
+            real: pattern.like().map_err(bad)?,
+            complex: pattern.like().map_err(bad)?,
             values: Vec::with_capacity(nnz),
             dropped: Vec::with_capacity(m),
             rhs: vec![0.0; len],
             complex_rhs: vec![Complex::new(0.0, 0.0); len],
             product: vec![0.0; len],
-        }
+        })
     }
 
     /// [`RadauWorkspace::new`] for a scene's sizes, boxed.
-    pub(super) fn boxed<const NV: usize, const M: usize, const NNZ: usize>(pattern: &Kkt) -> alloc::boxed::Box<Self> {
-        alloc::boxed::Box::new(RadauWorkspace::new(pattern, NV + M, NNZ, M))
+    pub(super) fn boxed<const NV: usize, const M: usize, const NNZ: usize>(
+        pattern: &Kkt<f64, R>,
+    ) -> Result<alloc::boxed::Box<Self>, AnalysisError> {
+        Ok(alloc::boxed::Box::new(RadauWorkspace::new(pattern, NV + M, NNZ, M)?))
     }
 
     /// `P₁ r` by node (bodies' rows, then joints'), into `product`.

@@ -6,6 +6,7 @@ use nalgebra::{SVector, Vector3};
 use super::BlockFactor;
 #[cfg(feature = "alloc")]
 use super::alpha::{AlphaWork, AlphaWorkspace};
+use super::buf::{Boxed, boxed};
 #[cfg(feature = "alloc")]
 use super::midpoint::MidpointWork;
 #[cfg(feature = "alloc")]
@@ -71,10 +72,10 @@ pub struct Simulation<
     #[cfg(feature = "alloc")]
     /// Generalised-α's pattern, factor and history (the implicit
     /// integrators only).
-    pub(super) alpha: Option<AlphaWorkspace<NB, NV, M, NNZ>>,
+    pub(super) alpha: Option<AlphaWorkspace<S::Kkt<f64>, NB, NV, M, NNZ>>,
     #[cfg(feature = "alloc")]
     /// Radau IIA's matrices on that pattern, and its history.
-    pub(super) radau: Option<alloc::boxed::Box<RadauWorkspace>>,
+    pub(super) radau: Option<alloc::boxed::Box<SceneRadau<S, NB, NNZ>>>,
     #[cfg(feature = "alloc")]
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
     #[cfg(feature = "alloc")]
@@ -100,6 +101,13 @@ pub struct Simulation<
     pub options: SimulationOptions,
 }
 
+/// Radau's workspace in the scene's saddle-point arrays.
+#[cfg(feature = "alloc")]
+type SceneRadau<S, const NB: usize, const NNZ: usize> = RadauWorkspace<
+    <S as SparseJacobian<NB, NNZ>>::Kkt<f64>,
+    <S as SparseJacobian<NB, NNZ>>::Kkt<nalgebra::Complex<f64>>,
+>;
+
 /// Without `alloc`, the implicit integrators (their saddle-point workspaces
 /// are not yet sized at compile time) are refused rather than ignored.
 #[cfg(not(feature = "alloc"))]
@@ -107,25 +115,6 @@ fn implicit_needs_alloc(integrator: Integrator) -> Result<(), AnalysisError> {
     match integrator {
         Integrator::Rk4 => Ok(()),
         _ => Err(AnalysisError::BadOption { name: "integrator (implicit ones need feature `alloc`)" }),
-    }
-}
-
-/// A workspace: boxed with `alloc` (off the stack, and cheap to move),
-/// inline without.
-#[cfg(feature = "alloc")]
-type Boxed<T> = alloc::boxed::Box<T>;
-#[cfg(not(feature = "alloc"))]
-type Boxed<T> = T;
-
-/// `x` where a workspace lives.
-fn boxed<T>(x: T) -> Boxed<T> {
-    #[cfg(feature = "alloc")]
-    {
-        alloc::boxed::Box::new(x)
-    }
-    #[cfg(not(feature = "alloc"))]
-    {
-        x
     }
 }
 
@@ -669,7 +658,7 @@ where
             Integrator::RadauIIA => {
                 self.alpha_workspace()?;
                 if self.radau.is_none() {
-                    self.make_radau_workspace();
+                    self.make_radau_workspace()?;
                 }
                 Ok(())
             }
@@ -680,12 +669,13 @@ where
     /// Radau's workspace on the implicit pattern, in a frame of its own.
     #[cold]
     #[inline(never)]
-    fn make_radau_workspace(&mut self) {
+    fn make_radau_workspace(&mut self) -> Result<(), AnalysisError> {
         if let Some(ws) = &self.alpha {
-            self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt));
+            self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt)?);
             self.radau_scratch = Some(RadauScratch::boxed());
             self.radau_work = Some(alloc::boxed::Box::new(RadauWork::new()));
         }
+        Ok(())
     }
 
     /// One RK4 step from `state` (checked and normalised into `w.y0`) under

@@ -3,29 +3,7 @@
 //! array is boxed, which keeps a large scene's factor off the stack).
 
 use super::{Block, JointRows};
-
-/// An array of `N` entries: boxed with `alloc`, inline without.
-#[cfg(feature = "alloc")]
-type Buf<T, const N: usize> = alloc::boxed::Box<[T; N]>;
-#[cfg(not(feature = "alloc"))]
-type Buf<T, const N: usize> = [T; N];
-
-/// `N` copies of `v`, built where they will live (on the heap with `alloc`:
-/// no array of the scene's size passes through the stack).
-fn filled<T: Copy, const N: usize>(v: T) -> Buf<T, N> {
-    #[cfg(feature = "alloc")]
-    {
-        match alloc::vec![v; N].into_boxed_slice().try_into() {
-            Ok(b) => b,
-            // Unreachable: the slice has N entries.
-            Err(_) => alloc::boxed::Box::new([v; N]),
-        }
-    }
-    #[cfg(not(feature = "alloc"))]
-    {
-        [v; N]
-    }
-}
+use crate::sparse::buf::{Buf, filled};
 
 /// The storage of a [`BlockFactor`](super::BlockFactor): implemented by
 /// [`FactorArrays`], whose sizes the derive writes into each scene's
