@@ -402,7 +402,7 @@ where
     assert!(scene.second_order_values(state, &lambda, &u, &mut values), "sparse terms");
     let mut k = DMatrix::<f64>::zeros(NV, NV);
     for (bodies, block) in layout.stiffness(&values) {
-        let cols: Vec<usize> = bodies.iter().flat_map(|b| 6 * b..6 * b + 6).collect();
+        let cols: Vec<usize> = bodies.as_slice().iter().flat_map(|b| 6 * b..6 * b + 6).collect();
         for (i, &r) in cols.iter().enumerate() {
             for (j, &c) in cols.iter().enumerate() {
                 k[(r, c)] += block[i * cols.len() + j];
@@ -419,7 +419,7 @@ where
         let mut m = DMatrix::<f64>::zeros(M, NV);
         for r in 0..M {
             let (bodies, row) = layout.row(&values, term, r).expect("every row");
-            for (i, c) in bodies.iter().flat_map(|b| 6 * b..6 * b + 6).enumerate() {
+            for (i, c) in bodies.as_slice().iter().flat_map(|b| 6 * b..6 * b + 6).enumerate() {
                 m[(r, c)] = row[i];
             }
         }

@@ -174,6 +174,10 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     /// `Complex<f64>`): arrays sized by the derive from the pattern above
     /// ([`KktArrays`](crate::sparse::KktArrays)).
     type Kkt<T: crate::sparse::KktEntry>: crate::sparse::KktStorage<T>;
+    /// Where the implicit integrators keep the scene's second-order terms:
+    /// [`TermArray`](crate::sparse::TermArray) of the length of its
+    /// [`SecondOrderLayout`](crate::sparse::SecondOrderLayout).
+    type Terms: crate::sparse::TermStorage;
     /// The entries' values at `state`, written into `out` (the derive writes
     /// them in place: no array of the scene's size in the caller's frame).
     fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]);

@@ -133,6 +133,7 @@ fn print(
     sparse.extend(block_structure(s, &elimination, &nnz, &z.m));
     sparse.extend(kkt_structure(s));
     let rows = joint_rows(s, blocks);
+    sparse.extend(terms_type(&rows));
     let normal = crate::normal::method(&csr, &rows, &elimination, s.bodies.len(), &k);
     let mut normal_text = match normal {
         Some((method, ops)) => {
@@ -370,6 +371,29 @@ fn kkt_structure(s: &SceneDecl) -> TokenStream {
     }
 }
 
+/// Where the implicit integrators keep the second-order terms: as many as
+/// the runtime's `SecondOrderLayout` lays out (each joint's stiffness block,
+/// `w × w` over its `w` columns, six per distinct body, and four row
+/// sections of `w` per row).
+fn terms_type(rows: &[crate::normal::JointRows]) -> TokenStream {
+    let len: usize = rows
+        .iter()
+        .map(|j| {
+            let w = match j.bodies {
+                [Some(a), Some(b)] if a != b => 12,
+                [None, None] => 0,
+                _ => 6,
+            };
+            w * w + 4 * w * j.rows
+        })
+        .sum();
+    let (len, k) = (Literal::usize_unsuffixed(len), krate());
+    quote! {
+        /// The second-order terms' count.
+        type Terms = #k::sparse::TermArray<#len>;
+    }
+}
+
 /// `&[a, b, ...]`, a constant slice of indices.
 fn usize_slice(v: &[usize]) -> TokenStream {
     let v = v.iter().map(|&x| Literal::usize_unsuffixed(x));
@@ -510,6 +534,7 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
             const KKT_STARTS: &'static [usize] = &[];
             const KKT_BELOW: &'static [usize] = &[];
             type Kkt<__Entry: #k::sparse::KktEntry> = #k::sparse::KktArrays<__Entry, 0, 0, 0>;
+            type Terms = #k::sparse::TermArray<0>;
             fn jacobian_values_into(&self, _: &#k::SystemState<#nb>, _: &mut [f64; 0]) { loop {} }
         }
     }

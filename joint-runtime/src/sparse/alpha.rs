@@ -16,87 +16,78 @@
 //! (`loads.rs`). Redundant rows are held at
 //! `δλ = 0` as identity rows, the rule of the step's start.
 
-use alloc::boxed::Box;
-use alloc::vec;
+#[cfg(feature = "alloc")]
 use alloc::vec::Vec;
 
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::Simulation;
+use super::buf::{Boxed, boxed};
 use super::differences::{DifferenceTerms, DifferenceWork};
-use super::kkt::{Block, Kkt, KktStorage};
-use super::loads::LoadColouring;
-use super::second_order::SecondOrderLayout;
+use super::kkt::{Block, Kkt, KktStorage, NodeVector};
+use super::loads::{LoadColouring, body_pairs};
+use super::second_order::{SecondOrderLayout, TermStorage};
 use super::solver::{jt_mul_into, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{AnalysisError, check_output, velocity_vector_into};
 use crate::dynamics::{
-    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, mass_times_into,
-    spring_column, update_blocks_into,
+    AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, SpringDamper,
+    mass_times_into, spring_column, update_blocks_into,
 };
-use crate::scene::{Scene, SparseJacobian, SystemState};
+use crate::scene::{RowBlock, Scene, SparseJacobian, SystemState};
 
 /// What the sparse implicit integrators keep between steps (generalised-α
 /// here, the midpoint rule in `midpoint.rs`, on the same pattern): the
-/// pattern and its factor, the layout of the second-order terms and scratch,
-/// all allocated once.
+/// saddle-point matrix and its factor, the second-order terms, the colourings
+/// of their differences and of the user loads, and scratch; arrays of the
+/// scene's sizes (the derive's), made once.
 #[derive(Clone, Debug)]
-pub(super) struct AlphaWorkspace<K, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
+pub(super) struct AlphaWorkspace<K, Tm, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> {
     /// The matrix, in the scene's arrays (`SparseJacobian::Kkt`) unless
     /// springs couple bodies no joint joins.
     pub(super) kkt: Kkt<f64, K>,
-    pub(super) layout: SecondOrderLayout,
-    pub(super) terms: Vec<f64>,
-    pub(super) rhs: Vec<f64>,
+    pub(super) layout: SecondOrderLayout<'static>,
+    /// The second-order terms (`SparseJacobian::Terms`).
+    pub(super) terms: Tm,
+    pub(super) rhs: NodeVector<f64, NV, M>,
     /// Per row: its joint node and the row within the joint.
-    pub(super) row_joint: Vec<(usize, usize)>,
-    /// Body-body blocks of `S` (the diagonal included), for `T`'s product.
-    pub(super) body_pairs: Vec<(usize, usize)>,
+    pub(super) row_joint: [(usize, usize); M],
     pub(super) history: Option<AlphaHistory<NB, NV, M>>,
     /// The terms by differences, for scenes without generated ones, and
     /// their scratch.
-    differences: DifferenceTerms,
-    difference_work: Box<DifferenceWork<NB, NV, M, NNZ>>,
+    differences: DifferenceTerms<NB>,
+    difference_work: Boxed<DifferenceWork<NB, NV, M, NNZ>>,
     /// The colouring of the user loads' derivatives.
-    pub(super) user: LoadColouring,
+    pub(super) user: LoadColouring<NB>,
 }
 
-impl<K: KktStorage<f64>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    AlphaWorkspace<K, NB, NV, M, NNZ>
+impl<K, Tm, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWorkspace<K, Tm, NB, NV, M, NNZ>
+where
+    K: KktStorage<f64>,
+    Tm: TermStorage,
 {
     /// The pattern of `scene` with `springs`.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NonFiniteOutput`] for a structure the derive's sizes
+    /// do not fit; without `alloc`, [`AnalysisError::BadOption`] for springs
+    /// between bodies no joint joins (their pattern is found at run time).
     pub(super) fn new<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>>(
         springs: &[crate::dynamics::SpringDamper],
     ) -> Result<Self, AnalysisError> {
         let bad = |_| non_finite("scene structure");
-        let rows: Vec<usize> = S::BLOCKS.iter().map(|b| b.rows).collect();
-        let mut pairs: Vec<(usize, usize)> = (0..NB).map(|b| (b, b)).collect();
-        for pair in S::BLOCK_BODIES {
-            if let [Some(a), Some(b)] = *pair {
-                pairs.extend([(a, b), (b, a)]);
-            }
-        }
-        for s in springs {
-            if let (Attachment::Body { body: a, .. }, Attachment::Body { body: b, .. }) = (s.a, s.b) {
-                pairs.extend([(a, b), (b, a)]);
-            }
-        }
-        pairs.sort_unstable();
-        pairs.dedup();
-        let couplings: Vec<(usize, usize)> = pairs.iter().copied().filter(|(a, b)| a < b).collect();
         // The derive's pattern couples the bodies each joint joins; a spring
         // between other bodies needs one found at run time.
-        let joined = |&(a, b): &(usize, usize)| {
+        let joined = |(a, b): (usize, usize)| {
             S::BLOCK_BODIES.iter().any(|p| *p == [Some(a), Some(b)] || *p == [Some(b), Some(a)])
         };
-        let kkt = if couplings.iter().all(joined) {
+        let kkt = if body_pairs(&[], springs).all(joined) {
             let rows = |j: usize| S::BLOCKS.get(j).map(|b| b.rows);
-            Kkt::fixed(rows, S::BLOCK_BODIES, (S::KKT_ORDER, S::KKT_STARTS, S::KKT_BELOW))
+            Kkt::fixed(rows, S::BLOCK_BODIES, (S::KKT_ORDER, S::KKT_STARTS, S::KKT_BELOW)).map_err(bad)?
         } else {
-            Kkt::grown(NB, &rows, S::BLOCK_BODIES, &couplings)
-        }
-        .map_err(bad)?;
-        let mut row_joint = vec![(0, 0); M];
+            grown::<K, NB>(S::BLOCKS, S::BLOCK_BODIES, springs)?
+        };
+        let mut row_joint = [(0, 0); M];
         for (k, block) in S::BLOCKS.iter().enumerate() {
             for r in 0..block.rows {
                 if let Some(x) = row_joint.get_mut(block.start + r) {
@@ -104,17 +95,19 @@ impl<K: KktStorage<f64>, const NB: usize, const NV: usize, const M: usize, const
                 }
             }
         }
-        let layout = SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES);
+        let (layout, terms) = (SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES), Tm::zeroed());
+        if terms.values().len() != layout.len() {
+            return Err(non_finite("scene structure"));
+        }
         Ok(AlphaWorkspace {
             kkt,
-            terms: vec![0.0; layout.len()],
+            terms,
             layout,
-            rhs: vec![0.0; NV + M],
+            rhs: NodeVector::zeros(),
             row_joint,
-            user: LoadColouring::new(NB, &pairs),
-            body_pairs: pairs,
+            user: LoadColouring::new(S::BLOCK_BODIES, springs),
             history: None,
-            differences: DifferenceTerms::new(S::BLOCKS, S::BLOCK_BODIES, NB),
+            differences: DifferenceTerms::new(S::BLOCK_BODIES),
             difference_work: DifferenceWork::boxed(),
         })
     }
@@ -130,8 +123,9 @@ impl<K: KktStorage<f64>, const NB: usize, const NV: usize, const M: usize, const
         u: &SVector<f64, NV>,
         by_differences: bool,
     ) -> Result<(), AnalysisError> {
-        if (by_differences || !scene.second_order_values(state, lambda, u, &mut self.terms))
-            && !self.differences.values_in(scene, state, (lambda, u), &mut self.terms, &mut self.difference_work)
+        let terms = self.terms.values_mut();
+        if (by_differences || !scene.second_order_values(state, lambda, u, terms))
+            && !self.differences.values_in(scene, state, (lambda, u), terms, &mut self.difference_work)
         {
             return Err(missing());
         }
@@ -142,6 +136,33 @@ impl<K: KktStorage<f64>, const NB: usize, const NV: usize, const M: usize, const
     pub(super) fn blocks(&self) -> usize {
         self.kkt.blocks()
     }
+}
+
+/// The saddle-point pattern of a scene whose `springs` couple bodies no
+/// joint joins: found at run time, in vectors.
+#[cfg(feature = "alloc")]
+fn grown<K: KktStorage<f64>, const NB: usize>(
+    blocks: &[RowBlock],
+    joint_bodies: &[[Option<usize>; 2]],
+    springs: &[SpringDamper],
+) -> Result<Kkt<f64, K>, AnalysisError> {
+    let rows: Vec<usize> = blocks.iter().map(|b| b.rows).collect();
+    let pairs = body_pairs(joint_bodies, springs).map(|(a, b)| (a.min(b), a.max(b)));
+    let mut couplings: Vec<(usize, usize)> = pairs.collect();
+    couplings.sort_unstable();
+    couplings.dedup();
+    Kkt::grown(NB, &rows, joint_bodies, &couplings).map_err(|_| non_finite("scene structure"))
+}
+
+/// Without `alloc` a pattern cannot be found at run time: such springs are
+/// refused with the implicit integrators.
+#[cfg(not(feature = "alloc"))]
+fn grown<K: KktStorage<f64>, const NB: usize>(
+    _: &[RowBlock],
+    _: &[[Option<usize>; 2]],
+    _: &[SpringDamper],
+) -> Result<Kkt<f64, K>, AnalysisError> {
+    Err(AnalysisError::BadOption { name: "springs (between bodies no joint joins, implicit integrators need `alloc`)" })
 }
 
 /// Generalised-α's history, iterate and Newton vectors, boxed and made with
@@ -166,10 +187,10 @@ pub(super) struct AlphaWork<const NB: usize, const NV: usize, const M: usize, co
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWork<NB, NV, M, NNZ> {
-    pub(super) fn new() -> Box<Self> {
+    pub(super) fn new() -> Boxed<Self> {
         let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
         let (v, l) = (SVector::zeros(), SVector::zeros());
-        Box::new(AlphaWork {
+        boxed(AlphaWork {
             y0: state,
             end: state,
             past: AlphaHistory { state, vdot: v, a: v, lambda: l },
@@ -326,10 +347,10 @@ where
         jt_mul_into::<S, NB, NNZ>(&w.values, w.it.lambda.as_slice(), w.jt.as_mut_slice());
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let parts = w.mass.as_slice().iter().zip(w.jt.as_slice().iter()).zip(w.q.as_slice().iter());
-        for (r, ((m, j), q)) in ws.rhs.iter_mut().take(NV).zip(parts) {
+        for (r, ((m, j), q)) in ws.rhs.head.iter_mut().zip(parts) {
             *r = m + j - q;
         }
-        if !ws.rhs.iter().take(NV).all(|x| x.is_finite()) {
+        if !ws.rhs.head.iter().all(|x| x.is_finite()) {
             return Err(non_finite("forces"));
         }
         Ok(())
@@ -347,15 +368,14 @@ where
     ) -> Result<(), AnalysisError> {
         let dropped = self.solver.factor.dropped();
         let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        for (r, x) in r2.iter().enumerate() {
-            w.rhs[NV + r] = if dropped.binary_search(&r).is_ok() { 0.0 } else { x / h };
+        for (r, (o, x)) in w.rhs.tail.iter_mut().zip(r2.iter()).enumerate() {
+            *o = if dropped.binary_search(&r).is_ok() { 0.0 } else { x / h };
         }
         w.kkt.solve(&mut w.rhs);
-        let (xs, ls) = w.rhs.split_at(NV);
-        for (o, &v) in x.iter_mut().zip(xs) {
+        for (o, &v) in x.iter_mut().zip(&w.rhs.head) {
             *o = v;
         }
-        for (o, &v) in dlambda.iter_mut().zip(ls) {
+        for (o, &v) in dlambda.iter_mut().zip(&w.rhs.tail) {
             *o = v;
         }
         Ok(())
@@ -377,16 +397,16 @@ where
         let kkt = &mut ws.kkt;
         kkt.clear();
         // h (K − Q_q), then times T on the right; then c₁ M − c₂ Q_v; then J T and Jᵀ.
-        add_stiffness(kkt, &ws.layout, &ws.terms, h)?;
+        add_stiffness(kkt, &ws.layout, ws.terms.values(), h)?;
         for s in self.springs {
             spring_blocks(kkt, s, &it.state, false, -h)?;
         }
-        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, false, -h)?;
-        times_update(kkt, &ws.body_pairs, t)?;
+        ws.user.add_blocks::<L, NV>(kkt, &mut self.loads, self.springs, &it.state, false, -h)?;
+        times_update(kkt, NB, t)?;
         for s in self.springs {
             spring_blocks(kkt, s, &it.state, true, -c.gamma / c.beta)?;
         }
-        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, &it.state, true, -c.gamma / c.beta)?;
+        ws.user.add_blocks::<L, NV>(kkt, &mut self.loads, self.springs, &it.state, true, -c.gamma / c.beta)?;
         add_mass(kkt, &self.inertias, &it.state, c.mass_factor(h), c.gamma / c.beta)?;
         add_rows::<S, NB, NNZ>(kkt, &w.values, &ws.row_joint, self.solver.factor.dropped(), t)?;
         ws.kkt.factor().map_err(AnalysisError::from)
@@ -413,11 +433,12 @@ pub(super) fn missing() -> AnalysisError {
 /// `h K`: each joint's stiffness block onto its body pairs.
 pub(super) fn add_stiffness(
     kkt: &mut Kkt<f64, impl KktStorage<f64>>,
-    layout: &SecondOrderLayout,
+    layout: &SecondOrderLayout<'_>,
     terms: &[f64],
     h: f64,
 ) -> Result<(), AnalysisError> {
     for (bodies, block) in layout.stiffness(terms) {
+        let bodies = bodies.as_slice();
         let n = 6 * bodies.len();
         for (i, &a) in bodies.iter().enumerate() {
             for (j, &b) in bodies.iter().enumerate() {
@@ -433,15 +454,15 @@ pub(super) fn add_stiffness(
     Ok(())
 }
 
-/// Every body-body block `(a, b)` times `T_b` on the right (`T_b` the right
-/// Jacobian of body `b`'s rotation update on its rotation columns).
+/// Every body-body block `(a, b)` of the pattern (of the `bodies` body
+/// nodes; fill blocks, still zero, included) times `T_b` on the right (`T_b`
+/// the right Jacobian of body `b`'s rotation update on its rotation columns).
 pub(super) fn times_update(
     kkt: &mut Kkt<f64, impl KktStorage<f64>>,
-    pairs: &[(usize, usize)],
+    bodies: usize,
     t: &[Matrix3<f64>],
 ) -> Result<(), AnalysisError> {
-    for &(a, b) in pairs {
-        let out = kkt.block_mut(a, b).ok_or_else(missing)?;
+    kkt.for_each_body_block(bodies, |_, b, out| {
         let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
         for r in 0..6 {
             let row = [3, 4, 5].map(|k| out[6 * r + k]);
@@ -449,7 +470,7 @@ pub(super) fn times_update(
                 out[6 * r + 3 + k] = row[0] * jr[(0, k)] + row[1] * jr[(1, k)] + row[2] * jr[(2, k)];
             }
         }
-    }
+    });
     Ok(())
 }
 

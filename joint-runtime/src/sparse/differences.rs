@@ -19,16 +19,13 @@
 //! velocity derivative is exact but for round-off): a Newton matrix that good
 //! keeps Newton's convergence.
 
-use alloc::boxed::Box;
-use alloc::vec;
-use alloc::vec::Vec;
-
 use nalgebra::SVector;
 
-use super::second_order::{RowTerm, SecondOrderLayout};
+use super::buf::{Boxed, boxed};
+use super::second_order::{JointBodies, RowTerm, SecondOrderLayout};
 use crate::OmegaBody;
 use crate::analysis::{apply_increment, set_velocities, velocity_vector_into};
-use crate::scene::{RowBlock, Scene, SparseJacobian, SystemState};
+use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The relative step of the differences.
 const STEP: f64 = 1e-6;
@@ -49,11 +46,11 @@ pub(super) struct DifferenceWork<const NB: usize, const NV: usize, const M: usiz
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> DifferenceWork<NB, NV, M, NNZ> {
-    /// A zeroed work, boxed.
-    pub(super) fn boxed() -> Box<Self> {
+    /// A zeroed work, boxed (with `alloc`).
+    pub(super) fn boxed() -> Boxed<Self> {
         let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
         let (v, m) = (SVector::zeros(), SVector::zeros());
-        Box::new(DifferenceWork {
+        boxed(DifferenceWork {
             delta: v,
             v,
             moved_v: v,
@@ -66,8 +63,8 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Differe
 }
 
 /// A scene's sparse second-order terms by central differences, in the
-/// layout of [`SecondOrderLayout`]; the colouring of its bodies is found once,
-/// in [`DifferenceTerms::new`].
+/// layout of [`SecondOrderLayout`]; the colouring of its `NB` bodies is found
+/// once, in [`DifferenceTerms::new`], and kept in an array (no allocator).
 ///
 /// ```
 /// use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
@@ -90,7 +87,7 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Differe
 /// let layout = SecondOrderLayout::new(Pendulum::BLOCKS, Pendulum::BLOCK_BODIES);
 /// let (mut exact, mut differences) = (vec![0.0; layout.len()], vec![0.0; layout.len()]);
 /// assert!(Pendulum.second_order_values(&state, &lambda, &u, &mut exact));
-/// let terms = DifferenceTerms::new(Pendulum::BLOCKS, Pendulum::BLOCK_BODIES, 2);
+/// let terms = DifferenceTerms::<2>::new(Pendulum::BLOCK_BODIES);
 /// assert_eq!(terms.colours(), 2);
 /// assert!(terms.values(&Pendulum, &state, &lambda, &u, &mut differences));
 /// for (x, y) in exact.iter().zip(&differences) {
@@ -98,37 +95,44 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Differe
 /// }
 /// ```
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DifferenceTerms {
-    layout: SecondOrderLayout,
-    /// The bodies of each colour (no joint connects two of them).
-    colours: Vec<Vec<usize>>,
-    /// Each body's colour.
-    colour_of: Vec<usize>,
+pub struct DifferenceTerms<const NB: usize> {
+    /// Each body's colour (no joint connects two bodies of one colour).
+    colour_of: [usize; NB],
+    colours: usize,
 }
 
-impl DifferenceTerms {
-    /// The colouring of a scene of `bodies` bodies whose joint blocks
-    /// `blocks` connect `joint_bodies` ([`Scene::BLOCKS`],
-    /// [`SparseJacobian::BLOCK_BODIES`]).
-    pub fn new(blocks: &[RowBlock], joint_bodies: &[[Option<usize>; 2]], bodies: usize) -> Self {
-        let mut neighbours = vec![Vec::new(); bodies];
-        for pair in joint_bodies {
-            if let [Some(a), Some(b)] = *pair
-                && a != b
-                && a < bodies
-                && b < bodies
-            {
-                neighbours[a].push(b);
-                neighbours[b].push(a);
+impl<const NB: usize> DifferenceTerms<NB> {
+    /// The colouring of a scene's `NB` bodies, which its joints connect as
+    /// `joint_bodies` says ([`SparseJacobian::BLOCK_BODIES`]): greedily in
+    /// body order, each body the least colour no body it shares a joint
+    /// with has.
+    pub fn new(joint_bodies: &[[Option<usize>; 2]]) -> Self {
+        let mut colour_of = [usize::MAX; NB];
+        let mut colours = 0;
+        for b in 0..NB {
+            let neighbours = joint_bodies.iter().filter_map(|pair| match *pair {
+                [Some(a), Some(c)] if a == b && c != b => Some(c),
+                [Some(c), Some(a)] if a == b && c != b => Some(c),
+                _ => None,
+            });
+            let taken = |c: usize| neighbours.clone().any(|n| colour_of.get(n) == Some(&c));
+            let c = (0..=NB).find(|&c| !taken(c)).unwrap_or(NB);
+            if let Some(x) = colour_of.get_mut(b) {
+                *x = c;
             }
+            colours = colours.max(c + 1);
         }
-        let (colours, colour_of) = greedy_colours(bodies, |b| neighbours[b].clone());
-        DifferenceTerms { layout: SecondOrderLayout::new(blocks, joint_bodies), colours, colour_of }
+        DifferenceTerms { colour_of, colours }
     }
 
     /// The number of colours (each costs 24 evaluations of the scene).
     pub fn colours(&self) -> usize {
-        self.colours.len()
+        self.colours
+    }
+
+    /// The bodies of `colour`, ascending.
+    fn bodies(&self, colour: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..NB).filter(move |&b| self.colour_of.get(b) == Some(&colour))
     }
 
     /// The terms of [`Scene::second_order_values`] at `state` for the
@@ -136,7 +140,7 @@ impl DifferenceTerms {
     /// differences, written into `out`; `false` (and nothing written) when
     /// `out` is not exactly the layout's length. Allocates its scratch (the
     /// moved states and the scene's values at them) for the call.
-    pub fn values<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    pub fn values<S, const NV: usize, const M: usize, const NNZ: usize>(
         &self,
         scene: &S,
         state: &SystemState<NB>,
@@ -147,11 +151,11 @@ impl DifferenceTerms {
     where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
-        self.values_in::<S, NB, NV, M, NNZ>(scene, state, (lambda, u), out, &mut DifferenceWork::boxed())
+        self.values_in::<S, NV, M, NNZ>(scene, state, (lambda, u), out, &mut DifferenceWork::boxed())
     }
 
     /// [`values`](Self::values) (for `(λ, u)`) with the scratch `work`.
-    pub(super) fn values_in<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    pub(super) fn values_in<S, const NV: usize, const M: usize, const NNZ: usize>(
         &self,
         scene: &S,
         state: &SystemState<NB>,
@@ -162,14 +166,14 @@ impl DifferenceTerms {
     where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
-        if out.len() != self.layout.len() {
+        if out.len() != SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES).len() {
             return false;
         }
         out.fill(0.0);
-        for (colour, bodies) in self.colours.iter().enumerate() {
+        for colour in 0..self.colours {
             for k in 0..6 {
-                self.position_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), (lambda, u), out, work);
-                self.velocity_direction::<S, NB, NV, M, NNZ>(scene, state, (colour, bodies, k), out, work);
+                self.position_direction::<S, NV, M, NNZ>(scene, state, (colour, k), (lambda, u), out, work);
+                self.velocity_direction::<S, NV, M, NNZ>(scene, state, (colour, k), out, work);
             }
         }
         true
@@ -179,11 +183,11 @@ impl DifferenceTerms {
     /// increments, both ways: the position derivatives' differences. In a
     /// frame of its own, apart from the velocity direction's.
     #[inline(never)]
-    fn position_direction<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    fn position_direction<S, const NV: usize, const M: usize, const NNZ: usize>(
         &self,
         scene: &S,
         state: &SystemState<NB>,
-        (colour, bodies, k): (usize, &[usize], usize),
+        (colour, k): (usize, usize),
         (lambda, u): (&SVector<f64, M>, &SVector<f64, NV>),
         out: &mut [f64],
         work: &mut DifferenceWork<NB, NV, M, NNZ>,
@@ -192,7 +196,7 @@ impl DifferenceTerms {
     {
         let DifferenceWork { delta, states, j, gamma, phi_t, .. } = work;
         delta.fill(0.0);
-        for &b in bodies {
+        for b in self.bodies(colour) {
             let (Some(d), Some(body)) = (delta.get_mut(6 * b + k), state.bodies.get(b)) else { continue };
             *d = STEP * if k < 3 { 1.0 + body.r.amax() } else { 1.0 };
         }
@@ -206,16 +210,16 @@ impl DifferenceTerms {
             *phi_t = scene.phi_t(moved);
         }
         let moved = Moved { colour, k, delta, j, gamma, phi_t };
-        self.positions::<S, NB, NV, M, NNZ>(&moved, lambda, u, out);
+        self.positions::<S, NV, M, NNZ>(&moved, lambda, u, out);
     }
 
     /// One colour's bodies' velocity coordinate `k` moved both ways: `∂γ/∂v`.
     #[inline(never)]
-    fn velocity_direction<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    fn velocity_direction<S, const NV: usize, const M: usize, const NNZ: usize>(
         &self,
         scene: &S,
         state: &SystemState<NB>,
-        (colour, bodies, k): (usize, &[usize], usize),
+        (colour, k): (usize, usize),
         out: &mut [f64],
         work: &mut DifferenceWork<NB, NV, M, NNZ>,
     ) where
@@ -224,7 +228,7 @@ impl DifferenceTerms {
         let DifferenceWork { delta: dv, v, moved_v, states, gamma, .. } = work;
         velocity_vector_into(state, v);
         dv.fill(0.0);
-        for &b in bodies {
+        for b in self.bodies(colour) {
             let speed = state.bodies.get(b).map_or(0.0, |x| x.rdot.amax().max(x.omega.amax()));
             if let Some(d) = dv.get_mut(6 * b + k) {
                 *d = STEP * (1.0 + speed);
@@ -239,11 +243,11 @@ impl DifferenceTerms {
             *g = scene.gamma(moved);
         }
         let [gp, gm] = &*gamma;
-        self.each_row::<S, NB, NV, M, NNZ>(colour, k, dv, |r, h, lc, _| {
+        let layout = SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES);
+        let start = layout.section_start(RowTerm::GammaV);
+        self.each_row(&layout, colour, k, dv, |r, h, lc, row| {
             let d = (gp.get(r).copied().unwrap_or(0.0) - gm.get(r).copied().unwrap_or(0.0)) / (2.0 * h);
-            if let Some((_, at)) = self.layout.row_at(RowTerm::GammaV, r)
-                && let Some(o) = out.get_mut(at + lc)
-            {
+            if let Some(o) = out.get_mut(start + row.section + lc) {
                 *o = d;
             }
         });
@@ -251,7 +255,7 @@ impl DifferenceTerms {
 
     /// Scatters one colour's position direction: `∂(J u)/∂q`, `∂γ/∂q`,
     /// `∂Φ_t/∂q` of each row and the stiffness `∂(Jᵀλ)/∂q` of each joint.
-    fn positions<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    fn positions<S, const NV: usize, const M: usize, const NNZ: usize>(
         &self,
         moved: &Moved<'_, NV, M, NNZ>,
         lambda: &SVector<f64, M>,
@@ -264,8 +268,10 @@ impl DifferenceTerms {
         let difference = |pair: &[SVector<f64, M>; 2], r: usize, h: f64| {
             (pair[0].get(r).copied().unwrap_or(0.0) - pair[1].get(r).copied().unwrap_or(0.0)) / (2.0 * h)
         };
-        self.each_row::<S, NB, NV, M, NNZ>(moved.colour, moved.k, moved.delta, |r, h, lc, (bodies, stiffness)| {
+        let layout = SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES);
+        self.each_row(&layout, moved.colour, moved.k, moved.delta, |r, h, lc, row| {
             let (Some(&a), Some(&e)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) else { return };
+            let (bodies, stiffness) = (row.bodies.as_slice(), row.stiffness);
             let (n, l) = (6 * bodies.len(), lambda.get(r).copied().unwrap_or(0.0));
             let mut ju = 0.0;
             for idx in a..e {
@@ -287,61 +293,48 @@ impl DifferenceTerms {
                 (RowTerm::PhiTQ, difference(moved.phi_t, r, h)),
             ];
             for (term, value) in terms {
-                if let Some((_, at)) = self.layout.row_at(term, r)
-                    && let Some(o) = out.get_mut(at + lc)
-                {
+                if let Some(o) = out.get_mut(layout.section_start(term) + row.section + lc) {
                     *o = value;
                 }
             }
         });
     }
 
-    /// Calls `f(row, step, local column, (bodies, stiffness offset))` for each
-    /// row of each joint that has a body of `colour`, moved along its column
-    /// `k` by `delta`'s entry.
-    fn each_row<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    /// Calls `f(row, step, local column, row's place)` for each row of each
+    /// joint that has a body of `colour`, moved along its column `k` by
+    /// `delta`'s entry.
+    fn each_row<const NV: usize>(
         &self,
+        layout: &SecondOrderLayout<'_>,
         colour: usize,
         k: usize,
         delta: &SVector<f64, NV>,
-        mut f: impl FnMut(usize, f64, usize, (&[usize], usize)),
-    ) where
-        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
-    {
-        for (joint, block) in S::BLOCKS.iter().enumerate() {
-            let Some((bodies, stiffness)) = self.layout.stiffness_at(joint) else { continue };
+        mut f: impl FnMut(usize, f64, usize, RowPlace),
+    ) {
+        for joint in layout.joints() {
+            let bodies = joint.bodies.as_slice();
             let Some(i) = bodies.iter().position(|&b| self.colour_of.get(b) == Some(&colour)) else { continue };
             let Some(&h) = bodies.get(i).and_then(|&b| delta.get(6 * b + k)) else { continue };
             if h == 0.0 {
                 continue;
             }
-            for r in block.start..block.start + block.rows {
-                f(r, h, 6 * i + k, (bodies, stiffness));
+            let w = joint.bodies.width();
+            for (local, r) in joint.rows.clone().enumerate() {
+                let place =
+                    RowPlace { bodies: joint.bodies, stiffness: joint.stiffness, section: joint.section + local * w };
+                f(r, h, 6 * i + k, place);
             }
         }
     }
 }
 
-/// Colours `bodies` bodies greedily in order, each with the least colour
-/// none of `conflicts(b)` has yet: the bodies of each colour, and each
-/// body's colour.
-pub(super) fn greedy_colours(bodies: usize, conflicts: impl Fn(usize) -> Vec<usize>) -> (Vec<Vec<usize>>, Vec<usize>) {
-    let mut colour_of = vec![usize::MAX; bodies];
-    let mut colours: Vec<Vec<usize>> = Vec::new();
-    for b in 0..bodies {
-        let taken: Vec<usize> = conflicts(b).iter().filter_map(|&n| colour_of.get(n).copied()).collect();
-        let c = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
-        if c == colours.len() {
-            colours.push(Vec::new());
-        }
-        if let Some(list) = colours.get_mut(c) {
-            list.push(b);
-        }
-        if let Some(x) = colour_of.get_mut(b) {
-            *x = c;
-        }
-    }
-    (colours, colour_of)
+/// Where a row's terms go: its joint's bodies, where the joint's stiffness
+/// block starts, where the row's entries start within a row section.
+#[derive(Clone, Copy, Debug)]
+struct RowPlace {
+    bodies: JointBodies,
+    stiffness: usize,
+    section: usize,
 }
 
 /// One colour's position direction and the scene's terms both ways.

@@ -170,6 +170,7 @@ where
             r1v.set_column(c, &v);
         }
         for (bodies, block) in layout.stiffness(&terms) {
+            let bodies = bodies.as_slice();
             let n = 6 * bodies.len();
             for (i, &a) in bodies.iter().enumerate() {
                 for (j, &b) in bodies.iter().enumerate() {
@@ -233,14 +234,18 @@ where
 
 /// Adds `Σ scale × term` over each row's entries (its joint's bodies'
 /// columns) to the dense `M × NV` matrix `out`.
-fn scatter_rows(out: &mut DMatrix<f64>, layout: &SecondOrderLayout, terms: &[f64], parts: &[(RowTerm, f64)]) {
-    for r in 0..out.nrows() {
-        for &(term, scale) in parts {
-            let Some((bodies, entries)) = layout.row(terms, term, r) else { continue };
-            for (i, &b) in bodies.iter().enumerate() {
-                for k in 0..6 {
-                    if let (Some(x), Some(&e)) = (out.get_mut((r, 6 * b + k)), entries.get(6 * i + k)) {
-                        *x += scale * e;
+fn scatter_rows(out: &mut DMatrix<f64>, layout: &SecondOrderLayout<'_>, terms: &[f64], parts: &[(RowTerm, f64)]) {
+    for joint in layout.joints() {
+        let (bodies, w) = (joint.bodies.as_slice(), joint.bodies.width());
+        for (local, r) in joint.rows.clone().enumerate() {
+            for &(term, scale) in parts {
+                let at = layout.section_start(term) + joint.section + local * w;
+                let Some(entries) = terms.get(at..at + w) else { continue };
+                for (i, &b) in bodies.iter().enumerate() {
+                    for k in 0..6 {
+                        if let (Some(x), Some(&e)) = (out.get_mut((r, 6 * b + k)), entries.get(6 * i + k)) {
+                            *x += scale * e;
+                        }
                     }
                 }
             }

@@ -24,14 +24,13 @@
 //! held at `δμ = 0`, the rule of the step's start. Newton is modified as on
 //! the dense path: the matrix is rebuilt only when convergence slows.
 
-use alloc::boxed::Box;
-
 use nalgebra::{Matrix3, SVector};
 
 use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, missing, spring_blocks, times_update};
+use super::buf::{Boxed, boxed};
 use super::kkt::{Kkt, KktStorage};
-use super::second_order::{RowTerm, SecondOrderLayout};
+use super::second_order::{RowTerm, SecondOrderLayout, TermStorage};
 use super::simulation::Accelerations;
 use super::solver::j_mul_into;
 use crate::OmegaBody;
@@ -74,11 +73,11 @@ pub(super) struct MidpointWork<const NB: usize, const NV: usize, const M: usize,
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> MidpointWork<NB, NV, M, NNZ> {
-    pub(super) fn new() -> Box<Self> {
+    pub(super) fn new() -> Boxed<Self> {
         let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
         let dynamics = Accelerations { vdot: SVector::zeros(), lambda: SVector::zeros() };
         let zero = SVector::zeros();
-        Box::new(MidpointWork {
+        boxed(MidpointWork {
             y0: state,
             a0: zero,
             end: state,
@@ -237,20 +236,20 @@ where
         let kkt = &mut ws.kkt;
         kkt.clear();
         // (h²/4)(K − Q_q), times T; then M − (h/2) Q_v; then J with its terms, and Jᵀ.
-        add_stiffness(kkt, &ws.layout, &ws.terms, quarter)?;
+        add_stiffness(kkt, &ws.layout, ws.terms.values(), quarter)?;
         for s in self.springs {
             spring_blocks(kkt, s, state, false, -quarter)?;
         }
-        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, state, false, -quarter)?;
-        times_update(kkt, &ws.body_pairs, &m.t)?;
+        ws.user.add_blocks::<L, NV>(kkt, &mut self.loads, self.springs, state, false, -quarter)?;
+        times_update(kkt, NB, &m.t)?;
         for s in self.springs {
             spring_blocks(kkt, s, state, true, -0.5 * h)?;
         }
-        ws.user.add_blocks::<L, NB, NV>(kkt, &mut self.loads, state, true, -0.5 * h)?;
+        ws.user.add_blocks::<L, NV>(kkt, &mut self.loads, self.springs, state, true, -0.5 * h)?;
         add_mass(kkt, &self.inertias, state, 1.0, 0.5 * h)?;
         // J itself on the velocity columns (no rotation update: an empty `T`).
         add_rows::<S, NB, NNZ>(kkt, &m.mid.values, &ws.row_joint, dropped, &[])?;
-        let rows = RowTerms { layout: &ws.layout, terms: &ws.terms, row_joint: &ws.row_joint, dropped, stabilisation };
+        let rows = RowTerms { layout: ws.layout, terms: ws.terms.values(), dropped, stabilisation };
         add_row_terms::<S, NB, NNZ>(kkt, &rows, &m.mid.values, &m.t, (quarter, 0.5 * h))?;
         ws.kkt.factor().map_err(AnalysisError::from)
     }
@@ -263,16 +262,14 @@ where
         j_mul_into::<S, NB, NNZ>(&m.mid.values, m.r.as_slice(), m.jr.as_mut_slice());
         let dropped = self.solver.factor.dropped();
         let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        for (out, x) in ws.rhs.iter_mut().zip(m.mr.as_slice().iter()) {
+        for (out, x) in ws.rhs.head.iter_mut().zip(m.mr.as_slice().iter()) {
             *out = -x;
         }
-        for (row, x) in m.jr.as_slice().iter().enumerate() {
-            if let Some(out) = ws.rhs.get_mut(NV + row) {
-                *out = if dropped.binary_search(&row).is_ok() { 0.0 } else { -x };
-            }
+        for (row, (out, x)) in ws.rhs.tail.iter_mut().zip(m.jr.as_slice().iter()).enumerate() {
+            *out = if dropped.binary_search(&row).is_ok() { 0.0 } else { -x };
         }
         ws.kkt.solve(&mut ws.rhs);
-        for (d, &x) in m.dw.as_mut_slice().iter_mut().zip(ws.rhs.iter()) {
+        for (d, &x) in m.dw.as_mut_slice().iter_mut().zip(ws.rhs.head.iter()) {
             *d = x;
         }
         if !m.dw.as_slice().iter().all(|x| x.is_finite()) {
@@ -283,12 +280,11 @@ where
 }
 
 /// What [`add_row_terms`] reads: the second-order terms (with
-/// `u = a + 2α v`), each row's joint, the dropped rows and Baumgarte's
+/// `u = a + 2α v`) in their layout, the dropped rows and Baumgarte's
 /// `(α, β)` (zeros without stabilisation).
 pub(super) struct RowTerms<'a> {
-    pub(super) layout: &'a SecondOrderLayout,
+    pub(super) layout: SecondOrderLayout<'static>,
     pub(super) terms: &'a [f64],
-    pub(super) row_joint: &'a [(usize, usize)],
     pub(super) dropped: &'a [usize],
     pub(super) stabilisation: (f64, f64),
 }
@@ -306,38 +302,57 @@ pub(super) fn add_row_terms<S: SparseJacobian<NB, NNZ>, const NB: usize, const N
     (cq, cv): (f64, f64),
 ) -> Result<(), AnalysisError> {
     let (alpha, beta) = rows.stabilisation;
-    for (r, &(joint, local)) in rows.row_joint.iter().enumerate() {
-        if rows.dropped.binary_search(&r).is_ok() {
-            continue;
+    let layout = rows.layout;
+    let section = |term| layout.section_start(term);
+    let starts = [RowTerm::JacobianQ, RowTerm::GammaQ, RowTerm::GammaV, RowTerm::PhiTQ].map(section);
+    for joint_terms in layout.joints() {
+        let (bodies, w, joint) = (joint_terms.bodies, joint_terms.bodies.width(), NB + joint_terms.index);
+        let bodies = bodies.as_slice();
+        for (local, r) in joint_terms.rows.clone().enumerate() {
+            if rows.dropped.binary_search(&r).is_ok() {
+                continue;
+            }
+            let at = joint_terms.section + local * w;
+            let entries = |start: usize| rows.terms.get(start + at..start + at + w).ok_or_else(missing);
+            let [ja, gq, gv, pt] = [entries(starts[0])?, entries(starts[1])?, entries(starts[2])?, entries(starts[3])?];
+            let c = [cq, cv, alpha, beta];
+            add_row::<S, NB, NNZ>(kkt, (r, joint, local), bodies, [ja, gq, gv, pt], (values, t), c)?;
         }
-        let entries = |term| rows.layout.row(rows.terms, term, r).ok_or_else(missing);
-        let ((bodies, ja), (_, gq), (_, gv), (_, pt)) = (
-            entries(RowTerm::JacobianQ)?,
-            entries(RowTerm::GammaQ)?,
-            entries(RowTerm::GammaV)?,
-            entries(RowTerm::PhiTQ)?,
-        );
-        // The row of J over the joint's bodies' columns.
-        let mut j = [0.0; 12];
-        if let (Some(&a), Some(&e)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) {
-            for (&c, &v) in S::COLUMNS.iter().zip(values).take(e).skip(a) {
-                if let Some(x) = bodies.iter().position(|&b| b == c / 6).and_then(|i| j.get_mut(6 * i + c % 6)) {
-                    *x = v;
-                }
+    }
+    Ok(())
+}
+
+/// [`add_row_terms`] for row `r`, row `local` of joint node `joint`, whose
+/// terms over `bodies`' columns are `[∂(J u)/∂q, ∂γ/∂q, ∂γ/∂v, ∂Φ_t/∂q]`,
+/// with `J`'s values and the rotation updates, and `[c_q, c_v, α, β]`.
+fn add_row<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
+    kkt: &mut Kkt<f64, impl KktStorage<f64>>,
+    (r, joint, local): (usize, usize, usize),
+    bodies: &[usize],
+    [ja, gq, gv, pt]: [&[f64]; 4],
+    (values, t): (&[f64; NNZ], &[Matrix3<f64>]),
+    [cq, cv, alpha, beta]: [f64; 4],
+) -> Result<(), AnalysisError> {
+    // The row of J over the joint's bodies' columns.
+    let mut j = [0.0; 12];
+    if let (Some(&a), Some(&e)) = (S::ROW_STARTS.get(r), S::ROW_STARTS.get(r + 1)) {
+        for (&c, &v) in S::COLUMNS.iter().zip(values).take(e).skip(a) {
+            if let Some(x) = bodies.iter().position(|&b| b == c / 6).and_then(|i| j.get_mut(6 * i + c % 6)) {
+                *x = v;
             }
         }
-        for (i, &b) in bodies.iter().enumerate() {
-            let q = |k: usize| {
-                let at = 6 * i + k;
-                cq * (ja[at] - gq[at] + 2.0 * alpha * pt[at] + beta * beta * j.get(at).copied().unwrap_or(0.0))
-            };
-            let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
-            let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
-            for k in 0..6 {
-                let dq = if k < 3 { q(k) } else { (0..3).map(|m| q(3 + m) * jr[(m, k - 3)]).sum() };
-                let dv = cv * (2.0 * alpha * j.get(6 * i + k).copied().unwrap_or(0.0) - gv[6 * i + k]);
-                row[6 * local + k] += dq + dv;
-            }
+    }
+    for (i, &b) in bodies.iter().enumerate() {
+        let q = |k: usize| {
+            let at = 6 * i + k;
+            cq * (ja[at] - gq[at] + 2.0 * alpha * pt[at] + beta * beta * j.get(at).copied().unwrap_or(0.0))
+        };
+        let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
+        let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
+        for k in 0..6 {
+            let dq = if k < 3 { q(k) } else { (0..3).map(|m| q(3 + m) * jr[(m, k - 3)]).sum() };
+            let dv = cv * (2.0 * alpha * j.get(6 * i + k).copied().unwrap_or(0.0) - gv[6 * i + k]);
+            row[6 * local + k] += dq + dv;
         }
     }
     Ok(())

@@ -64,7 +64,6 @@ mod loads;
 mod midpoint;
 #[cfg(feature = "alloc")]
 mod radau;
-#[cfg(feature = "alloc")]
 mod second_order;
 mod simulation;
 mod solver;
@@ -75,9 +74,7 @@ pub use analysis::SparseAnalysis;
 pub use differences::DifferenceTerms;
 pub use factor::{BlockFactor, FactorArrays, FactorStorage};
 pub use kkt::{KktArrays, KktEntry, KktStorage};
-#[cfg(feature = "alloc")]
-#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
-pub use second_order::{RowTerm, SecondOrderLayout};
+pub use second_order::{JointBodies, RowTerm, SecondOrderLayout, TermArray, TermStorage};
 // The one simulation's public path is `dynamics::Simulation`.
 #[doc(hidden)]
 pub use simulation::Simulation;

@@ -24,15 +24,14 @@
 //! springs' and the gyroscopic ones, exact, and the user loads' on the
 //! pattern (`loads.rs`).
 
-use alloc::vec;
-use alloc::vec::Vec;
-
 use nalgebra::{Complex, Matrix3, SVector};
 
 use super::Simulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
-use super::kkt::{Kkt, KktStorage};
+use super::buf::{Boxed, boxed};
+use super::kkt::{Kkt, KktEntry, KktStorage, NodeVector};
 use super::midpoint::{RowTerms, add_row_terms};
+use super::second_order::TermStorage;
 use super::solver::j_mul_into;
 use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
@@ -42,47 +41,46 @@ use crate::scene::{Scene, SparseJacobian, SystemState};
 /// Radau's matrices on the pattern and the scratch of their solves,
 /// allocated at the first Radau step.
 #[derive(Clone, Debug)]
-pub(super) struct RadauWorkspace<R, C> {
+pub(super) struct RadauWorkspace<R, C, const NV: usize, const M: usize, const NNZ: usize> {
     /// `P₀`, `P₁`, `P₂` at the Jacobian's state.
     parts: [Kkt<f64, R>; 3],
     real: Kkt<f64, R>,
     complex: Kkt<Complex<f64>, C>,
-    /// `J` at the Jacobian's state, and the rows its rule dropped.
-    values: Vec<f64>,
-    dropped: Vec<usize>,
-    rhs: Vec<f64>,
-    complex_rhs: Vec<Complex<f64>>,
-    product: Vec<f64>,
+    /// `J` at the Jacobian's state, and the rows its rule dropped (the
+    /// first `dropped_len`).
+    values: [f64; NNZ],
+    dropped: [usize; M],
+    dropped_len: usize,
+    rhs: NodeVector<f64, NV, M>,
+    complex_rhs: NodeVector<Complex<f64>, NV, M>,
+    product: NodeVector<f64, NV, M>,
 }
 
-impl<R: KktStorage<f64>, C: KktStorage<Complex<f64>>> RadauWorkspace<R, C> {
-    /// On generalised-α's pattern, for `len = NV + M` unknowns, `nnz`
-    /// entries of `J` and `m` rows (reserved here: a step allocates nothing).
-    fn new(pattern: &Kkt<f64, R>, len: usize, nnz: usize, m: usize) -> Result<Self, AnalysisError> {
+impl<R, C, const NV: usize, const M: usize, const NNZ: usize> RadauWorkspace<R, C, NV, M, NNZ>
+where
+    R: KktStorage<f64>,
+    C: KktStorage<Complex<f64>>,
+{
+    /// On generalised-α's pattern, boxed (with `alloc`).
+    pub(super) fn boxed(pattern: &Kkt<f64, R>) -> Result<Boxed<Self>, AnalysisError> {
         let bad = |_| crate::sparse::solver::non_finite("scene structure");
-        Ok(RadauWorkspace {
+        Ok(boxed(RadauWorkspace {
             parts: [pattern.like().map_err(bad)?, pattern.like().map_err(bad)?, pattern.like().map_err(bad)?],
             real: pattern.like().map_err(bad)?,
             complex: pattern.like().map_err(bad)?,
-            values: Vec::with_capacity(nnz),
-            dropped: Vec::with_capacity(m),
-            rhs: vec![0.0; len],
-            complex_rhs: vec![Complex::new(0.0, 0.0); len],
-            product: vec![0.0; len],
-        })
-    }
-
-    /// [`RadauWorkspace::new`] for a scene's sizes, boxed.
-    pub(super) fn boxed<const NV: usize, const M: usize, const NNZ: usize>(
-        pattern: &Kkt<f64, R>,
-    ) -> Result<alloc::boxed::Box<Self>, AnalysisError> {
-        Ok(alloc::boxed::Box::new(RadauWorkspace::new(pattern, NV + M, NNZ, M)?))
+            values: [0.0; NNZ],
+            dropped: [0; M],
+            dropped_len: 0,
+            rhs: NodeVector::zeros(),
+            complex_rhs: NodeVector::zeros(),
+            product: NodeVector::zeros(),
+        }))
     }
 
     /// `P₁ r` by node (bodies' rows, then joints'), into `product`.
-    fn p1_times<const NV: usize>(&mut self, r: &SVector<f64, NV>) {
+    fn p1_times(&mut self, r: &SVector<f64, NV>) {
         self.rhs.fill(0.0);
-        for (o, x) in self.rhs.iter_mut().zip(r.iter()) {
+        for (o, x) in self.rhs.head.iter_mut().zip(r.iter()) {
             *o = *x;
         }
         self.parts[1].times(&self.rhs, &mut self.product);
@@ -107,10 +105,10 @@ pub(super) struct RadauScratch<const NB: usize, const NV: usize, const M: usize>
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> RadauScratch<NB, NV, M> {
-    /// Zeros, boxed; no start solved.
-    pub(super) fn boxed() -> alloc::boxed::Box<Self> {
+    /// Zeros, boxed (with `alloc`); no start solved.
+    pub(super) fn boxed() -> Boxed<Self> {
         let (v, m) = (SVector::zeros(), SVector::zeros());
-        alloc::boxed::Box::new(RadauScratch {
+        boxed(RadauScratch {
             at: SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 },
             solved: false,
             vdot: v,
@@ -179,47 +177,43 @@ where
         else {
             return Err(bad());
         };
-        radau.values.resize(NNZ, 0.0);
-        let values = <&mut [f64; NNZ]>::try_from(&mut radau.values[..]).map_err(|_| bad())?;
-        self.scene.jacobian_values_into(y0, values);
-        let values: &[f64; NNZ] = values;
+        self.scene.jacobian_values_into(y0, &mut radau.values);
+        let values = &radau.values;
         // u = a + 2α v (as the midpoint rule's).
         velocity_vector_into(y0, &mut sc.u);
         for (u, a) in sc.u.as_mut_slice().iter_mut().zip(sc.vdot.as_slice().iter()) {
             *u = a + *u * (2.0 * stabilisation.0);
         }
         ws.fill_terms(self.scene, y0, &sc.lambda, &sc.u, by_differences)?;
-        radau.dropped.clear();
-        radau.dropped.extend_from_slice(self.solver.factor.dropped());
+        let from = self.solver.factor.dropped();
+        radau.dropped_len = from.len().min(M);
+        for (d, &f) in radau.dropped.iter_mut().zip(from) {
+            *d = f;
+        }
+        let dropped = radau.dropped.get(..radau.dropped_len).unwrap_or(&[]);
         // No rotation update: the blocks as they are (an empty `t`).
         let identity: &[Matrix3<f64>] = &[];
-        let rows = RowTerms {
-            layout: &ws.layout,
-            terms: &ws.terms,
-            row_joint: &ws.row_joint,
-            dropped: &radau.dropped,
-            stabilisation,
-        };
+        let rows = RowTerms { layout: ws.layout, terms: ws.terms.values(), dropped, stabilisation };
         let [p0, p1, p2] = &mut radau.parts;
         for p in [&mut *p0, &mut *p1, &mut *p2] {
             p.clear();
         }
         // P₀ = [M, Jᵀ; J, 0].
         add_mass(p0, &self.inertias, y0, 1.0, 0.0)?;
-        add_rows::<S, NB, NNZ>(p0, values, &ws.row_joint, &radau.dropped, identity)?;
+        add_rows::<S, NB, NNZ>(p0, values, &ws.row_joint, dropped, identity)?;
         // P₁ = [−Q_v, 0; −∂γ̂/∂v, 0].
         add_mass(p1, &self.inertias, y0, 0.0, 1.0)?;
         for s in self.springs {
             spring_blocks(p1, s, y0, true, -1.0)?;
         }
-        ws.user.add_blocks::<L, NB, NV>(p1, &mut self.loads, y0, true, -1.0)?;
+        ws.user.add_blocks::<L, NV>(p1, &mut self.loads, self.springs, y0, true, -1.0)?;
         add_row_terms::<S, NB, NNZ>(p1, &rows, values, identity, (0.0, 1.0))?;
         // P₂ = [K − Q_q, 0; ∂(J a)/∂q − ∂γ̂/∂q, 0].
-        add_stiffness(p2, &ws.layout, &ws.terms, 1.0)?;
+        add_stiffness(p2, &ws.layout, ws.terms.values(), 1.0)?;
         for s in self.springs {
             spring_blocks(p2, s, y0, false, -1.0)?;
         }
-        ws.user.add_blocks::<L, NB, NV>(p2, &mut self.loads, y0, false, -1.0)?;
+        ws.user.add_blocks::<L, NV>(p2, &mut self.loads, self.springs, y0, false, -1.0)?;
         add_row_terms::<S, NB, NNZ>(p2, &rows, values, identity, (1.0, 0.0))?;
         Ok(((), 1))
     }
@@ -253,14 +247,14 @@ where
             *u = s / (mu * mu) + r / mu;
         }
         mass_times_into(&self.inertias, &sc.u, &mut sc.mass);
-        j_mul_at::<S, NB, NV, M, NNZ>(&radau.values, &sc.u, &mut sc.j);
+        j_mul_into::<S, NB, NNZ>(&radau.values, sc.u.as_slice(), sc.j.as_mut_slice());
         radau.p1_times(r);
         let scale = 1.0 / (mu * mu);
-        for (i, (o, p)) in radau.rhs.iter_mut().zip(&radau.product).enumerate() {
+        for (i, (o, p)) in radau.rhs.iter_mut().zip(radau.product.iter()).enumerate() {
             let base = if i < NV { sc.mass.get(i) } else { sc.j.get(i - NV) };
             *o = base.copied().unwrap_or(0.0) + p * scale;
         }
-        zero_dropped(&mut radau.rhs, &radau.dropped, NV);
+        zero_dropped(&mut radau.rhs, radau.dropped.get(..radau.dropped_len).unwrap_or(&[]));
         radau.real.solve(&mut radau.rhs);
         for ((x, y), (v, r)) in
             x.as_mut_slice().iter_mut().zip(y.as_mut_slice().iter_mut()).zip(radau.rhs.iter().zip(r.as_slice().iter()))
@@ -296,24 +290,20 @@ where
         }
         mass_times_into(&self.inertias, &sc.u, &mut sc.mass);
         mass_times_into(&self.inertias, &sc.ui, &mut sc.mass_i);
-        j_mul_at::<S, NB, NV, M, NNZ>(&radau.values, &sc.u, &mut sc.j);
-        j_mul_at::<S, NB, NV, M, NNZ>(&radau.values, &sc.ui, &mut sc.j_i);
+        j_mul_into::<S, NB, NNZ>(&radau.values, sc.u.as_slice(), sc.j.as_mut_slice());
+        j_mul_into::<S, NB, NNZ>(&radau.values, sc.ui.as_slice(), sc.j_i.as_mut_slice());
         radau.p1_times(r2);
-        for (o, p) in radau.complex_rhs.iter_mut().zip(&radau.product) {
+        for (o, p) in radau.complex_rhs.iter_mut().zip(radau.product.iter()) {
             *o = Complex::new(*p, 0.0) * i2;
         }
         radau.p1_times(r3);
-        for (i, (o, p)) in radau.complex_rhs.iter_mut().zip(&radau.product).enumerate() {
+        for (i, (o, p)) in radau.complex_rhs.iter_mut().zip(radau.product.iter()).enumerate() {
             let (re, im) =
                 if i < NV { (sc.mass.get(i), sc.mass_i.get(i)) } else { (sc.j.get(i - NV), sc.j_i.get(i - NV)) };
             let base = Complex::new(re.copied().unwrap_or(0.0), im.copied().unwrap_or(0.0));
             *o += base + Complex::new(0.0, *p) * i2;
         }
-        for &row in &radau.dropped {
-            if let Some(o) = radau.complex_rhs.get_mut(NV + row) {
-                *o = Complex::new(0.0, 0.0);
-            }
-        }
+        zero_dropped(&mut radau.complex_rhs, radau.dropped.get(..radau.dropped_len).unwrap_or(&[]));
         radau.complex.solve(&mut radau.complex_rhs);
         let outs = xr
             .as_mut_slice()
@@ -346,24 +336,11 @@ where
     }
 }
 
-/// `out = J x` with `J`'s entries `values` (zeros if they are not the
-/// scene's count).
-fn j_mul_at<S: SparseJacobian<NB, NNZ>, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
-    values: &[f64],
-    x: &SVector<f64, NV>,
-    out: &mut SVector<f64, M>,
-) {
-    match <&[f64; NNZ]>::try_from(values) {
-        Ok(values) => j_mul_into::<S, NB, NNZ>(values, x.as_slice(), out.as_mut_slice()),
-        Err(_) => out.fill(0.0),
-    }
-}
-
 /// Zeros the dropped rows' entries of a right-hand side by node.
-fn zero_dropped(rhs: &mut [f64], dropped: &[usize], nv: usize) {
+fn zero_dropped<T: KktEntry, const NV: usize, const M: usize>(rhs: &mut NodeVector<T, NV, M>, dropped: &[usize]) {
     for &row in dropped {
-        if let Some(o) = rhs.get_mut(nv + row) {
-            *o = 0.0;
+        if let Some(o) = rhs.tail.get_mut(row) {
+            *o = T::zero();
         }
     }
 }

@@ -72,26 +72,26 @@ pub struct Simulation<
     #[cfg(feature = "alloc")]
     /// Generalised-α's pattern, factor and history (the implicit
     /// integrators only).
-    pub(super) alpha: Option<AlphaWorkspace<S::Kkt<f64>, NB, NV, M, NNZ>>,
+    pub(super) alpha: Option<Boxed<SceneAlpha<S, NB, NV, M, NNZ>>>,
     #[cfg(feature = "alloc")]
     /// Radau IIA's matrices on that pattern, and its history.
-    pub(super) radau: Option<alloc::boxed::Box<SceneRadau<S, NB, NNZ>>>,
+    pub(super) radau: Option<Boxed<SceneRadau<S, NB, NV, M, NNZ>>>,
     #[cfg(feature = "alloc")]
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
     #[cfg(feature = "alloc")]
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again), and its host's
     /// vectors.
-    pub(super) radau_scratch: Option<alloc::boxed::Box<RadauScratch<NB, NV, M>>>,
+    pub(super) radau_scratch: Option<Boxed<RadauScratch<NB, NV, M>>>,
     #[cfg(feature = "alloc")]
     /// A Radau step's states and stages.
-    pub(super) radau_work: Option<alloc::boxed::Box<RadauWork<NB, NV>>>,
+    pub(super) radau_work: Option<Boxed<RadauWork<NB, NV>>>,
     /// The implicit midpoint rule's iterate (with `alpha`).
     #[cfg(feature = "alloc")]
-    pub(super) midpoint: Option<alloc::boxed::Box<MidpointWork<NB, NV, M, NNZ>>>,
+    pub(super) midpoint: Option<Boxed<MidpointWork<NB, NV, M, NNZ>>>,
     /// Generalised-α's iterate and Newton vectors (with `alpha`).
     #[cfg(feature = "alloc")]
-    pub(super) alpha_work: Option<alloc::boxed::Box<AlphaWork<NB, NV, M, NNZ>>>,
+    pub(super) alpha_work: Option<Boxed<AlphaWork<NB, NV, M, NNZ>>>,
     /// The vectors of a solve and the stages of an RK4 step, kept here
     /// rather than in a step's frames (allocated once, in `new`).
     work: Boxed<SolveWork<NB, NV, M, NNZ>>,
@@ -101,11 +101,19 @@ pub struct Simulation<
     pub options: SimulationOptions,
 }
 
+/// The implicit integrators' workspace in the scene's arrays.
+#[cfg(feature = "alloc")]
+type SceneAlpha<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> =
+    AlphaWorkspace<<S as SparseJacobian<NB, NNZ>>::Kkt<f64>, <S as SparseJacobian<NB, NNZ>>::Terms, NB, NV, M, NNZ>;
+
 /// Radau's workspace in the scene's saddle-point arrays.
 #[cfg(feature = "alloc")]
-type SceneRadau<S, const NB: usize, const NNZ: usize> = RadauWorkspace<
+type SceneRadau<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> = RadauWorkspace<
     <S as SparseJacobian<NB, NNZ>>::Kkt<f64>,
     <S as SparseJacobian<NB, NNZ>>::Kkt<nalgebra::Complex<f64>>,
+    NV,
+    M,
+    NNZ,
 >;
 
 /// Without `alloc`, the implicit integrators (their saddle-point workspaces
@@ -292,7 +300,7 @@ where
     /// fill included); `None` for RK4.
     #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
     pub fn iteration_blocks(&self) -> Option<usize> {
-        self.alpha.as_ref().map(AlphaWorkspace::blocks)
+        self.alpha.as_deref().map(AlphaWorkspace::blocks)
     }
 
     /// Constrained accelerations and multipliers at `state`; redundant rows get
@@ -641,7 +649,7 @@ where
     #[cold]
     #[inline(never)]
     fn make_alpha_workspace(&mut self) -> Result<(), AnalysisError> {
-        self.alpha = Some(AlphaWorkspace::new::<S>(self.springs)?);
+        self.alpha = Some(boxed(AlphaWorkspace::new::<S>(self.springs)?));
         self.alpha_work = Some(AlphaWork::new());
         self.midpoint = Some(MidpointWork::new());
         Ok(())
@@ -671,9 +679,9 @@ where
     #[inline(never)]
     fn make_radau_workspace(&mut self) -> Result<(), AnalysisError> {
         if let Some(ws) = &self.alpha {
-            self.radau = Some(RadauWorkspace::boxed::<NV, M, NNZ>(&ws.kkt)?);
+            self.radau = Some(RadauWorkspace::boxed(&ws.kkt)?);
             self.radau_scratch = Some(RadauScratch::boxed());
-            self.radau_work = Some(alloc::boxed::Box::new(RadauWork::new()));
+            self.radau_work = Some(boxed(RadauWork::new()));
         }
         Ok(())
     }

@@ -68,7 +68,7 @@ fn difference_terms_match_the_generated_ones() {
     use joint_runtime::sparse::{DifferenceTerms, SecondOrderLayout};
     let rig = Rig { theta: Sinusoid { amplitude: 0.7, frequency: 1.3, phase: 0.2, offset: 0.1 } };
     let layout = SecondOrderLayout::new(Rig::BLOCKS, Rig::BLOCK_BODIES);
-    let terms = DifferenceTerms::new(Rig::BLOCKS, Rig::BLOCK_BODIES, 4);
+    let terms = DifferenceTerms::<4>::new(Rig::BLOCK_BODIES);
     assert_eq!(terms.colours(), 2);
     let mut rng = Rng(11);
     let mut worst = 0.0f64;

@@ -44,6 +44,47 @@ fn zero<T: KktEntry>() -> Block<T> {
     [T::zero(); 36]
 }
 
+/// A vector by node, as [`Kkt::solve`] reads it: the bodies' `NV` entries
+/// (`head`), then the joints' `M` rows (`tail`), one flat index over both.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct NodeVector<T, const NV: usize, const M: usize> {
+    pub(super) head: [T; NV],
+    pub(super) tail: [T; M],
+}
+
+impl<T: KktEntry, const NV: usize, const M: usize> NodeVector<T, NV, M> {
+    /// Zeros.
+    pub(super) fn zeros() -> Self {
+        NodeVector { head: [T::zero(); NV], tail: [T::zero(); M] }
+    }
+
+    /// Entry `i` of the flat vector.
+    pub(super) fn get(&self, i: usize) -> Option<&T> {
+        if i < NV { self.head.get(i) } else { self.tail.get(i - NV) }
+    }
+
+    /// Entry `i` of the flat vector, to write.
+    pub(super) fn get_mut(&mut self, i: usize) -> Option<&mut T> {
+        if i < NV { self.head.get_mut(i) } else { self.tail.get_mut(i - NV) }
+    }
+
+    /// Every entry, in order.
+    pub(super) fn iter(&self) -> impl Iterator<Item = &T> {
+        self.head.iter().chain(self.tail.iter())
+    }
+
+    /// Every entry, in order, to write.
+    pub(super) fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
+        self.head.iter_mut().chain(self.tail.iter_mut())
+    }
+
+    /// Sets every entry to `x`.
+    pub(super) fn fill(&mut self, x: T) {
+        self.head.fill(x);
+        self.tail.fill(x);
+    }
+}
+
 /// Where the block `(row node, column node)` lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Place {
@@ -213,7 +254,7 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
 
     /// Solves `A x = b` in place; `b` is by node: body `i`'s 6 entries, then
     /// the joints' rows, in node order (`sizes` concatenated).
-    pub(super) fn solve(&mut self, b: &mut [T]) {
+    pub(super) fn solve<const NV: usize, const M: usize>(&mut self, b: &mut NodeVector<T, NV, M>) {
         let (p, v) = self.split();
         let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).copied().unwrap_or(0);
         let x = v.x;
@@ -270,6 +311,28 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
         }
     }
 
+    /// Calls `f(row node, column node, block)` for every block both of whose
+    /// nodes are bodies (nodes below `bodies`): the diagonal ones and those
+    /// of body pairs, fill included.
+    pub(super) fn for_each_body_block(&mut self, bodies: usize, mut f: impl FnMut(usize, usize, &mut Block<T>)) {
+        let (p, v) = self.split();
+        let ranges = p.order.iter().zip(p.adj_range).zip(v.diag.iter_mut());
+        for ((&node, &(a, e)), diag) in ranges {
+            if node >= bodies {
+                continue;
+            }
+            f(node, node, diag);
+            let slots = v.low.get_mut(a..e).unwrap_or_default().iter_mut().zip(v.up.get_mut(a..e).unwrap_or_default());
+            for ((low, up), &position) in slots.zip(p.adj.get(a..e).unwrap_or_default()) {
+                let other = p.order.get(position).copied().unwrap_or(usize::MAX);
+                if other < bodies {
+                    f(other, node, low);
+                    f(node, other, up);
+                }
+            }
+        }
+    }
+
     /// Number of blocks stored (diagonal, below and above).
     pub(super) fn blocks(&self) -> usize {
         let (_, b) = self.view();
@@ -296,7 +359,11 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
 
     /// `out = A x` for the assembled (not factorised) matrix, both by node as
     /// in [`Kkt::solve`].
-    pub(super) fn times(&self, x: &[T], out: &mut [T]) {
+    pub(super) fn times<const NV: usize, const M: usize>(
+        &self,
+        x: &NodeVector<T, NV, M>,
+        out: &mut NodeVector<T, NV, M>,
+    ) {
         out.fill(T::zero());
         let (p, blocks) = self.view();
         let mut add = |block: &Block<T>, row: usize, column: usize| {
@@ -557,11 +624,16 @@ mod tests {
             }
         }
         let rhs: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
-        let mut x = rhs.clone();
+        let mut x = NodeVector::<f64, 18, 8>::zeros();
+        x.iter_mut().zip(&rhs).for_each(|(x, &r)| *x = r);
         kkt.factor().expect("nonsingular");
         kkt.solve(&mut x);
         let residual = (0..n)
-            .map(|r| libm::fabs((0..n).map(|c| dense[r * n + c] * x[c]).sum::<f64>() - rhs[r]))
+            .map(|r| {
+                libm::fabs(
+                    (0..n).map(|c| dense[r * n + c] * x.get(c).copied().unwrap_or(f64::NAN)).sum::<f64>() - rhs[r],
+                )
+            })
             .fold(0.0, f64::max);
         assert!(residual < 1e-12, "residual {residual}");
     }
@@ -599,17 +671,19 @@ mod tests {
         let weighted: Vec<(&Grown, Complex<f64>)> = parts.iter().zip(coefficients).collect();
         complex.combine(&weighted);
         let n = 12 + 5;
-        let x: Vec<Complex<f64>> = (0..n).map(|i| Complex::new((i as f64).sin(), (i as f64).cos())).collect();
-        let mut b = vec![Complex::new(0.0, 0.0); n];
+        let mut x = NodeVector::<Complex<f64>, 12, 5>::zeros();
+        x.iter_mut().enumerate().for_each(|(i, x)| *x = Complex::new((i as f64).sin(), (i as f64).cos()));
+        let mut b = NodeVector::zeros();
         complex.times(&x, &mut b);
         // The product part by part (real parts times x), weighted.
         let mut want = vec![Complex::new(0.0, 0.0); n];
         for (part, c) in parts.iter().zip(coefficients) {
             for (re, im) in [(true, false), (false, true)] {
-                let xs: Vec<f64> = x.iter().map(|z| if re { z.re } else { z.im }).collect();
-                let mut y = vec![0.0; n];
+                let mut xs = NodeVector::<f64, 12, 5>::zeros();
+                xs.iter_mut().zip(x.iter()).for_each(|(o, z)| *o = if re { z.re } else { z.im });
+                let mut y = NodeVector::zeros();
                 part.times(&xs, &mut y);
-                for (w, &y) in want.iter_mut().zip(&y) {
+                for (w, &y) in want.iter_mut().zip(y.iter()) {
                     *w += c * if im { Complex::new(0.0, y) } else { Complex::new(y, 0.0) };
                 }
             }
@@ -619,7 +693,7 @@ mod tests {
         complex.factor().expect("nonsingular");
         let mut solved = b.clone();
         complex.solve(&mut solved);
-        let gap = solved.iter().zip(&x).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
+        let gap = solved.iter().zip(x.iter()).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
         assert!(gap < 1e-12, "{gap:e}");
     }
 
@@ -659,8 +733,9 @@ mod tests {
                 *fixed.block_mut(a, b).expect("the same blocks") = g;
             }
         }
-        let rhs: Vec<f64> = (0..26).map(|i| libm::cos(i as f64)).collect();
-        let (mut xf, mut xg) = (rhs.clone(), rhs);
+        let mut xf = NodeVector::<f64, 18, 8>::zeros();
+        xf.iter_mut().enumerate().for_each(|(i, x)| *x = libm::cos(i as f64));
+        let mut xg = xf.clone();
         fixed.factor().expect("nonsingular");
         grown.factor().expect("nonsingular");
         fixed.solve(&mut xf);
