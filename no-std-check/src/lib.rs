@@ -14,8 +14,9 @@
 //! `std` on to show that the check can fail. `.ci/run` runs both.
 //!
 //! The exported functions use a derived joint (f64 and f32), a SIMD batch, a
-//! derived scene, assembly and one RK4 step, so all of them are compiled and
-//! linked without `std`.
+//! derived scene, assembly, RK4 steps and the implicit integrators' steps, so
+//! all of them are compiled and linked without `std` and without an
+//! allocator.
 
 #![no_std]
 
@@ -23,7 +24,7 @@ use core::panic::PanicInfo;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF32x8, evaluate_batch_simd, splat};
-use joint_runtime::dynamics::{DenseSimulation, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::sparse::SparseAnalysis;
 use joint_runtime::{Joint, OmegaBody, Scene, SystemState, TwoBodies};
@@ -135,6 +136,36 @@ pub extern "C" fn joint_pendulum_sparse_steps(angle: f64, steps: u32) -> f64 {
     let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
     let mut state = SystemState { bodies: [link], t: 0.0 };
     let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
+        return f64::NAN;
+    };
+    if sim.project(&mut state, &AssemblyOptions::default()).is_err() {
+        return f64::NAN;
+    }
+    for _ in 0..steps {
+        if sim.step(&mut state, 1e-3).is_err() {
+            return f64::NAN;
+        }
+    }
+    sim.energy(&state).total()
+}
+
+/// `steps` steps of 1 ms of each implicit integrator (the implicit midpoint
+/// rule, generalised-α, Radau IIA; `which` 0, 1, 2) on the sparse path: the
+/// saddle-point matrices, second-order terms (by differences: the pendulum
+/// is derived without `second_order`) and colourings in arrays the derive
+/// sized, with no allocator. Returns the energy at the end, or NaN.
+#[unsafe(no_mangle)]
+pub extern "C" fn joint_pendulum_implicit_steps(angle: f64, steps: u32, which: u32) -> f64 {
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
+    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
+    let mut state = SystemState { bodies: [link], t: 0.0 };
+    let mut options = SimulationOptions::default();
+    options.integrator = match which {
+        0 => Integrator::ImplicitMidpoint,
+        1 => Integrator::GeneralisedAlpha,
+        _ => Integrator::RadauIIA,
+    };
+    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], options) else {
         return f64::NAN;
     };
     if sim.project(&mut state, &AssemblyOptions::default()).is_err() {

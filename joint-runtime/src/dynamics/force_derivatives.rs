@@ -214,7 +214,6 @@ fn spring_derivatives<const NB: usize>(
 /// One spring-damper's share of column `c` of `∂Q/∂q` (`velocity` false) or
 /// `∂Q/∂v`: the derivative of its loads on each body (the sparse path's
 /// iteration matrix, which visits only the columns of the spring's bodies).
-#[cfg(feature = "alloc")]
 pub(crate) fn spring_column<const NB: usize>(
     spring: &SpringDamper,
     state: &SystemState<NB>,

@@ -50,7 +50,6 @@ pub(crate) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize>
     pub(crate) lambda: SVector<f64, M>,
 }
 
-#[cfg(feature = "alloc")]
 impl<const NB: usize, const NV: usize, const M: usize> AlphaHistory<NB, NV, M> {
     /// Written over, field by field (no history in the caller's frame).
     pub(crate) fn set(
@@ -106,7 +105,6 @@ impl Coefficients {
         (past.vdot - past.a * self.alpha_m) / (1.0 - self.alpha_m)
     }
 
-    #[cfg(feature = "alloc")]
     /// [`predicted`](Self::predicted) into `out`, entry by entry (the same
     /// operations, so the same bits).
     pub(crate) fn predicted_into<const NB: usize, const NV: usize, const M: usize>(
@@ -206,7 +204,6 @@ impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
         AlphaHistory { state: self.state, vdot: self.vdot, a: self.a, lambda: self.lambda }
     }
 
-    #[cfg(feature = "alloc")]
     /// [`history`](Self::history) written over `out`.
     pub(crate) fn history_into(&self, out: &mut AlphaHistory<NB, NV, M>) {
         out.set(&self.state, (&self.vdot, &self.a), &self.lambda);

@@ -118,14 +118,15 @@ pub use crate::sparse::Simulation;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
-pub(crate) use force_derivatives::{LOAD_STEP, force_column, load_differences_along, spring_column};
-#[cfg(feature = "alloc")]
+pub(crate) use force_derivatives::force_column;
+pub(crate) use force_derivatives::{LOAD_STEP, load_differences_along, spring_column};
 pub(crate) use generalised_alpha::{AlphaHistory, Coefficients, Iterate, mass_times_into};
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use linear::Linearisation;
 #[cfg(feature = "alloc")]
-pub(crate) use newton_matrix::{update_blocks, update_blocks_into};
+pub(crate) use newton_matrix::update_blocks;
+pub(crate) use newton_matrix::update_blocks_into;
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector4};
 
@@ -593,10 +594,9 @@ pub(crate) fn advance_into<'r, const NB: usize, const NV: usize>(
 /// (`M × NV`) and `J M⁻¹ Jᵀ` (`M × M`) on the stack, so its step's stack
 /// grows with the square of the scene (a 40-body chain overflows a 2 MiB
 /// thread). Use [`Simulation`]; this type stays, with the same methods, only
-/// while it still does two things the one simulation does not yet: its
-/// implicit integrators and `integrate` run without `alloc`, and its `new`
+/// while it still does one thing the one simulation does not yet: its `new`
 /// and implicit steps carry the no-panic proof (`no-panic-check`; the one
-/// simulation's RK4 steps do too). It goes when those move over.
+/// simulation's RK4 steps do too). It goes when that moves over.
 pub struct DenseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize> {
     scene: &'a S,
     loads: L,

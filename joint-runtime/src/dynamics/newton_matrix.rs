@@ -163,7 +163,6 @@ fn update_block<const NV: usize>(w: &SVector<f64, NV>, s: f64, b: usize) -> Matr
     right_jacobian(&Vector3::new(at(0), at(1), at(2)))
 }
 
-#[cfg(feature = "alloc")]
 /// [`update_blocks`] into `out` (a workspace's, one block per body).
 pub(crate) fn update_blocks_into<const NV: usize>(w: &SVector<f64, NV>, s: f64, out: &mut [Matrix3<f64>]) {
     for (b, o) in out.iter_mut().enumerate() {

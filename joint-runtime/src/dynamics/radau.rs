@@ -229,13 +229,11 @@ pub(crate) struct RadauWork<const NB: usize, const NV: usize> {
 
 impl<const NB: usize, const NV: usize> RadauWork<NB, NV> {
     /// The step's start, where [`step_radau_in`] reads it.
-    #[cfg(feature = "alloc")]
     pub(crate) fn start_mut(&mut self) -> &mut SystemState<NB> {
         &mut self.y0
     }
 
     /// The step's end, where [`step_radau_in`] leaves it.
-    #[cfg(feature = "alloc")]
     pub(crate) fn end_mut(&mut self) -> &mut SystemState<NB> {
         &mut self.y1
     }

@@ -86,26 +86,26 @@ where
         tolerance: Tolerance,
         report: &mut IntegrationReport,
     ) -> Result<(SystemState<NB>, f64), AnalysisError> {
-        let continuing = self.alpha.as_ref().and_then(|w| w.history.as_ref()).is_some_and(|past| past.state == *y0);
+        let continuing = self.alpha.as_deref().and_then(|w| w.history.as_ref()).is_some_and(|past| past.state == *y0);
         let (y, d) = self.step_start(y0)?;
         match method {
             Adaptive::DormandPrince => {
                 dormand_prince(&y, Rate::new(&y, d.vdot), h, tolerance, report, |stage| self.rate(stage))
             }
             Adaptive::GeneralisedAlpha => {
-                let saved = self.alpha.as_ref().and_then(|w| w.history);
+                let saved = self.alpha.as_deref().and_then(|w| w.history);
                 let before = match (continuing, saved) {
                     (true, Some(past)) => past.a,
                     _ => d.vdot,
                 };
                 let restore = |sim: &mut Self| {
-                    if let Some(w) = sim.alpha.as_mut() {
+                    if let Some(w) = sim.alpha.as_deref_mut() {
                         w.history = saved;
                     }
                 };
                 let (y1, iterations, matrices) =
                     self.step_alpha(&y, h, continuing, (d.vdot, d.lambda)).inspect_err(|_| restore(self))?;
-                let after = self.alpha.as_ref().and_then(|w| w.history.as_ref()).map_or(before, |past| past.a);
+                let after = self.alpha.as_deref().and_then(|w| w.history.as_ref()).map_or(before, |past| past.a);
                 let rho = self.options.spectral_radius;
                 let err = alpha_estimate(y0, &y1, &(after - before), h, rho, tolerance, report, (iterations, matrices));
                 if err > 1.0 {

@@ -287,7 +287,7 @@ where
         continuing: bool,
         (vdot, lambda): (&SVector<f64, NV>, &SVector<f64, M>),
     ) {
-        match (continuing, self.alpha.as_ref().and_then(|w| w.history.as_ref())) {
+        match (continuing, self.alpha.as_deref().and_then(|w| w.history.as_ref())) {
             (true, Some(past)) => w.past.set(&past.state, (&past.vdot, &past.a), &past.lambda),
             _ => w.past.set(&w.y0, (vdot, vdot), lambda),
         }
@@ -320,7 +320,7 @@ where
                 break;
             }
         }
-        if let Some(a) = self.alpha.as_mut() {
+        if let Some(a) = self.alpha.as_deref_mut() {
             match &mut a.history {
                 Some(past) => w.it.history_into(past),
                 None => {
@@ -345,7 +345,7 @@ where
         self.forces_into(&w.it.state, &mut w.q);
         mass_times_into(&self.inertias, &w.it.vdot, &mut w.mass);
         jt_mul_into::<S, NB, NNZ>(&w.values, w.it.lambda.as_slice(), w.jt.as_mut_slice());
-        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let ws = self.alpha.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let parts = w.mass.as_slice().iter().zip(w.jt.as_slice().iter()).zip(w.q.as_slice().iter());
         for (r, ((m, j), q)) in ws.rhs.head.iter_mut().zip(parts) {
             *r = m + j - q;
@@ -367,7 +367,7 @@ where
         dlambda: &mut SVector<f64, M>,
     ) -> Result<(), AnalysisError> {
         let dropped = self.solver.factor.dropped();
-        let w = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let w = self.alpha.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         for (r, (o, x)) in w.rhs.tail.iter_mut().zip(r2.iter()).enumerate() {
             *o = if dropped.binary_search(&r).is_ok() { 0.0 } else { x / h };
         }
@@ -392,7 +392,7 @@ where
         update_blocks_into(&w.it.dq, h, &mut w.t);
         let (it, t) = (&w.it, &w.t);
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
-        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let ws = self.alpha.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         ws.fill_terms(self.scene, &it.state, &it.lambda, &it.v, by_differences)?;
         let kkt = &mut ws.kkt;
         kkt.clear();

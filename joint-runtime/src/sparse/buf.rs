@@ -26,20 +26,32 @@ pub(crate) fn filled<T: Copy, const N: usize>(v: T) -> Buf<T, N> {
 }
 
 /// A workspace: boxed with `alloc` (off the stack, and cheap to move),
-/// inline without.
-#[cfg(feature = "alloc")]
-pub(crate) type Boxed<T> = alloc::boxed::Box<T>;
-#[cfg(not(feature = "alloc"))]
-pub(crate) type Boxed<T> = T;
+/// inline without; either way a pointer-like value (`Deref`), so the code
+/// that uses it is the same.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Boxed<T>(#[cfg(feature = "alloc")] alloc::boxed::Box<T>, #[cfg(not(feature = "alloc"))] T);
+
+impl<T> core::ops::Deref for Boxed<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+impl<T> core::ops::DerefMut for Boxed<T> {
+    fn deref_mut(&mut self) -> &mut T {
+        &mut self.0
+    }
+}
 
 /// `x` where a workspace lives.
 pub(crate) fn boxed<T>(x: T) -> Boxed<T> {
     #[cfg(feature = "alloc")]
     {
-        alloc::boxed::Box::new(x)
+        Boxed(alloc::boxed::Box::new(x))
     }
     #[cfg(not(feature = "alloc"))]
     {
-        x
+        Boxed(x)
     }
 }

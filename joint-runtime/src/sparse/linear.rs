@@ -139,7 +139,7 @@ where
         let a_q = self.accelerations(&t.r1q, &t.r2q);
         let phi = transition_matrix::<NB, NV>(&w, h, r_w, &a_q)?;
         *state = y1;
-        if let Some(ws) = self.alpha.as_mut() {
+        if let Some(ws) = self.alpha.as_deref_mut() {
             ws.history = None;
         }
         Ok(phi)

@@ -101,7 +101,9 @@ where
 {
     /// One step of the implicit midpoint rule from `y0` (normalised, its rule
     /// of redundant rows just factorised, its accelerations `vdot`); returns
-    /// the state, Newton iterations and iteration matrices built.
+    /// the state, Newton iterations and iteration matrices built (the
+    /// state-transition Jacobian's nominal step, `linear.rs`).
+    #[cfg(feature = "alloc")]
     #[inline(never)]
     pub(super) fn step_midpoint(
         &mut self,
@@ -225,7 +227,7 @@ where
         let dropped = self.solver.factor.dropped();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
         let stabilisation = self.options.stabilisation.coefficients();
-        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let ws = self.alpha.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         let (state, d) = (&m.mid.state, &m.mid.dynamics);
         // ∂(J a)/∂q + 2α ∂(J v)/∂q in one: J u is linear in u.
         velocity_vector_into(state, &mut m.u);
@@ -261,7 +263,7 @@ where
         mass_times_into(&self.inertias, &m.r, &mut m.mr);
         j_mul_into::<S, NB, NNZ>(&m.mid.values, m.r.as_slice(), m.jr.as_mut_slice());
         let dropped = self.solver.factor.dropped();
-        let ws = self.alpha.as_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
+        let ws = self.alpha.as_deref_mut().ok_or(AnalysisError::BadOption { name: "integrator" })?;
         for (out, x) in ws.rhs.head.iter_mut().zip(m.mr.as_slice().iter()) {
             *out = -x;
         }

@@ -1,7 +1,7 @@
 //! Scenes that scale: the constrained dynamics of a [`Scene`](crate::Scene)
 //! through its compile-time structure, in time and memory proportional to the
-//! scene (the block factor, [`SparseAnalysis`] and [`Simulation`]'s RK4
-//! without an allocator; its implicit integrators with feature `alloc`).
+//! scene, in storage sized by the derive (no allocator needed; with `alloc`
+//! boxed, and the linearisation's dense outputs).
 //!
 //! The derive fixes, for every scene, which bodies each joint connects, a
 //! fill-reducing elimination order of the joint blocks of `J M⁻¹ Jᵀ` (minimum
@@ -46,31 +46,23 @@
 //! the dense path's linearisation and state-transition Jacobian (`linear.rs`):
 //! dense outputs, built column by column on the block factor.
 
-#[cfg(feature = "alloc")]
 mod adaptive;
-#[cfg(feature = "alloc")]
 mod alpha;
 mod analysis;
 mod buf;
-#[cfg(feature = "alloc")]
 mod differences;
 mod factor;
 mod kkt;
 #[cfg(feature = "alloc")]
 mod linear;
-#[cfg(feature = "alloc")]
 mod loads;
-#[cfg(feature = "alloc")]
 mod midpoint;
-#[cfg(feature = "alloc")]
 mod radau;
 mod second_order;
 mod simulation;
 mod solver;
 
 pub use analysis::SparseAnalysis;
-#[cfg(feature = "alloc")]
-#[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
 pub use differences::DifferenceTerms;
 pub use factor::{BlockFactor, FactorArrays, FactorStorage};
 pub use kkt::{KktArrays, KktEntry, KktStorage};

@@ -173,7 +173,7 @@ where
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;
         let bad = || AnalysisError::BadOption { name: "integrator" };
         let (Some(ws), Some(radau), Some(sc)) =
-            (self.alpha.as_mut(), self.radau.as_deref_mut(), self.radau_scratch.as_deref_mut())
+            (self.alpha.as_deref_mut(), self.radau.as_deref_mut(), self.radau_scratch.as_deref_mut())
         else {
             return Err(bad());
         };

@@ -4,12 +4,9 @@
 use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
-#[cfg(feature = "alloc")]
 use super::alpha::{AlphaWork, AlphaWorkspace};
 use super::buf::{Boxed, boxed};
-#[cfg(feature = "alloc")]
 use super::midpoint::MidpointWork;
-#[cfg(feature = "alloc")]
 use super::radau::{RadauScratch, RadauWorkspace};
 use super::solver::{Solver, j_mul, j_mul_into, jt_mul_into, non_finite};
 use crate::OmegaBody;
@@ -17,7 +14,6 @@ use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, NewtonWork, RowList, apply_increment, apply_metric_into, check_output,
     check_state, normalise_orientations, set_velocities, velocity_vector, velocity_vector_into,
 };
-#[cfg(feature = "alloc")]
 use crate::dynamics::radau::{RadauHistory, RadauWork, step_radau_in};
 use crate::dynamics::{
     AppliedLoads, Dynamics, Energy, Integrator, Loads, Mechanics, Rate, Reaction, SimulationOptions, SpringDamper,
@@ -29,7 +25,6 @@ use crate::scene::{BodyInertia, RowBlock, Scene, SparseJacobian, SystemState};
 /// Constrained accelerations and multipliers at one state: what the
 /// integrators read of a solve ([`Dynamics`] without its copies of `Q` and
 /// the dropped rows).
-#[cfg(feature = "alloc")]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Accelerations<const NV: usize, const M: usize> {
     /// `v̇ = [r̈_0, ω̇'_0, ...]`.
@@ -45,10 +40,12 @@ pub(crate) struct Accelerations<const NV: usize, const M: usize> {
 /// factor of `J M⁻¹ Jᵀ` (see [`sparse`](super)) and, for the implicit
 /// integrators, their exact Newton matrices in saddle-point form over bodies
 /// and joints. The workspaces of the configured integrator are made in
-/// [`Simulation::new`]; a step allocates nothing. Without feature `alloc`,
-/// RK4 runs with every workspace inline (the factor's arrays sized by the
-/// derive) and `new` refuses the implicit integrators, which
-/// [`DenseSimulation`](crate::dynamics::DenseSimulation) runs without it.
+/// [`Simulation::new`]; a step allocates nothing. Every array has a size
+/// the derive computed for the scene (`SparseJacobian::Factor`, `Kkt`,
+/// `Terms`); with feature `alloc` the workspaces are boxed, without it they
+/// live inline and every integrator still runs (springs between bodies no
+/// joint joins excepted under an implicit integrator: their pattern is found
+/// at run time, with `alloc`).
 pub struct Simulation<
     'a,
     S: SparseJacobian<NB, NNZ>,
@@ -69,28 +66,21 @@ pub struct Simulation<
     /// tolerance of the factorisation of `J W Jᵀ` it made there, which the
     /// dynamics at that state reuse while the factor holds it.
     projected: Boxed<(SystemState<NB>, Option<(u64, f64)>)>,
-    #[cfg(feature = "alloc")]
     /// Generalised-α's pattern, factor and history (the implicit
     /// integrators only).
     pub(super) alpha: Option<Boxed<SceneAlpha<S, NB, NV, M, NNZ>>>,
-    #[cfg(feature = "alloc")]
     /// Radau IIA's matrices on that pattern, and its history.
     pub(super) radau: Option<Boxed<SceneRadau<S, NB, NV, M, NNZ>>>,
-    #[cfg(feature = "alloc")]
     pub(super) radau_history: Option<RadauHistory<NB, NV, ()>>,
-    #[cfg(feature = "alloc")]
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again), and its host's
     /// vectors.
     pub(super) radau_scratch: Option<Boxed<RadauScratch<NB, NV, M>>>,
-    #[cfg(feature = "alloc")]
     /// A Radau step's states and stages.
     pub(super) radau_work: Option<Boxed<RadauWork<NB, NV>>>,
     /// The implicit midpoint rule's iterate (with `alpha`).
-    #[cfg(feature = "alloc")]
     pub(super) midpoint: Option<Boxed<MidpointWork<NB, NV, M, NNZ>>>,
     /// Generalised-α's iterate and Newton vectors (with `alpha`).
-    #[cfg(feature = "alloc")]
     pub(super) alpha_work: Option<Boxed<AlphaWork<NB, NV, M, NNZ>>>,
     /// The vectors of a solve and the stages of an RK4 step, kept here
     /// rather than in a step's frames (allocated once, in `new`).
@@ -102,12 +92,10 @@ pub struct Simulation<
 }
 
 /// The implicit integrators' workspace in the scene's arrays.
-#[cfg(feature = "alloc")]
 type SceneAlpha<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> =
     AlphaWorkspace<<S as SparseJacobian<NB, NNZ>>::Kkt<f64>, <S as SparseJacobian<NB, NNZ>>::Terms, NB, NV, M, NNZ>;
 
 /// Radau's workspace in the scene's saddle-point arrays.
-#[cfg(feature = "alloc")]
 type SceneRadau<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> = RadauWorkspace<
     <S as SparseJacobian<NB, NNZ>>::Kkt<f64>,
     <S as SparseJacobian<NB, NNZ>>::Kkt<nalgebra::Complex<f64>>,
@@ -115,16 +103,6 @@ type SceneRadau<S, const NB: usize, const NV: usize, const M: usize, const NNZ: 
     M,
     NNZ,
 >;
-
-/// Without `alloc`, the implicit integrators (their saddle-point workspaces
-/// are not yet sized at compile time) are refused rather than ignored.
-#[cfg(not(feature = "alloc"))]
-fn implicit_needs_alloc(integrator: Integrator) -> Result<(), AnalysisError> {
-    match integrator {
-        Integrator::Rk4 => Ok(()),
-        _ => Err(AnalysisError::BadOption { name: "integrator (implicit ones need feature `alloc`)" }),
-    }
-}
 
 /// A solve's vectors: `J`'s values, `γ`, the loads and `Q`, `W Q`, `λ`,
 /// `Jᵀ λ`, `v̇` and the residual `J v̇ − γ`.
@@ -232,8 +210,6 @@ where
         springs: &'a [SpringDamper],
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
-        #[cfg(not(feature = "alloc"))]
-        implicit_needs_alloc(options.integrator)?;
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
         let projected = boxed((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
@@ -246,19 +222,12 @@ where
             gravity,
             solver,
             projected,
-            #[cfg(feature = "alloc")]
             alpha: None,
-            #[cfg(feature = "alloc")]
             radau: None,
-            #[cfg(feature = "alloc")]
             radau_history: None,
-            #[cfg(feature = "alloc")]
             radau_scratch: None,
-            #[cfg(feature = "alloc")]
             radau_work: None,
-            #[cfg(feature = "alloc")]
             midpoint: None,
-            #[cfg(feature = "alloc")]
             alpha_work: None,
             work: SolveWork::new(),
             rk4: Some(Rk4Work::new()),
@@ -266,7 +235,6 @@ where
         };
         // The implicit integrators' workspaces with their pattern: a step
         // allocates nothing.
-        #[cfg(feature = "alloc")]
         let sim = {
             let mut sim = sim;
             sim.prepare(options.integrator)?;
@@ -295,10 +263,8 @@ where
         &self.solver.factor
     }
 
-    #[cfg(feature = "alloc")]
     /// The 6 × 6 blocks generalised-α's iteration matrix stores (its memory,
     /// fill included); `None` for RK4.
-    #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
     pub fn iteration_blocks(&self) -> Option<usize> {
         self.alpha.as_deref().map(AlphaWorkspace::blocks)
     }
@@ -317,7 +283,6 @@ where
 
     /// The dynamics; `keep` factorises under the step's rule, `check` holds the
     /// dropped rows to [`REDUNDANT_TOLERANCE`].
-    #[cfg(feature = "alloc")]
     pub(super) fn solve(
         &mut self,
         state: &SystemState<NB>,
@@ -416,7 +381,6 @@ where
         self.solver.redundant()
     }
 
-    #[cfg(feature = "alloc")]
     /// One RK4 stage: the rate at `state` under the step's rule.
     pub(super) fn rate(&mut self, state: &SystemState<NB>) -> Result<Rate<NB, NV>, AnalysisError> {
         Ok(Rate::new(state, self.solve(state, true, false)?.vdot))
@@ -438,23 +402,16 @@ where
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
-        #[cfg(feature = "alloc")]
         self.prepare(self.options.integrator)?;
         let mut report = StepReport::default();
         // Each integrator in a frame of its own: a step's stack is the one
         // integrator's, not the sum of all four.
         match self.options.integrator {
             Integrator::Rk4 => self.advance_rk4(state, h, &mut report)?,
-            #[cfg(feature = "alloc")]
             Integrator::GeneralisedAlpha => self.advance_alpha(state, h, &mut report)?,
-            #[cfg(feature = "alloc")]
             Integrator::RadauIIA => self.advance_radau(state, h, &mut report)?,
-            #[cfg(feature = "alloc")]
             Integrator::ImplicitMidpoint => self.advance_midpoint(state, h, &mut report)?,
-            #[cfg(not(feature = "alloc"))]
-            implicit => implicit_needs_alloc(implicit)?,
         }
-        #[cfg(feature = "alloc")]
         self.follow(state, self.options.integrator);
         Ok(report)
     }
@@ -490,7 +447,6 @@ where
         stepped
     }
 
-    #[cfg(feature = "alloc")]
     /// A generalised-α step from `state`, projected, into `state`.
     #[inline(never)]
     fn advance_alpha(
@@ -501,11 +457,10 @@ where
     ) -> Result<(), AnalysisError> {
         self.alpha_workspace()?;
         // Generalised-α goes on from its last step only if handed back its state.
-        let continuing = self.alpha.as_ref().and_then(|w| w.history.as_ref()).is_some_and(|h| h.state == *state);
+        let continuing = self.alpha.as_deref().and_then(|w| w.history.as_ref()).is_some_and(|h| h.state == *state);
         self.alpha_in_work(state, h, continuing, report)
     }
 
-    #[cfg(feature = "alloc")]
     /// A Radau IIA step from `state`, projected, into `state`.
     #[inline(never)]
     fn advance_radau(
@@ -521,7 +476,6 @@ where
         stepped
     }
 
-    #[cfg(feature = "alloc")]
     /// [`advance_radau`](Self::advance_radau) on the taken-out work `w`.
     fn radau_started(
         &mut self,
@@ -539,7 +493,6 @@ where
         Ok(())
     }
 
-    #[cfg(feature = "alloc")]
     /// The last solve's dynamics (at `y0`) as a Radau step's start.
     pub(super) fn remember_radau_start(&mut self, y0: &SystemState<NB>) {
         if let Some(sc) = self.radau_scratch.as_deref_mut() {
@@ -547,7 +500,6 @@ where
         }
     }
 
-    #[cfg(feature = "alloc")]
     /// An implicit midpoint step from `state`, projected, into `state`.
     #[inline(never)]
     fn advance_midpoint(
@@ -585,7 +537,6 @@ where
         report.velocity_residual = (j_mul::<S, NB, NNZ, NV, M>(&self.work.values, &v) + self.scene.phi_t(y)).norm();
     }
 
-    #[cfg(feature = "alloc")]
     /// A step's start: `state` checked and normalised, its dynamics, and the
     /// rule of redundant rows every stage of the step keeps.
     pub(super) fn step_start(
@@ -597,7 +548,6 @@ where
         Ok((y0, Accelerations { vdot: self.work.vdot, lambda: self.work.lambda }))
     }
 
-    #[cfg(feature = "alloc")]
     /// The generalised forces at `state` into `q`, their loads gathered in
     /// the workspace.
     pub(super) fn forces_into(&mut self, state: &SystemState<NB>, q: &mut SVector<f64, NV>) {
@@ -605,7 +555,6 @@ where
         generalised_forces_into(&mut self.loads, springs, &self.inertias, &self.gravity, state, loads, q);
     }
 
-    #[cfg(feature = "alloc")]
     /// The user's loads and the gyroscopic terms at `state` (the generalised
     /// forces without gravity or springs) into `q`.
     pub(super) fn user_forces_into(&mut self, state: &SystemState<NB>, q: &mut SVector<f64, NV>) {
@@ -613,7 +562,6 @@ where
         generalised_forces_into(&mut self.loads, &[], &self.inertias, &zero, state, loads, q);
     }
 
-    #[cfg(feature = "alloc")]
     /// The accelerations and multipliers of the last solve (in the
     /// workspace): after [`begin`](Self::begin), the step's start's.
     pub(super) fn solved(&self) -> (&SVector<f64, NV>, &SVector<f64, M>) {
@@ -632,7 +580,6 @@ where
         Ok(())
     }
 
-    #[cfg(feature = "alloc")]
     /// Generalised-α's workspace, built at its first use if
     /// [`Simulation::new`] did not (another integrator, then
     /// [`integrate`](Self::integrate) with it): allocated once.
@@ -643,7 +590,6 @@ where
         Ok(())
     }
 
-    #[cfg(feature = "alloc")]
     /// [`alpha_workspace`](Self::alpha_workspace)'s construction, in a frame
     /// of its own: a step that finds the workspace made never enters it.
     #[cold]
@@ -655,7 +601,6 @@ where
         Ok(())
     }
 
-    #[cfg(feature = "alloc")]
     /// The workspaces `integrator` steps in, built here unless they exist:
     /// [`Simulation::new`] calls it, so that no step allocates; a step with
     /// an integrator the simulation was not made for calls it once.
@@ -673,7 +618,6 @@ where
         }
     }
 
-    #[cfg(feature = "alloc")]
     /// Radau's workspace on the implicit pattern, in a frame of its own.
     #[cold]
     #[inline(never)]
@@ -808,7 +752,6 @@ where
     }
 }
 
-#[cfg(feature = "alloc")]
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
     Simulation<'_, S, L, NB, NV, M, NNZ>
 {
@@ -816,7 +759,7 @@ impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: u
     /// its own follows the state, the others' are dropped (as on the dense
     /// path).
     pub(super) fn follow(&mut self, state: &SystemState<NB>, integrator: Integrator) {
-        if let Some(w) = self.alpha.as_mut() {
+        if let Some(w) = self.alpha.as_deref_mut() {
             match (&mut w.history, integrator) {
                 (Some(history), Integrator::GeneralisedAlpha) => history.state = *state,
                 _ => w.history = None,

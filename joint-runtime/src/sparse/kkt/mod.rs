@@ -22,10 +22,6 @@
 //! On a chain or a ladder of loops the fill stays within a few neighbouring
 //! nodes, so a factorisation costs `O(N)` block operations.
 
-// Without `alloc` only the storage is used so far (every scene names its
-// arrays); the implicit integrators that factorise on it still need `alloc`.
-#![cfg_attr(not(feature = "alloc"), allow(dead_code))]
-
 #[cfg(feature = "alloc")]
 mod pattern;
 mod storage;
@@ -101,6 +97,8 @@ enum Place {
 enum Store<T, A> {
     Fixed(A),
     /// Boxed: the vectors' headers would make every `Fixed` as large.
+    /// (Without `alloc` its type has no values: never made.)
+    #[cfg_attr(not(feature = "alloc"), allow(dead_code))]
     Grown(Boxed<KktVecs<T>>),
 }
 
