@@ -23,7 +23,7 @@ use crate::scene::RowBlock;
 /// The scene's `K = ∂(Jᵀλ)/∂q` is the sum of the joints' blocks. The layout
 /// borrows the scene's constants and stores nothing else (no allocator):
 /// offsets are running sums, so walking the joints in order
-/// ([`joints`](Self::joints)) is free, and looking one row up
+/// ([`stiffness`](Self::stiffness)) is free, and looking one row up
 /// ([`row`](Self::row)) walks the joints before it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SecondOrderLayout<'s> {
