@@ -121,6 +121,9 @@ where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     let mut sim = Simulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
+    // An error-controlled run names its method apart from the options'
+    // integrator: its workspace is made here (`integrate` never allocates).
+    sim.prepare(Integrator::RadauIIA).expect("prepared");
     advance(&mut sim, start, t_end, how)
 }
 
@@ -279,6 +282,7 @@ fn sparse_newton_matrices_by_differences() {
     }
     let options = SimulationOptions::default().with_newton_matrix(NewtonMatrix::FiniteDifferences);
     let mut sparse = Simulation::new(&scene, NoLoads, &springs, options).expect("RK4 takes the option");
+    sparse.prepare(Integrator::GeneralisedAlpha).expect("prepared");
     let mut state = start;
     let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
     sparse.integrate(&mut state, 0.01, Adaptive::GeneralisedAlpha, tolerance).expect("differences");

@@ -22,9 +22,9 @@
 //!   `velocities`, `accelerations`; `DenseSimulation::new`, `step`, `dynamics`,
 //!   `project`, `reactions` and `energy`; the free shaft's `second_order` and
 //!   `integrate` ([`scenes`]); and the free shaft on the one `Simulation` (the
-//!   block factor of `J M⁻¹ Jᵀ`): an RK4 `step` with every stabilisation and
-//!   projection option, Dormand–Prince `integrate`, `dynamics`, `project`,
-//!   `reactions` and `energy`. The integrator,
+//!   block factor of `J M⁻¹ Jᵀ` and the saddle-point matrices): `step` with
+//!   every integrator, stabilisation and projection option, `integrate` with
+//!   every method, `dynamics`, `project`, `reactions` and `energy`. The integrator,
 //!   stabilisation, projection and springs are run-time options, so every one of
 //!   them is inside the checked `step`.
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`

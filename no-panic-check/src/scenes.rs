@@ -9,12 +9,14 @@
 //!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`,
 //!   derived with `second_order`: its `step` checks the implicit integrators'
 //!   exact Newton matrices, and `integrate` the error-controlled steps.
-//! - [`block`]: the free shaft on the one `Simulation` (the block factor):
-//!   RK4 steps, Dormand–Prince `integrate`, `dynamics`, `project`,
-//!   `reactions`, `energy`. Its implicit integrators (saddle-point matrices in
-//!   run-time-sized storage) and `new` (which allocates its workspaces with
-//!   `alloc`, and an allocation's failure path counts as a panic) are not
-//!   checked yet.
+//! - [`block`]: the free shaft on the one `Simulation` (the block factor and
+//!   the saddle-point matrices): `step` with every integrator (RK4, the
+//!   implicit midpoint rule, generalised-α, Radau IIA: the integrator is an
+//!   argument), `integrate` with every method, `dynamics`, `project`,
+//!   `reactions`, `energy`. A step never builds a workspace (`new` and
+//!   `Simulation::prepare` do), so none of this allocates. `new` is not
+//!   checked: it allocates its workspaces with `alloc`, and an allocation's
+//!   failure path counts as a panic.
 //!
 //! Every branch the options select at run time (integrator, stabilisation,
 //! projection, springs) is part of the checked code: the options are arguments.
@@ -166,9 +168,9 @@ pub mod free {
 }
 
 /// The free shaft on the one [`Simulation`](joint_runtime::dynamics::Simulation)
-/// (the block factor of `J M⁻¹ Jᵀ`). The wrappers fix the integrator (RK4,
-/// Dormand–Prince), so the implicit integrators' branches are not part of the
-/// checked code.
+/// (the block factor of `J M⁻¹ Jᵀ`, the implicit integrators' saddle-point
+/// matrices): the integrator and the adaptive method are arguments, so every
+/// one of their branches is part of the checked code.
 pub mod block {
     use super::*;
     use joint_examples::double_cardan::FreeDoubleCardan;
@@ -177,8 +179,13 @@ pub mod block {
     type Sim<'a> = Simulation<'a, FreeDoubleCardan, Push, 3, 18, 18, 60>;
 
     checked! {
-        fn rk4_step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
-            sim.options.integrator = Integrator::Rk4;
+        fn step(
+            sim: &mut Sim<'_>,
+            state: &mut SystemState<3>,
+            h: f64,
+            integrator: Integrator,
+        ) -> Result<StepReport, AnalysisError> {
+            sim.options.integrator = integrator;
             sim.step(state, h)
         }
         fn dynamics(sim: &mut Sim<'_>, state: &SystemState<3>) -> Result<Dynamics<18, 18>, AnalysisError> {
@@ -200,14 +207,14 @@ pub mod block {
             sim.reactions(state, lambda, block)
         }
         fn energy(sim: &Sim<'_>, state: &SystemState<3>) -> Energy { sim.energy(state) }
-        fn dormand_prince(
+        fn integrate(
             sim: &mut Sim<'_>,
             state: &mut SystemState<3>,
             t_end: f64,
+            method: Adaptive,
             tolerance: Tolerance,
         ) -> Result<IntegrationReport, AnalysisError> {
-            sim.options.integrator = Integrator::Rk4;
-            sim.integrate(state, t_end, Adaptive::DormandPrince, tolerance)
+            sim.integrate(state, t_end, method, tolerance)
         }
     }
 }

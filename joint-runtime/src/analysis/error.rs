@@ -80,6 +80,14 @@ pub enum AnalysisError {
         /// The option.
         name: &'static str,
     },
+    /// A step or `integrate` asked for an integrator whose workspace the
+    /// simulation has not made: `Simulation::new` makes the configured
+    /// integrator's, `Simulation::prepare` another's (a step never builds
+    /// one, so it never allocates).
+    NotPrepared {
+        /// The integrator.
+        integrator: &'static str,
+    },
     /// The implicit integrator's Newton iteration did not converge.
     ImplicitNotConverged {
         /// Iterations taken.
@@ -157,6 +165,9 @@ impl fmt::Display for AnalysisError {
                 write!(f, "body `{body}` has a non-positive mass or a singular inertia tensor")
             }
             AnalysisError::BadOption { name } => write!(f, "option `{name}` is out of range"),
+            AnalysisError::NotPrepared { integrator } => {
+                write!(f, "no workspace for {integrator}: call `Simulation::prepare` first (a step never allocates)")
+            }
             AnalysisError::ImplicitNotConverged { iterations, correction } => write!(
                 f,
                 "implicit integrator: Newton did not converge in {iterations} iterations (last correction {correction:.3e})"

@@ -90,12 +90,13 @@ pub(crate) fn velocity_vector_into<const NB: usize, const NV: usize>(
 
 /// Writes `[ṙ_0, ω'_0, ...]` into the bodies.
 pub(crate) fn set_velocities<const NB: usize, const NV: usize>(state: &mut SystemState<NB>, v: &SVector<f64, NV>) {
-    for (i, b) in state.bodies.iter_mut().enumerate() {
-        if 6 * i + 6 > NV {
-            break;
+    // Six entries a body, matched by pattern: no index to check (the
+    // optimiser could not always see `6 i + 6 ≤ NV`; `no-panic-check`).
+    for (b, chunk) in state.bodies.iter_mut().zip(v.as_slice().chunks_exact(6)) {
+        if let [x, y, z, wx, wy, wz] = *chunk {
+            b.rdot = Vector3::new(x, y, z);
+            b.omega = Vector3::new(wx, wy, wz);
         }
-        b.rdot = v.fixed_rows::<3>(6 * i).into_owned();
-        b.omega = v.fixed_rows::<3>(6 * i + 3).into_owned();
     }
 }
 

@@ -593,10 +593,11 @@ pub(crate) fn advance_into<'r, const NB: usize, const NV: usize>(
 /// The dense reference path: [`Simulation`]'s equations with the full `J`
 /// (`M × NV`) and `J M⁻¹ Jᵀ` (`M × M`) on the stack, so its step's stack
 /// grows with the square of the scene (a 40-body chain overflows a 2 MiB
-/// thread). Use [`Simulation`]; this type stays, with the same methods, only
-/// while it still does one thing the one simulation does not yet: its `new`
-/// and implicit steps carry the no-panic proof (`no-panic-check`; the one
-/// simulation's RK4 steps do too). It goes when that moves over.
+/// thread). Use [`Simulation`]; this type stays, with the same methods, as
+/// the tests' dense reference and for one thing the one simulation does not
+/// do: its `new` carries the no-panic proof (`no-panic-check`; the one
+/// simulation's `step` with every integrator and `integrate` do too, its
+/// `new` allocates with `alloc`).
 pub struct DenseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: usize> {
     scene: &'a S,
     loads: L,

@@ -3,6 +3,7 @@
 //! stages, generalised-α and Radau steps and projection.
 
 use super::Simulation;
+use super::simulation::with_taken;
 use crate::analysis::{AnalysisError, check_state};
 use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
 use crate::dynamics::radau::step_radau;
@@ -16,13 +17,16 @@ where
 {
     /// Advances `state` to time `t_end` with error-controlled steps of
     /// `method`, projecting after every accepted step if the options say so,
-    /// in time and memory proportional to the scene. An implicit method's
-    /// workspace is allocated here if [`Simulation::new`] did not (once, not
-    /// per step).
+    /// in time and memory proportional to the scene. An implicit method
+    /// steps in the workspace [`Simulation::new`] made for it (that integrator
+    /// in the options) or [`Simulation::prepare`]: `integrate` never builds
+    /// one, so it never allocates.
     ///
     /// # Errors
     /// [`AnalysisError::BadOption`] for tolerances that are not positive and
-    /// finite or a `t_end` before the state's time; failures of the dynamics or
+    /// finite or a `t_end` before the state's time;
+    /// [`AnalysisError::NotPrepared`] for an implicit method whose workspace
+    /// was not made; failures of the dynamics or
     /// of the projection; [`AnalysisError::StepTooSmall`] when the step size
     /// falls below `1e-14 (1 + |t|)` or past ten million steps. On error
     /// `state` holds the last accepted step.
@@ -61,7 +65,8 @@ where
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
         match method {
-            Adaptive::GeneralisedAlpha | Adaptive::RadauIIA => self.alpha_workspace()?,
+            Adaptive::GeneralisedAlpha => self.ready(crate::dynamics::Integrator::GeneralisedAlpha)?,
+            Adaptive::RadauIIA => self.ready(crate::dynamics::Integrator::RadauIIA)?,
             Adaptive::DormandPrince => {}
         }
         integrate(self, state, t_end, method, tolerance)
@@ -116,12 +121,9 @@ where
             Adaptive::RadauIIA => {
                 let mut y1 = y;
                 // `step_start` left its solve at `y` in the workspace.
-                self.prepare(crate::dynamics::Integrator::RadauIIA)?;
                 self.remember_radau_start(&y);
-                let mut w = self.radau_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-                let step = step_radau(self, &mut w, &mut y1, h, Some(tolerance));
-                self.radau_work = Some(w);
-                let step = step?;
+                let step =
+                    with_taken(self, |s| &mut s.radau_work, |sim, w| step_radau(sim, w, &mut y1, h, Some(tolerance)))?;
                 report.newton_iterations += step.iterations;
                 report.newton_matrices += step.matrices;
                 report.evaluations += step.evaluations;

@@ -27,6 +27,7 @@ use super::differences::{DifferenceTerms, DifferenceWork};
 use super::kkt::{Block, Kkt, KktStorage, NodeVector};
 use super::loads::{LoadColouring, body_pairs};
 use super::second_order::{SecondOrderLayout, TermStorage};
+use super::simulation::with_taken;
 use super::solver::{jt_mul_into, non_finite};
 use crate::OmegaBody;
 use crate::analysis::{AnalysisError, check_output, velocity_vector_into};
@@ -235,12 +236,15 @@ where
     ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
         let c = Coefficients::checked(self.options.spectral_radius)?;
         // Made with the implicit pattern (`alpha_workspace`).
-        let mut w = self.alpha_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        w.y0 = *y0;
-        self.alpha_past(&mut w, continuing, (&start.0, &start.1));
-        let step = self.alpha_newton(&mut w, h, c).map(|(i, m)| (w.it.state, i, m));
-        self.alpha_work = Some(w);
-        step
+        with_taken(
+            self,
+            |s| &mut s.alpha_work,
+            |sim, w| {
+                w.y0 = *y0;
+                sim.alpha_past(w, continuing, (&start.0, &start.1));
+                sim.alpha_newton(w, h, c).map(|(i, m)| (w.it.state, i, m))
+            },
+        )
     }
 
     /// A generalised-α step from `state` (checked, normalised and solved
@@ -254,10 +258,7 @@ where
         report: &mut crate::dynamics::StepReport,
     ) -> Result<(), AnalysisError> {
         let c = Coefficients::checked(self.options.spectral_radius)?;
-        let mut w = self.alpha_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let step = self.alpha_started(&mut w, state, h, continuing, c, report);
-        self.alpha_work = Some(w);
-        step
+        with_taken(self, |s| &mut s.alpha_work, |sim, w| sim.alpha_started(w, state, h, continuing, c, report))
     }
 
     /// [`alpha_in_work`](Self::alpha_in_work) on the taken-out work `w`.
@@ -445,7 +446,7 @@ pub(super) fn add_stiffness(
                 let out = kkt.block_mut(a, b).ok_or_else(missing)?;
                 for r in 0..6 {
                     for col in 0..6 {
-                        out[6 * r + col] += h * block[(6 * i + r) * n + 6 * j + col];
+                        out[6 * r + col] += h * block.get((6 * i + r) * n + 6 * j + col).copied().unwrap_or(0.0);
                     }
                 }
             }
@@ -504,19 +505,27 @@ pub(super) fn add_rows<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: u
 ) -> Result<(), AnalysisError> {
     for (r, (window, &(joint, local))) in S::ROW_STARTS.windows(2).zip(row_joint).enumerate() {
         if dropped.binary_search(&r).is_ok() {
-            kkt.block_mut(joint, joint).ok_or_else(missing)?[6 * local + local] = 1.0;
+            if let Some(x) = kkt.block_mut(joint, joint).ok_or_else(missing)?.get_mut(6 * local + local) {
+                *x = 1.0;
+            }
             continue;
         }
         for (&col, &v) in S::COLUMNS.iter().zip(values.iter()).take(window[1]).skip(window[0]) {
             let (b, k) = (col / 6, col % 6);
-            kkt.block_mut(b, joint).ok_or_else(missing)?[6 * k + local] = v;
+            if let Some(x) = kkt.block_mut(b, joint).ok_or_else(missing)?.get_mut(6 * k + local) {
+                *x = v;
+            }
             let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
             if k < 3 {
-                row[6 * local + k] = v;
+                if let Some(x) = row.get_mut(6 * local + k) {
+                    *x = v;
+                }
             } else {
                 let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
                 for l in 0..3 {
-                    row[6 * local + 3 + l] += v * jr[(k - 3, l)];
+                    if let Some(x) = row.get_mut(6 * local + 3 + l) {
+                        *x += v * jr[(k - 3, l)];
+                    }
                 }
             }
         }

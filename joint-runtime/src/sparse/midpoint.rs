@@ -32,6 +32,7 @@ use super::buf::{Boxed, boxed};
 use super::kkt::{Kkt, KktStorage};
 use super::second_order::{RowTerm, SecondOrderLayout, TermStorage};
 use super::simulation::Accelerations;
+use super::simulation::with_taken;
 use super::solver::j_mul_into;
 use crate::OmegaBody;
 use crate::analysis::{AnalysisError, velocity_vector_into};
@@ -113,12 +114,15 @@ where
     ) -> Result<(SystemState<NB>, usize, usize), AnalysisError> {
         // Made with the implicit pattern (`alpha_workspace`): no constructor
         // (and its temporaries) in this frame.
-        let mut m = self.midpoint.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        m.y0.clone_from(y0);
-        m.a0.copy_from(vdot);
-        let step = self.midpoint_newton(&mut m, h).map(|(i, n)| (m.end, i, n));
-        self.midpoint = Some(m);
-        step
+        with_taken(
+            self,
+            |s| &mut s.midpoint,
+            |sim, m| {
+                m.y0.clone_from(y0);
+                m.a0.copy_from(vdot);
+                sim.midpoint_newton(m, h).map(|(i, n)| (m.end, i, n))
+            },
+        )
     }
 
     /// An implicit midpoint step from `state` (checked, normalised and
@@ -130,10 +134,7 @@ where
         h: f64,
         report: &mut crate::dynamics::StepReport,
     ) -> Result<(), AnalysisError> {
-        let mut m = self.midpoint.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let step = self.midpoint_started(&mut m, state, h, report);
-        self.midpoint = Some(m);
-        step
+        with_taken(self, |s| &mut s.midpoint, |sim, m| sim.midpoint_started(m, state, h, report))
     }
 
     /// [`midpoint_in_work`](Self::midpoint_in_work) on the taken-out work `m`.
@@ -347,14 +348,18 @@ fn add_row<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize>(
     for (i, &b) in bodies.iter().enumerate() {
         let q = |k: usize| {
             let at = 6 * i + k;
-            cq * (ja[at] - gq[at] + 2.0 * alpha * pt[at] + beta * beta * j.get(at).copied().unwrap_or(0.0))
+            let e = |x: &[f64]| x.get(at).copied().unwrap_or(0.0);
+            cq * (e(ja) - e(gq) + 2.0 * alpha * e(pt) + beta * beta * e(&j))
         };
         let jr = t.get(b).copied().unwrap_or_else(Matrix3::identity);
         let row = kkt.block_mut(joint, b).ok_or_else(missing)?;
         for k in 0..6 {
             let dq = if k < 3 { q(k) } else { (0..3).map(|m| q(3 + m) * jr[(m, k - 3)]).sum() };
-            let dv = cv * (2.0 * alpha * j.get(6 * i + k).copied().unwrap_or(0.0) - gv[6 * i + k]);
-            row[6 * local + k] += dq + dv;
+            let dv = cv
+                * (2.0 * alpha * j.get(6 * i + k).copied().unwrap_or(0.0) - gv.get(6 * i + k).copied().unwrap_or(0.0));
+            if let Some(x) = row.get_mut(6 * local + k) {
+                *x += dq + dv;
+            }
         }
     }
     Ok(())

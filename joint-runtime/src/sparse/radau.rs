@@ -35,7 +35,7 @@ use super::second_order::TermStorage;
 use super::solver::j_mul_into;
 use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
-use crate::dynamics::{AppliedLoads, Integrator, NewtonMatrix, mass_times_into};
+use crate::dynamics::{AppliedLoads, NewtonMatrix, mass_times_into};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// Radau's matrices on the pattern and the scratch of their solves,
@@ -165,9 +165,6 @@ where
 
     /// `P₀`, `P₁`, `P₂` at `y0` (see the module docs).
     fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<((), usize), AnalysisError> {
-        // Built here only for `integrate` with Radau on a simulation made
-        // for another integrator (a step builds it first).
-        self.prepare(Integrator::RadauIIA)?;
         self.radau_start_ready(y0)?;
         let stabilisation = self.options.stabilisation.coefficients();
         let by_differences = self.options.newton_matrix == NewtonMatrix::FiniteDifferences;

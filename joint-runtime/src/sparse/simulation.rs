@@ -86,8 +86,9 @@ pub struct Simulation<
     /// rather than in a step's frames (allocated once, in `new`).
     work: Boxed<SolveWork<NB, NV, M, NNZ>>,
     rk4: Option<Boxed<Rk4Work<NB, NV>>>,
-    /// The options (may be changed between steps; an implicit integrator's
-    /// workspace is built in [`Simulation::new`] or at its first step).
+    /// The options (may be changed between steps; an implicit integrator
+    /// steps in the workspace [`Simulation::new`] or [`Simulation::prepare`]
+    /// built for it: a step never builds one).
     pub options: SimulationOptions,
 }
 
@@ -103,6 +104,27 @@ type SceneRadau<S, const NB: usize, const NV: usize, const M: usize, const NNZ: 
     M,
     NNZ,
 >;
+
+/// Runs `f` on the workspace in `slot` (made by `new` or
+/// [`Simulation::prepare`]), taken out while `f` borrows the simulation and
+/// always put back. Held without drop glue: a box dropped on unwinding, or
+/// the `None` the slot holds meanwhile dropped on putting back, would keep a
+/// call to `free` or a cleanup path that `no-panic-check` counts as a panic,
+/// and nothing here unwinds.
+pub(super) fn with_taken<T, W, R>(
+    sim: &mut T,
+    slot: impl Fn(&mut T) -> &mut Option<W>,
+    f: impl FnOnce(&mut T, &mut W) -> Result<R, AnalysisError>,
+) -> Result<R, AnalysisError> {
+    let Some(w) = slot(sim).take() else {
+        return Err(AnalysisError::BadOption { name: "workspace" });
+    };
+    let mut held = core::mem::ManuallyDrop::new(w);
+    let out = f(sim, &mut held);
+    // The slot is empty (taken above): forgetting what it held drops nothing.
+    core::mem::forget(slot(sim).replace(core::mem::ManuallyDrop::into_inner(held)));
+    out
+}
 
 /// A solve's vectors: `J`'s values, `γ`, the loads and `Q`, `W Q`, `λ`,
 /// `Jᵀ λ`, `v̇` and the residual `J v̇ − γ`.
@@ -193,8 +215,8 @@ where
 {
     /// A simulation of `scene` with user `loads` and `springs`; the block
     /// factor's schedule and the workspaces of `options.integrator` are
-    /// built here, once (an integrator switched to later builds its own at
-    /// its first step).
+    /// built here, once (for another integrator later, call
+    /// [`Simulation::prepare`]: a step never builds, so it never allocates).
     ///
     /// # Errors
     /// [`AnalysisError::BadInertia`] for a non-positive or non-finite mass or a
@@ -392,7 +414,8 @@ where
     ///
     /// # Errors
     /// [`AnalysisError::BadOption`] for a step that is not positive and finite;
-    /// non-finite inputs; failures of the dynamics, of the implicit iteration
+    /// [`AnalysisError::NotPrepared`] for an integrator whose workspace
+    /// neither `new` nor [`Simulation::prepare`] made; non-finite inputs; failures of the dynamics, of the implicit iteration
     /// (or a midpoint solution its energy balance refuses,
     /// [`AnalysisError::SpuriousSolution`]) or of the projection. The
     /// implicit integrators' Newton matrices take the scene's generated
@@ -402,7 +425,7 @@ where
         if !(h > 0.0 && h.is_finite()) {
             return Err(AnalysisError::BadOption { name: "step size" });
         }
-        self.prepare(self.options.integrator)?;
+        self.ready(self.options.integrator)?;
         let mut report = StepReport::default();
         // Each integrator in a frame of its own: a step's stack is the one
         // integrator's, not the sum of all four.
@@ -426,25 +449,20 @@ where
         h: f64,
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
-        // Taken out while the step borrows `self`, and always put back: `new`
-        // made it, so a step never allocates (nor has an allocation's failure
-        // path). Held without drop glue: a box dropped on unwinding would
-        // keep a cleanup path that `no-panic-check` counts as a panic, and
-        // nothing here unwinds.
-        let Some(w) = self.rk4.take() else { return Err(AnalysisError::BadOption { name: "workspace" }) };
-        let mut held = core::mem::ManuallyDrop::new(w);
-        let w: &mut Rk4Work<NB, NV> = &mut held;
-        let stepped = self.step_rk4(w, state, h).and_then(|()| {
-            if let Some(options) = self.options.projection {
-                report.projection_iterations = self.settle(&mut w.end, &w.stage, &options);
-            }
-            self.finish(&mut w.end, report)
-        });
-        if stepped.is_ok() {
-            *state = w.end;
-        }
-        self.rk4 = Some(core::mem::ManuallyDrop::into_inner(held));
-        stepped
+        with_taken(
+            self,
+            |s| &mut s.rk4,
+            |sim, w| {
+                let w: &mut Rk4Work<NB, NV> = w;
+                sim.step_rk4(w, state, h)?;
+                if let Some(options) = sim.options.projection {
+                    report.projection_iterations = sim.settle(&mut w.end, &w.stage, &options);
+                }
+                sim.finish(&mut w.end, report)?;
+                *state = w.end;
+                Ok(())
+            },
+        )
     }
 
     /// A generalised-α step from `state`, projected, into `state`.
@@ -455,7 +473,6 @@ where
         h: f64,
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
-        self.alpha_workspace()?;
         // Generalised-α goes on from its last step only if handed back its state.
         let continuing = self.alpha.as_deref().and_then(|w| w.history.as_ref()).is_some_and(|h| h.state == *state);
         self.alpha_in_work(state, h, continuing, report)
@@ -469,11 +486,7 @@ where
         h: f64,
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
-        self.alpha_workspace()?;
-        let mut w = self.radau_work.take().ok_or(AnalysisError::BadOption { name: "integrator" })?;
-        let stepped = self.radau_started(&mut w, state, h, report);
-        self.radau_work = Some(w);
-        stepped
+        with_taken(self, |s| &mut s.radau_work, |sim, w| sim.radau_started(w, state, h, report))
     }
 
     /// [`advance_radau`](Self::advance_radau) on the taken-out work `w`.
@@ -508,7 +521,6 @@ where
         h: f64,
         report: &mut StepReport,
     ) -> Result<(), AnalysisError> {
-        self.alpha_workspace()?;
         self.midpoint_in_work(state, h, report)
     }
 
@@ -601,10 +613,37 @@ where
         Ok(())
     }
 
-    /// The workspaces `integrator` steps in, built here unless they exist:
-    /// [`Simulation::new`] calls it, so that no step allocates; a step with
-    /// an integrator the simulation was not made for calls it once.
-    pub(super) fn prepare(&mut self, integrator: Integrator) -> Result<(), AnalysisError> {
+    /// Builds the workspaces `integrator` steps in, unless they exist: the
+    /// saddle-point matrix and its scratch for the implicit integrators (and
+    /// Radau IIA's real and complex matrices). [`Simulation::new`] does it
+    /// for the integrator of its options; call this before stepping with
+    /// another one (a step never builds, so it never allocates):
+    ///
+    /// ```
+    /// # use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
+    /// # use joint_runtime::{OmegaBody, Scene, SystemState};
+    /// # use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81])]
+    /// #[body(link, mass = 1.0, inertia = [0.08, 0.08, 0.001])]
+    /// #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
+    /// struct Pendulum;
+    ///
+    /// let mut sim = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default())?; // RK4
+    /// let link = OmegaBody::from_rotation(Vector3::new(0.0, 0.0, -0.5), &UnitQuaternion::identity(), Vector3::zeros(), Vector3::zeros());
+    /// let mut state = SystemState { bodies: [link], t: 0.0 };
+    /// sim.options.integrator = Integrator::RadauIIA;
+    /// assert!(sim.step(&mut state, 1e-3).is_err()); // not prepared
+    /// sim.prepare(Integrator::RadauIIA)?;
+    /// sim.step(&mut state, 1e-3)?;
+    /// # Ok::<(), joint_runtime::analysis::AnalysisError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`AnalysisError::NonFiniteOutput`] for a scene structure the derive's
+    /// sizes do not fit; without `alloc`, [`AnalysisError::BadOption`] for
+    /// springs between bodies no joint joins under an implicit integrator.
+    pub fn prepare(&mut self, integrator: Integrator) -> Result<(), AnalysisError> {
         match integrator {
             Integrator::Rk4 => Ok(()),
             Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => self.alpha_workspace(),
@@ -616,6 +655,28 @@ where
                 Ok(())
             }
         }
+    }
+
+    /// Whether `integrator`'s workspaces exist; a step checks, never builds.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NotPrepared`] when they do not
+    /// ([`Simulation::prepare`] builds them).
+    pub(super) fn ready(&self, integrator: Integrator) -> Result<(), AnalysisError> {
+        let implicit = self.alpha.is_some() && self.alpha_work.is_some() && self.midpoint.is_some();
+        let radau = self.radau.is_some() && self.radau_scratch.is_some() && self.radau_work.is_some();
+        let ready = match integrator {
+            Integrator::Rk4 => true,
+            Integrator::GeneralisedAlpha | Integrator::ImplicitMidpoint => implicit,
+            Integrator::RadauIIA => implicit && radau,
+        };
+        let integrator = match integrator {
+            Integrator::Rk4 => "RK4",
+            Integrator::GeneralisedAlpha => "generalised-α",
+            Integrator::ImplicitMidpoint => "the implicit midpoint rule",
+            Integrator::RadauIIA => "Radau IIA",
+        };
+        if ready { Ok(()) } else { Err(AnalysisError::NotPrepared { integrator }) }
     }
 
     /// Radau's workspace on the implicit pattern, in a frame of its own.

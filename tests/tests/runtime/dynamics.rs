@@ -365,6 +365,7 @@ fn integrate_meets_the_tolerance() {
         let mut steps = Vec::new();
         for tol in tolerances {
             let mut sim = Simulation::new(&scene, NoLoads, &[], options(Integrator::Rk4, true)).unwrap();
+            sim.prepare(Integrator::GeneralisedAlpha).unwrap();
             let mut s = double_start();
             let r = sim.integrate(&mut s, t_end, method, Tolerance { rtol: tol, atol: tol }).unwrap();
             let error = distance(&s, &reference);

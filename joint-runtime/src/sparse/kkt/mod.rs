@@ -215,7 +215,7 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
     /// for a non-finite entry.
     pub(super) fn factor(&mut self) -> Result<(), LinalgError> {
         let (p, v) = self.split();
-        let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).copied().unwrap_or(0);
+        let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).map_or(0, |&s| s.min(6));
         for (k, &(a, b)) in p.adj_range.iter().enumerate() {
             let nk = size_at(k);
             let diag = v.diag.get_mut(k).ok_or(BAD_STRUCTURE)?;
@@ -254,12 +254,12 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
     /// the joints' rows, in node order (`sizes` concatenated).
     pub(super) fn solve<const NV: usize, const M: usize>(&mut self, b: &mut NodeVector<T, NV, M>) {
         let (p, v) = self.split();
-        let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).copied().unwrap_or(0);
+        let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).map_or(0, |&s| s.min(6));
         let x = v.x;
         // Gather by position.
         for ((&k, &size), &start) in p.position.iter().zip(p.sizes).zip(p.starts) {
             let mut y = [T::zero(); 6];
-            for (r, e) in y.iter_mut().enumerate().take(size) {
+            for (r, e) in y.iter_mut().enumerate().take(size.min(6)) {
                 *e = b.get(start + r).copied().unwrap_or_else(T::zero);
             }
             if let Some(slot) = x.get_mut(k) {
@@ -272,7 +272,7 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
             for (low, &i) in v.low.get(a..e).unwrap_or_default().iter().zip(p.adj.get(a..e).unwrap_or_default()) {
                 let Some(xi) = x.get_mut(i) else { continue };
                 for (r, xr) in xi.iter_mut().enumerate().take(size_at(i)) {
-                    let row = &low[6 * r..6 * r + nk];
+                    let row = low.get(6 * r..6 * r + nk).unwrap_or(&[]);
                     *xr -= row.iter().zip(&yk).fold(T::zero(), |sum, (&a, &y)| sum + a * y);
                 }
             }
@@ -366,7 +366,8 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
         let (p, blocks) = self.view();
         let mut add = |block: &Block<T>, row: usize, column: usize| {
             let (Some(&r0), Some(&c0)) = (p.starts.get(row), p.starts.get(column)) else { return };
-            let (nr, nc) = (p.sizes.get(row).copied().unwrap_or(0), p.sizes.get(column).copied().unwrap_or(0));
+            let size = |node: usize| p.sizes.get(node).map_or(0, |&s| s.min(6));
+            let (nr, nc) = (size(row), size(column));
             for r in 0..nr {
                 let mut sum = T::zero();
                 for c in 0..nc {
@@ -517,6 +518,7 @@ fn copy_pattern(from: Pattern<'_>, to: PatternMut<'_>) -> Result<(), LinalgError
 /// `a (r × k) · b (k × c)`.
 #[inline(always)]
 fn multiply<T: KktEntry>(a: &Block<T>, b: &Block<T>, r: usize, k: usize, c: usize) -> Block<T> {
+    let (r, k, c) = (r.min(6), k.min(6), c.min(6));
     let mut out = zero();
     for i in 0..r {
         for l in 0..k {
@@ -532,45 +534,57 @@ fn multiply<T: KktEntry>(a: &Block<T>, b: &Block<T>, r: usize, k: usize, c: usiz
 }
 
 /// The inverse of the leading `n × n` of `a`, by Gauss–Jordan with partial
-/// pivoting.
+/// pivoting. Worked on as rows of six (`m[r][c]`): every index is a loop
+/// counter below `n ≤ 6`, which the optimiser sees is in range (no panic
+/// path, `no-panic-check`).
 fn invert<T: KktEntry>(a: &Block<T>, n: usize) -> Result<Block<T>, LinalgError> {
-    let mut m = *a;
-    let mut inv = zero::<T>();
-    for i in 0..n {
-        inv[6 * i + i] = T::one();
+    let n = n.min(6);
+    let mut m: [[T; 6]; 6] = core::array::from_fn(|r| core::array::from_fn(|c| a[6 * r + c]));
+    let mut inv = [[T::zero(); 6]; 6];
+    for (i, row) in inv.iter_mut().enumerate().take(n) {
+        row[i] = T::one();
     }
     // |re| + |im| for complex entries: as good as the modulus, without its hypot.
-    let scale = (0..n * 6).map(|i| m[i].norm1()).fold(0.0, f64::max);
+    let scale = m.iter().flatten().take(n * 6).map(|x| x.norm1()).fold(0.0, f64::max);
     if !scale.is_finite() {
         return Err(LinalgError::NonFinite);
     }
     for col in 0..n {
-        let Some(p) = (col..n).max_by(|&x, &y| m[6 * x + col].norm1().total_cmp(&m[6 * y + col].norm1())) else {
-            break;
-        };
-        let pivot = m[6 * p + col];
+        // The last of the largest, by the total order (as `max_by` picks).
+        let (mut p, mut largest) = (col, m[col][col].norm1());
+        for (x, row) in m.iter().enumerate().take(n).skip(col + 1) {
+            if row[col].norm1().total_cmp(&largest).is_ge() {
+                (p, largest) = (x, row[col].norm1());
+            }
+        }
+        // A row of the block (p < n ≤ 6), said so the optimiser sees it.
+        let p = p.min(5);
+        let pivot = m[p][col];
         if !(pivot.norm1() > 1e-300 && pivot.norm1() > f64::EPSILON * 1e-3 * scale) {
             return Err(LinalgError::Singular { step: col });
         }
-        for c in 0..6 {
-            m.swap(6 * p + c, 6 * col + c);
-            inv.swap(6 * p + c, 6 * col + c);
-        }
+        m.swap(p, col);
+        inv.swap(p, col);
         for c in 0..n {
-            m[6 * col + c] /= pivot;
-            inv[6 * col + c] /= pivot;
+            m[col][c] /= pivot;
+            inv[col][c] /= pivot;
         }
         for r in 0..n {
-            let f = m[6 * r + col];
+            let f = m[r][col];
             if r != col && f != T::zero() {
                 for c in 0..n {
-                    m[6 * r + c] -= f * m[6 * col + c];
-                    inv[6 * r + c] -= f * inv[6 * col + c];
+                    let (mc, ic) = (m[col][c], inv[col][c]);
+                    m[r][c] -= f * mc;
+                    inv[r][c] -= f * ic;
                 }
             }
         }
     }
-    Ok(inv)
+    let mut out = zero();
+    for (o, x) in out.iter_mut().zip(inv.iter().flatten()) {
+        *o = *x;
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
