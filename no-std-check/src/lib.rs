@@ -132,21 +132,7 @@ pub extern "C" fn joint_pendulum_sparse_assembly(angle: f64) -> f64 {
 /// workspaces all inline, sized at compile time.
 #[unsafe(no_mangle)]
 pub extern "C" fn joint_pendulum_sparse_steps(angle: f64, steps: u32) -> f64 {
-    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
-    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
-    let mut state = SystemState { bodies: [link], t: 0.0 };
-    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
-        return f64::NAN;
-    };
-    if sim.project(&mut state, &AssemblyOptions::default()).is_err() {
-        return f64::NAN;
-    }
-    for _ in 0..steps {
-        if sim.step(&mut state, 1e-3).is_err() {
-            return f64::NAN;
-        }
-    }
-    sim.energy(&state).total()
+    pendulum_steps(angle, steps, Integrator::Rk4)
 }
 
 /// `steps` steps of 1 ms of each implicit integrator (the implicit midpoint
@@ -156,16 +142,23 @@ pub extern "C" fn joint_pendulum_sparse_steps(angle: f64, steps: u32) -> f64 {
 /// sized, with no allocator. Returns the energy at the end, or NaN.
 #[unsafe(no_mangle)]
 pub extern "C" fn joint_pendulum_implicit_steps(angle: f64, steps: u32, which: u32) -> f64 {
-    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
-    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
-    let mut state = SystemState { bodies: [link], t: 0.0 };
-    let mut options = SimulationOptions::default();
-    options.integrator = match which {
+    let integrator = match which {
         0 => Integrator::ImplicitMidpoint,
         1 => Integrator::GeneralisedAlpha,
         _ => Integrator::RadauIIA,
     };
-    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], options) else {
+    pendulum_steps(angle, steps, integrator)
+}
+
+/// The pendulum tilted by `angle`, projected, then `steps` steps of 1 ms of
+/// `integrator` on the one `Simulation`: its energy at the end, or NaN.
+fn pendulum_steps(angle: f64, steps: u32, integrator: Integrator) -> f64 {
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
+    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
+    let mut state = SystemState { bodies: [link], t: 0.0 };
+    let Ok(mut sim) =
+        Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default().with_integrator(integrator))
+    else {
         return f64::NAN;
     };
     if sim.project(&mut state, &AssemblyOptions::default()).is_err() {
