@@ -22,6 +22,7 @@
 use nalgebra::SVector;
 
 use super::buf::{Boxed, boxed};
+use super::loads::neighbours;
 use super::second_order::{JointBodies, RowTerm, SecondOrderLayout};
 use crate::OmegaBody;
 use crate::analysis::{apply_increment, set_velocities, velocity_vector_into};
@@ -107,21 +108,7 @@ impl<const NB: usize> DifferenceTerms<NB> {
     /// body order, each body the least colour no body it shares a joint
     /// with has.
     pub fn new(joint_bodies: &[[Option<usize>; 2]]) -> Self {
-        let mut colour_of = [usize::MAX; NB];
-        let mut colours = 0;
-        for b in 0..NB {
-            let neighbours = joint_bodies.iter().filter_map(|pair| match *pair {
-                [Some(a), Some(c)] if a == b && c != b => Some(c),
-                [Some(c), Some(a)] if a == b && c != b => Some(c),
-                _ => None,
-            });
-            let taken = |c: usize| neighbours.clone().any(|n| colour_of.get(n) == Some(&c));
-            let c = (0..=NB).find(|&c| !taken(c)).unwrap_or(NB);
-            if let Some(x) = colour_of.get_mut(b) {
-                *x = c;
-            }
-            colours = colours.max(c + 1);
-        }
+        let (colour_of, colours) = greedy_colours(|b| neighbours(joint_bodies, &[], b));
         DifferenceTerms { colour_of, colours }
     }
 
@@ -335,6 +322,25 @@ struct RowPlace {
     bodies: JointBodies,
     stiffness: usize,
     section: usize,
+}
+
+/// Colours the `NB` bodies greedily in body order, each the least colour
+/// none of the bodies `near(b)` has yet: each body's colour, and how many
+/// colours there are.
+pub(super) fn greedy_colours<const NB: usize, I: Iterator<Item = usize>>(
+    near: impl Fn(usize) -> I,
+) -> ([usize; NB], usize) {
+    let mut colour_of = [usize::MAX; NB];
+    let mut colours = 0;
+    for b in 0..NB {
+        let taken = |c: usize| near(b).any(|n| colour_of.get(n) == Some(&c));
+        let c = (0..=NB).find(|&c| !taken(c)).unwrap_or(NB);
+        if let Some(x) = colour_of.get_mut(b) {
+            *x = c;
+        }
+        colours = colours.max(c + 1);
+    }
+    (colour_of, colours)
 }
 
 /// One colour's position direction and the scene's terms both ways.

@@ -18,6 +18,7 @@
 use nalgebra::{SVector, Vector3};
 
 use super::alpha::missing;
+use super::differences::greedy_colours;
 use super::kkt::{Kkt, KktStorage};
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::{AppliedLoads, Attachment, Direction, LOAD_STEP, Loads, SpringDamper, load_differences_along};
@@ -60,17 +61,10 @@ impl<const NB: usize> LoadColouring<NB> {
     /// `BLOCK_BODIES`) and `springs` couple: greedily in body order, each
     /// body the least colour no body within two couplings has.
     pub(super) fn new(joint_bodies: &'static [[Option<usize>; 2]], springs: &[SpringDamper]) -> Self {
-        let mut colour_of = [usize::MAX; NB];
-        let mut colours = 0;
+        // Within two couplings: the neighbours' neighbours (`b` itself, not
+        // yet coloured, takes no colour).
         let near = |x: usize| core::iter::once(x).chain(neighbours(joint_bodies, springs, x));
-        for b in 0..NB {
-            let taken = |c: usize| near(b).flat_map(near).any(|m| m != b && colour_of.get(m) == Some(&c));
-            let c = (0..=NB).find(|&c| !taken(c)).unwrap_or(NB);
-            if let Some(x) = colour_of.get_mut(b) {
-                *x = c;
-            }
-            colours = colours.max(c + 1);
-        }
+        let (colour_of, colours) = greedy_colours(|b| near(b).flat_map(near));
         LoadColouring { joint_bodies, colour_of, colours, moved_near: [usize::MAX; NB] }
     }
 
@@ -124,7 +118,7 @@ impl<const NB: usize> LoadColouring<NB> {
 }
 
 /// The bodies coupled to `x`.
-fn neighbours<'a>(
+pub(super) fn neighbours<'a>(
     joint_bodies: &'a [[Option<usize>; 2]],
     springs: &'a [SpringDamper],
     x: usize,

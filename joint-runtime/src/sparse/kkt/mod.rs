@@ -91,6 +91,22 @@ enum Place {
     Up(usize),
 }
 
+impl Pattern<'_> {
+    /// Node `node`'s size, clamped to a block (the pattern's sizes are at
+    /// most 6; said so the optimiser sees every index in range, hence
+    /// inlined: the clamp must reach the caller's loops).
+    #[inline(always)]
+    fn size(&self, node: usize) -> usize {
+        self.sizes.get(node).map_or(0, |&s| s.min(6))
+    }
+
+    /// The size of the node at elimination position `k`.
+    #[inline(always)]
+    fn size_at(&self, k: usize) -> usize {
+        self.order.get(k).map_or(0, |&node| self.size(node))
+    }
+}
+
 /// The arrays a [`Kkt`] lives in: the derive's (the scene's pattern) or,
 /// with `alloc`, vectors for a pattern found at run time.
 #[derive(Clone, Debug)]
@@ -215,7 +231,7 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
     /// for a non-finite entry.
     pub(super) fn factor(&mut self) -> Result<(), LinalgError> {
         let (p, v) = self.split();
-        let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).map_or(0, |&s| s.min(6));
+        let size_at = |k: usize| p.size_at(k);
         for (k, &(a, b)) in p.adj_range.iter().enumerate() {
             let nk = size_at(k);
             let diag = v.diag.get_mut(k).ok_or(BAD_STRUCTURE)?;
@@ -254,7 +270,7 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
     /// the joints' rows, in node order (`sizes` concatenated).
     pub(super) fn solve<const NV: usize, const M: usize>(&mut self, b: &mut NodeVector<T, NV, M>) {
         let (p, v) = self.split();
-        let size_at = |k: usize| p.order.get(k).and_then(|&node| p.sizes.get(node)).map_or(0, |&s| s.min(6));
+        let size_at = |k: usize| p.size_at(k);
         let x = v.x;
         // Gather by position.
         for ((&k, &size), &start) in p.position.iter().zip(p.sizes).zip(p.starts) {
@@ -366,7 +382,7 @@ impl<T: KktEntry, A: KktStorage<T>> Kkt<T, A> {
         let (p, blocks) = self.view();
         let mut add = |block: &Block<T>, row: usize, column: usize| {
             let (Some(&r0), Some(&c0)) = (p.starts.get(row), p.starts.get(column)) else { return };
-            let size = |node: usize| p.sizes.get(node).map_or(0, |&s| s.min(6));
+            let size = |node: usize| p.size(node);
             let (nr, nc) = (size(row), size(column));
             for r in 0..nr {
                 let mut sum = T::zero();
