@@ -1,8 +1,8 @@
-//! Time per `DenseSimulation::step` on the double Cardan shaft (Z arrangement, yokes
+//! Time per `Simulation::step` on the double Cardan shaft (Z arrangement, yokes
 //! in phase, β = 30°) as a dynamics problem: no motor, gravity along −z, the
 //! shafts spinning freely from an initial 10 rad/s (velocities from the driven
 //! shaft's velocity analysis, so the start is consistent). Each integrator (RK4,
-//! implicit midpoint) with and without projection, `h = 1 ms`, `STEPS` steps ×
+//! implicit midpoint, generalised-α, Radau IIA) with and without projection, `h = 1 ms`, `STEPS` steps ×
 //! `REPS` repetitions from the same start; the median of the individually timed
 //! steps. `tests/tests/alloc.rs` proves that a step allocates nothing.
 //!
@@ -13,7 +13,7 @@
 use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
-use joint_runtime::dynamics::{DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 
 const STEPS: usize = 20_000;
 const REPS: usize = 5;
@@ -35,13 +35,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "integrator", "projection", "median ns", "mean ns", "|ΔE|/E", "max |Φ|", "ω_out − ω_in"
     );
     let mut times = Vec::with_capacity(STEPS * REPS);
-    for integrator in [Integrator::Rk4, Integrator::ImplicitMidpoint] {
+    for integrator in
+        [Integrator::Rk4, Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha, Integrator::RadauIIA]
+    {
         for projection in [true, false] {
             let mut options = SimulationOptions::default().with_integrator(integrator);
             if !projection {
                 options.projection = None;
             }
-            let mut sim = DenseSimulation::new(&scene, NoLoads, &[], options)?;
+            let mut sim = Simulation::new(&scene, NoLoads, &[], options)?;
             let e0 = sim.energy(&start).total();
             times.clear();
             let (mut drift, mut residual, mut mismatch) = (0.0f64, 0.0f64, 0.0f64);
@@ -73,36 +75,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
-    // The same scene on the sparse block factor (RK4 with projection).
-    let mut sim = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default())?;
-    let e0 = sim.energy(&start).total();
-    times.clear();
-    let (mut drift, mut residual) = (0.0f64, 0.0f64);
-    for _ in 0..REPS {
-        let mut state = start;
-        for _ in 0..STEPS {
-            let t = Instant::now();
-            let report = sim.step(&mut state, H)?;
-            times.push(t.elapsed().as_nanos() as u64);
-            residual = residual.max(report.constraint_residual);
-        }
-        drift = drift.max(((sim.energy(&state).total() - e0) / e0).abs());
-    }
-    times.sort_unstable();
-    println!(
-        "{:<17} {:>10}  {:>11}  {:>11}  {:>11.2e}  {:>11.2e}",
-        "Rk4 (sparse)",
-        "on",
-        times[times.len() / 2],
-        "",
-        drift,
-        residual
-    );
     println!(
         "\n|ΔE|/E: energy error after {} s (kinetic only: every centre of mass stays put); \
          ω_out − ω_in: the in-phase shaft's output minus input spin at the end (0 exactly).\n\
          A step allocates nothing: tests/tests/alloc.rs counts allocations around scene steps \
-         of both integrators (0).",
+         of every integrator (0).",
         STEPS as f64 * H
     );
     Ok(())

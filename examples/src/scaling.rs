@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use joint_runtime::analysis::AnalysisError;
-use joint_runtime::dynamics::{DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
@@ -119,7 +119,7 @@ pub fn ladder_start<const NB: usize>() -> SystemState<NB> {
 
 /// Median of `rounds` timings of `steps` steps of `step`, in µs per step,
 /// after `steps / 10` steps of warm-up; each round restarts from `start`.
-fn median_us<const NB: usize>(
+pub fn median_us<const NB: usize>(
     start: &SystemState<NB>,
     steps: usize,
     rounds: usize,
@@ -166,33 +166,6 @@ where
     let mut sim = Simulation::new(scene, NoLoads, &[], options(integrator))?;
     let us = median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))?;
     Ok((us, sim.iteration_blocks()))
-}
-
-/// The same on the dense path, in a thread with a stack of `stack` bytes (its
-/// `M × NV` matrices live on the stack).
-///
-/// # Errors
-/// The simulation's.
-pub fn dense_step_us<S, const NB: usize, const NV: usize, const M: usize>(
-    scene: &S,
-    start: &SystemState<NB>,
-    steps: usize,
-    stack: usize,
-    integrator: Integrator,
-) -> Result<f64, AnalysisError>
-where
-    S: Scene<NB, NV, M> + Sync,
-{
-    std::thread::scope(|scope| {
-        let run = move || {
-            let mut sim = DenseSimulation::new(scene, NoLoads, &[], options(integrator))?;
-            median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))
-        };
-        match std::thread::Builder::new().stack_size(stack).spawn_scoped(scope, run) {
-            Ok(handle) => handle.join().unwrap_or(Err(AnalysisError::BadOption { name: "dense thread panicked" })),
-            Err(_) => Err(AnalysisError::BadOption { name: "dense thread" }),
-        }
-    })
 }
 
 /// The least-squares slope of `ln y` on `ln x`.

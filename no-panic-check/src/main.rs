@@ -19,12 +19,11 @@
 //! - The double Cardan shaft of `joint_examples::double_cardan`, driven
 //!   (`Scene<3, 18, 19>`, a redundant row) and free (`Scene<3, 18, 18>`): the
 //!   system Φ, Φ_t, J, γ, `evaluate` and the sparse J values; `assemble`,
-//!   `velocities`, `accelerations`; `DenseSimulation::new`, `step`, `dynamics`,
-//!   `project`, `reactions` and `energy`; the free shaft's `second_order` and
-//!   `integrate` ([`scenes`]); and the free shaft on the one `Simulation` (the
-//!   block factor of `J M⁻¹ Jᵀ` and the saddle-point matrices): `step` with
-//!   every integrator, stabilisation and projection option, `integrate` with
-//!   every method, `dynamics`, `project`, `reactions` and `energy`. The integrator,
+//!   `velocities`, `accelerations`; the free shaft's `second_order`; and both
+//!   on the one `Simulation` (the block factor of `J M⁻¹ Jᵀ` and the
+//!   saddle-point matrices): `step` with every integrator, stabilisation and
+//!   projection option, `dynamics`, `project`, `reactions` and `energy`, and
+//!   the free shaft's `integrate` with every method ([`scenes`]). The integrator,
 //!   stabilisation, projection and springs are run-time options, so every one of
 //!   them is inside the checked `step`.
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`

@@ -3,20 +3,23 @@
 //! fixed sizes.
 //!
 //! - [`driven`]: `DoubleCardan`, four joints and a motor, 19 rows of which one is
-//!   redundant (`Scene<3, 18, 19>`), derived with `second_order`: its `step`
-//!   checks the exact Newton matrices with a redundant row held.
+//!   redundant (`Scene<3, 18, 19>`), derived with `second_order`: the
+//!   analyses, and on `Simulation` `step` with every integrator (the exact
+//!   Newton matrices with a redundant row held), `dynamics`, `project`,
+//!   `reactions`, `energy`.
 //! - [`free`]: `FreeDoubleCardan`, no motor, 18 rows, one degree of freedom
 //!   (`Scene<3, 18, 18>`), the scene of `examples/examples/step_bench.rs`,
-//!   derived with `second_order`: its `step` checks the implicit integrators'
-//!   exact Newton matrices, and `integrate` the error-controlled steps.
+//!   derived with `second_order`: its system functions and analyses.
 //! - [`block`]: the free shaft on the one `Simulation` (the block factor and
 //!   the saddle-point matrices): `step` with every integrator (RK4, the
 //!   implicit midpoint rule, generalised-α, Radau IIA: the integrator is an
 //!   argument), `integrate` with every method, `dynamics`, `project`,
-//!   `reactions`, `energy`. A step never builds a workspace (`new` and
-//!   `Simulation::prepare` do), so none of this allocates. `new` is not
-//!   checked: it allocates its workspaces with `alloc`, and an allocation's
-//!   failure path counts as a panic.
+//!   `reactions`, `energy`.
+//!
+//! A step never builds a workspace (`new` and `Simulation::prepare` do), so
+//! none of this allocates. `Simulation::new` is not checked: with `alloc` it
+//! boxes its workspaces, and `Box::new`'s out-of-memory path counts as a panic
+//! (a lone `Box::new([0u64; 4])` fails the check too).
 //!
 //! Every branch the options select at run time (integrator, stabilisation,
 //! projection, springs) is part of the checked code: the options are arguments.
@@ -25,8 +28,8 @@ use joint_runtime::analysis::{
     AccelerationAnalysis, AnalysisError, Assembly, AssemblyOptions, VelocityAnalysis, accelerations,
     accelerations_with, assemble, velocities, velocities_with,
 };
-use joint_runtime::dynamics::{Adaptive, IntegrationReport, SpringDamper, StepReport, Tolerance};
-use joint_runtime::dynamics::{AppliedLoads, DenseSimulation, Dynamics, Energy, Loads, Reaction, SimulationOptions};
+use joint_runtime::dynamics::{Adaptive, IntegrationReport, StepReport, Tolerance};
+use joint_runtime::dynamics::{AppliedLoads, Dynamics, Energy, Integrator, Loads, Reaction, Simulation};
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
 use joint_runtime::{Evaluation, RowBlock, Scene, SecondOrder, SparseJacobian, SystemState};
 
@@ -46,7 +49,7 @@ pub mod driven {
     use super::*;
     use joint_examples::double_cardan::DoubleCardan;
 
-    type Sim<'a> = DenseSimulation<'a, DoubleCardan, Push, 3, 18, 19>;
+    type Sim<'a> = Simulation<'a, DoubleCardan, Push, 3, 18, 19, 62>;
 
     checked! {
         fn phi(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.phi(state) }
@@ -85,21 +88,20 @@ pub mod driven {
         ) -> Result<AccelerationAnalysis<18, 19>, AnalysisError> {
             accelerations_with(scene, state, tolerance)
         }
-        fn simulation_new<'a>(
-            scene: &'a DoubleCardan,
-            springs: &'a [SpringDamper],
-            options: SimulationOptions,
-        ) -> Result<Sim<'a>, AnalysisError> {
-            DenseSimulation::new(scene, Push, springs, options)
-        }
-        fn step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
+        fn step(
+            sim: &mut Sim<'_>,
+            state: &mut SystemState<3>,
+            h: f64,
+            integrator: Integrator,
+        ) -> Result<StepReport, AnalysisError> {
+            sim.options.integrator = integrator;
             sim.step(state, h)
         }
         fn dynamics(sim: &mut Sim<'_>, state: &SystemState<3>) -> Result<Dynamics<18, 19>, AnalysisError> {
             sim.dynamics(state)
         }
         fn project(
-            sim: &Sim<'_>,
+            sim: &mut Sim<'_>,
             state: &mut SystemState<3>,
             options: &AssemblyOptions,
         ) -> Result<(usize, f64, f64), AnalysisError> {
@@ -122,8 +124,6 @@ pub mod free {
     use super::*;
     use joint_examples::double_cardan::FreeDoubleCardan;
 
-    type Sim<'a> = DenseSimulation<'a, FreeDoubleCardan, Push, 3, 18, 18>;
-
     checked! {
         fn phi(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SVector<f64, 18> { scene.phi(state) }
         fn jacobian(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SMatrix<f64, 18, 18> { scene.jacobian(state) }
@@ -144,9 +144,6 @@ pub mod free {
         ) -> Result<AccelerationAnalysis<18, 18>, AnalysisError> {
             accelerations(scene, state)
         }
-        fn step(sim: &mut Sim<'_>, state: &mut SystemState<3>, h: f64) -> Result<StepReport, AnalysisError> {
-            sim.step(state, h)
-        }
         fn second_order(
             scene: &FreeDoubleCardan,
             state: &SystemState<3>,
@@ -154,15 +151,6 @@ pub mod free {
             u: &SVector<f64, 18>,
         ) -> Option<SecondOrder<f64, 18, 18>> {
             scene.second_order(state, lambda, u)
-        }
-        fn integrate(
-            sim: &mut Sim<'_>,
-            state: &mut SystemState<3>,
-            t_end: f64,
-            method: Adaptive,
-            tolerance: Tolerance,
-        ) -> Result<IntegrationReport, AnalysisError> {
-            sim.integrate(state, t_end, method, tolerance)
         }
     }
 }
@@ -174,7 +162,6 @@ pub mod free {
 pub mod block {
     use super::*;
     use joint_examples::double_cardan::FreeDoubleCardan;
-    use joint_runtime::dynamics::{Integrator, Simulation};
 
     type Sim<'a> = Simulation<'a, FreeDoubleCardan, Push, 3, 18, 18, 60>;
 

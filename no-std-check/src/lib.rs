@@ -24,7 +24,7 @@ use core::panic::PanicInfo;
 
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::batch::{WideF32x8, evaluate_batch_simd, splat};
-use joint_runtime::dynamics::{DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::sparse::SparseAnalysis;
 use joint_runtime::{Joint, OmegaBody, Scene, SystemState, TwoBodies};
@@ -96,7 +96,7 @@ pub extern "C" fn joint_pendulum_steps(angle: f64, steps: u32) -> f64 {
     if assemble(&Pendulum, &mut state, &AssemblyOptions::default()).is_err() {
         return f64::NAN;
     }
-    let Ok(mut sim) = DenseSimulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
+    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
         return f64::NAN;
     };
     for _ in 0..steps {

@@ -8,10 +8,12 @@
 //! bodies too, a few minutes, or `-- --quick` for fewer steps).
 
 use joint_examples::bricard::{Curve, plot_lines};
-use joint_examples::scaling::{chain_start, dense_step_us, exponent, ladder_start, sparse_step_us, tree_start};
+use joint_examples::scaling::{chain_start, exponent, ladder_start, median_us, options, sparse_step_us, tree_start};
 use joint_examples::{chain_scene, ladder_scene, tree_scene};
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::Integrator;
+use joint_runtime::dynamics::{DenseSimulation, NoLoads};
+use joint_runtime::{Scene, SystemState};
 
 // `second_order`: the terms generalised-α's iteration matrix is made of.
 chain_scene!(Chain5, 5, second_order);
@@ -40,6 +42,34 @@ struct Row {
     alpha: Option<f64>,
     dense_alpha: Option<f64>,
     blocks: usize,
+}
+
+/// µs per step on the dense reference path (`DenseSimulation`, feature
+/// `__dense_reference`: the tests' reference, not in the API), in a thread with a stack of `stack` bytes (its
+/// `M × NV` matrices live on the stack).
+///
+/// # Errors
+/// The simulation's.
+pub fn dense_step_us<S, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    start: &SystemState<NB>,
+    steps: usize,
+    stack: usize,
+    integrator: Integrator,
+) -> Result<f64, AnalysisError>
+where
+    S: Scene<NB, NV, M> + Sync,
+{
+    std::thread::scope(|scope| {
+        let run = move || {
+            let mut sim = DenseSimulation::new(scene, NoLoads, &[], options(integrator))?;
+            median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))
+        };
+        match std::thread::Builder::new().stack_size(stack).spawn_scoped(scope, run) {
+            Ok(handle) => handle.join().unwrap_or(Err(AnalysisError::BadOption { name: "dense thread panicked" })),
+            Err(_) => Err(AnalysisError::BadOption { name: "dense thread" }),
+        }
+    })
 }
 
 /// The dense path's stack: its `M × NV` matrices are on it.
@@ -232,7 +262,7 @@ fn run() -> Result<(), String> {
     let mut md = String::from("# Scenes that scale\n\n");
     md += "Written by `cargo run --release -p joint-scaling`. µs per step with projection \
            (`SimulationOptions::default()` with the integrator named, h = 1 ms), median of 3 rounds, one core. \
-           The sparse path is `joint_runtime::dynamics::Simulation` (the block factor); the dense one `dynamics::DenseSimulation` \
+           The sparse path is `joint_runtime::dynamics::Simulation` (the block factor); the dense one the tests' dense reference `DenseSimulation` (not in the API) \
            (run in a thread with a 256 MiB stack, as its `M × NV` matrices are on the stack). Generalised-α \
            (ρ∞ = 0.9, the default; index 3) builds its exact iteration matrix from the scenes' generated second-order \
            terms: on the sparse path a saddle-point matrix over bodies and joints factorised on its fixed \

@@ -43,7 +43,7 @@ fn run() -> Result<(), String> {
             let at = time_for(s, TARGET_ERROR).map_or("not reached".to_string(), |t| format!("{t:.2e} s"));
             let _ = writeln!(md, "| {} | {} | {at} |", s.name, points.join(" "));
         }
-        // RK4's best time, dense or sparse.
+        // RK4's best time.
         let rk4 = chosen
             .iter()
             .filter(|s| s.name.starts_with("RK4"))
@@ -57,7 +57,7 @@ fn run() -> Result<(), String> {
         if let (Some(r), Some((b, name))) = (rk4, best) {
             let _ = writeln!(
                 md,
-                "\nAt error {TARGET_ERROR:.0e}: RK4 with projection (the faster of dense and sparse) {r:.2e} s, \
+                "\nAt error {TARGET_ERROR:.0e}: RK4 with projection {r:.2e} s, \
                  the fastest other ({name}) {b:.2e} s: {:.2} times RK4's time.",
                 b / r
             );

@@ -11,8 +11,7 @@
 //!
 //! Integrators: fixed steps of RK4, the implicit midpoint rule,
 //! generalised-α (ρ∞ = 0.8) and Radau IIA, the implicit ones with the
-//! generated iteration matrix, on the dense path (`DenseSimulation`) and on the sparse path
-//! (`Simulation`); and the error-controlled
+//! generated iteration matrix, on `Simulation`; and the error-controlled
 //! Dormand–Prince 5(4), generalised-α and Radau IIA over a range of
 //! tolerances (`rtol = atol`). Every run projects after each
 //! step (the default options). The error is the largest `|r − r_ref| +
@@ -22,9 +21,7 @@
 
 use std::time::Instant;
 
-use joint_runtime::dynamics::{
-    Adaptive, DenseSimulation, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance,
-};
+use joint_runtime::dynamics::{Adaptive, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 use super::simulation::Series;
@@ -37,11 +34,9 @@ pub const TARGET_ERROR: f64 = 1e-8;
 /// How a run advances.
 #[derive(Clone, Copy, Debug)]
 enum Run {
-    /// Fixed steps, `DenseSimulation`.
+    /// Fixed steps.
     Fixed(Integrator, usize),
-    /// Fixed steps, `Simulation`.
-    Sparse(Integrator, usize),
-    /// Error-controlled steps to a tolerance, dense.
+    /// Error-controlled steps to a tolerance.
     Adaptive(Adaptive, f64),
 }
 
@@ -61,7 +56,7 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
         let integrator = match run {
-            Run::Fixed(i, _) | Run::Sparse(i, _) => i,
+            Run::Fixed(i, _) => i,
             Run::Adaptive(..) => Integrator::Rk4,
         };
         let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
@@ -69,13 +64,6 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         let mut state = self.start;
         match run {
             Run::Fixed(_, steps) => {
-                let mut sim = DenseSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
-                let h = self.t_end / steps as f64;
-                for _ in 0..steps {
-                    sim.step(&mut state, h).map_err(text)?;
-                }
-            }
-            Run::Sparse(_, steps) => {
                 let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 let h = self.t_end / steps as f64;
                 for _ in 0..steps {
@@ -83,7 +71,7 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
                 }
             }
             Run::Adaptive(method, tol) => {
-                let mut sim = DenseSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 sim.integrate(&mut state, self.t_end, method, Tolerance { rtol: tol, atol: tol }).map_err(text)?;
             }
         }
@@ -140,14 +128,6 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         .into_iter()
         .map(|(name, i)| (format!("{name}, fixed h"), steps.iter().map(|&n| Run::Fixed(i, n)).collect()))
         .collect();
-        for (name, i) in [
-            ("RK4", Integrator::Rk4),
-            ("implicit midpoint", Integrator::ImplicitMidpoint),
-            ("generalised-α", Integrator::GeneralisedAlpha),
-            ("Radau IIA", Integrator::RadauIIA),
-        ] {
-            lines.push((format!("{name}, sparse, fixed h"), steps.iter().map(|&n| Run::Sparse(i, n)).collect()));
-        }
         for (name, method) in [
             ("Dormand–Prince 5(4)", Adaptive::DormandPrince),
             ("generalised-α", Adaptive::GeneralisedAlpha),

@@ -37,7 +37,9 @@ pub(crate) use motion::{
 pub(crate) use newton::newton;
 pub(crate) use newton::{Directions, NewtonWork, damped_newton};
 pub use solve::InverseMass;
-pub(crate) use solve::{Metric, apply_metric, jacobian_times_metric, min_norm, solve_linear};
+#[cfg(feature = "__dense_reference")]
+pub(crate) use solve::jacobian_times_metric;
+pub(crate) use solve::{Metric, apply_metric, min_norm, solve_linear};
 pub(crate) use solve::{apply_metric_in_place, apply_metric_into};
 
 use crate::linalg::DEFAULT_RANK_TOLERANCE;

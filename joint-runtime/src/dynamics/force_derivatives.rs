@@ -7,12 +7,12 @@
 //! Increments are those of the velocities' layout: `δr` inertial, `δθ'` in
 //! body components (`A ← A exp(δθ̃')`), `δṙ`, `δω'`.
 
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{SVector, Vector3};
 
-use super::{AppliedLoads, Attachment, DenseSimulation, Loads, SpringDamper};
+use super::{AppliedLoads, Attachment, Loads, SpringDamper};
 use crate::analysis::{apply_increment, set_velocities, velocity_vector};
 use crate::rotation_matrix;
-use crate::scene::{BodyInertia, Scene, SystemState};
+use crate::scene::SystemState;
 
 /// Relative step of the central differences of user loads.
 pub(crate) const LOAD_STEP: f64 = 1e-6;
@@ -20,34 +20,14 @@ pub(crate) const LOAD_STEP: f64 = 1e-6;
 /// A direction of the state: `(δr, δθ')` and `(δṙ, δω')` per body.
 pub type Direction<const NB: usize> = [[Vector3<f64>; 4]; NB];
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
-where
-    S: Scene<NB, NV, M>,
-    L: AppliedLoads<NB>,
-{
-    /// `∂Q/∂q` (along the group increments) and `∂Q/∂v` at `state`.
-    pub(super) fn force_derivatives(
-        &mut self,
-        state: &SystemState<NB>,
-    ) -> (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>) {
-        let (mut dq, mut dv) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
-        for c in 0..NV {
-            for (velocity, out) in [(false, &mut dq), (true, &mut dv)] {
-                let column = force_column(&mut self.loads, self.springs, &self.inertias, state, c, velocity);
-                out.set_column(c, &column);
-            }
-        }
-        (dq, dv)
-    }
-}
-
+#[cfg(feature = "alloc")]
 /// Column `c` of `∂Q/∂q` (`velocity` false, along the group increment) or of
 /// `∂Q/∂v` at `state`: the user loads' own derivative or their central
 /// differences, the springs' and the gyroscopic term's exact.
 pub(crate) fn force_column<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
     user: &mut L,
     springs: &[SpringDamper],
-    inertias: &[BodyInertia; NB],
+    inertias: &[crate::scene::BodyInertia; NB],
     state: &SystemState<NB>,
     c: usize,
     velocity: bool,
@@ -61,6 +41,7 @@ pub(crate) fn force_column<L: AppliedLoads<NB>, const NB: usize, const NV: usize
     generalised(&loads, inertias, state, &direction)
 }
 
+#[cfg(feature = "alloc")]
 /// Central differences of the user loads alone along column `c`.
 fn load_differences<L: AppliedLoads<NB>, const NB: usize, const NV: usize>(
     user: &mut L,
@@ -115,11 +96,12 @@ fn unit<const NB: usize>(c: usize, velocity: bool) -> Direction<NB> {
     d
 }
 
+#[cfg(feature = "alloc")]
 /// The derivative of `Q` along `direction`: the loads' derivative `loads`
 /// (springs and user loads) with the gyroscopic term's, `−(δω' × J ω' + ω' × J δω')`.
 fn generalised<const NB: usize, const NV: usize>(
     loads: &Loads<NB>,
-    inertias: &[BodyInertia; NB],
+    inertias: &[crate::scene::BodyInertia; NB],
     state: &SystemState<NB>,
     direction: &Direction<NB>,
 ) -> SVector<f64, NV> {
@@ -230,6 +212,7 @@ mod tests {
     use super::*;
     use crate::OmegaBody;
     use crate::dynamics::{NoLoads, generalised_forces};
+    use crate::scene::BodyInertia;
     use nalgebra::{Matrix3, UnitQuaternion};
 
     /// Two tumbling bodies, a spring-damper between them and one to the ground:

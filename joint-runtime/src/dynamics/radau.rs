@@ -80,13 +80,12 @@
 //! would keep fifth-order velocities. The error control shrinks such steps
 //! until Newton converges.
 
-use nalgebra::{Complex, SMatrix, SVector, Vector3};
+use nalgebra::{SVector, Vector3};
 
 use super::adaptive::{Tolerance, increment_error};
-use super::{AppliedLoads, DenseSimulation, Factored, NewtonMatrix, StepRule, displaced, displaced_into, newton_done};
-use crate::analysis::{AnalysisError, velocity_vector, velocity_vector_into};
-use crate::linalg::Lu;
-use crate::scene::{Scene, SystemState};
+use super::{displaced_into, newton_done};
+use crate::analysis::{AnalysisError, velocity_vector_into};
+use crate::scene::SystemState;
 
 #[cfg(doc)]
 use super::{Adaptive, Integrator};
@@ -151,8 +150,8 @@ pub(crate) struct RadauHistory<const NB: usize, const NV: usize, J> {
     jacobian: J,
 }
 
-/// What the Radau step needs of a simulation (the dense [`DenseSimulation`] and
-/// the sparse one): the accelerations under the step's rule for redundant
+/// What the Radau step needs of a simulation (the one simulation, and the
+/// tests' dense reference): the accelerations under the step's rule for redundant
 /// rows, the Jacobian of the index-1 equations, and the real and complex
 /// stage systems `(μ − [[0, I], [A_q, A_v]]) (x, y) = (r, s)` factorised and
 /// solved.
@@ -602,170 +601,6 @@ fn add_into<const NV: usize>(a: &SVector<f64, NV>, b: &SVector<f64, NV>, out: &m
     for (o, (a, b)) in out.as_mut_slice().iter_mut().zip(a.as_slice().iter().zip(b.as_slice().iter())) {
         *o = a + b;
     }
-}
-
-/// `A_q` and `A_v`, dense.
-pub(crate) type DenseJacobian<const NV: usize> = (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>);
-
-/// The dense [`DenseSimulation`] under the rule of a step, as a [`RadauHost`]:
-/// `A_q`, `A_v` dense and the stage systems factorised by [`Lu`].
-pub(super) struct DenseRadau<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> {
-    pub(super) sim: &'r mut DenseSimulation<'a, S, L, NB, NV, M>,
-    pub(super) rule: &'r mut StepRule<M>,
-    /// The start's factorisation, for the generated Jacobian.
-    start: Option<Factored<NV, M>>,
-}
-
-impl<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> DenseRadau<'r, 'a, S, L, NB, NV, M> {
-    /// The host of one step of `sim` under `rule`.
-    pub(super) fn new(sim: &'r mut DenseSimulation<'a, S, L, NB, NV, M>, rule: &'r mut StepRule<M>) -> Self {
-        DenseRadau { sim, rule, start: None }
-    }
-}
-
-impl<S, L, const NB: usize, const NV: usize, const M: usize> RadauHost<NB, NV> for DenseRadau<'_, '_, S, L, NB, NV, M>
-where
-    S: Scene<NB, NV, M>,
-    L: AppliedLoads<NB>,
-{
-    type Jacobian = DenseJacobian<NV>;
-    type Factors = Factors<NV>;
-
-    fn newton_limits(&self) -> (usize, f64) {
-        (self.sim.options.newton_max_iterations, self.sim.options.newton_tolerance)
-    }
-
-    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, Self::Jacobian>> {
-        &mut self.sim.radau
-    }
-
-    fn start(&mut self, y0: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError> {
-        let start = self.sim.solve_factored(y0, Some(self.rule))?;
-        self.start = Some(start);
-        *out = start.dynamics.vdot;
-        Ok(())
-    }
-
-    fn accelerations(&mut self, state: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError> {
-        *out = self.sim.solve(state, Some(self.rule))?.vdot;
-        Ok(())
-    }
-
-    fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<(Self::Jacobian, usize), AnalysisError> {
-        let start = match self.start {
-            Some(start) => start,
-            None => self.sim.solve_factored(y0, Some(self.rule))?,
-        };
-        let (aq, av, evaluations) = self.sim.radau_jacobian(y0, start, self.rule)?;
-        Ok(((aq, av), evaluations))
-    }
-
-    fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, AnalysisError> {
-        Factors::new(&jacobian.0, &jacobian.1, h)
-    }
-
-    fn solve_real(
-        &mut self,
-        factors: &Self::Factors,
-        (r, s): (&SVector<f64, NV>, &SVector<f64, NV>),
-        (x, y): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
-    ) {
-        (*x, *y) = factors.solve_real(r, s);
-    }
-
-    fn solve_complex(
-        &mut self,
-        factors: &Self::Factors,
-        r: (&SVector<f64, NV>, &SVector<f64, NV>),
-        s: (&SVector<f64, NV>, &SVector<f64, NV>),
-        x: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
-        y: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
-    ) {
-        let ((xr, xi), (yr, yi)) = factors.solve_complex(r, s);
-        (*x.0, *x.1, *y.0, *y.1) = (xr, xi, yr, yi);
-    }
-}
-
-impl<S, L, const NB: usize, const NV: usize, const M: usize> DenseSimulation<'_, S, L, NB, NV, M>
-where
-    S: Scene<NB, NV, M>,
-    L: AppliedLoads<NB>,
-{
-    /// `A_q = ∂a/∂q` (increments at the state) and `A_v = ∂a/∂v` at `y0`,
-    /// whose accelerations `start` solved, and the dynamics evaluations spent.
-    #[allow(clippy::type_complexity)]
-    fn radau_jacobian(
-        &mut self,
-        y0: &SystemState<NB>,
-        start: Factored<NV, M>,
-        rule: &mut StepRule<M>,
-    ) -> Result<(SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>, usize), AnalysisError> {
-        let a0 = start.dynamics.vdot;
-        if self.options.newton_matrix == NewtonMatrix::Generated
-            && let Some(t) = self.tangent_on(y0, start)?
-        {
-            return Ok((t.accelerations(&t.r1q, &t.r2q), t.accelerations(&t.r1v, &t.r2v), 0));
-        }
-        let v0 = velocity_vector::<NB, NV>(y0);
-        let (mut aq, mut av) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
-        for (c, (mut q, mut v)) in aq.column_iter_mut().zip(av.column_iter_mut()).enumerate() {
-            let unit = |size: f64| SVector::<f64, NV>::from_fn(|i, _| if i == c { size } else { 0.0 });
-            let a = self.solve(&displaced(y0, &unit(1e-7), 1.0, &v0, y0.t), Some(rule))?.vdot;
-            q.copy_from(&((a - a0) / 1e-7));
-            let eps = 1e-7 * (1.0 + libm::fabs(v0.get(c).copied().unwrap_or(0.0)));
-            let a = self.solve(&displaced(y0, &SVector::zeros(), 1.0, &(v0 + unit(eps)), y0.t), Some(rule))?.vdot;
-            v.copy_from(&((a - a0) / eps));
-        }
-        Ok((aq, av, 2 * NV))
-    }
-}
-
-/// The two factorised systems of a step `h`: `K(μ) = μ² I − μ A_v − A_q` at
-/// `μ = γ̂/h` and at `μ = (α + iβ)/h`.
-pub(super) struct Factors<const NV: usize> {
-    h: f64,
-    real: Lu<NV>,
-    complex: Lu<NV, Complex<f64>>,
-    av: SMatrix<f64, NV, NV>,
-}
-
-impl<const NV: usize> Factors<NV> {
-    fn new(aq: &SMatrix<f64, NV, NV>, av: &SMatrix<f64, NV, NV>, h: f64) -> Result<Self, AnalysisError> {
-        let mu = GAMMA / h;
-        let real = Lu::new(&(SMatrix::<f64, NV, NV>::identity() * (mu * mu) - av * mu - aq))?;
-        let mu = Complex::new(ALPHA, BETA) / h;
-        let complex =
-            SMatrix::<Complex<f64>, NV, NV>::identity() * (mu * mu) - av.map(real_part) * mu - aq.map(real_part);
-        Ok(Factors { h, real, complex: Lu::new(&complex)?, av: *av })
-    }
-
-    /// `(μ − [[0, I], [A_q, A_v]])⁻¹ (r, s)` at the real `μ = γ̂/h`.
-    fn solve_real(&self, r: &SVector<f64, NV>, s: &SVector<f64, NV>) -> (SVector<f64, NV>, SVector<f64, NV>) {
-        let mu = GAMMA / self.h;
-        let x = self.real.solve(&(s + r * mu - self.av * r));
-        (x, x * mu - r)
-    }
-
-    /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
-    /// imaginary parts of `x`, then of `y`.
-    #[allow(clippy::type_complexity)]
-    fn solve_complex(
-        &self,
-        (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
-        (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),
-    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
-        let mu = Complex::new(ALPHA, BETA) / self.h;
-        let r = r2.zip_map(r3, Complex::new);
-        let ar = (self.av * r2).zip_map(&(self.av * r3), Complex::new);
-        let x = self.complex.solve(&(s2.zip_map(s3, Complex::new) + r * mu - ar));
-        let y = x * mu - r;
-        ((x.map(|z| z.re), x.map(|z| z.im)), (y.map(|z| z.re), y.map(|z| z.im)))
-    }
-}
-
-/// `x + 0i`.
-fn real_part(x: f64) -> Complex<f64> {
-    Complex::new(x, 0.0)
 }
 
 /// The weights of the stages in the collocation polynomial at `s` (in
