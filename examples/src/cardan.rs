@@ -57,7 +57,7 @@
 use joint_runtime::analysis::{AnalysisError, Assembly, AssemblyOptions, RowInfo, assemble, velocities};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
-use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SystemState};
+use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SparseJacobian, SystemState};
 
 /// The Cardan shaft (see the module documentation): bodies `input`, `output`;
 /// joints `input_bearing`, `output_bearing` (revolute to the ground), `cross`
@@ -171,13 +171,16 @@ pub fn predict<const NB: usize>(state: &mut SystemState<NB>, dt: f64) {
 ///
 /// # Errors
 /// Those of [`assemble`] and [`velocities`].
-pub fn sweep_step<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+pub fn sweep_step<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
     state: &mut SystemState<NB>,
     (k, dt): (usize, f64),
     first: &mut Vec<RowInfo>,
     variants: &mut Vec<Vec<RowInfo>>,
-) -> Result<Assembly<M>, AnalysisError> {
+) -> Result<Assembly<M>, AnalysisError>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
     if k > 0 {
         predict(state, dt);
     }

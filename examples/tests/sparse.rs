@@ -3,13 +3,13 @@
 //! same number of redundant rows (Bricard's one, the Cardan shafts' bearings).
 
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
-use joint_runtime::analysis::{AssemblyOptions, accelerations, assemble, velocities};
+use joint_runtime::analysis::{Analyses, AssemblyOptions, assemble, velocities};
 use joint_runtime::dynamics::{
     Adaptive, DenseSimulation, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
     Tolerance,
 };
 use joint_runtime::nalgebra::{DMatrix, SVector};
-use joint_runtime::sparse::{RowTerm, SecondOrderLayout, SparseAnalysis};
+use joint_runtime::sparse::{RowTerm, SecondOrderLayout};
 use joint_runtime::{Ramp, Scene, SparseJacobian, SystemState};
 
 /// `|a − b| ≤ tol (1 + |b|)` entry by entry.
@@ -276,26 +276,27 @@ fn the_40_loop_ladder_runs_through_its_singular_positions() {
 }
 
 #[test]
-fn the_sparse_analyses_match_the_dense_ones() {
+fn the_analyses_match_the_dense_ones() {
+    use joint_runtime::analysis::dense;
     // Assembly of Bricard's mechanism from a 5° perturbation, its redundant row found.
     let scene = bricard::scene();
-    let mut analysis = SparseAnalysis::new(&scene).expect("structure");
+    let mut analysis = Analyses::new(&scene).expect("structure");
     let (mut a, mut b) = (bricard::perturbed_state(5.0), bricard::perturbed_state(5.0));
-    let dense = assemble(&scene, &mut a, &AssemblyOptions::default()).expect("dense assembly");
-    let sparse = analysis.assemble(&scene, &mut b, &AssemblyOptions::default()).expect("sparse assembly");
+    let dense = dense::assemble(&scene, &mut a, &AssemblyOptions::default()).expect("dense assembly");
+    let sparse = analysis.assemble(&mut b, &AssemblyOptions::default()).expect("sparse assembly");
     assert_eq!((sparse.iterations, sparse.redundant.len()), (dense.iterations, dense.redundant.len()));
     assert!(sparse.residual <= 1e-12);
     close("assembled", &flat(&b), &flat(&a), 1e-9);
     // Velocity and acceleration analysis of the driven Cardan shaft.
     let shaft = cardan::CardanShaft::new(0.5, 10.0).expect("valid bend");
-    let mut analysis = SparseAnalysis::new(&shaft).expect("structure");
+    let mut analysis = Analyses::new(&shaft).expect("structure");
     let (mut a, mut b) = (shaft.reference_state(), shaft.reference_state());
-    let dense = velocities(&shaft, &mut a).expect("dense velocities");
-    let sparse = analysis.velocities(&shaft, &mut b).expect("sparse velocities");
+    let dense = dense::velocities(&shaft, &mut a).expect("dense velocities");
+    let sparse = analysis.velocities(&mut b).expect("sparse velocities");
     assert_eq!(sparse.redundant.len(), dense.redundant.len());
     close("velocities", &flat(&b), &flat(&a), 1e-12);
-    let dense = accelerations(&shaft, &a).expect("dense accelerations");
-    let sparse = analysis.accelerations(&shaft, &b).expect("sparse accelerations");
+    let dense = dense::accelerations(&shaft, &a).expect("dense accelerations");
+    let sparse = analysis.accelerations(&b).expect("sparse accelerations");
     close("accelerations", sparse.vdot.as_slice(), dense.vdot.as_slice(), 1e-10);
 }
 

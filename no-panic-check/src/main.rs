@@ -18,7 +18,7 @@
 //!   formulation ([`joints`]).
 //! - The double Cardan shaft of `joint_examples::double_cardan`, driven
 //!   (`Scene<3, 18, 19>`, a redundant row) and free (`Scene<3, 18, 18>`): the
-//!   system Φ, Φ_t, J, γ, `evaluate` and the sparse J values; `assemble`,
+//!   system Φ, Φ_t, J, γ, `evaluate` and the sparse J values; `Analyses`' `assemble`,
 //!   `velocities`, `accelerations`; the free shaft's `second_order`; and both
 //!   on the one `Simulation` (the block factor of `J M⁻¹ Jᵀ` and the
 //!   saddle-point matrices): `step` with every integrator, stabilisation and

@@ -25,8 +25,7 @@
 //! projection, springs) is part of the checked code: the options are arguments.
 
 use joint_runtime::analysis::{
-    AccelerationAnalysis, AnalysisError, Assembly, AssemblyOptions, VelocityAnalysis, accelerations,
-    accelerations_with, assemble, velocities, velocities_with,
+    AccelerationAnalysis, Analyses, AnalysisError, Assembly, AssemblyOptions, VelocityAnalysis,
 };
 use joint_runtime::dynamics::{Adaptive, IntegrationReport, StepReport, Tolerance};
 use joint_runtime::dynamics::{AppliedLoads, Dynamics, Energy, Integrator, Loads, Reaction, Simulation};
@@ -50,6 +49,7 @@ pub mod driven {
     use joint_examples::double_cardan::DoubleCardan;
 
     type Sim<'a> = Simulation<'a, DoubleCardan, Push, 3, 18, 19, 62>;
+    type Kinematics<'a> = Analyses<'a, DoubleCardan, 3, 18, 19, 62>;
 
     checked! {
         fn phi(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.phi(state) }
@@ -58,35 +58,28 @@ pub mod driven {
         fn gamma(scene: &DoubleCardan, state: &SystemState<3>) -> SVector<f64, 19> { scene.gamma(state) }
         fn evaluate(scene: &DoubleCardan, state: &SystemState<3>) -> Evaluation<f64, 19, 18> { scene.evaluate(state) }
         fn jacobian_values(scene: &DoubleCardan, state: &SystemState<3>) -> [f64; 62] { scene.jacobian_values(state) }
-        fn assemble_(
-            scene: &DoubleCardan,
+        fn assemble(
+            analyses: &mut Kinematics<'_>,
             state: &mut SystemState<3>,
             options: &AssemblyOptions,
         ) -> Result<Assembly<19>, AnalysisError> {
-            assemble(scene, state, options)
+            analyses.assemble(state, options)
         }
-        fn velocities_(scene: &DoubleCardan, state: &mut SystemState<3>) -> Result<VelocityAnalysis<19>, AnalysisError> {
-            velocities(scene, state)
-        }
-        fn velocities_with_(
-            scene: &DoubleCardan,
+        fn velocities(
+            analyses: &mut Kinematics<'_>,
             state: &mut SystemState<3>,
             tolerance: f64,
         ) -> Result<VelocityAnalysis<19>, AnalysisError> {
-            velocities_with(scene, state, tolerance)
+            analyses.rank_tolerance = tolerance;
+            analyses.velocities(state)
         }
-        fn accelerations_(
-            scene: &DoubleCardan,
-            state: &SystemState<3>,
-        ) -> Result<AccelerationAnalysis<18, 19>, AnalysisError> {
-            accelerations(scene, state)
-        }
-        fn accelerations_with_(
-            scene: &DoubleCardan,
+        fn accelerations(
+            analyses: &mut Kinematics<'_>,
             state: &SystemState<3>,
             tolerance: f64,
         ) -> Result<AccelerationAnalysis<18, 19>, AnalysisError> {
-            accelerations_with(scene, state, tolerance)
+            analyses.rank_tolerance = tolerance;
+            analyses.accelerations(state)
         }
         fn step(
             sim: &mut Sim<'_>,
@@ -124,6 +117,8 @@ pub mod free {
     use super::*;
     use joint_examples::double_cardan::FreeDoubleCardan;
 
+    type Kinematics<'a> = Analyses<'a, FreeDoubleCardan, 3, 18, 18, 60>;
+
     checked! {
         fn phi(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SVector<f64, 18> { scene.phi(state) }
         fn jacobian(scene: &FreeDoubleCardan, state: &SystemState<3>) -> SMatrix<f64, 18, 18> { scene.jacobian(state) }
@@ -131,18 +126,18 @@ pub mod free {
         fn evaluate(scene: &FreeDoubleCardan, state: &SystemState<3>) -> Evaluation<f64, 18, 18> {
             scene.evaluate(state)
         }
-        fn assemble_(
-            scene: &FreeDoubleCardan,
+        fn assemble(
+            analyses: &mut Kinematics<'_>,
             state: &mut SystemState<3>,
             options: &AssemblyOptions,
         ) -> Result<Assembly<18>, AnalysisError> {
-            assemble(scene, state, options)
+            analyses.assemble(state, options)
         }
-        fn accelerations_(
-            scene: &FreeDoubleCardan,
+        fn accelerations(
+            analyses: &mut Kinematics<'_>,
             state: &SystemState<3>,
         ) -> Result<AccelerationAnalysis<18, 18>, AnalysisError> {
-            accelerations(scene, state)
+            analyses.accelerations(state)
         }
         fn second_order(
             scene: &FreeDoubleCardan,
@@ -155,7 +150,7 @@ pub mod free {
     }
 }
 
-/// The free shaft on the one [`Simulation`](joint_runtime::dynamics::Simulation)
+/// The free shaft on the one [`Simulation`]
 /// (the block factor of `J M⁻¹ Jᵀ`, the implicit integrators' saddle-point
 /// matrices): the integrator and the adaptive method are arguments, so every
 /// one of their branches is part of the checked code.

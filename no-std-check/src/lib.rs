@@ -14,7 +14,7 @@
 //! `std` on to show that the check can fail. `.ci/run` runs both.
 //!
 //! The exported functions use a derived joint (f64 and f32), a SIMD batch, a
-//! derived scene, assembly, RK4 steps and the implicit integrators' steps, so
+//! derived scene, the kinematic analyses, RK4 steps and the implicit integrators' steps, so
 //! all of them are compiled and linked without `std` and without an
 //! allocator.
 
@@ -22,11 +22,10 @@
 
 use core::panic::PanicInfo;
 
-use joint_runtime::analysis::{AssemblyOptions, assemble};
+use joint_runtime::analysis::{Analyses, AssemblyOptions};
 use joint_runtime::batch::{WideF32x8, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
-use joint_runtime::sparse::SparseAnalysis;
 use joint_runtime::{Joint, OmegaBody, Scene, SystemState, TwoBodies};
 
 /// A Cardan joint with run-time yokes and offsets.
@@ -86,52 +85,35 @@ pub extern "C" fn joint_cardan_batch_f32(angle: f32) -> f32 {
     }
 }
 
-/// Assembles the pendulum from a tilt of `angle` and takes `steps` RK4 steps of
-/// 1 ms; returns ‖Φ‖ at the end, or NaN if an analysis failed.
-#[unsafe(no_mangle)]
-pub extern "C" fn joint_pendulum_steps(angle: f64, steps: u32) -> f64 {
-    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
-    let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
-    let mut state = SystemState { bodies: [link], t: 0.0 };
-    if assemble(&Pendulum, &mut state, &AssemblyOptions::default()).is_err() {
-        return f64::NAN;
-    }
-    let Ok(mut sim) = Simulation::new(&Pendulum, NoLoads, &[], SimulationOptions::default()) else {
-        return f64::NAN;
-    };
-    for _ in 0..steps {
-        if sim.step(&mut state, 1e-3).is_err() {
-            return f64::NAN;
-        }
-    }
-    Pendulum.phi(&state).norm()
-}
-
 #[panic_handler]
 fn panic(_: &PanicInfo) -> ! {
     loop {}
 }
 
-/// The pendulum assembled on the sparse block factor, whose storage the
-/// derive sized: no allocator behind it.
+/// The pendulum assembled from a tilt of `angle`, then its velocity and
+/// acceleration analysis, on the analyses' block factor (storage the derive
+/// sized, inline: no allocator behind it): ‖Φ‖ + ‖v̇‖, or NaN.
 #[unsafe(no_mangle)]
-pub extern "C" fn joint_pendulum_sparse_assembly(angle: f64) -> f64 {
+pub extern "C" fn joint_pendulum_analyses(angle: f64) -> f64 {
     let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
     let link = OmegaBody::from_rotation(Vector3::new(0.3, 0.1, -0.4), &tilt, Vector3::zeros(), Vector3::zeros());
     let mut state = SystemState { bodies: [link], t: 0.0 };
-    let Ok(mut analysis) = SparseAnalysis::new(&Pendulum) else {
+    let Ok(mut analyses) = Analyses::new(&Pendulum) else {
         return f64::NAN;
     };
-    if analysis.assemble(&Pendulum, &mut state, &AssemblyOptions::default()).is_err() {
+    if analyses.assemble(&mut state, &AssemblyOptions::default()).is_err() || analyses.velocities(&mut state).is_err() {
         return f64::NAN;
     }
-    Pendulum.phi(&state).norm()
+    match analyses.accelerations(&state) {
+        Ok(a) => Pendulum.phi(&state).norm() + a.vdot.norm(),
+        Err(_) => f64::NAN,
+    }
 }
 
-/// RK4 steps with projection on the sparse path: its factor, solves and
+/// RK4 steps with projection on the one `Simulation`: its factor, solves and
 /// workspaces all inline, sized at compile time.
 #[unsafe(no_mangle)]
-pub extern "C" fn joint_pendulum_sparse_steps(angle: f64, steps: u32) -> f64 {
+pub extern "C" fn joint_pendulum_steps(angle: f64, steps: u32) -> f64 {
     pendulum_steps(angle, steps, Integrator::Rk4)
 }
 

@@ -10,7 +10,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use joint_runtime::analysis::{AssemblyOptions, assemble};
+use joint_runtime::analysis::{Analyses, AssemblyOptions};
 use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, Tolerance};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
@@ -146,11 +146,14 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     // `new` allocates them, then no step of any integrator does.
     let radau = SimulationOptions::default().with_integrator(Integrator::RadauIIA);
     let mut sim = Simulation::new(&scene, push, &[], radau).expect("valid options");
+    // Likewise the analyses: `new` boxes their block factor, then none allocates.
+    let mut analyses = Analyses::new(&scene).expect("structure");
     let mut reports = None;
     let n = allocations(|| {
         let e = std::hint::black_box(scene.evaluate(&state));
         let sparse = std::hint::black_box(scene.jacobian_values(&state));
-        let a = assemble(&scene, &mut state, &options);
+        let a = analyses.assemble(&mut state, &options);
+        let kinematics = analyses.velocities(&mut state).is_ok() && analyses.accelerations(&state).is_ok();
         sim.options.integrator = Integrator::Rk4;
         let rk4 = sim.step(&mut state, 1e-3);
         sim.options.integrator = Integrator::ImplicitMidpoint;
@@ -164,7 +167,7 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
         let adaptive = sim.integrate(&mut state, t, Adaptive::DormandPrince, tolerance).is_ok()
             && sim.integrate(&mut state, t + 0.01, Adaptive::GeneralisedAlpha, tolerance).is_ok()
             && sim.integrate(&mut state, t + 0.02, Adaptive::RadauIIA, tolerance).is_ok();
-        let steps = rk4.is_ok() && midpoint.is_ok() && alpha && radau && adaptive;
+        let steps = kinematics && rk4.is_ok() && midpoint.is_ok() && alpha && radau && adaptive;
         reports = Some((e.phi.len(), sparse.len(), a.map(|a| a.iterations), steps));
     });
     assert_eq!(n, 0, "a scene evaluation, assembly or step allocated");

@@ -6,7 +6,7 @@ use core::fmt;
 use nalgebra::{SMatrix, SVector};
 
 use super::AnalysisError;
-use crate::scene::{Scene, SystemState};
+use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// One constraint row, located in its joint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -222,6 +222,22 @@ where
         return Err(AnalysisError::NonFinite { body: None, field: "t" });
     }
     Ok(())
+}
+
+/// The Jacobian's nonzero `values` all finite, or the first row (with its
+/// joint) holding one that is not.
+pub(crate) fn check_values<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
+    values: &[f64; NNZ],
+) -> Result<(), AnalysisError>
+where
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+{
+    let Some(bad) = values.iter().position(|v| !v.is_finite()) else {
+        return Ok(());
+    };
+    // The row whose entries hold `bad`: the last start at or before it.
+    let row = S::ROW_STARTS.iter().take(M).rposition(|&start| start <= bad);
+    Err(AnalysisError::NonFiniteOutput { quantity: "J", row: row.map(RowInfo::of::<S, NB, NV, M>) })
 }
 
 pub(crate) fn check_output<S, const NB: usize, const NV: usize, const M: usize, const C: usize>(

@@ -19,6 +19,10 @@
 //! Because `A(p ⊗ q) = A(p) A(q)`, this is the increment whose first-order effect
 //! the `omega_body` Jacobian describes.
 
+mod analyses;
+#[cfg(feature = "__dense_reference")]
+#[doc(hidden)]
+pub mod dense;
 mod diagnostics;
 mod error;
 mod motion;
@@ -27,23 +31,23 @@ mod solve;
 
 use nalgebra::SVector;
 
+pub use analyses::Analyses;
 pub use diagnostics::{RowInfo, RowList, RowResidual, WorstRows};
-pub(crate) use diagnostics::{check_dims, check_output, check_state};
+pub(crate) use diagnostics::{check_dims, check_output, check_state, check_values};
 pub use error::{Analysis, AnalysisError};
 pub(crate) use motion::{
     apply_increment, normalise_orientations, quat_mul, rotate_body, set_velocities, velocity_vector,
     velocity_vector_into,
 };
-pub(crate) use newton::newton;
 pub(crate) use newton::{Directions, NewtonWork, damped_newton};
 pub use solve::InverseMass;
 #[cfg(feature = "__dense_reference")]
-pub(crate) use solve::jacobian_times_metric;
-pub(crate) use solve::{Metric, apply_metric, min_norm, solve_linear};
+pub(crate) use solve::Metric;
+pub(crate) use solve::apply_metric;
 pub(crate) use solve::{apply_metric_in_place, apply_metric_into};
 
 use crate::linalg::DEFAULT_RANK_TOLERANCE;
-use crate::scene::{Scene, SystemState};
+use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// Options of [`assemble`] (and of the projection step of [`crate::dynamics`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -133,97 +137,82 @@ pub struct AccelerationAnalysis<const NV: usize, const M: usize> {
 // ---------------------------------------------------------------------------
 // Public analyses.
 
-/// Assembles the mechanism: moves `state`'s positions and orientations onto
-/// Φ = 0 by damped Newton from a rough configuration.
-///
-/// Each iteration solves `J Δ = −Φ` in the minimum-norm least-squares sense
-/// (`Δ = Jᵀ y`, `(J Jᵀ) y = −Φ` by [`PivotedCholesky`](crate::linalg::PivotedCholesky)), then tries `r += α Δr`,
-/// `p ← p ⊗ q(α Δθ')` for `α = 1, ½, ¼, …` until ‖Φ‖₂ decreases (Armijo). The
-/// Euler parameters are normalised first (a rough `p` need not be unit).
-/// Velocities and time are not touched.
+/// Assembles `scene` from `state`'s rough configuration:
+/// [`Analyses::assemble`] on analyses made for this one call.
 ///
 /// # Errors
-/// [`AnalysisError::NonFinite`] names the body and field of a NaN/infinite
-/// position input; [`AnalysisError::NotConverged`] after `max_iterations`;
-/// [`AnalysisError::NoProgress`] when no step reduces ‖Φ‖ (singular or
-/// impossible). Both name the rows with the largest residuals. On error `state`
-/// holds the last accepted iterate.
-pub fn assemble<S, const NB: usize, const NV: usize, const M: usize>(
+/// As [`Analyses::new`] and [`Analyses::assemble`].
+pub fn assemble<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
     state: &mut SystemState<NB>,
     options: &AssemblyOptions,
 ) -> Result<Assembly<M>, AnalysisError>
 where
-    S: Scene<NB, NV, M>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    newton(scene, state, options, None)
+    Analyses::new(scene)?.assemble(state, options)
 }
 
-/// Velocity analysis: solves `J v = −Φ_t` (minimum norm) at `state`'s
-/// configuration and writes every body's `ṙ` and `ω'`. Degrees of freedom not
-/// fixed by the constraints (or drivers) get zero velocity; use this on a fully
-/// driven mechanism, or to start from rest.
+/// Velocity analysis of `scene` at `state`: [`Analyses::velocities`] on
+/// analyses made for this one call.
 ///
 /// # Errors
-/// Non-finite inputs or outputs; [`AnalysisError::Inconsistent`] when redundant
-/// rows contradict the others. Redundant but consistent rows are reported in the
-/// result.
-pub fn velocities<S, const NB: usize, const NV: usize, const M: usize>(
+/// As [`Analyses::new`] and [`Analyses::velocities`].
+pub fn velocities<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
     state: &mut SystemState<NB>,
 ) -> Result<VelocityAnalysis<M>, AnalysisError>
 where
-    S: Scene<NB, NV, M>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     velocities_with(scene, state, DEFAULT_RANK_TOLERANCE)
 }
 
 /// [`velocities`] with a chosen relative rank tolerance.
-pub fn velocities_with<S, const NB: usize, const NV: usize, const M: usize>(
+///
+/// # Errors
+/// As [`velocities`].
+pub fn velocities_with<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
     state: &mut SystemState<NB>,
     rank_tolerance: f64,
 ) -> Result<VelocityAnalysis<M>, AnalysisError>
 where
-    S: Scene<NB, NV, M>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    check_state::<S, NB, NV, M>(state, false)?;
-    let j = scene.jacobian(state);
-    check_output::<S, NB, NV, M, NV>("J", &j)?;
-    let phi_t = scene.phi_t(state);
-    check_output::<S, NB, NV, M, 1>("Φ_t", &phi_t)?;
-    let solution = solve_linear::<S, NB, NV, M>(Analysis::Velocity, &j, &(-phi_t), None, rank_tolerance)?;
-    set_velocities(state, &solution.x);
-    Ok(VelocityAnalysis { residual: solution.residual, redundant: solution.redundant })
+    let mut analyses = Analyses::new(scene)?;
+    analyses.rank_tolerance = rank_tolerance;
+    analyses.velocities(state)
 }
 
-/// Acceleration analysis: the minimum-norm solution of `J v̇ = γ` at `state`.
+/// Acceleration analysis of `scene` at `state`: [`Analyses::accelerations`]
+/// on analyses made for this one call.
 ///
 /// # Errors
-/// As [`velocities`].
-pub fn accelerations<S, const NB: usize, const NV: usize, const M: usize>(
+/// As [`Analyses::new`] and [`Analyses::accelerations`].
+pub fn accelerations<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
     state: &SystemState<NB>,
 ) -> Result<AccelerationAnalysis<NV, M>, AnalysisError>
 where
-    S: Scene<NB, NV, M>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     accelerations_with(scene, state, DEFAULT_RANK_TOLERANCE)
 }
 
 /// [`accelerations`] with a chosen relative rank tolerance.
-pub fn accelerations_with<S, const NB: usize, const NV: usize, const M: usize>(
+///
+/// # Errors
+/// As [`accelerations`].
+pub fn accelerations_with<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     scene: &S,
     state: &SystemState<NB>,
     rank_tolerance: f64,
 ) -> Result<AccelerationAnalysis<NV, M>, AnalysisError>
 where
-    S: Scene<NB, NV, M>,
+    S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    check_state::<S, NB, NV, M>(state, true)?;
-    let e = scene.evaluate(state);
-    check_output::<S, NB, NV, M, NV>("J", &e.jacobian)?;
-    check_output::<S, NB, NV, M, 1>("γ", &e.gamma)?;
-    let solution = solve_linear::<S, NB, NV, M>(Analysis::Acceleration, &e.jacobian, &e.gamma, None, rank_tolerance)?;
-    Ok(AccelerationAnalysis { vdot: solution.x, residual: solution.residual, redundant: solution.redundant })
+    let mut analyses = Analyses::new(scene)?;
+    analyses.rank_tolerance = rank_tolerance;
+    analyses.accelerations(state)
 }

@@ -1,27 +1,11 @@
 //! Damped Newton on Φ = 0: assembly and the projection step of the dynamics.
 
 use super::{
-    AnalysisError, Assembly, AssemblyOptions, Metric, RowList, WorstRows, apply_increment, check_output, check_state,
-    min_norm, normalise_orientations,
+    AnalysisError, AssemblyOptions, WorstRows, apply_increment, check_output, check_state, normalise_orientations,
 };
 use nalgebra::SVector;
 
 use crate::scene::{Scene, SystemState};
-
-/// Damped Newton on Φ = 0 with minimum-norm steps in the metric.
-pub(crate) fn newton<S, const NB: usize, const NV: usize, const M: usize>(
-    scene: &S,
-    state: &mut SystemState<NB>,
-    options: &AssemblyOptions,
-    metric: Metric<'_, NB>,
-) -> Result<Assembly<M>, AnalysisError>
-where
-    S: Scene<NB, NV, M>,
-{
-    let mut dense = Dense { scene, metric, rank_tolerance: options.rank_tolerance, redundant: RowList::default() };
-    let (iterations, residual) = damped_newton(scene, state, options, &mut dense, &mut NewtonWork::new())?;
-    Ok(Assembly { iterations, residual, redundant: dense.redundant })
-}
 
 /// Damped Newton's vectors (Φ, the right-hand side `−Φ`, a trial's Φ, the
 /// direction, a trial state) and a velocity: where a simulation keeps them
@@ -58,38 +42,6 @@ pub(crate) trait Directions<const NB: usize, const NV: usize, const M: usize> {
     ) -> Result<(), AnalysisError>;
     /// Factorises at the converged `state` (its redundant rows, kept by the solver).
     fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError>;
-}
-
-/// The dense solver's directions, and the rows its last factorisation dropped.
-struct Dense<'s, S, const NB: usize, const M: usize> {
-    scene: &'s S,
-    metric: Metric<'s, NB>,
-    rank_tolerance: f64,
-    redundant: RowList<M>,
-}
-
-impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Directions<NB, NV, M>
-    for Dense<'_, S, NB, M>
-{
-    fn step(
-        &mut self,
-        state: &SystemState<NB>,
-        b: &mut SVector<f64, M>,
-        delta: &mut SVector<f64, NV>,
-    ) -> Result<(), AnalysisError> {
-        let j = self.scene.jacobian(state);
-        check_output::<S, NB, NV, M, NV>("J", &j)?;
-        *delta = min_norm(&j, b, self.metric, self.rank_tolerance)?.x;
-        Ok(())
-    }
-
-    fn factor_at(&mut self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
-        let j = self.scene.jacobian(state);
-        check_output::<S, NB, NV, M, NV>("J", &j)?;
-        let step = min_norm(&j, &SVector::<f64, M>::zeros(), self.metric, self.rank_tolerance)?;
-        self.redundant = RowList::from_rows::<S, NB, NV>(step.factor.dropped());
-        Ok(())
-    }
 }
 
 /// Damped Newton on Φ = 0 (the dense and the sparse assembly and projection):

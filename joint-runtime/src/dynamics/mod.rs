@@ -30,8 +30,9 @@
 //! `J v̇ = J M⁻¹ Q − (J M⁻¹ Q − γ) = γ`. The generalised constraint force acting on
 //! the bodies is therefore `−Jᵀ λ`; a joint's reaction on each body is its rows'
 //! share, `−J_kᵀ λ_k`, split into the body's `[force (inertial), torque (body)]`
-//! ([`Simulation::reactions`]). `J M⁻¹ Jᵀ` is factorised with the rank-revealing
-//! [`PivotedCholesky`]: for redundant
+//! ([`Simulation::reactions`]). `J M⁻¹ Jᵀ` is factorised on its block pattern
+//! ([`BlockFactor`](crate::sparse::BlockFactor)), each diagonal block by a
+//! rank-revealing pivoted Cholesky: for redundant
 //! constraints λ is not unique (the dropped rows get λ = 0), but every λ gives
 //! the same `v̇`.
 //!

@@ -25,8 +25,8 @@
 //! elimination order is the derive's, not the order the rows were written in.
 //!
 //! [`Simulation`], the one simulation, runs on
-//! this factor (RK4 with the mass-metric projection), and [`SparseAnalysis`]
-//! assembles and runs velocity and acceleration analysis, reading only Φ, Φ_t,
+//! this factor (RK4 with the mass-metric projection), and so do the kinematic
+//! analyses ([`Analyses`](crate::analysis::Analyses)), reading only Φ, Φ_t,
 //! γ and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
 //! With [`Integrator::GeneralisedAlpha`](crate::dynamics::Integrator) the
 //! simulation runs index-3 generalised-α with the exact iteration matrix, a
@@ -48,7 +48,6 @@
 
 mod adaptive;
 mod alpha;
-mod analysis;
 mod buf;
 mod differences;
 mod factor;
@@ -60,9 +59,8 @@ mod midpoint;
 mod radau;
 mod second_order;
 mod simulation;
-mod solver;
+pub(crate) mod solver;
 
-pub use analysis::SparseAnalysis;
 pub use differences::DifferenceTerms;
 pub use factor::{BlockFactor, FactorArrays, FactorStorage};
 pub use kkt::{KktArrays, KktEntry, KktStorage};

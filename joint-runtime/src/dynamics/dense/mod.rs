@@ -19,9 +19,10 @@ use self::radau::{DenseJacobian, DenseRadau};
 use crate::dynamics::radau::{RadauHistory, RadauWork, step_radau};
 
 use super::*;
+use crate::analysis::dense::{jacobian_times_metric, min_norm, newton};
 use crate::analysis::{
-    AnalysisError, AssemblyOptions, RowList, apply_metric, check_output, check_state, jacobian_times_metric, min_norm,
-    newton, normalise_orientations, set_velocities, velocity_vector,
+    AnalysisError, AssemblyOptions, RowList, apply_metric, check_output, check_state, normalise_orientations,
+    set_velocities, velocity_vector,
 };
 use crate::linalg::{Lu, PivotedCholesky};
 use crate::scene::{RowBlock, Scene, SystemState};

@@ -3,7 +3,8 @@
 use nalgebra::{Matrix3, SMatrix, SVector};
 
 use super::{DenseSimulation, Factored, StepRule};
-use crate::analysis::{AnalysisError, InverseMass, jacobian_times_metric, velocity_vector};
+use crate::analysis::dense::jacobian_times_metric;
+use crate::analysis::{AnalysisError, InverseMass, velocity_vector};
 use crate::dynamics::newton_matrix::*;
 use crate::dynamics::{AppliedLoads, Dynamics, midpoint_state};
 use crate::linalg::PivotedCholesky;
