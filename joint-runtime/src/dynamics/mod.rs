@@ -833,18 +833,24 @@ fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M
 ) -> Result<[InverseMass; NB], AnalysisError> {
     let mut inverse = [InverseMass { inv_mass: 0.0, inv_inertia: Matrix3::zeros() }; NB];
     for (i, (b, inv)) in inertias.iter().zip(inverse.iter_mut()).enumerate() {
-        let body = S::BODIES.get(i).copied().unwrap_or("");
-        let sym = (b.inertia + b.inertia.transpose()) * 0.5;
-        let ok_mass = b.mass.is_finite() && b.mass > 0.0;
-        let inv_inertia = if sym.iter().all(|x| x.is_finite()) { sym.try_inverse() } else { None };
-        match (ok_mass, inv_inertia) {
-            (true, Some(j)) if j.iter().all(|x| x.is_finite()) => {
-                *inv = InverseMass { inv_mass: 1.0 / b.mass, inv_inertia: (j + j.transpose()) * 0.5 };
-            }
-            _ => return Err(AnalysisError::BadInertia { body }),
-        }
+        *inv = inverse_mass(b).ok_or(AnalysisError::BadInertia { body: S::BODIES.get(i).copied().unwrap_or("") })?;
     }
     Ok(inverse)
+}
+
+/// One body's inverse mass: `None` for a mass that is not positive and
+/// finite or an inertia tensor (symmetrised) that is not finite or not
+/// invertible. Not generic, so compiled once in this crate: nalgebra's
+/// `try_inverse` brings its 4 × 4 and general branches along wherever it is
+/// instantiated (7 000 lines of LLVM IR in every scene's crate).
+#[inline(never)]
+fn inverse_mass(b: &BodyInertia) -> Option<InverseMass> {
+    let sym = (b.inertia + b.inertia.transpose()) * 0.5;
+    let ok_mass = b.mass.is_finite() && b.mass > 0.0;
+    let j = if ok_mass && sym.iter().all(|x| x.is_finite()) { sym.try_inverse()? } else { return None };
+    j.iter()
+        .all(|x| x.is_finite())
+        .then(|| InverseMass { inv_mass: 1.0 / b.mass, inv_inertia: (j + j.transpose()) * 0.5 })
 }
 
 /// Springs attached to bodies that exist, with finite coefficients.
