@@ -55,8 +55,13 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
     where
         S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     {
+        // The simulation is made for the integrator it runs (for
+        // error-controlled steps, the one they are made of), so that `new`
+        // makes that integrator's workspace.
         let integrator = match run {
             Run::Fixed(i, _) => i,
+            Run::Adaptive(Adaptive::GeneralisedAlpha, _) => Integrator::GeneralisedAlpha,
+            Run::Adaptive(Adaptive::RadauIIA, _) => Integrator::RadauIIA,
             Run::Adaptive(..) => Integrator::Rk4,
         };
         let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
