@@ -2,16 +2,21 @@
 //! analysis and acceleration analysis.
 //!
 //! All three solve underdetermined or redundant linear systems `J x = b` in the
-//! minimum-norm sense, `x = Jᵀ y` with `(J Jᵀ) y = b`, factorising the Gram matrix
-//! with the rank-revealing [`PivotedCholesky`](crate::linalg::PivotedCholesky). Rows it drops as dependent are
-//! *redundant* and are reported by joint name (via [`Scene::BLOCKS`]) in a
-//! [`RowList`]; they receive no correction of their own, which is right when the
-//! redundant rows are consistent with the others (a duplicated joint) and shows up
-//! as a residual otherwise.
+//! minimum-norm sense, `x = Jᵀ y` with `(J Jᵀ) y = b`, factorising the Gram
+//! matrix on the scene's block pattern ([`BlockFactor`](crate::sparse::BlockFactor):
+//! the derive's elimination order, each diagonal block by a rank-revealing
+//! pivoted Cholesky), in time and memory proportional to the scene. Rows it
+//! drops as dependent are *redundant* and are reported by joint name (via
+//! [`Scene::BLOCKS`]) in a [`RowList`]; they receive no correction of their
+//! own, which is right when the redundant rows are consistent with the others
+//! (a duplicated joint) and shows up as a residual otherwise.
 //!
-//! Everything here works on fixed-size nalgebra types: no allocation, no panic on
-//! bad input (NaN, infinities, zero quaternions, impossible configurations all
-//! return an [`AnalysisError`]).
+//! [`Analyses`] holds the factor, made once (boxed with `alloc`, inline
+//! without); its analyses then allocate nothing and cannot panic
+//! (`no-panic-check`), and bad input (NaN, infinities, zero quaternions,
+//! impossible configurations) returns an [`AnalysisError`]. The functions
+//! [`assemble`], [`velocities`] and [`accelerations`] make one for a single
+//! call.
 //!
 //! Orientation updates stay on the rotation group: a velocity-level increment
 //! `Δθ'` (body components, the `ω'` columns of `J`) moves `p ← p ⊗ q(Δθ')` with
