@@ -30,6 +30,12 @@ fn put<T>(list: &mut [T], i: usize, v: T) -> Result<(), LinalgError> {
     Ok(())
 }
 
+/// `list[i]`, or the structure error: every look-up here is checked, so
+/// that building a factor cannot panic whatever pattern it is given.
+fn get<T: Copy>(list: &[T], i: usize) -> Result<T, LinalgError> {
+    list.get(i).copied().ok_or(BAD_STRUCTURE)
+}
+
 /// Turns per-entry counts (in each range's end) into consecutive ranges,
 /// each empty at its start (its end the fill cursor); returns the total.
 fn prefix(ranges: &mut [(usize, usize)]) -> usize {
@@ -86,7 +92,7 @@ impl Parts<'_> {
             let start = at;
             put(self.col, at, k)?;
             at += 1;
-            let (a, b) = (p.factor_starts[k], p.factor_starts[k + 1]);
+            let (a, b) = (get(p.factor_starts, k)?, get(p.factor_starts, k + 1)?);
             for &i in p.factor_below.get(a..b).ok_or(BAD_STRUCTURE)? {
                 if i <= k || i >= n {
                     return Err(BAD_STRUCTURE);
@@ -94,7 +100,7 @@ impl Parts<'_> {
                 put(self.col, at, i)?;
                 at += 1;
             }
-            self.col_range[k] = (start, at);
+            put(self.col_range, k, (start, at))?;
         }
         if at != self.col.len() { Err(BAD_STRUCTURE) } else { Ok(()) }
     }
@@ -105,18 +111,18 @@ impl Parts<'_> {
         let n = self.joints.len();
         for fill in [false, true] {
             for j in 0..n {
-                let (a, b) = self.col_range[j];
+                let (a, b) = get(self.col_range, j)?;
                 for x in a + 1..b {
-                    let k = self.col[x];
-                    let r = &mut self.row_range[k].1;
+                    let k = get(self.col, x)?;
+                    let r = &mut self.row_range.get_mut(k).ok_or(BAD_STRUCTURE)?.1;
                     if fill {
                         put(self.row, *r, (j, x))?;
                     }
                     *r += 1;
                     for y in x..b {
                         // Eliminating j joins i and k: the pattern has (i, k).
-                        let sik = slot(self.col_range, self.col, self.col[y], k).ok_or(BAD_STRUCTURE)?;
-                        let u = &mut self.sched_range[sik].1;
+                        let sik = slot(self.col_range, self.col, get(self.col, y)?, k).ok_or(BAD_STRUCTURE)?;
+                        let u = &mut self.sched_range.get_mut(sik).ok_or(BAD_STRUCTURE)?.1;
                         if fill {
                             put(self.sched, *u, (j, y, x))?;
                         }
@@ -124,16 +130,19 @@ impl Parts<'_> {
                     }
                 }
             }
-            if !fill && (prefix(self.sched_range) != self.sched.len() || prefix(self.row_range) != self.col.len() - n) {
+            if !fill
+                && (prefix(self.sched_range) != self.sched.len()
+                    || Some(prefix(self.row_range)) != self.col.len().checked_sub(n))
+            {
                 return Err(BAD_STRUCTURE);
             }
         }
         let mut at = 0;
         for k in 0..n {
-            let (a, b) = self.col_range[k];
+            let (a, b) = get(self.col_range, k)?;
             for s in a..b {
                 let start = at;
-                let (x, y) = (self.joints[self.col[s]].bodies, self.joints[k].bodies);
+                let (x, y) = (get(self.joints, get(self.col, s)?)?.bodies, get(self.joints, k)?.bodies);
                 for (si, bi) in x.iter().enumerate() {
                     for (sk, bk) in y.iter().enumerate() {
                         if let (Some(u), Some(v)) = (bi, bk)
@@ -144,7 +153,7 @@ impl Parts<'_> {
                         }
                     }
                 }
-                self.shared_range[s] = (start, at);
+                put(self.shared_range, s, (start, at))?;
             }
         }
         if at != self.shared.len() { Err(BAD_STRUCTURE) } else { Ok(()) }
@@ -154,8 +163,8 @@ impl Parts<'_> {
     fn scatter_map(&mut self, p: &Pattern<'_>) -> Result<(), LinalgError> {
         let mut at = 0;
         for (b, block) in p.blocks.iter().enumerate() {
-            let k = self.rank[b];
-            let bodies = self.joints[k].bodies;
+            let k = get(self.rank, b)?;
+            let bodies = get(self.joints, k)?.bodies;
             for r in 0..block.rows {
                 let (Some(&a), Some(&e)) = (p.row_starts.get(block.start + r), p.row_starts.get(block.start + r + 1))
                 else {
