@@ -17,6 +17,8 @@
 //! aborts the process: how the stack a step needs is found). With
 //! `INTEGRATOR=alpha`, `midpoint` or `radau` the steps are that implicit
 //! integrator's (RK4 otherwise), so that their stack can be measured too.
+//! With `COORDINATES=relative` the chains and arms run in relative
+//! coordinates (`joint_runtime::tree`, RK4, the same start converted).
 //!
 //! Each round restarts from the scene's start and times `STEPS` steps; the
 //! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
@@ -29,14 +31,15 @@ use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan,
 use joint_examples::scaling::chain_start;
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::tree::{TreeScene, TreeSimulation};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
-joint_examples::chain_scene!(Chain3, 3);
-joint_examples::chain_scene!(Chain5, 5);
-joint_examples::chain_scene!(Chain10, 10);
-joint_examples::chain_scene!(Chain20, 20);
-joint_examples::chain_scene!(Chain40, 40);
-joint_examples::chain_scene!(Chain160, 160);
+joint_examples::chain_scene!(Chain3, 3, coordinates = relative);
+joint_examples::chain_scene!(Chain5, 5, coordinates = relative);
+joint_examples::chain_scene!(Chain10, 10, coordinates = relative);
+joint_examples::chain_scene!(Chain20, 20, coordinates = relative);
+joint_examples::chain_scene!(Chain40, 40, coordinates = relative);
+joint_examples::chain_scene!(Chain160, 160, coordinates = relative);
 
 /// Declares an arm of bars `bar[$n]` on revolute joints: `$base` on the
 /// ground, then `$name = (parent, child, axis)` for the rest.
@@ -44,7 +47,7 @@ macro_rules! arm_scene {
     ($scene:ident, $n:tt, $(($joint:ident, $parent:tt, $child:tt, $axis:tt)),*) => {
         /// An arm of bars on revolute joints, axes alternating z and y.
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81])]
+        #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
         #[body(bar[$n], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(base = revolute(ground, bar[0]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
         $(#[joint($joint = revolute(bar[$parent], bar[$child]), axis1 = $axis, axis2 = $axis, rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])])*
@@ -134,10 +137,45 @@ where
         None => time()?,
     }
     us.sort_by(f64::total_cmp);
-    let last = end.bodies[NB - 1];
+    print(name, NB, M, steps, &us, &end.bodies[NB - 1], end.t);
+    Ok(())
+}
+
+/// [`run`] in relative coordinates: the same start, converted to the
+/// scene's tree.
+fn run_tree<S, const NB: usize, const NQ: usize, const NV: usize>(
+    name: &str,
+    scene: &S,
+    start: SystemState<NB>,
+    steps: usize,
+    rounds: usize,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let mut sim = Box::new(TreeSimulation::new(scene)?);
+    let start = sim.tree().tree_state(&start, 1e-12)?;
+    let mut end = start;
+    let mut us = Vec::with_capacity(rounds);
+    for _ in 0..rounds {
+        end = start;
+        let clock = Instant::now();
+        for _ in 0..steps {
+            sim.step(&mut end, 1e-3)?;
+        }
+        us.push(clock.elapsed().as_secs_f64() * 1e6 / steps as f64);
+    }
+    us.sort_by(f64::total_cmp);
+    let system = sim.tree().system_state(&end);
+    print(name, NB, NV, steps, &us, &system.bodies[NB - 1], end.t);
+    Ok(())
+}
+
+/// The JSON line: the median round, its spread, the tip.
+fn print(name: &str, bodies: usize, rows: usize, steps: usize, us: &[f64], last: &OmegaBody<f64>, t: f64) {
     let tip = last.point(&Vector3::new(0.5, 0.0, 0.0));
     println!(
-        "{{\"peer\":\"joint\",\"scene\":\"{name}\",\"bodies\":{NB},\"rows\":{M},\"steps\":{steps},\
+        "{{\"peer\":\"joint\",\"scene\":\"{name}\",\"bodies\":{bodies},\"rows\":{rows},\"steps\":{steps},\
          \"us_per_step\":{:.4},\"us_min\":{:.4},\"us_max\":{:.4},\"tip\":[{:.10},{:.10},{:.10}],\"time\":{:.6}}}",
         us[us.len() / 2],
         us[0],
@@ -145,9 +183,8 @@ where
         tip.x,
         tip.y,
         tip.z,
-        end.t
+        t
     );
-    Ok(())
 }
 
 /// Parses the command line and runs the scene it names.
@@ -158,16 +195,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let steps: usize = args.get(2).map_or(Ok(2000), |s| s.parse())?;
     let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
     let name = format!("{kind}{n}");
+    let relative = std::env::var("COORDINATES").as_deref() == Ok("relative");
+    // Each chain and arm in the coordinates asked for.
+    macro_rules! go {
+        ($scene:expr, $start:expr) => {
+            if relative {
+                run_tree(&name, &$scene, $start, steps, rounds)
+            } else {
+                run(&name, &$scene, $start, steps, rounds)
+            }
+        };
+    }
     match (kind, n) {
-        ("chain", 3) => run(&name, &Chain3, chain_start(), steps, rounds),
-        ("chain", 5) => run(&name, &Chain5, chain_start(), steps, rounds),
-        ("chain", 10) => run(&name, &Chain10, chain_start(), steps, rounds),
-        ("chain", 20) => run(&name, &Chain20, chain_start(), steps, rounds),
-        ("chain", 40) => run(&name, &Chain40, chain_start(), steps, rounds),
-        ("chain", 160) => run(&name, &Chain160, chain_start(), steps, rounds),
-        ("arm", 2) => run(&name, &Arm2, arm_start(), steps, rounds),
-        ("arm", 6) => run(&name, &Arm6, arm_start(), steps, rounds),
-        ("arm", 12) => run(&name, &Arm12, arm_start(), steps, rounds),
+        ("chain", 3) => go!(Chain3, chain_start()),
+        ("chain", 5) => go!(Chain5, chain_start()),
+        ("chain", 10) => go!(Chain10, chain_start()),
+        ("chain", 20) => go!(Chain20, chain_start()),
+        ("chain", 40) => go!(Chain40, chain_start()),
+        ("chain", 160) => go!(Chain160, chain_start()),
+        ("arm", 2) => go!(Arm2, arm_start()),
+        ("arm", 6) => go!(Arm6, arm_start()),
+        ("arm", 12) => go!(Arm12, arm_start()),
         ("double-cardan", 3) => {
             let geometry = Geometry::new(30f64.to_radians(), Arrangement::Z, Phasing::InPhase).ok_or("geometry")?;
             let start = DoubleCardan::new(geometry, 10.0).initial_state()?;

@@ -25,14 +25,14 @@ use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
-/// Declares the chain of `$n` bars (`second_order` after the size for the
-/// terms generalised-α needs).
+/// Declares the chain of `$n` bars (scene options after the size:
+/// `second_order` for the terms generalised-α needs, `coordinates = relative`).
 #[macro_export]
 macro_rules! chain_scene {
-    ($name:ident, $n:tt $(, $option:ident)?) => {
+    ($name:ident, $n:tt $(, $($option:tt)+)?) => {
         /// A chain of bars on spherical joints (see the module docs).
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81] $(, $option)?)]
+        #[scene(gravity = [0, 0, -9.81] $(, $($option)+)?)]
         #[body(bar[$n], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
         #[joint(ball[i in 1..$n] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]

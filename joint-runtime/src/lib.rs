@@ -28,6 +28,7 @@ mod serde_array;
 pub mod sparse;
 mod state;
 mod time;
+pub mod tree;
 
 pub use geometry::{AxisFrame, SlidingFrame, perpendicular_pair, rotation_matrix};
 pub use joint::{Evaluation, Formulation, Joint, Ops, ParseFormulationError, SecondOrder, Singularity};

@@ -3,3 +3,4 @@
 
 pub mod joint;
 pub mod scene;
+pub mod tree;

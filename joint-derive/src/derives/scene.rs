@@ -166,6 +166,7 @@ fn print(
     for ty in &s.time_types {
         wc.predicates.push(syn::parse_quote!(#ty: #k::TimeFunction));
     }
+    let tree = s.tree.as_ref().map(|edges| super::tree::print(input, s, edges, &generics));
     let (ig, tg, wc) = generics.split_for_impl();
     let (mut second_method, second_ops) = match second.and_then(|t| t.dense.as_ref()) {
         Some(nodes) => generate::second_order_method(&z.signature, &printed, nodes),
@@ -193,6 +194,7 @@ fn print(
     let alias = state_alias(input, nb);
     quote! {
         #alias
+        #tree
 
         #[doc = #doc]
         #lints
@@ -439,7 +441,7 @@ fn vector(q: &Quantity) -> TokenStream {
     }
 }
 
-fn const_vector(v: &[Number]) -> TokenStream {
+pub(super) fn const_vector(v: &[Number]) -> TokenStream {
     let k = krate();
     let [x, y, z] = [0, 1, 2].map(|i| v.get(i).map_or_else(|| quote!(0.0f64), number));
     quote!(#k::nalgebra::Vector3::new(#x, #y, #z))
@@ -498,7 +500,7 @@ fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
 /// mistake gives one message.
 fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) -> TokenStream {
     let errors = error.to_compile_error();
-    let Some(SceneShape { bodies, rows }) = shape else { return errors };
+    let Some(SceneShape { bodies, rows, tree }) = shape else { return errors };
     let (k, z, lints) = (krate(), sizes(bodies.len(), rows), lints());
     let ident = &input.ident;
     let (ig, tg, wc) = input.generics.split_for_impl();
@@ -507,9 +509,18 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
     let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
     let (ops, methods) = (generate::ops_const(None), z.signature.methods(None));
     let alias = state_alias(input, nb);
+    let tree = tree.map(|sizes| {
+        let body = quote! {
+            fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { loop {} }
+            fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { loop {} }
+            fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { loop {} }
+        };
+        super::tree::wrap(input, &input.generics, bodies.len(), sizes, body)
+    });
     quote! {
         #errors
         #alias
+        #tree
         #lints
         impl #ig #ident #tg #wc { #inherent }
         #lints

@@ -20,6 +20,7 @@ pub mod names;
 pub mod resolve;
 pub mod rows;
 pub mod scene;
+pub mod tree;
 
 #[cfg(test)]
 mod tests;

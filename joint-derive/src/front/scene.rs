@@ -255,6 +255,9 @@ pub struct SceneDecl {
     pub time_types: Vec<syn::Type>,
     /// `#[scene(second_order)]`: where it was asked for.
     pub second_order: Option<Span>,
+    /// `#[scene(coordinates = relative)]`: the joints as a tree, parents
+    /// first (absolute coordinates, the default, otherwise).
+    pub tree: Option<Vec<super::tree::TreeEdge>>,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -284,13 +287,16 @@ pub struct SceneShape {
     pub bodies: Vec<BodyName>,
     /// Rows of all joints.
     pub rows: usize,
+    /// With `coordinates = relative`: the tree's coordinates and velocities
+    /// (the joints that are not tree joints count none).
+    pub tree: Option<(usize, usize)>,
 }
 
 /// The bodies' names and the number of rows, read from the attributes alone
 /// when every body and joint attribute parses and names a known joint: enough
 /// for a stub impl beside a compile error.
 pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
-    let (mut bodies, mut rows) = (Vec::new(), 0);
+    let (mut bodies, mut rows, mut tree) = (Vec::new(), 0, (0, 0));
     for attr in &input.attrs {
         if attr.path().is_ident("body") {
             let b = attr.parse_args::<BodyAttr>().ok()?;
@@ -307,10 +313,27 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
             for joint in attr::entries::<JointAttr>(attr).ok()? {
                 let copies = joint.repeat.map_or(1, |r| r.values.count());
                 rows += copies * joints::lookup(&joint.kind.to_string())?.row_count();
+                let (q, v) = super::tree::TreeKind::of(&joint.kind.to_string()).map_or((0, 0), |k| k.sizes());
+                tree = (tree.0 + copies * q, tree.1 + copies * v);
             }
         }
     }
-    (!bodies.is_empty()).then_some(SceneShape { bodies, rows })
+    let tree = relative(input).then_some(tree);
+    (!bodies.is_empty()).then_some(SceneShape { bodies, rows, tree })
+}
+
+/// Whether `#[scene(.., coordinates = relative, ..)]` is written (read
+/// leniently, for the stub).
+fn relative(input: &syn::DeriveInput) -> bool {
+    let parser = syn::punctuated::Punctuated::<syn::Meta, syn::Token![,]>::parse_terminated;
+    input.attrs.iter().filter(|a| a.path().is_ident("scene")).filter_map(|a| a.parse_args_with(parser).ok()).any(
+        |metas| {
+            metas.iter().any(|m| {
+                matches!(m, syn::Meta::NameValue(nv) if nv.path.is_ident("coordinates")
+                && matches!(&nv.value, syn::Expr::Path(p) if p.path.is_ident("relative")))
+            })
+        },
+    )
 }
 
 impl SceneDecl {
@@ -378,7 +401,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let (gravity, second_order) = scene_options(input, &fields, &mut errors);
+    let Options { gravity, second_order, relative } = scene_options(input, &fields, &mut errors);
     let bodies = bodies(input, &fields, &mut errors);
     if bodies.is_empty() && !written("body") {
         let message = "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`";
@@ -387,7 +410,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     if !bodies.is_empty() && !written("joint") {
         errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
-    let mut scene = SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new(), second_order };
+    let mut scene = SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new(), second_order, tree: None };
     // With no bodies every joint would be ground to ground: say the one thing that is wrong.
     if !scene.bodies.is_empty() {
         for attr in input.attrs.iter().filter(|a| a.path().is_ident("joint")) {
@@ -397,15 +420,29 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
             }
         }
     }
+    // The tree only of joints that parsed: a mistaken joint is one message,
+    // not also an unreached body.
+    if relative.is_some() && errors.is_empty() {
+        scene.tree = Some(super::tree::spanning_tree(&scene.bodies, &scene.joints, &mut errors));
+    }
     errors.finish()?;
     Ok(scene)
 }
 
-/// `#[scene(gravity = .., formulation = omega_body, second_order)]`: the
-/// gravity, and whether the second-order terms are wanted.
-fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> (Quantity, Option<Span>) {
+/// What `#[scene(..)]` says.
+struct Options {
+    gravity: Quantity,
+    second_order: Option<Span>,
+    relative: Option<Span>,
+}
+
+/// `#[scene(gravity = .., formulation = omega_body, second_order, coordinates
+/// = relative)]`: the gravity, whether the second-order terms are wanted, and
+/// the coordinates.
+fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Options {
     let mut gravity = Slot::new("`gravity`", "it once");
     let mut second_order = Slot::new("`second_order`", "it once");
+    let mut coordinates = Slot::new("`coordinates`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
             "gravity" => {
@@ -425,17 +462,30 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 None => second_order.set(a.key.span(), (), errors),
                 Some(v) => errors.at(v.span(), "`second_order` takes no value; expected `second_order` alone"),
             },
+            "coordinates" => match &a.value {
+                Some(Value::Ident(c)) if c == "relative" || c == "absolute" => {
+                    coordinates.set(a.key.span(), c == "relative", errors)
+                }
+                _ => errors.at(
+                    a.value.as_ref().map_or(a.key.span(), Value::span),
+                    "expected `coordinates = absolute` (six per body, every joint's rows as constraints) or \
+                     `coordinates = relative` (a tree in its joints' own freedoms)",
+                ),
+            },
             other => {
-                let hint = did_you_mean(other, ["gravity", "second_order"]);
+                let hint = did_you_mean(other, ["gravity", "second_order", "coordinates"]);
                 errors.at(
                     a.key.span(),
-                    format!("unknown scene option `{other}`{hint}; expected `gravity` or `second_order`"),
+                    format!(
+                        "unknown scene option `{other}`{hint}; expected `gravity`, `second_order` or `coordinates`"
+                    ),
                 )
             }
         }
     }
     let gravity = gravity.take().map_or(Quantity::Const(vec![Number::Known(0.0); 3]), |(q, _)| q);
-    (gravity, second_order.take().map(|(_, span)| span))
+    let relative = coordinates.take().and_then(|(relative, span)| relative.then_some(span));
+    Options { gravity, second_order: second_order.take().map(|(_, span)| span), relative }
 }
 
 /// The `#[body(..)]` attributes, checked: names unique and distinct from the

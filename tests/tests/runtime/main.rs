@@ -6,6 +6,7 @@
 //! * `dynamics`: forward dynamics and the integrators.
 //! * `record`: trajectories as CSV and SVG.
 //! * `serde_io`: the types through serde.
+//! * `tree`: relative coordinates (`coordinates = relative`).
 
 #![allow(missing_docs)]
 
@@ -16,3 +17,4 @@ mod linear;
 mod record;
 mod second_order;
 mod serde_io;
+mod tree;

@@ -1,0 +1,132 @@
+//! `#[scene(coordinates = relative)]`: the `TreeScene` impl (the joints in
+//! tree order, each with its parent and child, joint points and axes) and the
+//! alias of its state, `NameTreeState = TreeState<NQ, NV>`.
+
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+use super::scene::const_vector;
+use crate::front::resolve::{FieldShape, Source};
+use crate::front::scene::{JointDecl, SceneDecl};
+use crate::front::tree::{TreeEdge, TreeKind};
+use crate::generate::{krate, lints};
+
+/// The tree's sizes: coordinates and velocities.
+pub fn sizes(edges: &[TreeEdge]) -> (usize, usize) {
+    edges.iter().map(|e| e.kind.sizes()).fold((0, 0), |(q, v), (a, b)| (q + a, v + b))
+}
+
+/// The `TreeScene` impl and the state alias.
+pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generics: &syn::Generics) -> TokenStream {
+    let k = krate();
+    let lit = Literal::usize_unsuffixed;
+    let rows: usize = s.joints.iter().map(|j| j.kind.row_count()).sum();
+    let (nb, nv6, m) = (lit(s.bodies.len()), lit(6 * s.bodies.len()), lit(rows));
+    let joints = edges.iter().map(|e| joint(&s.joints[e.joint], e));
+    let scene = quote!(<Self as #k::Scene<#nb, #nv6, #m>>);
+    let body = quote! {
+        fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
+        fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { #scene::inertias(self) }
+        fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #scene::gravity(self) }
+    };
+    wrap(input, generics, s.bodies.len(), sizes(edges), body)
+}
+
+/// The impl around `body` (the stub's too) and the alias.
+pub fn wrap(
+    input: &syn::DeriveInput,
+    generics: &syn::Generics,
+    bodies: usize,
+    (nq, nv): (usize, usize),
+    body: TokenStream,
+) -> TokenStream {
+    let (k, lints, vis, ident) = (krate(), lints(), &input.vis, &input.ident);
+    let lit = Literal::usize_unsuffixed;
+    let (nb, nq, nv) = (lit(bodies), lit(nq), lit(nv));
+    let (ig, tg, wc) = generics.split_for_impl();
+    let alias = format_ident!("{}TreeState", ident);
+    let doc = format!(
+        " The state of [`{ident}`] in relative coordinates: its tree joints' coordinates and velocities, and the time."
+    );
+    quote! {
+        #[doc = #doc]
+        #vis type #alias = #k::tree::TreeState<#nq, #nv>;
+
+        #lints
+        impl #ig #k::tree::TreeScene<#nb, #nq, #nv> for #ident #tg #wc {
+            #body
+        }
+    }
+}
+
+/// One `TreeJoint { .. }`.
+fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
+    let k = krate();
+    let name = j.label();
+    let (parent, child) = if e.reversed { (j.bodies[1], j.bodies[0]) } else { (j.bodies[0], j.bodies[1]) };
+    let parent = match parent {
+        Some(i) => {
+            let i = Literal::usize_unsuffixed(i);
+            quote!(::core::option::Option::Some(#i))
+        }
+        None => quote!(::core::option::Option::None),
+    };
+    let child = Literal::usize_unsuffixed(child.unwrap_or(0));
+    let (rho1, rho2) = (param(j, "rho1"), param(j, "rho2"));
+    let (axis1, axis2) = match e.kind {
+        TreeKind::Revolute => (first_axis(j), param(j, "h")),
+        TreeKind::Spherical => (zero(), zero()),
+    };
+    let (rho_p, rho_c, axis_p, axis_c) =
+        if e.reversed { (rho2, rho1, axis2, axis1) } else { (rho1, rho2, axis1, axis2) };
+    let kind = match e.kind {
+        TreeKind::Revolute => quote!(Revolute),
+        TreeKind::Spherical => quote!(Spherical),
+    };
+    quote! {
+        #k::tree::TreeJoint {
+            name: #name,
+            kind: #k::tree::TreeJointKind::#kind,
+            parent: #parent,
+            child: #child,
+            rho_parent: #rho_p,
+            rho_child: #rho_c,
+            axis_parent: #axis_p,
+            axis_child: #axis_c,
+        }
+    }
+}
+
+fn zero() -> TokenStream {
+    let k = krate();
+    quote!(#k::nalgebra::Vector3::zeros())
+}
+
+/// A vector parameter: numbers, a field, or a part of an `AxisFrame` field.
+fn param(j: &JointDecl, name: &str) -> TokenStream {
+    match j.params.iter().find(|p| p.name == name).map(|p| &p.source) {
+        Some(Source::Const(v, _)) => const_vector(v),
+        Some(Source::Field { member, shape: FieldShape::FramePart(part), .. }) => {
+            let part = format_ident!("{}", part.field());
+            quote!(self.#member.#part)
+        }
+        Some(Source::Field { member, .. }) => quote!(self.#member),
+        None => zero(),
+    }
+}
+
+/// The revolute axis on the joint's first body: `f × g` (`axis1`, made unit
+/// by `perpendicular_pair`), folded when both are numbers.
+fn first_axis(j: &JointDecl) -> TokenStream {
+    let known = |n: &str| j.params.iter().find(|p| p.name == n).and_then(|p| p.source.known());
+    if let (Some(f), Some(g)) = (known("f"), known("g"))
+        && f.len() == 3
+        && g.len() == 3
+    {
+        let c = [f[1] * g[2] - f[2] * g[1], f[2] * g[0] - f[0] * g[2], f[0] * g[1] - f[1] * g[0]];
+        let numbers: Vec<_> = c.iter().map(|x| crate::front::attr::Number::Known(*x)).collect();
+        return const_vector(&numbers);
+    }
+    let (f, g) = (param(j, "f"), param(j, "g"));
+    quote!((#f).cross(&(#g)))
+}

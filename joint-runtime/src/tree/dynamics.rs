@@ -1,0 +1,218 @@
+//! The recursions on a tree: the articulated-body algorithm (forward
+//! dynamics), the recursive Newton–Euler algorithm (inverse dynamics, bias
+//! forces) and the composite-rigid-body algorithm (the mass matrix).
+//! Featherstone, *Rigid Body Dynamics Algorithms* (2008), tables 5.1, 6.2,
+//! 7.1, in each body's own frame with its origin at the centre of mass.
+//! Gravity enters as the ground's acceleration `(0, −g)`.
+
+use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector3, Vector6};
+
+use super::TreeState;
+use super::kinematics::{Kinematics, Subspace};
+use super::spatial::{cross_force, cross_motion, join};
+use super::topology::{Tree, TreeError};
+
+/// The energy of a tree's state.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct TreeEnergy {
+    /// `½ Σ (m |ṙ|² + ω'ᵀ J' ω')`.
+    pub kinetic: f64,
+    /// `−Σ m g · r`.
+    pub gravity: f64,
+}
+
+impl TreeEnergy {
+    /// Kinetic plus potential.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.gravity
+    }
+}
+
+/// `Sᵀ f`, padded with zeros past the joint's freedoms.
+fn project(s: &Subspace, f: &Vector6<f64>) -> Vector3<f64> {
+    Vector3::from_fn(|i, _| if i < s.n { s.cols[i].dot(f) } else { 0.0 })
+}
+
+/// `S x` for the joint's freedoms.
+fn expand(s: &Subspace, x: &Vector3<f64>) -> Vector6<f64> {
+    (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * x[i])
+}
+
+/// A joint's `U = Iᴬ S`, `D⁻¹ = (Sᵀ U)⁻¹` (identity past its freedoms) and
+/// `u = τ − Sᵀ pᴬ`: what the articulated-body algorithm keeps per joint.
+#[derive(Clone, Copy, Debug)]
+struct Articulated {
+    u_cols: [Vector6<f64>; 3],
+    d_inv: Matrix3<f64>,
+    u: Vector3<f64>,
+}
+
+impl Articulated {
+    fn new(s: &Subspace, ia: &Matrix6<f64>, pa: &Vector6<f64>, tau: Vector3<f64>) -> Option<Self> {
+        let u_cols = [0, 1, 2].map(|i| if i < s.n { ia * s.cols[i] } else { Vector6::zeros() });
+        let d_inv = if s.n == 1 {
+            let d = s.cols[0].dot(&u_cols[0]);
+            (d > 0.0).then(|| Matrix3::new(1.0 / d, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0))?
+        } else {
+            let d = Matrix3::from_fn(|r, c| s.cols[r].dot(&u_cols[c]));
+            d.cholesky()?.inverse()
+        };
+        Some(Articulated { u_cols, d_inv, u: tau - project(s, pa) })
+    }
+
+    /// `U x`.
+    fn u_times(&self, n: usize, x: &Vector3<f64>) -> Vector6<f64> {
+        (0..n).fold(Vector6::zeros(), |acc, i| acc + self.u_cols[i] * x[i])
+    }
+
+    /// `Iᴬ − U D⁻¹ Uᵀ`.
+    fn reduced(&self, n: usize, ia: &Matrix6<f64>) -> Matrix6<f64> {
+        let mut out = *ia;
+        for r in 0..n {
+            let w = self.u_times(n, &self.d_inv.column(r).into_owned());
+            out -= w * self.u_cols[r].transpose();
+        }
+        out
+    }
+}
+
+impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
+    /// The ground's acceleration in joint `k`'s child frame, through its
+    /// parent (`(0, −g)` at the ground).
+    fn parent_acceleration(&self, kin: &Kinematics<NB>, k: usize, acc: &[Vector6<f64>; NB]) -> Vector6<f64> {
+        let a_p = self.parent[k].map_or_else(|| join(&Vector3::zeros(), &(-self.gravity)), |p| acc[p]);
+        kin.x[k].motion(&a_p)
+    }
+
+    /// The joint accelerations `v̇` under joint forces `tau` (torques about a
+    /// revolute axis; torque vectors in the child's frame at a spherical
+    /// joint): the articulated-body algorithm, O(bodies).
+    pub fn forward_dynamics(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+    ) -> Result<SVector<f64, NV>, TreeError> {
+        let kin = self.kinematics(&state.q, &state.v);
+        let mut ia = self.inertia;
+        let mut pa = [Vector6::zeros(); NB];
+        let mut c = [Vector6::zeros(); NB];
+        for k in 0..NB {
+            let vel = kin.vel[k];
+            c[k] = cross_motion(&vel, &self.joint_motion(&kin.s[k], k, &state.v));
+            pa[k] = cross_force(&vel, &(self.inertia[k] * vel));
+        }
+        let blank = Articulated { u_cols: [Vector6::zeros(); 3], d_inv: Matrix3::zeros(), u: Vector3::zeros() };
+        let mut art = [blank; NB];
+        for k in (0..NB).rev() {
+            let s = &kin.s[k];
+            let t = self.joint_forces(k, tau);
+            let a = Articulated::new(s, &ia[k], &pa[k], t).ok_or(TreeError::Singular { joint: self.joints[k].name })?;
+            if let Some(p) = self.parent[k] {
+                let reduced = a.reduced(s.n, &ia[k]);
+                let pa_k = pa[k] + reduced * c[k] + a.u_times(s.n, &(a.d_inv * a.u));
+                ia[p] += kin.x[k].inertia_back(&reduced);
+                pa[p] += kin.x[k].force_back(&pa_k);
+            }
+            art[k] = a;
+        }
+        let mut acc = [Vector6::zeros(); NB];
+        let mut vdot = SVector::<f64, NV>::zeros();
+        for k in 0..NB {
+            let s = &kin.s[k];
+            let a = self.parent_acceleration(&kin, k, &acc) + c[k];
+            let u_t_a = Vector3::from_fn(|i, _| if i < s.n { art[k].u_cols[i].dot(&a) } else { 0.0 });
+            let qdd = art[k].d_inv * (art[k].u - u_t_a);
+            acc[k] = a + expand(s, &qdd);
+            self.put(k, &qdd, &mut vdot);
+        }
+        Ok(vdot)
+    }
+
+    /// The joint forces `τ(q, v, v̇)` that give the accelerations `vdot`
+    /// (gravity included): the recursive Newton–Euler algorithm, O(bodies).
+    pub fn inverse_dynamics(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> SVector<f64, NV> {
+        let kin = self.kinematics(&state.q, &state.v);
+        let mut acc = [Vector6::zeros(); NB];
+        let mut f = [Vector6::zeros(); NB];
+        for k in 0..NB {
+            let (s, vel) = (&kin.s[k], kin.vel[k]);
+            let joint = self.joint_motion(s, k, &state.v);
+            acc[k] =
+                self.parent_acceleration(&kin, k, &acc) + self.joint_motion(s, k, vdot) + cross_motion(&vel, &joint);
+            f[k] = self.inertia[k] * acc[k] + cross_force(&vel, &(self.inertia[k] * vel));
+        }
+        let mut tau = SVector::<f64, NV>::zeros();
+        for k in (0..NB).rev() {
+            self.put(k, &project(&kin.s[k], &f[k]), &mut tau);
+            if let Some(p) = self.parent[k] {
+                let back = kin.x[k].force_back(&f[k]);
+                f[p] += back;
+            }
+        }
+        tau
+    }
+
+    /// The bias forces `τ(q, v, 0)`: Coriolis, centrifugal and gravity.
+    pub fn bias_forces(&self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
+        self.inverse_dynamics(state, &SVector::zeros())
+    }
+
+    /// The joint-space mass matrix `M(q)` into `out` (a reference, so that a
+    /// large tree's matrix need not live on the stack): the
+    /// composite-rigid-body algorithm.
+    pub fn mass_matrix_into(&self, q: &SVector<f64, NQ>, out: &mut SMatrix<f64, NV, NV>) {
+        let kin = self.kinematics(q, &SVector::zeros());
+        let mut ic = self.inertia;
+        for k in (0..NB).rev() {
+            if let Some(p) = self.parent[k] {
+                let back = kin.x[k].inertia_back(&ic[k]);
+                ic[p] += back;
+            }
+        }
+        out.fill(0.0);
+        for (k, ic_k) in ic.iter().enumerate() {
+            let s = &kin.s[k];
+            for i in 0..s.n {
+                let col = self.v_at[k] + i;
+                let mut force = ic_k * s.cols[i];
+                let mut j = k;
+                loop {
+                    let sj = &kin.s[j];
+                    for r in 0..sj.n {
+                        let row = self.v_at[j] + r;
+                        let m = sj.cols[r].dot(&force);
+                        out[(row, col)] = m;
+                        out[(col, row)] = m;
+                    }
+                    let Some(p) = self.parent[j] else { break };
+                    force = kin.x[j].force_back(&force);
+                    j = p;
+                }
+            }
+        }
+    }
+
+    /// Kinetic and potential energy.
+    pub fn energy(&self, state: &TreeState<NQ, NV>) -> TreeEnergy {
+        let kin = self.kinematics(&state.q, &state.v);
+        let kinetic = (0..NB).map(|k| 0.5 * kin.vel[k].dot(&(self.inertia[k] * kin.vel[k]))).sum();
+        let system = self.system_state(state);
+        let gravity = system.bodies.iter().zip(&self.mass).map(|(b, m)| -m.mass * self.gravity.dot(&b.r)).sum();
+        TreeEnergy { kinetic, gravity }
+    }
+
+    /// Joint `k`'s entries of `tau`, padded.
+    fn joint_forces(&self, k: usize, tau: &SVector<f64, NV>) -> Vector3<f64> {
+        let (at, n) = (self.v_at[k], self.joints[k].kind.freedoms());
+        Vector3::from_fn(|i, _| if i < n { tau[at + i] } else { 0.0 })
+    }
+
+    /// Writes joint `k`'s entries of `x` into `out`.
+    fn put(&self, k: usize, x: &Vector3<f64>, out: &mut SVector<f64, NV>) {
+        let (at, n) = (self.v_at[k], self.joints[k].kind.freedoms());
+        for i in 0..n {
+            out[at + i] = x[i];
+        }
+    }
+}

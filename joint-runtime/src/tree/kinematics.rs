@@ -1,0 +1,92 @@
+//! Each joint's transform and motion subspace from its coordinates, and the
+//! bodies' spatial velocities, root to leaves.
+
+use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3, Vector4, Vector6};
+
+use super::TreeJointKind;
+use super::spatial::{Transform, join};
+use super::topology::Tree;
+
+/// A joint's columns of `S` (child frame, constant there): at most three.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Subspace {
+    pub cols: [Vector6<f64>; 3],
+    pub n: usize,
+}
+
+/// `[a; ρ × a]`: the child's spatial motion when it turns about `a` through
+/// the joint point `ρ` (child frame): its origin moves with `a × (−ρ)`.
+fn turning(a: &Vector3<f64>, rho: &Vector3<f64>) -> Vector6<f64> {
+    join(a, &rho.cross(a))
+}
+
+/// Unit Euler parameters from four coordinates (normalised: an RK4 stage's
+/// quaternion is off the unit sphere by its truncation error).
+pub(crate) fn unit(p: &Vector4<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::new_normalize(nalgebra::Quaternion::new(p[0], p[1], p[2], p[3]))
+}
+
+impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
+    /// The motion subspace of joint `k`.
+    pub(crate) fn subspace(&self, k: usize) -> Subspace {
+        let rho = self.joints[k].rho_child;
+        match self.joints[k].kind {
+            TreeJointKind::Revolute => {
+                let c = turning(&self.axis[k], &rho);
+                Subspace { cols: [c, Vector6::zeros(), Vector6::zeros()], n: 1 }
+            }
+            TreeJointKind::Spherical => {
+                Subspace { cols: [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| turning(&e, &rho)), n: 3 }
+            }
+        }
+    }
+
+    /// The child's rotation relative to its parent (`A_child = A_parent R`).
+    pub(crate) fn relative_rotation(&self, k: usize, q: &SVector<f64, NQ>) -> UnitQuaternion<f64> {
+        let at = self.q_at[k];
+        match self.joints[k].kind {
+            TreeJointKind::Revolute => {
+                let axis = nalgebra::Unit::new_unchecked(self.axis[k]);
+                self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at])
+            }
+            TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
+        }
+    }
+
+    /// Joint `k`'s transform from its parent's frame to its child's.
+    pub(crate) fn transform(&self, k: usize, q: &SVector<f64, NQ>) -> Transform {
+        let rel: Matrix3<f64> = self.relative_rotation(k, q).to_rotation_matrix().into_inner();
+        let j = &self.joints[k];
+        Transform { e: rel.transpose(), r: j.rho_parent - rel * j.rho_child }
+    }
+
+    /// `S q̇` of joint `k`.
+    pub(crate) fn joint_motion(&self, s: &Subspace, k: usize, v: &SVector<f64, NV>) -> Vector6<f64> {
+        let at = self.v_at[k];
+        (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * v[at + i])
+    }
+
+    /// Every joint's transform and subspace and every body's spatial velocity
+    /// (own frame), in tree order.
+    pub(crate) fn kinematics(&self, q: &SVector<f64, NQ>, v: &SVector<f64, NV>) -> Kinematics<NB> {
+        let mut out = Kinematics {
+            x: [Transform { e: Matrix3::identity(), r: Vector3::zeros() }; NB],
+            s: [Subspace { cols: [Vector6::zeros(); 3], n: 0 }; NB],
+            vel: [Vector6::zeros(); NB],
+        };
+        for k in 0..NB {
+            out.x[k] = self.transform(k, q);
+            out.s[k] = self.subspace(k);
+            let parent = self.parent[k].map_or_else(Vector6::zeros, |p| out.x[k].motion(&out.vel[p]));
+            out.vel[k] = parent + self.joint_motion(&out.s[k], k, v);
+        }
+        out
+    }
+}
+
+/// What every recursion starts from.
+pub(crate) struct Kinematics<const NB: usize> {
+    pub x: [Transform; NB],
+    pub s: [Subspace; NB],
+    pub vel: [Vector6<f64>; NB],
+}

@@ -1,0 +1,274 @@
+//! The tree checked and prepared once: parents before children, sizes, axes,
+//! rest rotations, inertias; the conversions to and from absolute states.
+
+use core::fmt;
+
+use nalgebra::{Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4};
+
+use super::spatial::{body_inertia, split};
+use super::{TreeJoint, TreeJointKind, TreeScene, TreeState};
+use crate::{BodyInertia, OmegaBody, SystemState};
+
+/// Why a tree or a state was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TreeError {
+    /// The joints' coordinates or freedoms do not add up to the tree's `NQ`, `NV`.
+    Sizes {
+        /// The joints' coordinates.
+        coordinates: usize,
+        /// The joints' freedoms.
+        freedoms: usize,
+    },
+    /// A joint whose parent no earlier joint reached, or whose child an
+    /// earlier joint already moves (a loop), or a body index out of range.
+    Order {
+        /// The joint's name.
+        joint: &'static str,
+    },
+    /// A revolute joint's axis is zero or not finite.
+    Axis {
+        /// The joint's name.
+        joint: &'static str,
+    },
+    /// A body's mass is not positive, or its inertia not symmetric positive
+    /// definite with principal moments obeying the triangle inequality.
+    Inertia {
+        /// The body's index in the scene.
+        body: usize,
+    },
+    /// A joint's articulated inertia `Sᵀ Iᴬ S` is not positive definite.
+    Singular {
+        /// The joint's name.
+        joint: &'static str,
+    },
+    /// An absolute state that the tree's joints do not hold: a joint's points
+    /// apart, or its bodies turned in a way it does not allow.
+    NotOnJoint {
+        /// The joint's name.
+        joint: &'static str,
+        /// The misfit: the points' distance plus the disallowed rotation
+        /// (radians) or velocity.
+        misfit: f64,
+    },
+    /// A state or a torque that is not finite.
+    NonFinite,
+}
+
+impl fmt::Display for TreeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TreeError::Sizes { coordinates, freedoms } => write!(
+                f,
+                "the tree's joints have {coordinates} coordinates and {freedoms} freedoms, not the sizes of its state"
+            ),
+            TreeError::Order { joint } => write!(
+                f,
+                "joint `{joint}` is out of tree order: its parent is not reached before it, or its child already has \
+                 a parent"
+            ),
+            TreeError::Axis { joint } => write!(f, "joint `{joint}` has a zero or non-finite axis"),
+            TreeError::Inertia { body } => write!(
+                f,
+                "body {body} has a non-positive mass or an inertia that is not positive definite with moments obeying \
+                 the triangle inequality"
+            ),
+            TreeError::Singular { joint } => write!(f, "joint `{joint}`'s articulated inertia is singular"),
+            TreeError::NotOnJoint { joint, misfit } => {
+                write!(f, "the state does not hold joint `{joint}` (misfit {misfit:e})")
+            }
+            TreeError::NonFinite => f.write_str("a state or torque that is not finite"),
+        }
+    }
+}
+
+impl core::error::Error for TreeError {}
+
+/// A tree of `NB` bodies with `NQ` coordinates and `NV` freedoms, checked and
+/// prepared for the recursions. Joint `k` moves body `joints()[k].child`.
+#[derive(Clone, Debug)]
+pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
+    pub(crate) joints: [TreeJoint; NB],
+    /// The joint that moves joint `k`'s parent body.
+    pub(crate) parent: [Option<usize>; NB],
+    /// Revolute: the child axis `h`, unit.
+    pub(crate) axis: [Vector3<f64>; NB],
+    /// Revolute: `R₀`, the shortest rotation taking `h` onto the parent's axis.
+    pub(crate) rest: [UnitQuaternion<f64>; NB],
+    /// The spatial inertia of joint `k`'s child.
+    pub(crate) inertia: [Matrix6<f64>; NB],
+    pub(crate) mass: [BodyInertia; NB],
+    pub(crate) q_at: [usize; NB],
+    pub(crate) v_at: [usize; NB],
+    pub(crate) gravity: Vector3<f64>,
+}
+
+impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
+    /// The tree of a scene.
+    pub fn of<S: TreeScene<NB, NQ, NV>>(scene: &S) -> Result<Self, TreeError> {
+        Tree::new(scene.tree_joints(), scene.tree_inertias(), scene.tree_gravity())
+    }
+
+    /// Checks and prepares a tree: joints parents first, bodies' inertias in
+    /// the scene's order.
+    pub fn new(joints: [TreeJoint; NB], inertias: [BodyInertia; NB], gravity: Vector3<f64>) -> Result<Self, TreeError> {
+        let mut tree = Tree {
+            joints,
+            parent: [None; NB],
+            axis: [Vector3::zeros(); NB],
+            rest: [UnitQuaternion::identity(); NB],
+            inertia: [Matrix6::zeros(); NB],
+            mass: inertias,
+            q_at: [0; NB],
+            v_at: [0; NB],
+            gravity,
+        };
+        let mut moved_by: [Option<usize>; NB] = [None; NB];
+        let (mut nq, mut nv) = (0, 0);
+        for (k, j) in joints.iter().enumerate() {
+            let order = TreeError::Order { joint: j.name };
+            let slot = moved_by.get_mut(j.child).ok_or(order)?;
+            if slot.is_some() || j.parent == Some(j.child) {
+                return Err(order);
+            }
+            *slot = Some(k);
+            tree.parent[k] = match j.parent {
+                None => None,
+                Some(b) => Some(moved_by.get(b).copied().flatten().ok_or(order)?),
+            };
+            let b = inertias[j.child];
+            if !valid_inertia(&b) {
+                return Err(TreeError::Inertia { body: j.child });
+            }
+            tree.inertia[k] = body_inertia(b.mass, &b.inertia);
+            if j.kind == TreeJointKind::Revolute {
+                let axis_error = TreeError::Axis { joint: j.name };
+                let h = Unit::try_new(j.axis_child, 1e-300).ok_or(axis_error)?;
+                let a = Unit::try_new(j.axis_parent, 1e-300).ok_or(axis_error)?;
+                if !h.iter().chain(a.iter()).all(|x| x.is_finite()) {
+                    return Err(axis_error);
+                }
+                tree.axis[k] = h.into_inner();
+                tree.rest[k] = rest_rotation(&h, &a);
+            }
+            tree.q_at[k] = nq;
+            tree.v_at[k] = nv;
+            nq += j.kind.coordinates();
+            nv += j.kind.freedoms();
+        }
+        if nq != NQ || nv != NV {
+            return Err(TreeError::Sizes { coordinates: nq, freedoms: nv });
+        }
+        Ok(tree)
+    }
+
+    /// The joints, in tree order.
+    pub fn joints(&self) -> &[TreeJoint; NB] {
+        &self.joints
+    }
+
+    /// Gravity, inertial components.
+    pub fn gravity(&self) -> Vector3<f64> {
+        self.gravity
+    }
+
+    /// Every angle zero, every quaternion `[1, 0, 0, 0]`, at rest, `t = 0`.
+    pub fn zero_state(&self) -> TreeState<NQ, NV> {
+        let mut q = SVector::<f64, NQ>::zeros();
+        for (k, j) in self.joints.iter().enumerate() {
+            if j.kind == TreeJointKind::Spherical {
+                q[self.q_at[k]] = 1.0;
+            }
+        }
+        TreeState { q, v: SVector::zeros(), t: 0.0 }
+    }
+
+    /// Each body's pose and velocity (forward kinematics): the absolute state.
+    pub fn system_state(&self, state: &TreeState<NQ, NV>) -> SystemState<NB> {
+        let kin = self.kinematics(&state.q, &state.v);
+        let mut bodies = [OmegaBody::default(); NB];
+        let mut pose: [(UnitQuaternion<f64>, Vector3<f64>); NB] = [(UnitQuaternion::identity(), Vector3::zeros()); NB];
+        for k in 0..NB {
+            let (a_p, r_p) = self.parent[k].map_or((UnitQuaternion::identity(), Vector3::zeros()), |p| pose[p]);
+            let a = a_p * self.relative_rotation(k, &state.q);
+            let r = r_p + a_p * kin.x[k].r;
+            pose[k] = (a, r);
+            let (w, v) = split(&kin.vel[k]);
+            bodies[self.joints[k].child] = OmegaBody::from_rotation(r, &a, a * v, w);
+        }
+        SystemState { bodies, t: state.t }
+    }
+
+    /// The joints' coordinates and velocities of an absolute state (inverse
+    /// kinematics of each joint from its bodies), refused when a joint's
+    /// points are more than `tolerance` apart or its bodies turn or move in a
+    /// way it does not allow by more than `tolerance`.
+    pub fn tree_state(&self, system: &SystemState<NB>, tolerance: f64) -> Result<TreeState<NQ, NV>, TreeError> {
+        let mut state = TreeState::<NQ, NV> { q: SVector::zeros(), v: SVector::zeros(), t: system.t };
+        for (k, j) in self.joints.iter().enumerate() {
+            let child = &system.bodies[j.child];
+            let (a_p, r_p, w_p, rdot_p) = match j.parent {
+                None => (UnitQuaternion::identity(), Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
+                Some(b) => {
+                    let p = &system.bodies[b];
+                    (p.rotation(), p.r, p.omega, p.rdot)
+                }
+            };
+            let a_c = child.rotation();
+            let rel = a_p.inverse() * a_c;
+            // The joint point seen from both bodies, and its two velocities.
+            let gap = (r_p + a_p * j.rho_parent) - child.point(&j.rho_child);
+            let w_p_inertial = a_p * w_p;
+            let slip = (rdot_p + w_p_inertial.cross(&(a_p * j.rho_parent)))
+                - (child.rdot + (a_c * child.omega).cross(&(a_c * j.rho_child)));
+            let w_rel = child.omega - rel.inverse() * w_p;
+            let (qa, va) = (self.q_at[k], self.v_at[k]);
+            let turn_misfit = match j.kind {
+                TreeJointKind::Revolute => {
+                    let local = self.rest[k].inverse() * rel;
+                    let h = self.axis[k];
+                    let angle = 2.0 * nalgebra::RealField::atan2(local.imag().dot(&h), local.w);
+                    state.q[qa] = angle;
+                    state.v[va] = h.dot(&w_rel);
+                    let off = local.angle_to(&UnitQuaternion::from_axis_angle(&Unit::new_unchecked(h), angle));
+                    off + (w_rel - h * state.v[va]).norm()
+                }
+                TreeJointKind::Spherical => {
+                    let p = Vector4::new(rel.w, rel.i, rel.j, rel.k);
+                    state.q.fixed_rows_mut::<4>(qa).copy_from(&p);
+                    state.v.fixed_rows_mut::<3>(va).copy_from(&w_rel);
+                    0.0
+                }
+            };
+            let misfit = gap.norm() + slip.norm() + turn_misfit;
+            if !misfit.is_finite() || misfit > tolerance {
+                return Err(TreeError::NotOnJoint { joint: j.name, misfit });
+            }
+        }
+        Ok(state)
+    }
+}
+
+/// `R₀`: the shortest rotation taking `h` onto `a` (half a turn about a
+/// perpendicular when they are opposite).
+fn rest_rotation(h: &Unit<Vector3<f64>>, a: &Unit<Vector3<f64>>) -> UnitQuaternion<f64> {
+    UnitQuaternion::rotation_between_axis(h, a).unwrap_or_else(|| {
+        let perpendicular = crate::perpendicular_pair(h).map_or(Vector3::x(), |(b, _)| b);
+        UnitQuaternion::from_axis_angle(&Unit::new_normalize(perpendicular), core::f64::consts::PI)
+    })
+}
+
+/// A physical rigid body: positive mass, symmetric positive definite inertia
+/// whose eigenvalues obey the triangle inequality (as MuJoCo checks).
+fn valid_inertia(b: &BodyInertia) -> bool {
+    let i = b.inertia;
+    if !(b.mass > 0.0 && b.mass.is_finite() && i.iter().all(|x| x.is_finite())) {
+        return false;
+    }
+    if (i - i.transpose()).abs().max() > 1e-12 * i.abs().max() {
+        return false;
+    }
+    let moments = i.symmetric_eigenvalues();
+    let (a, b, c) = (moments[0], moments[1], moments[2]);
+    let slack = 1e-12 * (a + b + c).abs();
+    a > 0.0 && b > 0.0 && c > 0.0 && a + b + slack >= c && a + c + slack >= b && b + c + slack >= a
+}

@@ -1,0 +1,248 @@
+//! Relative coordinates (`joint_runtime::tree`) on `#[scene(coordinates =
+//! relative)]` scenes: the recursions against closed forms, against the
+//! kinetic energy computed from the bodies, against each other, and the motion
+//! against the same declaration in absolute coordinates.
+
+use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
+use joint_runtime::tree::{Tree, TreeError, TreeSimulation, TreeState};
+use joint_runtime::{Scene, SparseJacobian, SystemState};
+
+/// One bar of 1 m, pinned at its end about y.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
+#[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+struct Bar;
+
+/// A branching tree of four bodies: spherical and revolute joints, a joint
+/// declared child first (`knee`), axes that differ between the two bodies
+/// (`elbow`: `R₀` not the identity), an inertia with products.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(torso, mass = 2.0, inertia = [0.2, 0.3, 0.25, 0.01, -0.02, 0.015])]
+#[body(shin, mass = 0.7, inertia = [0.02, 0.021, 0.004])]
+#[body(upper, mass = 1.1, inertia = [0.03, 0.035, 0.006])]
+#[body(hand, mass = 0.4, inertia = [0.002, 0.003, 0.0035])]
+#[joint(hip = spherical(ground, torso), rho1 = [0, 0, 1], rho2 = [0, 0, 0.3])]
+#[joint(knee = revolute(shin, torso), axis1 = [1, 0, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0.2, 0, -0.3])]
+#[joint(elbow = revolute(torso, upper), axis1 = [1, 1, 0], axis2 = [0, 0, 1], rho1 = [0.3, 0, 0], rho2 = [0, 0, -0.25])]
+#[joint(wrist = spherical(upper, hand), rho1 = [0, 0, 0.25], rho2 = [0.1, 0, 0])]
+struct Walker;
+
+/// The arm of `peer_bench`, three bars: revolute about z, y, z.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bar[3], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
+#[joint(base = revolute(ground, bar[0]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j2 = revolute(bar[0], bar[1]), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j3 = revolute(bar[1], bar[2]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+struct Arm3;
+
+/// A body whose principal moments break the triangle inequality.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(coordinates = relative)]
+#[body(rod, mass = 1.0, inertia = [0.01, 0.01, 1.0])]
+#[joint(ball = spherical(ground, rod), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
+struct Impossible;
+
+fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
+    let n = (w * w + x * x + y * y + z * z).sqrt();
+    [w / n, x / n, y / n, z / n]
+}
+
+/// The walker turned and moving: every joint away from zero.
+fn walker_state() -> WalkerTreeState {
+    let [a, b, c, d] = quaternion(0.9, 0.1, -0.2, 0.3);
+    let [e, f, g, h] = quaternion(0.8, -0.3, 0.2, 0.1);
+    TreeState {
+        q: SVector::from_column_slice(&[a, b, c, d, 0.4, -0.7, e, f, g, h]),
+        v: SVector::from_column_slice(&[0.3, -0.5, 0.8, 1.2, -0.9, 0.6, 0.2, -1.1]),
+        t: 0.0,
+    }
+}
+
+fn arm_state() -> Arm3TreeState {
+    TreeState { q: SVector::from([0.3, -0.4, 1.1]), v: SVector::from([0.5, -1.0, 2.0]), t: 0.0 }
+}
+
+/// `½ Σ (m |ṙ|² + ω'ᵀ J' ω')` from the bodies' absolute velocities: an
+/// independent path to the kinetic energy.
+fn kinetic<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
+    scene: &S,
+    system: &SystemState<NB>,
+) -> f64 {
+    let inertias = scene.inertias();
+    system
+        .bodies
+        .iter()
+        .zip(&inertias)
+        .map(|(b, i)| 0.5 * (i.mass * b.rdot.norm_squared() + b.omega.dot(&(i.inertia * b.omega))))
+        .sum()
+}
+
+#[test]
+fn pinned_bar_against_its_closed_form() {
+    let tree = Tree::of(&Bar).unwrap();
+    // Horizontal, at rest: gravity's moment about the pin is m g l/2 about +y
+    // (r × F = (0.5, 0, 0) × (0, 0, −9.81)), the pin's inertia I_yy + m (l/2)².
+    let state = TreeState { q: SVector::from([0.0]), v: SVector::from([0.0]), t: 0.0 };
+    let accel = tree.forward_dynamics(&state, &SVector::zeros()).unwrap();
+    let expected = 0.5 * 9.81 / (0.08 + 0.25);
+    assert!((accel[0] - expected).abs() < 1e-14 * expected, "{} against {expected}", accel[0]);
+    let bias = tree.bias_forces(&state);
+    assert!((bias[0] + 0.5 * 9.81).abs() < 1e-14, "holding torque {}", bias[0]);
+    // Turned by θ about y and spinning at ω: the moment is m g l/2 cos θ; the
+    // pin's reaction does no work, so the bias is gravity's alone.
+    let (theta, omega) = (0.7_f64, 3.0);
+    let state = TreeState { q: SVector::from([theta]), v: SVector::from([omega]), t: 0.0 };
+    let tau = tree.inverse_dynamics(&state, &SVector::from([2.0]));
+    let expected = (0.08 + 0.25) * 2.0 - 0.5 * 9.81 * theta.cos();
+    assert!((tau[0] - expected).abs() < 1e-14, "{} against {expected}", tau[0]);
+    let mut m = SMatrix::<f64, 1, 1>::zeros();
+    tree.mass_matrix_into(&state.q, &mut m);
+    assert!((m[(0, 0)] - 0.33).abs() < 1e-15);
+    // The bar's centre: turned about +y by θ, (0.5, 0, 0) goes to (0.5 cos θ, 0, −0.5 sin θ).
+    let system = tree.system_state(&state);
+    let centre = system.bodies[0].r;
+    assert!((centre - Vector3::new(0.5 * theta.cos(), 0.0, -0.5 * theta.sin())).norm() < 1e-15);
+    assert!((system.bodies[0].omega - Vector3::new(0.0, omega, 0.0)).norm() < 1e-15);
+}
+
+/// `M(q)` from the composite-rigid-body algorithm against second differences
+/// of the kinetic energy of the bodies (exact: it is quadratic in `v`).
+fn mass_matrix_against_energy<S, const NB: usize, const NV6: usize, const M: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    state: &TreeState<NQ, NV>,
+) where
+    S: Scene<NB, NV6, M> + joint_runtime::tree::TreeScene<NB, NQ, NV>,
+{
+    let tree = Tree::of(scene).unwrap();
+    let mut mass = SMatrix::<f64, NV, NV>::zeros();
+    tree.mass_matrix_into(&state.q, &mut mass);
+    let energy = |v: SVector<f64, NV>| kinetic(scene, &tree.system_state(&TreeState { q: state.q, v, t: 0.0 }));
+    let unit = |i: usize| SVector::<f64, NV>::from_fn(|r, _| if r == i { 1.0 } else { 0.0 });
+    let scale = mass.abs().max();
+    for i in 0..NV {
+        for j in 0..NV {
+            let expected = if i == j {
+                2.0 * energy(unit(i))
+            } else {
+                energy(unit(i) + unit(j)) - energy(unit(i)) - energy(unit(j))
+            };
+            assert!(
+                (mass[(i, j)] - expected).abs() < 1e-13 * scale,
+                "M[{i},{j}] = {} against {expected}",
+                mass[(i, j)]
+            );
+        }
+    }
+    // And the tree's own energy agrees with the bodies'.
+    let from_bodies = kinetic(scene, &tree.system_state(state));
+    assert!((tree.energy(state).kinetic - from_bodies).abs() < 1e-13 * from_bodies);
+    assert!((0.5 * state.v.dot(&(mass * state.v)) - from_bodies).abs() < 1e-13 * from_bodies);
+}
+
+#[test]
+fn mass_matrix_is_the_kinetic_energy_hessian() {
+    mass_matrix_against_energy(&Walker, &walker_state());
+    mass_matrix_against_energy(&Arm3, &arm_state());
+}
+
+/// The recursions agree with each other: `RNEA(q, v, ABA(q, v, τ)) = τ`, and
+/// `M v̇ + b = RNEA(q, v, v̇)`.
+#[test]
+fn inverse_dynamics_inverts_forward_dynamics() {
+    let tree = Tree::of(&Walker).unwrap();
+    let state = walker_state();
+    let tau = SVector::<f64, 8>::from_column_slice(&[1.0, -2.0, 0.5, 3.0, -1.5, 0.25, 0.1, -0.4]);
+    let vdot = tree.forward_dynamics(&state, &tau).unwrap();
+    let back = tree.inverse_dynamics(&state, &vdot);
+    assert!((back - tau).norm() < 1e-12 * tau.norm(), "{back} against {tau}");
+    let mut mass = SMatrix::<f64, 8, 8>::zeros();
+    tree.mass_matrix_into(&state.q, &mut mass);
+    let rnea = tree.inverse_dynamics(&state, &vdot);
+    let crba = mass * vdot + tree.bias_forces(&state);
+    assert!((rnea - crba).norm() < 1e-12 * rnea.norm(), "{rnea} against {crba}");
+}
+
+/// Both coordinate choices of one declaration: the same start, RK4 at
+/// h = 1e-4 for 0.3 s, every body's pose equal to `tol`.
+fn same_motion<
+    S,
+    const NB: usize,
+    const NV6: usize,
+    const M: usize,
+    const NNZ: usize,
+    const NQ: usize,
+    const NV: usize,
+>(
+    scene: &S,
+    start: TreeState<NQ, NV>,
+    tol: f64,
+) where
+    S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + joint_runtime::tree::TreeScene<NB, NQ, NV>,
+{
+    let mut relative = TreeSimulation::new(scene).unwrap();
+    let mut absolute = Simulation::new(scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut tree_state = start;
+    let mut system = relative.tree().system_state(&start);
+    let energy = relative.tree().energy(&start).total();
+    let h = 1e-4;
+    for _ in 0..3000 {
+        relative.step(&mut tree_state, h).unwrap();
+        absolute.step(&mut system, h).unwrap();
+    }
+    let mine = relative.tree().system_state(&tree_state);
+    let mut worst = 0.0_f64;
+    for (a, b) in mine.bodies.iter().zip(&system.bodies) {
+        worst = worst.max((a.r - b.r).norm()).max(a.rotation().angle_to(&b.rotation()));
+        worst = worst.max((a.rdot - b.rdot).norm()).max((a.omega - b.omega).norm());
+    }
+    let moved = (mine.bodies[NB - 1].r - relative.tree().system_state(&start).bodies[NB - 1].r).norm();
+    assert!(moved > 0.1, "the last body moved {moved} m only: nothing compared");
+    assert!(worst < tol, "the two coordinate choices differ by {worst:e}");
+    // Energy kept, and the absolute state converts back to the same joints.
+    let drift = (relative.tree().energy(&tree_state).total() - energy).abs();
+    assert!(drift < 1e-9, "energy drift {drift:e}");
+    let back = relative.tree().tree_state(&system, 1e-8).unwrap();
+    let again = relative.tree().system_state(&back);
+    for (a, b) in again.bodies.iter().zip(&system.bodies) {
+        assert!((a.r - b.r).norm() < 1e-12 && a.rotation().angle_to(&b.rotation()) < 1e-12);
+        assert!((a.rdot - b.rdot).norm() < 1e-11 && (a.omega - b.omega).norm() < 1e-11);
+    }
+}
+
+#[test]
+fn both_coordinate_choices_give_the_same_motion() {
+    same_motion(&Walker, walker_state(), 1e-10);
+    same_motion(&Arm3, arm_state(), 1e-10);
+}
+
+#[test]
+fn states_off_their_joints_are_refused_by_name() {
+    let tree = Tree::of(&Walker).unwrap();
+    let state = walker_state();
+    let mut system = tree.system_state(&state);
+    let back = tree.tree_state(&system, 1e-12).unwrap();
+    let again = tree.system_state(&back);
+    assert!((again.bodies[3].r - system.bodies[3].r).norm() < 1e-14);
+    // The hand 1 cm off the wrist.
+    system.bodies[3].r.x += 0.01;
+    match tree.tree_state(&system, 1e-6) {
+        Err(TreeError::NotOnJoint { joint: "wrist", misfit }) => assert!((misfit - 0.01).abs() < 1e-9, "{misfit}"),
+        other => panic!("expected the wrist refused, got {other:?}"),
+    }
+    // The upper arm turned about an axis the elbow does not allow.
+    let mut system = tree.system_state(&state);
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.1);
+    let turned = system.bodies[2].rotation() * tilt;
+    system.bodies[2].set_rotation(&turned);
+    assert!(matches!(tree.tree_state(&system, 1e-6), Err(TreeError::NotOnJoint { joint: "elbow", .. })));
+}
+
+#[test]
+fn bodies_that_cannot_exist_are_refused() {
+    assert_eq!(Tree::of(&Impossible).err(), Some(TreeError::Inertia { body: 0 }));
+    assert!(TreeSimulation::new(&Impossible).is_err());
+}

@@ -1,0 +1,20 @@
+use joint_runtime::Scene;
+use joint_runtime::tree::TreeSimulation;
+
+// A four-bar closes a loop: relative coordinates take trees for now. The
+// stub keeps the uses below type-checking: one mistake, one message.
+#[derive(Scene)]
+#[scene(gravity = [0, -9.81, 0], coordinates = relative)]
+#[body(crank, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
+#[body(coupler, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
+#[body(rocker, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
+#[joint(a = revolute(ground, crank), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, -0.5, 0])]
+#[joint(b = revolute(crank, coupler), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [-0.5, 0, 0])]
+#[joint(c = revolute(coupler, rocker), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, 0.5, 0])]
+#[joint(d = revolute(rocker, ground), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, -0.5, 0], rho2 = [1, 0, 0])]
+struct FourBar;
+
+fn main() {
+    let sim = TreeSimulation::new(&FourBar).unwrap();
+    let _state: FourBarTreeState = sim.tree().zero_state();
+}
