@@ -8,6 +8,7 @@
 //! derives the rest, `generate` prints the methods, and the two `derives` put
 //! their impls together.
 
+mod aba;
 mod derives;
 mod engine;
 mod front;

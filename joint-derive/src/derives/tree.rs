@@ -24,10 +24,16 @@ pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generi
     let (nb, nv6, m) = (lit(s.bodies.len()), lit(6 * s.bodies.len()), lit(rows));
     let joints = edges.iter().map(|e| joint(&s.joints[e.joint], e));
     let scene = quote!(<Self as #k::Scene<#nb, #nv6, #m>>);
+    let (nq, nv) = sizes(edges);
+    let aba = crate::aba::method(s, edges, nq, nv).map(|(method, ops)| {
+        let doc = format!(" The articulated-body algorithm written out: {ops} operations.");
+        quote!(#[doc = #doc] #[inline] #method)
+    });
     let body = quote! {
         fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { #scene::inertias(self) }
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #scene::gravity(self) }
+        #aba
     };
     wrap(input, generics, s.bodies.len(), sizes(edges), body)
 }

@@ -130,6 +130,16 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize> {
     fn tree_inertias(&self) -> [BodyInertia; NB];
     /// Gravity, inertial components.
     fn tree_gravity(&self) -> Vector3<f64>;
+    /// The articulated-body algorithm written out for this tree by the
+    /// derive (every axis and point a number, the structural zeros folded):
+    /// `v̇` into `out` and `true`, or `false` when not written (the tree's
+    /// points or axes are fields, or it is too large), and the runtime's
+    /// recursion [`Tree::forward_dynamics`] runs.
+    #[inline]
+    fn forward_dynamics_into(&self, q: &[f64; NQ], v: &[f64; NV], tau: &[f64; NV], out: &mut [f64; NV]) -> bool {
+        let _ = (q, v, tau, out);
+        false
+    }
 }
 
 /// The state of a tree: its joints' coordinates and velocities, and the time.

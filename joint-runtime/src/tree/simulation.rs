@@ -7,17 +7,43 @@ use nalgebra::{Quaternion, SVector};
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
 
-/// The simulation of a relative-coordinate scene: its tree, checked once.
+/// The simulation of a relative-coordinate scene: the scene (its generated
+/// articulated-body algorithm, where the derive wrote one) and its tree,
+/// checked once.
 #[derive(Clone, Debug)]
-pub struct TreeSimulation<const NB: usize, const NQ: usize, const NV: usize> {
+pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize> {
+    scene: &'a S,
     tree: Tree<NB, NQ, NV>,
 }
 
-impl<const NB: usize, const NQ: usize, const NV: usize> TreeSimulation<NB, NQ, NV> {
+impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>
+    TreeSimulation<'a, S, NB, NQ, NV>
+{
     /// The simulation of `scene`; refused when its tree is not valid
     /// ([`TreeError`]: inertias, axes, order).
-    pub fn new<S: TreeScene<NB, NQ, NV>>(scene: &S) -> Result<Self, TreeError> {
-        Ok(TreeSimulation { tree: Tree::of(scene)? })
+    pub fn new(scene: &'a S) -> Result<Self, TreeError> {
+        Ok(TreeSimulation { scene, tree: Tree::of(scene)? })
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &'a S {
+        self.scene
+    }
+
+    /// `v̇` under joint forces `tau`: the scene's generated articulated-body
+    /// algorithm where the derive wrote one, the tree's recursion otherwise.
+    pub fn forward_dynamics(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+    ) -> Result<SVector<f64, NV>, TreeError> {
+        let mut out = SVector::<f64, NV>::zeros();
+        let (q, v, t) = (&state.q.data.0[0], &state.v.data.0[0], &tau.data.0[0]);
+        if self.scene.forward_dynamics_into(q, v, t, &mut out.data.0[0]) {
+            Ok(out)
+        } else {
+            self.tree.forward_dynamics(state, tau)
+        }
     }
 
     /// The tree: its recursions, energy and conversions.
@@ -42,7 +68,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> TreeSimulation<NB, NQ, N
             return Err(TreeError::NonFinite);
         }
         let rate = |s: &TreeState<NQ, NV>| -> Result<(SVector<f64, NQ>, SVector<f64, NV>), TreeError> {
-            Ok((self.tree.coordinate_rates(&s.q, &s.v), self.tree.forward_dynamics(s, tau)?))
+            Ok((self.tree.coordinate_rates(&s.q, &s.v), self.forward_dynamics(s, tau)?))
         };
         let at = |dq: &SVector<f64, NQ>, dv: &SVector<f64, NV>, c: f64| TreeState {
             q: state.q + dq * c,

@@ -5,7 +5,7 @@
 
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
-use joint_runtime::tree::{Tree, TreeError, TreeSimulation, TreeState};
+use joint_runtime::tree::{Tree, TreeError, TreeScene, TreeSimulation, TreeState};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 /// One bar of 1 m, pinned at its end about y.
@@ -38,6 +38,27 @@ struct Walker;
 #[joint(j2 = revolute(bar[0], bar[1]), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
 #[joint(j3 = revolute(bar[1], bar[2]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
 struct Arm3;
+
+/// The pinned bar with its mass and its joint point as fields: the joint
+/// point read at run time leaves the articulated-body algorithm to the
+/// runtime's recursion.
+#[derive(Scene, Clone, Copy, Debug)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bar, mass = mass, inertia = [0.001, 0.08, 0.08])]
+#[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = end)]
+struct FieldBar {
+    mass: f64,
+    end: Vector3<f64>,
+}
+
+/// The pinned bar with only its mass a field: still written out.
+#[derive(Scene, Clone, Copy, Debug)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bar, mass = mass, inertia = [0.001, 0.08, 0.08])]
+#[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+struct HeavyBar {
+    mass: f64,
+}
 
 /// A body whose principal moments break the triangle inequality.
 #[derive(Scene, Clone, Copy, Debug, Default)]
@@ -115,7 +136,7 @@ fn mass_matrix_against_energy<S, const NB: usize, const NV6: usize, const M: usi
     scene: &S,
     state: &TreeState<NQ, NV>,
 ) where
-    S: Scene<NB, NV6, M> + joint_runtime::tree::TreeScene<NB, NQ, NV>,
+    S: Scene<NB, NV6, M> + TreeScene<NB, NQ, NV>,
 {
     let tree = Tree::of(scene).unwrap();
     let mut mass = SMatrix::<f64, NV, NV>::zeros();
@@ -181,7 +202,7 @@ fn same_motion<
     start: TreeState<NQ, NV>,
     tol: f64,
 ) where
-    S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + joint_runtime::tree::TreeScene<NB, NQ, NV>,
+    S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + TreeScene<NB, NQ, NV>,
 {
     let mut relative = TreeSimulation::new(scene).unwrap();
     let mut absolute = Simulation::new(scene, NoLoads, &[], SimulationOptions::default()).unwrap();
@@ -239,6 +260,48 @@ fn states_off_their_joints_are_refused_by_name() {
     let turned = system.bodies[2].rotation() * tilt;
     system.bodies[2].set_rotation(&turned);
     assert!(matches!(tree.tree_state(&system, 1e-6), Err(TreeError::NotOnJoint { joint: "elbow", .. })));
+}
+
+/// The derive's written-out articulated-body algorithm against the
+/// runtime's recursion, joint forces included.
+fn generated_against_recursion<S, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    state: &TreeState<NQ, NV>,
+    written: bool,
+) where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let sim = TreeSimulation::new(scene).unwrap();
+    let tau = SVector::<f64, NV>::from_fn(|i, _| 0.3 * i as f64 - 0.5);
+    let mut out = [0.0; NV];
+    let (q, v, t) = (state.q.into(), state.v.into(), tau.into());
+    assert_eq!(scene.forward_dynamics_into(&q, &v, &t, &mut out), written);
+    let generated = sim.forward_dynamics(state, &tau).unwrap();
+    let recursion = sim.tree().forward_dynamics(state, &tau).unwrap();
+    let scale = recursion.norm();
+    assert!((generated - recursion).norm() < 1e-13 * scale, "{generated} against {recursion}");
+    if written {
+        assert_eq!(SVector::<f64, NV>::from(out), generated);
+    }
+}
+
+#[test]
+fn the_written_out_algorithm_matches_the_recursion() {
+    generated_against_recursion(&Walker, &walker_state(), true);
+    generated_against_recursion(&Arm3, &arm_state(), true);
+    let state = TreeState { q: SVector::from([0.7]), v: SVector::from([3.0]), t: 0.0 };
+    generated_against_recursion(&HeavyBar { mass: 2.0 }, &state, true);
+    let field = FieldBar { mass: 2.0, end: Vector3::new(-0.5, 0.0, 0.0) };
+    generated_against_recursion(&field, &state, false);
+    // Both against the closed form: θ̈ = −m g (l/2) cos θ / (I_yy + m (l/2)²)
+    // about +y for a bar turned by θ about y (gravity along −z).
+    let closed = 2.0 * 9.81 * 0.5 * 0.7f64.cos() / (0.08 + 2.0 * 0.25);
+    for accel in [
+        TreeSimulation::new(&HeavyBar { mass: 2.0 }).unwrap().forward_dynamics(&state, &SVector::zeros()).unwrap()[0],
+        TreeSimulation::new(&field).unwrap().forward_dynamics(&state, &SVector::zeros()).unwrap()[0],
+    ] {
+        assert!((accel - closed).abs() < 1e-14 * closed, "{accel} against {closed}");
+    }
 }
 
 #[test]
