@@ -34,12 +34,12 @@ use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::tree::{TreeScene, TreeSimulation};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
-joint_examples::chain_scene!(Chain3, 3, coordinates = relative);
-joint_examples::chain_scene!(Chain5, 5, coordinates = relative);
-joint_examples::chain_scene!(Chain10, 10, coordinates = relative);
-joint_examples::chain_scene!(Chain20, 20, coordinates = relative);
-joint_examples::chain_scene!(Chain40, 40, coordinates = relative);
-joint_examples::chain_scene!(Chain160, 160, coordinates = relative);
+joint_examples::chain_scene!(Chain3, 3, coordinates = both);
+joint_examples::chain_scene!(Chain5, 5, coordinates = both);
+joint_examples::chain_scene!(Chain10, 10, coordinates = both);
+joint_examples::chain_scene!(Chain20, 20, coordinates = both);
+joint_examples::chain_scene!(Chain40, 40, coordinates = both);
+joint_examples::chain_scene!(Chain160, 160, coordinates = both);
 
 /// Declares an arm of bars `bar[$n]` on revolute joints: `$base` on the
 /// ground, then `$name = (parent, child, axis)` for the rest.
@@ -47,7 +47,7 @@ macro_rules! arm_scene {
     ($scene:ident, $n:tt, $(($joint:ident, $parent:tt, $child:tt, $axis:tt)),*) => {
         /// An arm of bars on revolute joints, axes alternating z and y.
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+        #[scene(gravity = [0, 0, -9.81], coordinates = both)]
         #[body(bar[$n], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(base = revolute(ground, bar[0]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
         $(#[joint($joint = revolute(bar[$parent], bar[$child]), axis1 = $axis, axis2 = $axis, rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])])*

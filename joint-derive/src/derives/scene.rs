@@ -15,7 +15,13 @@ use crate::second_order::{self, Terms};
 
 /// The derive's entry point.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
-    let derived = scene::parse(input).and_then(|s| lower::derive_scene(&s).map(|d| (s, d)));
+    let parsed = scene::parse(input);
+    // `coordinates = relative`: the tree alone, nothing of the absolute path
+    // derived or compiled.
+    if let Ok(s @ SceneDecl { absolute: false, tree: Some(edges), .. }) = &parsed {
+        return tree_only(input, s, edges);
+    }
+    let derived = parsed.and_then(|s| lower::derive_scene(&s).map(|d| (s, d)));
     let with_second = derived.map(|(s, (mut d, blocks))| {
         let second = s.second_order.map(|_| {
             // Above the limit only the sparse blocks: a dense K of a large scene
@@ -66,6 +72,23 @@ fn sizes(bodies: usize, rows: usize) -> Sizes {
 /// bodies), and the sizes.
 fn inherent(bodies: &[BodyName], z: &Sizes, blocks: &TokenStream) -> TokenStream {
     let k = krate();
+    let indices = body_indices(bodies);
+    let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
+    quote! {
+        #(#indices)*
+        /// Number of bodies (`NB` of `Scene<NB, NV, M>`).
+        pub const NB: usize = #nb;
+        /// Velocity columns, 6 per body (`NV`).
+        pub const NV: usize = #nv;
+        /// Constraint rows (`M`).
+        pub const ROWS: usize = #m;
+        /// Each joint's block of rows, in row order (as `Scene::BLOCKS`).
+        pub const BLOCKS: &'static [#k::RowBlock] = #blocks;
+    }
+}
+
+/// Each body's index by name (an array for a row of bodies).
+fn body_indices(bodies: &[BodyName]) -> Vec<TokenStream> {
     // A constant that clashes (an error being reported) is left out.
     let mut seen: Vec<String> = SIZE_CONSTANTS.map(String::from).to_vec();
     let mut indices = Vec::new();
@@ -89,18 +112,7 @@ fn inherent(bodies: &[BodyName], z: &Sizes, blocks: &TokenStream) -> TokenStream
             indices.push(quote!(#[doc = #doc] pub const #constant: usize = #i;));
         }
     }
-    let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
-    quote! {
-        #(#indices)*
-        /// Number of bodies (`NB` of `Scene<NB, NV, M>`).
-        pub const NB: usize = #nb;
-        /// Velocity columns, 6 per body (`NV`).
-        pub const NV: usize = #nv;
-        /// Constraint rows (`M`).
-        pub const ROWS: usize = #m;
-        /// Each joint's block of rows, in row order (as `Scene::BLOCKS`).
-        pub const BLOCKS: &'static [#k::RowBlock] = #blocks;
-    }
+    indices
 }
 
 /// `type NameState = SystemState<NB>`, beside the struct with its visibility:
@@ -161,11 +173,7 @@ fn print(
     let gravity = vector(&s.gravity);
     let points = joint_points(s);
     let ident = &input.ident;
-    let mut generics = input.generics.clone();
-    let wc = generics.make_where_clause();
-    for ty in &s.time_types {
-        wc.predicates.push(syn::parse_quote!(#ty: #k::TimeFunction));
-    }
+    let generics = generics_of(input, s);
     let tree = s.tree.as_ref().map(|edges| super::tree::print(input, s, edges, &generics));
     let (ig, tg, wc) = generics.split_for_impl();
     let (mut second_method, second_ops) = match second.and_then(|t| t.dense.as_ref()) {
@@ -216,6 +224,41 @@ fn print(
 
         #lints
         impl #ig #k::SparseJacobian<#nb, #nnz> for #ident #tg #wc { #sparse }
+    }
+}
+
+/// The struct's generics with a `TimeFunction` bound on each time-function field's type.
+fn generics_of(input: &syn::DeriveInput, s: &SceneDecl) -> syn::Generics {
+    let k = krate();
+    let mut generics = input.generics.clone();
+    let wc = generics.make_where_clause();
+    for ty in &s.time_types {
+        wc.predicates.push(syn::parse_quote!(#ty: #k::TimeFunction));
+    }
+    generics
+}
+
+/// A `coordinates = relative` scene: the bodies' indices, `NB`, the absolute
+/// state's alias (for the conversions) and the tree.
+fn tree_only(input: &syn::DeriveInput, s: &SceneDecl, edges: &[crate::front::tree::TreeEdge]) -> TokenStream {
+    let (ident, lints) = (&input.ident, lints());
+    let generics = generics_of(input, s);
+    let (ig, tg, wc) = generics.split_for_impl();
+    let nb = Literal::usize_unsuffixed(s.bodies.len());
+    let indices = body_indices(&s.body_names());
+    let alias = state_alias(input, &nb);
+    let tree = super::tree::print(input, s, edges, &generics);
+    quote! {
+        #alias
+        #tree
+
+        /// The scene's bodies by name and their number.
+        #lints
+        impl #ig #ident #tg #wc {
+            #(#indices)*
+            /// Number of bodies.
+            pub const NB: usize = #nb;
+        }
     }
 }
 
@@ -434,7 +477,7 @@ fn number(n: &Number) -> TokenStream {
 
 /// A 3-vector of numbers (missing components zero; the parser checked the
 /// length) or a field.
-fn vector(q: &Quantity) -> TokenStream {
+pub(super) fn vector(q: &Quantity) -> TokenStream {
     match q {
         Quantity::Const(v) => const_vector(v),
         Quantity::Field(f) => quote!(self.#f),
@@ -448,7 +491,7 @@ pub(super) fn const_vector(v: &[Number]) -> TokenStream {
 }
 
 /// `BodyInertia { mass, inertia }`: principal moments or six entries.
-fn inertia(mass: &Quantity, inertia: &Quantity) -> TokenStream {
+pub(super) fn inertia(mass: &Quantity, inertia: &Quantity) -> TokenStream {
     let k = krate();
     let mass = match mass {
         Quantity::Const(v) => v.first().map_or_else(|| quote!(1.0f64), number),

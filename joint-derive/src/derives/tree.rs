@@ -5,7 +5,7 @@
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
-use super::scene::const_vector;
+use super::scene::{const_vector, inertia, vector};
 use crate::front::resolve::{FieldShape, Source};
 use crate::front::scene::{JointDecl, SceneDecl};
 use crate::front::tree::{TreeEdge, TreeKind};
@@ -19,11 +19,10 @@ pub fn sizes(edges: &[TreeEdge]) -> (usize, usize) {
 /// The `TreeScene` impl and the state alias.
 pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generics: &syn::Generics) -> TokenStream {
     let k = krate();
-    let lit = Literal::usize_unsuffixed;
-    let rows: usize = s.joints.iter().map(|j| j.kind.row_count()).sum();
-    let (nb, nv6, m) = (lit(s.bodies.len()), lit(6 * s.bodies.len()), lit(rows));
+    let nb = Literal::usize_unsuffixed(s.bodies.len());
     let joints = edges.iter().map(|e| joint(&s.joints[e.joint], e));
-    let scene = quote!(<Self as #k::Scene<#nb, #nv6, #m>>);
+    let inertias = s.bodies.iter().map(|b| inertia(&b.mass, &b.inertia));
+    let gravity = vector(&s.gravity);
     let (nq, nv) = sizes(edges);
     let aba = crate::aba::method(s, edges, nq, nv).map(|(method, ops)| {
         let doc = format!(" The articulated-body algorithm written out: {ops} operations.");
@@ -31,8 +30,8 @@ pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generi
     });
     let body = quote! {
         fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
-        fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { #scene::inertias(self) }
-        fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #scene::gravity(self) }
+        fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
+        fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
         #aba
     };
     wrap(input, generics, s.bodies.len(), sizes(edges), body)

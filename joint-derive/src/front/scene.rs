@@ -255,9 +255,11 @@ pub struct SceneDecl {
     pub time_types: Vec<syn::Type>,
     /// `#[scene(second_order)]`: where it was asked for.
     pub second_order: Option<Span>,
-    /// `#[scene(coordinates = relative)]`: the joints as a tree, parents
-    /// first (absolute coordinates, the default, otherwise).
+    /// `#[scene(coordinates = relative | both)]`: the joints as a tree,
+    /// parents first.
     pub tree: Option<Vec<super::tree::TreeEdge>>,
+    /// Whether the absolute impls are wanted (`absolute`, the default, and `both`).
+    pub absolute: bool,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -322,15 +324,15 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
     (!bodies.is_empty()).then_some(SceneShape { bodies, rows, tree })
 }
 
-/// Whether `#[scene(.., coordinates = relative, ..)]` is written (read
-/// leniently, for the stub).
+/// Whether `#[scene(.., coordinates = relative, ..)]` (or `both`) is written
+/// (read leniently, for the stub).
 fn relative(input: &syn::DeriveInput) -> bool {
     let parser = syn::punctuated::Punctuated::<syn::Meta, syn::Token![,]>::parse_terminated;
     input.attrs.iter().filter(|a| a.path().is_ident("scene")).filter_map(|a| a.parse_args_with(parser).ok()).any(
         |metas| {
             metas.iter().any(|m| {
                 matches!(m, syn::Meta::NameValue(nv) if nv.path.is_ident("coordinates")
-                && matches!(&nv.value, syn::Expr::Path(p) if p.path.is_ident("relative")))
+                && matches!(&nv.value, syn::Expr::Path(p) if p.path.is_ident("relative") || p.path.is_ident("both")))
             })
         },
     )
@@ -401,7 +403,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let Options { gravity, second_order, relative } = scene_options(input, &fields, &mut errors);
+    let Options { gravity, second_order, relative, absolute } = scene_options(input, &fields, &mut errors);
     let bodies = bodies(input, &fields, &mut errors);
     if bodies.is_empty() && !written("body") {
         let message = "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`";
@@ -410,7 +412,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     if !bodies.is_empty() && !written("joint") {
         errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
-    let mut scene = SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new(), second_order, tree: None };
+    let mut scene =
+        SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new(), second_order, tree: None, absolute };
     // With no bodies every joint would be ground to ground: say the one thing that is wrong.
     if !scene.bodies.is_empty() {
         for attr in input.attrs.iter().filter(|a| a.path().is_ident("joint")) {
@@ -433,7 +436,9 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
 struct Options {
     gravity: Quantity,
     second_order: Option<Span>,
+    /// Where `relative` or `both` was asked for.
     relative: Option<Span>,
+    absolute: bool,
 }
 
 /// `#[scene(gravity = .., formulation = omega_body, second_order, coordinates
@@ -463,13 +468,13 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 Some(v) => errors.at(v.span(), "`second_order` takes no value; expected `second_order` alone"),
             },
             "coordinates" => match &a.value {
-                Some(Value::Ident(c)) if c == "relative" || c == "absolute" => {
-                    coordinates.set(a.key.span(), c == "relative", errors)
+                Some(Value::Ident(c)) if c == "relative" || c == "absolute" || c == "both" => {
+                    coordinates.set(a.key.span(), c.to_string(), errors)
                 }
                 _ => errors.at(
                     a.value.as_ref().map_or(a.key.span(), Value::span),
-                    "expected `coordinates = absolute` (six per body, every joint's rows as constraints) or \
-                     `coordinates = relative` (a tree in its joints' own freedoms)",
+                    "expected `coordinates = absolute` (six per body, every joint's rows as constraints), \
+                     `coordinates = relative` (a tree in its joints' own freedoms) or `coordinates = both`",
                 ),
             },
             other => {
@@ -484,8 +489,12 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
         }
     }
     let gravity = gravity.take().map_or(Quantity::Const(vec![Number::Known(0.0); 3]), |(q, _)| q);
-    let relative = coordinates.take().and_then(|(relative, span)| relative.then_some(span));
-    Options { gravity, second_order: second_order.take().map(|(_, span)| span), relative }
+    let (relative, absolute) = match coordinates.take() {
+        Some((c, span)) if c == "relative" => (Some(span), false),
+        Some((c, span)) if c == "both" => (Some(span), true),
+        _ => (None, true),
+    };
+    Options { gravity, second_order: second_order.take().map(|(_, span)| span), relative, absolute }
 }
 
 /// The `#[body(..)]` attributes, checked: names unique and distinct from the

@@ -7,9 +7,10 @@
 
 use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector3, Vector6};
 
+use super::TreeJointKind;
 use super::TreeState;
 use super::kinematics::{Kinematics, Subspace};
-use super::spatial::{cross_force, cross_motion, join};
+use super::spatial::{cross_force, cross_motion, join, split};
 use super::topology::{Tree, TreeError};
 
 /// The energy of a tree's state.
@@ -39,6 +40,21 @@ fn expand(s: &Subspace, x: &Vector3<f64>) -> Vector6<f64> {
     (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * x[i])
 }
 
+/// The inverse of a symmetric positive definite 3 × 3 matrix, by its
+/// adjugate (`None` unless its leading minors are positive): closed form,
+/// as the derive writes it, and several times cheaper than a factorisation
+/// at this size.
+fn spd_inverse(d: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let cof = |r: usize, c: usize| {
+        let (r1, r2, c1, c2) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
+        d[(r1, c1)] * d[(r2, c2)] - d[(r1, c2)] * d[(r2, c1)]
+    };
+    let adj = Matrix3::from_fn(|r, c| cof(c, r));
+    let det = d[(0, 0)] * adj[(0, 0)] + d[(0, 1)] * adj[(1, 0)] + d[(0, 2)] * adj[(2, 0)];
+    let minor = d[(0, 0)] * d[(1, 1)] - d[(0, 1)] * d[(1, 0)];
+    (d[(0, 0)] > 0.0 && minor > 0.0 && det > 0.0 && det.is_finite()).then(|| adj * (1.0 / det))
+}
+
 /// A joint's `U = Iᴬ S`, `D⁻¹ = (Sᵀ U)⁻¹` (identity past its freedoms) and
 /// `u = τ − Sᵀ pᴬ`: what the articulated-body algorithm keeps per joint.
 #[derive(Clone, Copy, Debug)]
@@ -55,8 +71,7 @@ impl Articulated {
             let d = s.cols[0].dot(&u_cols[0]);
             (d > 0.0).then(|| Matrix3::new(1.0 / d, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0))?
         } else {
-            let d = Matrix3::from_fn(|r, c| s.cols[r].dot(&u_cols[c]));
-            d.cholesky()?.inverse()
+            spd_inverse(&Matrix3::from_fn(|r, c| s.cols[r].dot(&u_cols[c])))?
         };
         Some(Articulated { u_cols, d_inv, u: tau - project(s, pa) })
     }
@@ -64,6 +79,15 @@ impl Articulated {
     /// `U x`.
     fn u_times(&self, n: usize, x: &Vector3<f64>) -> Vector6<f64> {
         (0..n).fold(Vector6::zeros(), |acc, i| acc + self.u_cols[i] * x[i])
+    }
+
+    /// `C − Bᵀ A⁻¹ B` of `Iᴬ = [A B; Bᵀ C]`, for `S = [1; 0]` (`U = [A; Bᵀ]`,
+    /// `D⁻¹ = A⁻¹`).
+    fn translational(&self, ia: &Matrix6<f64>) -> Matrix3<f64> {
+        let c = ia.fixed_view::<3, 3>(3, 3).into_owned();
+        let b = ia.fixed_view::<3, 3>(0, 3).into_owned();
+        let lower = c - b.transpose() * self.d_inv * b;
+        (lower + lower.transpose()) * 0.5
     }
 
     /// `Iᴬ − U D⁻¹ Uᵀ`.
@@ -99,27 +123,38 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut c = [Vector6::zeros(); NB];
         for k in 0..NB {
             let vel = kin.vel[k];
-            c[k] = cross_motion(&vel, &self.joint_motion(&kin.s[k], k, &state.v));
+            c[k] = cross_motion(&vel, &self.joint_motion(&self.subspace[k], k, &state.v));
             pa[k] = cross_force(&vel, &(self.inertia[k] * vel));
         }
         let blank = Articulated { u_cols: [Vector6::zeros(); 3], d_inv: Matrix3::zeros(), u: Vector3::zeros() };
         let mut art = [blank; NB];
         for k in (0..NB).rev() {
-            let s = &kin.s[k];
+            let s = &self.subspace[k];
             let t = self.joint_forces(k, tau);
             let a = Articulated::new(s, &ia[k], &pa[k], t).ok_or(TreeError::Singular { joint: self.joints[k].name })?;
             if let Some(p) = self.parent[k] {
-                let reduced = a.reduced(s.n, &ia[k]);
-                let pa_k = pa[k] + reduced * c[k] + a.u_times(s.n, &(a.d_inv * a.u));
-                ia[p] += kin.x[k].inertia_back(&reduced);
-                pa[p] += kin.x[k].force_back(&pa_k);
+                let handed = a.u_times(s.n, &(a.d_inv * a.u));
+                if self.joints[k].kind == TreeJointKind::Spherical {
+                    // S = [1; 0] in the link frame: Iᴬ − U D⁻¹ Uᵀ is
+                    // [0 0; 0 C − Bᵀ A⁻¹ B], exactly; only that block moves on.
+                    let lower = a.translational(&ia[k]);
+                    let (_, c_lin) = split(&c[k]);
+                    let pa_k = pa[k] + join(&Vector3::zeros(), &(lower * c_lin)) + handed;
+                    ia[p] += kin.x[k].translational_back(&lower);
+                    pa[p] += kin.x[k].force_back(&pa_k);
+                } else {
+                    let reduced = a.reduced(s.n, &ia[k]);
+                    let pa_k = pa[k] + reduced * c[k] + handed;
+                    ia[p] += kin.x[k].inertia_back(&reduced);
+                    pa[p] += kin.x[k].force_back(&pa_k);
+                }
             }
             art[k] = a;
         }
         let mut acc = [Vector6::zeros(); NB];
         let mut vdot = SVector::<f64, NV>::zeros();
         for k in 0..NB {
-            let s = &kin.s[k];
+            let s = &self.subspace[k];
             let a = self.parent_acceleration(&kin, k, &acc) + c[k];
             let u_t_a = Vector3::from_fn(|i, _| if i < s.n { art[k].u_cols[i].dot(&a) } else { 0.0 });
             let qdd = art[k].d_inv * (art[k].u - u_t_a);
@@ -136,7 +171,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut acc = [Vector6::zeros(); NB];
         let mut f = [Vector6::zeros(); NB];
         for k in 0..NB {
-            let (s, vel) = (&kin.s[k], kin.vel[k]);
+            let (s, vel) = (&self.subspace[k], kin.vel[k]);
             let joint = self.joint_motion(s, k, &state.v);
             acc[k] =
                 self.parent_acceleration(&kin, k, &acc) + self.joint_motion(s, k, vdot) + cross_motion(&vel, &joint);
@@ -144,7 +179,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         let mut tau = SVector::<f64, NV>::zeros();
         for k in (0..NB).rev() {
-            self.put(k, &project(&kin.s[k], &f[k]), &mut tau);
+            self.put(k, &project(&self.subspace[k], &f[k]), &mut tau);
             if let Some(p) = self.parent[k] {
                 let back = kin.x[k].force_back(&f[k]);
                 f[p] += back;
@@ -172,13 +207,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         out.fill(0.0);
         for (k, ic_k) in ic.iter().enumerate() {
-            let s = &kin.s[k];
+            let s = &self.subspace[k];
             for i in 0..s.n {
                 let col = self.v_at[k] + i;
                 let mut force = ic_k * s.cols[i];
                 let mut j = k;
                 loop {
-                    let sj = &kin.s[j];
+                    let sj = &self.subspace[j];
                     for r in 0..sj.n {
                         let row = self.v_at[j] + r;
                         let m = sj.cols[r].dot(&force);

@@ -7,17 +7,18 @@ use super::TreeJointKind;
 use super::spatial::{Transform, join};
 use super::topology::Tree;
 
-/// A joint's columns of `S` (child frame, constant there): at most three.
+/// A joint's columns of `S` in the child's link frame (its axes, origin at
+/// the joint point), constant there: at most three, each `[a; 0]`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Subspace {
     pub cols: [Vector6<f64>; 3],
     pub n: usize,
 }
 
-/// `[a; ρ × a]`: the child's spatial motion when it turns about `a` through
-/// the joint point `ρ` (child frame): its origin moves with `a × (−ρ)`.
-fn turning(a: &Vector3<f64>, rho: &Vector3<f64>) -> Vector6<f64> {
-    join(a, &rho.cross(a))
+/// `[a; 0]`: the child's spatial motion, at its link frame's origin (the
+/// joint point), when it turns about `a`.
+fn turning(a: &Vector3<f64>) -> Vector6<f64> {
+    join(a, &Vector3::zeros())
 }
 
 /// Unit Euler parameters from four coordinates (normalised: an RK4 stage's
@@ -27,16 +28,14 @@ pub(crate) fn unit(p: &Vector4<f64>) -> UnitQuaternion<f64> {
 }
 
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
-    /// The motion subspace of joint `k`.
-    pub(crate) fn subspace(&self, k: usize) -> Subspace {
-        let rho = self.joints[k].rho_child;
+    /// The motion subspace of joint `k` (kept by [`Tree::new`]).
+    pub(crate) fn make_subspace(&self, k: usize) -> Subspace {
         match self.joints[k].kind {
             TreeJointKind::Revolute => {
-                let c = turning(&self.axis[k], &rho);
-                Subspace { cols: [c, Vector6::zeros(), Vector6::zeros()], n: 1 }
+                Subspace { cols: [turning(&self.axis[k]), Vector6::zeros(), Vector6::zeros()], n: 1 }
             }
             TreeJointKind::Spherical => {
-                Subspace { cols: [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| turning(&e, &rho)), n: 3 }
+                Subspace { cols: [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| turning(&e)), n: 3 }
             }
         }
     }
@@ -53,11 +52,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
     }
 
-    /// Joint `k`'s transform from its parent's frame to its child's.
+    /// Joint `k`'s transform from its parent's link frame to its child's:
+    /// the offset between the two joint points is a constant of the parent.
     pub(crate) fn transform(&self, k: usize, q: &SVector<f64, NQ>) -> Transform {
         let rel: Matrix3<f64> = self.relative_rotation(k, q).to_rotation_matrix().into_inner();
-        let j = &self.joints[k];
-        Transform { e: rel.transpose(), r: j.rho_parent - rel * j.rho_child }
+        Transform { e: rel.transpose(), r: self.offset[k] }
     }
 
     /// `S q̇` of joint `k`.
@@ -66,19 +65,17 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * v[at + i])
     }
 
-    /// Every joint's transform and subspace and every body's spatial velocity
-    /// (own frame), in tree order.
+    /// Every joint's transform and every body's spatial velocity
+    /// (its link frame), in tree order.
     pub(crate) fn kinematics(&self, q: &SVector<f64, NQ>, v: &SVector<f64, NV>) -> Kinematics<NB> {
         let mut out = Kinematics {
             x: [Transform { e: Matrix3::identity(), r: Vector3::zeros() }; NB],
-            s: [Subspace { cols: [Vector6::zeros(); 3], n: 0 }; NB],
             vel: [Vector6::zeros(); NB],
         };
         for k in 0..NB {
             out.x[k] = self.transform(k, q);
-            out.s[k] = self.subspace(k);
             let parent = self.parent[k].map_or_else(Vector6::zeros, |p| out.x[k].motion(&out.vel[p]));
-            out.vel[k] = parent + self.joint_motion(&out.s[k], k, v);
+            out.vel[k] = parent + self.joint_motion(&self.subspace[k], k, v);
         }
         out
     }
@@ -87,6 +84,5 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
 /// What every recursion starts from.
 pub(crate) struct Kinematics<const NB: usize> {
     pub x: [Transform; NB],
-    pub s: [Subspace; NB],
     pub vel: [Vector6<f64>; NB],
 }

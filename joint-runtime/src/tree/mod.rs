@@ -4,13 +4,16 @@
 //! body, the joint's rows as constraints: what [`Scene`](crate::Scene) and
 //! [`Simulation`](crate::dynamics::Simulation) run on) and in relative
 //! coordinates (body 2 relative to body 1). A scene declared with
-//! `#[scene(coordinates = relative)]` gets, beside its absolute impls, a
-//! [`TreeScene`] impl: its joints as a spanning tree from the ground, each
-//! parametrised by its own freedoms, and the runtime here runs the recursive
-//! dynamics on it (Featherstone's articulated-body algorithm for forward
-//! dynamics, the recursive Newton–Euler algorithm for inverse dynamics, the
-//! composite-rigid-body algorithm for the mass matrix), each O(bodies) but the
-//! mass matrix.
+//! `#[scene(coordinates = relative)]` gets a [`TreeScene`] impl instead of the
+//! absolute ones (`coordinates = both`: both, from one declaration): its
+//! joints as a spanning tree from the ground, each parametrised by its own
+//! freedoms, and, where its joint points and axes are numbers, the
+//! articulated-body algorithm written out for that tree
+//! ([`TreeScene::forward_dynamics_into`]). The runtime here runs the
+//! recursions on any tree (Featherstone's articulated-body algorithm for
+//! forward dynamics, the recursive Newton–Euler algorithm for inverse
+//! dynamics, the composite-rigid-body algorithm for the mass matrix), each
+//! O(bodies) but the mass matrix.
 //!
 //! | joint | coordinates `q` | velocities `v` | the child's rotation relative to its parent |
 //! |---|---|---|---|

@@ -1,5 +1,6 @@
-//! Spatial vectors in a body's own frame, origin at its centre of mass:
-//! motions `(ω, v)` and forces `(n, f)` as `Vector6`, angular part first.
+//! Spatial vectors in a body's link frame (its axes, origin at its inbound
+//! joint point): motions `(ω, v)` and forces `(n, f)` as `Vector6`, angular
+//! part first.
 //!
 //! A joint's transform from its parent's frame to its child's is `(E, r)`:
 //! `E` takes parent components to child components, `r` is the child's origin
@@ -67,6 +68,23 @@ impl Transform {
     }
 }
 
+impl Transform {
+    /// `Xᵀ [0 0; 0 C] X`: an inertia with only its translational block
+    /// (what a spherical joint hands on): `[−R C' R, R C'; −C' R, C']`
+    /// with `C' = Eᵀ C E`.
+    pub fn translational_back(&self, c: &Matrix3<f64>) -> Matrix6<f64> {
+        let c = self.e.transpose() * c * self.e;
+        let rx = self.r.cross_matrix();
+        let rc = rx * c;
+        let mut out = Matrix6::zeros();
+        out.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-(rc * rx)));
+        out.fixed_view_mut::<3, 3>(0, 3).copy_from(&rc);
+        out.fixed_view_mut::<3, 3>(3, 0).copy_from(&rc.transpose());
+        out.fixed_view_mut::<3, 3>(3, 3).copy_from(&c);
+        out
+    }
+}
+
 /// `a ×m b`: the motion cross product.
 #[inline]
 pub(crate) fn cross_motion(a: &Vector6<f64>, b: &Vector6<f64>) -> Vector6<f64> {
@@ -81,11 +99,14 @@ pub(crate) fn cross_force(m: &Vector6<f64>, f: &Vector6<f64>) -> Vector6<f64> {
     join(&(w.cross(&n) + v.cross(&f)), &w.cross(&f))
 }
 
-/// A rigid body's spatial inertia about its centre of mass, its own frame:
-/// `[I_c 0; 0 m 1]`.
-pub(crate) fn body_inertia(mass: f64, inertia: &Matrix3<f64>) -> Matrix6<f64> {
+/// A rigid body's spatial inertia about a point from which its centre of
+/// mass is `c`, body axes: `[I_c + m [c]× [c]×ᵀ, m [c]×; m [c]×ᵀ, m 1]`.
+pub(crate) fn link_inertia(mass: f64, inertia: &Matrix3<f64>, c: &Vector3<f64>) -> Matrix6<f64> {
+    let cx = c.cross_matrix();
     let mut out = Matrix6::zeros();
-    out.fixed_view_mut::<3, 3>(0, 0).copy_from(inertia);
+    out.fixed_view_mut::<3, 3>(0, 0).copy_from(&(inertia + cx * cx.transpose() * mass));
+    out.fixed_view_mut::<3, 3>(0, 3).copy_from(&(cx * mass));
+    out.fixed_view_mut::<3, 3>(3, 0).copy_from(&(cx.transpose() * mass));
     out.fixed_view_mut::<3, 3>(3, 3).copy_from(&Matrix3::from_diagonal_element(mass));
     out
 }

@@ -3,9 +3,10 @@
 
 use core::fmt;
 
-use nalgebra::{Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4, Vector6};
 
-use super::spatial::{body_inertia, split};
+use super::kinematics::Subspace;
+use super::spatial::{link_inertia, split};
 use super::{TreeJoint, TreeJointKind, TreeScene, TreeState};
 use crate::{BodyInertia, OmegaBody, SystemState};
 
@@ -94,9 +95,15 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     pub(crate) axis: [Vector3<f64>; NB],
     /// Revolute: `R₀`, the shortest rotation taking `h` onto the parent's axis.
     pub(crate) rest: [UnitQuaternion<f64>; NB],
-    /// The spatial inertia of joint `k`'s child.
+    /// The spatial inertia of joint `k`'s child about its joint point
+    /// (its link frame's origin).
     pub(crate) inertia: [Matrix6<f64>; NB],
+    /// The joint point from the parent's inbound joint point (the ground's
+    /// origin for a root), parent components.
+    pub(crate) offset: [Vector3<f64>; NB],
     pub(crate) mass: [BodyInertia; NB],
+    /// Each joint's motion subspace, constant in its child's link frame.
+    pub(crate) subspace: [Subspace; NB],
     pub(crate) q_at: [usize; NB],
     pub(crate) v_at: [usize; NB],
     pub(crate) gravity: Vector3<f64>,
@@ -117,7 +124,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             axis: [Vector3::zeros(); NB],
             rest: [UnitQuaternion::identity(); NB],
             inertia: [Matrix6::zeros(); NB],
+            offset: [Vector3::zeros(); NB],
             mass: inertias,
+            subspace: [Subspace { cols: [Vector6::zeros(); 3], n: 0 }; NB],
             q_at: [0; NB],
             v_at: [0; NB],
             gravity,
@@ -135,11 +144,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 None => None,
                 Some(b) => Some(moved_by.get(b).copied().flatten().ok_or(order)?),
             };
+            let inbound = tree.parent[k].map_or_else(Vector3::zeros, |p| joints[p].rho_child);
+            tree.offset[k] = j.rho_parent - inbound;
             let b = inertias[j.child];
             if !valid_inertia(&b) {
                 return Err(TreeError::Inertia { body: j.child });
             }
-            tree.inertia[k] = body_inertia(b.mass, &b.inertia);
+            tree.inertia[k] = link_inertia(b.mass, &b.inertia, &(-j.rho_child));
             if j.kind == TreeJointKind::Revolute {
                 let axis_error = TreeError::Axis { joint: j.name };
                 let h = Unit::try_new(j.axis_child, 1e-300).ok_or(axis_error)?;
@@ -150,6 +161,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 tree.axis[k] = h.into_inner();
                 tree.rest[k] = rest_rotation(&h, &a);
             }
+            tree.subspace[k] = tree.make_subspace(k);
             tree.q_at[k] = nq;
             tree.v_at[k] = nv;
             nq += j.kind.coordinates();
@@ -186,14 +198,18 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     pub fn system_state(&self, state: &TreeState<NQ, NV>) -> SystemState<NB> {
         let kin = self.kinematics(&state.q, &state.v);
         let mut bodies = [OmegaBody::default(); NB];
+        // Each link frame's orientation and origin (the joint point).
         let mut pose: [(UnitQuaternion<f64>, Vector3<f64>); NB] = [(UnitQuaternion::identity(), Vector3::zeros()); NB];
         for k in 0..NB {
-            let (a_p, r_p) = self.parent[k].map_or((UnitQuaternion::identity(), Vector3::zeros()), |p| pose[p]);
+            let (a_p, o_p) = self.parent[k].map_or((UnitQuaternion::identity(), Vector3::zeros()), |p| pose[p]);
             let a = a_p * self.relative_rotation(k, &state.q);
-            let r = r_p + a_p * kin.x[k].r;
-            pose[k] = (a, r);
+            let o = o_p + a_p * kin.x[k].r;
+            pose[k] = (a, o);
+            // The centre of mass is −ρ from the joint point.
             let (w, v) = split(&kin.vel[k]);
-            bodies[self.joints[k].child] = OmegaBody::from_rotation(r, &a, a * v, w);
+            let rho = self.joints[k].rho_child;
+            let r = o - a * rho;
+            bodies[self.joints[k].child] = OmegaBody::from_rotation(r, &a, a * (v - w.cross(&rho)), w);
         }
         SystemState { bodies, t: state.t }
     }

@@ -1,7 +1,7 @@
 //! Relative coordinates (`joint_runtime::tree`) on `#[scene(coordinates =
 //! relative)]` scenes: the recursions against closed forms, against the
 //! kinetic energy computed from the bodies, against each other, and the motion
-//! against the same declaration in absolute coordinates.
+//! against the same declaration in absolute coordinates (`coordinates = both`).
 
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
@@ -19,7 +19,7 @@ struct Bar;
 /// declared child first (`knee`), axes that differ between the two bodies
 /// (`elbow`: `R₀` not the identity), an inertia with products.
 #[derive(Scene, Clone, Copy, Debug, Default)]
-#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
 #[body(torso, mass = 2.0, inertia = [0.2, 0.3, 0.25, 0.01, -0.02, 0.015])]
 #[body(shin, mass = 0.7, inertia = [0.02, 0.021, 0.004])]
 #[body(upper, mass = 1.1, inertia = [0.03, 0.035, 0.006])]
@@ -32,7 +32,7 @@ struct Walker;
 
 /// The arm of `peer_bench`, three bars: revolute about z, y, z.
 #[derive(Scene, Clone, Copy, Debug, Default)]
-#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
 #[body(bar[3], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
 #[joint(base = revolute(ground, bar[0]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
 #[joint(j2 = revolute(bar[0], bar[1]), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
