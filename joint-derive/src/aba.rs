@@ -451,190 +451,233 @@ impl Builder {
     }
 }
 
-/// `fn forward_dynamics_into`, or nothing (points or axes not numbers, or
-/// above [`LIMIT`]).
-pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
-    let joints = joints(s, edges)?;
-    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
-    let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
-    let v: Vec<Id> = (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect();
-    let tau: Vec<Id> = (0..nv).map(|i| b.g.param(format!("tau_{i}"))).collect();
-    let gravity = b.quantity3(&s.gravity);
-    let zero = b.c(0.0);
-    let n = joints.len();
-    let (mut qa, mut va) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    let (mut at_q, mut at_v) = (0, 0);
-    for j in &joints {
-        let (a, bb) = j.kind.sizes();
-        qa.push(at_q);
-        va.push(at_v);
-        at_q += a;
-        at_v += bb;
+/// Pass 1 of one joint: its transform, velocity, velocity-product
+/// acceleration `c`, bias force `pᴬ` and link inertia.
+struct Down {
+    x: Transform,
+    vel: V6,
+    c: V6,
+    pa: V6,
+    inertia: M6,
+}
+
+/// What pass 2 keeps of one joint for pass 3: `U`, `D⁻¹`, `u`.
+struct Keep {
+    u_cols: Vec<V6>,
+    dinv: Vec<Vec<Id>>,
+    u: Vec<Id>,
+}
+
+impl Builder {
+    /// The joint's subspace columns as nodes.
+    fn columns(&mut self, j: &Joint) -> Vec<V6> {
+        subspace(j).into_iter().map(|col| col.map(|x| self.c(x))).collect()
     }
-    // Pass 1: transforms, velocities, velocity-product accelerations, bias forces.
-    let mut xs = Vec::with_capacity(n);
-    let mut subs: Vec<Vec<V6>> = Vec::with_capacity(n);
-    let (mut vel, mut cc, mut ia, mut pa) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut sel = Vec::with_capacity(n);
-    for (k, j) in joints.iter().enumerate() {
-        let rel = b.relative(j, &q[qa[k]..qa[k] + j.kind.sizes().0]);
+
+    /// Pass 1 (root to leaves) of joint `j`: `e` is `E` when given as inputs
+    /// (a kernel), else made from `q`.
+    fn down(&mut self, s: &SceneDecl, j: &Joint, inbound: [f64; 3], q: &[Id], v: &[Id], parent: Option<V6>) -> Down {
+        let zero = self.c(0.0);
+        let rel = self.relative(j, q);
         let e: M3 = [0, 1, 2].map(|r| [0, 1, 2].map(|c| rel[c][r]));
         // Link frames: each body's axes, origin at its inbound joint point, so
         // that the joint's subspace is constant coordinate axes and the
         // offset between two joint points a constant of the parent.
-        let inbound = j.parent.map_or([0.0; 3], |p| joints[p].rho_c);
         let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound[i]);
-        let x = Transform { e, r: b.consts3(r) };
-        let cols = subspace(j);
-        sel.push(selected(&cols));
-        let s_k: Vec<V6> = cols.into_iter().map(|col| col.map(|x| b.c(x))).collect();
+        let x = Transform { e, r: self.consts3(r) };
+        let s_k = self.columns(j);
         let mut vj = [zero; 6];
         for (i, col) in s_k.iter().enumerate() {
             for r in 0..6 {
-                let t = b.g.mul(col[r], v[va[k] + i]);
-                vj[r] = b.g.add(vj[r], t);
+                let t = self.g.mul(col[r], v[i]);
+                vj[r] = self.g.add(vj[r], t);
             }
         }
-        let vk = match j.parent {
-            Some(p) => {
-                let from = b.motion(&x, vel[p]);
-                [0, 1, 2, 3, 4, 5].map(|r| b.g.add(from[r], vj[r]))
+        let vel = match parent {
+            Some(pv) => {
+                let from = self.motion(&x, pv);
+                [0, 1, 2, 3, 4, 5].map(|r| self.g.add(from[r], vj[r]))
             }
             None => vj,
         };
         let (m, ic) = {
             let body = &s.bodies[j.child];
-            b.body(&body.mass, &body.inertia)
+            self.body(&body.mass, &body.inertia)
         };
-        let inertia = b.link_inertia(m, &ic, j.rho_c.map(|x| -x));
-        let iv = b.m6v(&inertia, vk);
-        pa.push(b.cross_force(vk, iv));
-        cc.push(b.cross_motion(vk, vj));
-        vel.push(vk);
-        ia.push(inertia);
-        xs.push(x);
-        subs.push(s_k);
+        let inertia = self.link_inertia(m, &ic, j.rho_c.map(|x| -x));
+        let iv = self.m6v(&inertia, vel);
+        let pa = self.cross_force(vel, iv);
+        let c = self.cross_motion(vel, vj);
+        Down { x, vel, c, pa, inertia }
     }
-    // Pass 2, leaves to root: U = Iᴬ S, D⁻¹, u = τ − Sᵀ pᴬ; the articulated
-    // inertia and bias handed to the parent.
-    let mut uu: Vec<Vec<V6>> = vec![Vec::new(); n];
-    let mut dinv: Vec<Vec<Vec<Id>>> = vec![Vec::new(); n];
-    let mut us: Vec<Vec<Id>> = vec![Vec::new(); n];
-    for k in (0..n).rev() {
-        let s_k = subs[k].clone();
+
+    /// Pass 2 (leaves to root) of joint `j`: what it keeps, and, with a
+    /// parent, the articulated inertia and bias it hands on (parent frame).
+    fn up(&mut self, j: &Joint, ia: &M6, pa: V6, c: V6, x: &Transform, tau: &[Id]) -> (Keep, Option<(M6, V6)>) {
+        let zero = self.c(0.0);
+        let s_k = self.columns(j);
         let dof = s_k.len();
-        let u_cols: Vec<V6> = s_k.iter().map(|col| b.m6v(&ia[k], *col)).collect();
-        let d: Vec<Vec<Id>> = (0..dof).map(|r| (0..dof).map(|c| b.dot(&s_k[r], &u_cols[c])).collect()).collect();
-        let inv = b.inverse(&d);
+        let u_cols: Vec<V6> = s_k.iter().map(|col| self.m6v(ia, *col)).collect();
+        let d: Vec<Vec<Id>> = (0..dof).map(|r| (0..dof).map(|c| self.dot(&s_k[r], &u_cols[c])).collect()).collect();
+        let dinv = self.inverse(&d);
         let u: Vec<Id> = (0..dof)
             .map(|i| {
-                let sp = b.dot(&s_k[i], &pa[k]);
-                b.g.sub(tau[va[k] + i], sp)
+                let sp = self.dot(&s_k[i], &pa);
+                self.g.sub(tau[i], sp)
             })
             .collect();
-        if let Some(p) = joints[k].parent {
-            // U D⁻¹ (its columns), then Iᴬ − (U D⁻¹) Uᵀ and pᴬ + Iᵃ c + U D⁻¹ u.
-            let ud: Vec<V6> = (0..dof)
-                .map(|c| {
-                    [0, 1, 2, 3, 4, 5].map(|r| {
-                        let row: Vec<Id> = (0..dof).map(|i| u_cols[i][r]).collect();
-                        let col: Vec<Id> = (0..dof).map(|i| inv[i][c]).collect();
-                        b.dot(&row, &col)
-                    })
+        let keep = Keep { u_cols, dinv, u };
+        if j.parent.is_none() {
+            return (keep, None);
+        }
+        let Keep { u_cols, dinv, u } = &keep;
+        // U D⁻¹ (its columns), then Iᴬ − (U D⁻¹) Uᵀ and pᴬ + Iᵃ c + U D⁻¹ u.
+        let ud: Vec<V6> = (0..dof)
+            .map(|c| {
+                [0, 1, 2, 3, 4, 5].map(|r| {
+                    let row: Vec<Id> = (0..dof).map(|i| u_cols[i][r]).collect();
+                    let col: Vec<Id> = (0..dof).map(|i| dinv[i][c]).collect();
+                    self.dot(&row, &col)
                 })
-                .collect();
-            let mut outer: M6 = [[zero; 6]; 6];
-            for r in 0..6 {
-                for c in r..6 {
-                    let row: Vec<Id> = (0..dof).map(|i| ud[i][r]).collect();
-                    let col: Vec<Id> = (0..dof).map(|i| u_cols[i][c]).collect();
-                    let v = b.dot(&row, &col);
-                    outer[r][c] = v;
-                    outer[c][r] = v;
-                }
-            }
-            let mut reduced = b.sub6(&ia[k], &outer);
-            // Exact zeros the graph cannot see (A − A A⁻¹ A): the reduced
-            // inertia moves nothing along the joint's own freedoms.
-            for &i in sel[k].iter().flatten() {
-                reduced[i] = [zero; 6];
-                for row in reduced.iter_mut() {
-                    row[i] = zero;
-                }
-            }
-            let ic = b.m6v(&reduced, cc[k]);
-            let udu = [0, 1, 2, 3, 4, 5].map(|r| {
+            })
+            .collect();
+        let mut outer: M6 = [[zero; 6]; 6];
+        for r in 0..6 {
+            for c in r..6 {
                 let row: Vec<Id> = (0..dof).map(|i| ud[i][r]).collect();
-                b.dot(&row, &u)
-            });
-            let pa_k = [0, 1, 2, 3, 4, 5].map(|r| {
-                let t = b.g.add(pa[k][r], ic[r]);
-                b.g.add(t, udu[r])
-            });
-            let back = b.inertia_back(&xs[k], &reduced);
-            ia[p] = b.add6(&ia[p], &back);
-            let fb = b.force_back(&xs[k], pa_k);
+                let col: Vec<Id> = (0..dof).map(|i| u_cols[i][c]).collect();
+                let v = self.dot(&row, &col);
+                outer[r][c] = v;
+                outer[c][r] = v;
+            }
+        }
+        let mut reduced = self.sub6(ia, &outer);
+        // Exact zeros the graph cannot see (A − A A⁻¹ A): the reduced
+        // inertia moves nothing along the joint's own freedoms.
+        for &i in selected(&subspace(j)).iter().flatten() {
+            reduced[i] = [zero; 6];
+            for row in reduced.iter_mut() {
+                row[i] = zero;
+            }
+        }
+        let ic = self.m6v(&reduced, c);
+        let udu = [0, 1, 2, 3, 4, 5].map(|r| {
+            let row: Vec<Id> = (0..dof).map(|i| ud[i][r]).collect();
+            self.dot(&row, u)
+        });
+        let pa_k = [0, 1, 2, 3, 4, 5].map(|r| {
+            let t = self.g.add(pa[r], ic[r]);
+            self.g.add(t, udu[r])
+        });
+        let back = self.inertia_back(x, &reduced);
+        let fb = self.force_back(x, pa_k);
+        (keep, Some((back, fb)))
+    }
+
+    /// Pass 3 (root to leaves) of joint `j`: its acceleration and `v̇`.
+    fn out(&mut self, j: &Joint, x: &Transform, from: V6, c: V6, keep: &Keep) -> (V6, Vec<Id>) {
+        let moved = self.motion(x, from);
+        let mut a = [0, 1, 2, 3, 4, 5].map(|r| self.g.add(moved[r], c[r]));
+        let s_k = self.columns(j);
+        let rhs: Vec<Id> = (0..s_k.len())
+            .map(|i| {
+                let ua = self.dot(&keep.u_cols[i], &a);
+                self.g.sub(keep.u[i], ua)
+            })
+            .collect();
+        let qdd: Vec<Id> = (0..s_k.len()).map(|r| self.dot(&keep.dinv[r], &rhs)).collect();
+        for (i, col) in s_k.iter().enumerate() {
+            for r in 0..6 {
+                let t = self.g.mul(col[r], qdd[i]);
+                a[r] = self.g.add(a[r], t);
+            }
+        }
+        (a, qdd)
+    }
+
+    /// `(0, −g)`: the ground's acceleration.
+    fn ground(&mut self, s: &SceneDecl) -> V6 {
+        let gravity = self.quantity3(&s.gravity);
+        let zero = self.c(0.0);
+        join([zero; 3], gravity.map(|x| self.g.neg(x)))
+    }
+}
+
+/// Where each joint's coordinates and velocities start.
+fn offsets(joints: &[Joint]) -> (Vec<usize>, Vec<usize>) {
+    let (mut qa, mut va) = (Vec::new(), Vec::new());
+    let (mut at_q, mut at_v) = (0, 0);
+    for j in joints {
+        let (a, b) = j.kind.sizes();
+        qa.push(at_q);
+        va.push(at_v);
+        at_q += a;
+        at_v += b;
+    }
+    (qa, va)
+}
+
+/// The joint point its parent's link frame starts from.
+fn inbound(joints: &[Joint], j: &Joint) -> [f64; 3] {
+    j.parent.map_or([0.0; 3], |p| joints[p].rho_c)
+}
+
+/// `fn forward_dynamics_into`: the whole tree in one straight line up to
+/// [`LIMIT`] operations, one kernel per distinct joint and pass above it;
+/// nothing when a joint's points or axes are not numbers.
+pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
+    let joints = joints(s, edges)?;
+    inline(s, &joints, nq, nv).or_else(|| kernels(s, &joints, nq, nv))
+}
+
+/// The whole tree in one function.
+fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
+    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
+    let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
+    let v: Vec<Id> = (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect();
+    let tau: Vec<Id> = (0..nv).map(|i| b.g.param(format!("tau_{i}"))).collect();
+    let zero = b.c(0.0);
+    let n = joints.len();
+    let (qa, va) = offsets(joints);
+    let mut downs: Vec<Down> = Vec::with_capacity(n);
+    for (k, j) in joints.iter().enumerate() {
+        let parent = j.parent.map(|p| downs[p].vel);
+        let (nqk, nvk) = j.kind.sizes();
+        let d = b.down(s, j, inbound(joints, j), &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
+        downs.push(d);
+    }
+    let mut ia: Vec<M6> = downs.iter().map(|d| d.inertia).collect();
+    let mut pa: Vec<V6> = downs.iter().map(|d| d.pa).collect();
+    let mut keeps: Vec<Option<Keep>> = (0..n).map(|_| None).collect();
+    for k in (0..n).rev() {
+        let j = &joints[k];
+        let nvk = j.kind.sizes().1;
+        let (keep, back) = b.up(j, &ia[k], pa[k], downs[k].c, &downs[k].x, &tau[va[k]..va[k] + nvk]);
+        if let (Some(p), Some((ib, fb))) = (j.parent, back) {
+            ia[p] = b.add6(&ia[p], &ib);
             pa[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(pa[p][r], fb[r]));
         }
-        uu[k] = u_cols;
-        dinv[k] = inv;
-        us[k] = u;
+        keeps[k] = Some(keep);
     }
-    // Pass 3, root to leaves: accelerations.
-    let neg_g = gravity.map(|x| b.g.neg(x));
-    let ground = join([zero; 3], neg_g);
+    let ground = b.ground(s);
     let mut acc: Vec<V6> = Vec::with_capacity(n);
     let mut out = vec![zero; nv];
     for (k, j) in joints.iter().enumerate() {
-        let from = match j.parent {
-            Some(p) => acc[p],
-            None => ground,
-        };
-        let moved = b.motion(&xs[k], from);
-        let a = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(moved[r], cc[k][r]));
-        let dof = subs[k].len();
-        let rhs: Vec<Id> = (0..dof)
-            .map(|i| {
-                let ua = b.dot(&uu[k][i], &a);
-                b.g.sub(us[k][i], ua)
-            })
-            .collect();
-        let qdd: Vec<Id> = (0..dof).map(|r| b.dot(&dinv[k][r], &rhs)).collect();
-        let mut a = a;
-        for (i, col) in subs[k].iter().enumerate() {
-            for r in 0..6 {
-                let t = b.g.mul(col[r], qdd[i]);
-                a[r] = b.g.add(a[r], t);
-            }
-            out[va[k] + i] = qdd[i];
+        let from = j.parent.map_or(ground, |p| acc[p]);
+        let keep = keeps[k].as_ref()?;
+        let (a, qdd) = b.out(j, &downs[k].x, from, downs[k].c, keep);
+        for (i, x) in qdd.into_iter().enumerate() {
+            out[va[k] + i] = x;
         }
         acc.push(a);
     }
-    let k = krate();
-    let sty = ScalarTy { ty: quote!(f64), krate: k.clone(), concrete_f64: true };
-    let emitted = emit(&b.g, &out, &sty);
+    let emitted = emit(&b.g, &out, &scalar());
     if emitted.ops > LIMIT {
         return None;
     }
-    let used: std::collections::BTreeSet<String> =
-        emitted.used_vars.iter().map(|v| b.g.vars()[v.0 as usize].name.clone()).collect();
-    let binds = b.bindings.iter().filter(|(name, _)| used.contains(name)).map(|(name, expr)| {
-        let name = format_ident!("{name}");
-        quote!(let #name: f64 = #expr;)
-    });
-    let names = |prefix: &str, count: usize| {
-        let ids = (0..count).map(|i| {
-            let name = format!("{prefix}_{i}");
-            if used.contains(&name) {
-                let id = format_ident!("{name}");
-                quote!(#id)
-            } else {
-                quote!(_)
-            }
-        });
-        quote!([#(#ids),*])
-    };
-    let (qp, vp, tp) = (names("q", nq), names("v", nv), names("tau", nv));
+    let used = used_names(&b.g, &emitted);
+    let binds = bindings(&b, &used);
+    let (qp, vp, tp) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, "tau", nv));
     let (body, outputs, ops) = (emitted.body, emitted.outputs, emitted.ops);
     let method = quote! {
         fn forward_dynamics_into(&self, q: &[f64; #nq], v: &[f64; #nv], tau: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
@@ -643,6 +686,280 @@ pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option
             let #tp = *tau;
             #(#binds)*
             #body
+            *out = [#(#outputs),*];
+            true
+        }
+    };
+    Some((method, ops))
+}
+
+fn scalar() -> ScalarTy {
+    ScalarTy { ty: quote!(f64), krate: krate(), concrete_f64: true }
+}
+
+fn used_names(g: &Graph, emitted: &crate::engine::emit::Emitted) -> std::collections::BTreeSet<String> {
+    emitted.used_vars.iter().map(|v| g.vars()[v.0 as usize].name.clone()).collect()
+}
+
+/// `let p_3: f64 = self.mass;` for each field or named constant used.
+fn bindings(b: &Builder, used: &std::collections::BTreeSet<String>) -> Vec<TokenStream> {
+    b.bindings
+        .iter()
+        .filter(|(name, _)| used.contains(name))
+        .map(|(name, expr)| {
+            let name = format_ident!("{name}");
+            quote!(let #name: f64 = #expr;)
+        })
+        .collect()
+}
+
+/// `[q_0, _, q_2]`: the inputs named `prefix_i`, `_` where unused.
+fn pattern(used: &std::collections::BTreeSet<String>, prefix: &str, count: usize) -> TokenStream {
+    let ids = (0..count).map(|i| {
+        let name = format!("{prefix}_{i}");
+        if used.contains(&name) {
+            let id = format_ident!("{name}");
+            quote!(#id)
+        } else {
+            quote!(_)
+        }
+    });
+    quote!([#(#ids),*])
+}
+
+/// Index of `(r, c)`, `r ≤ c`, in a symmetric 6 × 6 matrix packed by rows.
+fn packed(r: usize, c: usize) -> usize {
+    let (r, c) = if r <= c { (r, c) } else { (c, r) };
+    r * 6 - r * (r + 1) / 2 + c
+}
+
+/// One kernel's graph: inputs by port, outputs by port.
+struct Kernel {
+    b: Builder,
+    inputs: Vec<(String, usize)>,
+    outputs: Vec<(String, Vec<Id>)>,
+}
+
+impl Kernel {
+    fn new() -> Self {
+        Kernel { b: Builder { g: Graph::new(), bindings: Vec::new() }, inputs: Vec::new(), outputs: Vec::new() }
+    }
+
+    /// An input port of `n` numbers (`__name: &[f64; n]`).
+    fn input(&mut self, name: &str, n: usize) -> Vec<Id> {
+        self.inputs.push((name.to_string(), n));
+        (0..n).map(|i| self.b.g.param(format!("__{name}_{i}"))).collect()
+    }
+
+    fn output(&mut self, name: &str, ids: Vec<Id>) {
+        self.outputs.push((name.to_string(), ids));
+    }
+
+    fn m3(ids: &[Id]) -> M3 {
+        [0, 1, 2].map(|r| [0, 1, 2].map(|c| ids[3 * r + c]))
+    }
+
+    fn m6(ids: &[Id]) -> M6 {
+        [0, 1, 2, 3, 4, 5].map(|r| [0, 1, 2, 3, 4, 5].map(|c| ids[packed(r, c)]))
+    }
+
+    fn v6(ids: &[Id]) -> V6 {
+        [0, 1, 2, 3, 4, 5].map(|i| ids[i])
+    }
+
+    fn pack(m: &M6) -> Vec<Id> {
+        (0..6).flat_map(|r| (r..6).map(move |c| m[r][c])).collect()
+    }
+
+    /// `(params) { body }` without a name, for de-duplication; `None` when
+    /// the kernel reads a field (kernels are free functions).
+    fn print(self) -> Option<(TokenStream, usize)> {
+        if !self.b.bindings.is_empty() {
+            return None;
+        }
+        let all: Vec<Id> = self.outputs.iter().flat_map(|(_, ids)| ids.iter().copied()).collect();
+        let emitted = emit(&self.b.g, &all, &scalar());
+        let used = used_names(&self.b.g, &emitted);
+        let params_in = self.inputs.iter().map(|(name, n)| {
+            let id = format_ident!("__{name}");
+            quote!(#id: &[f64; #n])
+        });
+        let reads = self.inputs.iter().map(|(name, n)| {
+            let (id, pat) = (format_ident!("__{name}"), pattern(&used, &format!("__{name}"), *n));
+            quote!(let #pat = *#id;)
+        });
+        let params_out = self.outputs.iter().map(|(name, ids)| {
+            let (id, n) = (format_ident!("__{name}"), ids.len());
+            quote!(#id: &mut [f64; #n])
+        });
+        let mut exprs = emitted.outputs.into_iter();
+        let writes: Vec<TokenStream> = self
+            .outputs
+            .iter()
+            .map(|(name, ids)| {
+                let id = format_ident!("__{name}");
+                let values: Vec<TokenStream> = exprs.by_ref().take(ids.len()).collect();
+                quote!(*#id = [#(#values),*];)
+            })
+            .collect();
+        let body = emitted.body;
+        Some((quote!((#(#params_in,)* #(#params_out),*) { #(#reads)* #body #(#writes)* }), emitted.ops))
+    }
+}
+
+/// Kernels, one per distinct joint and pass, and the calls that run them.
+struct Kernels {
+    items: Vec<TokenStream>,
+    by_text: std::collections::HashMap<String, syn::Ident>,
+    ops: usize,
+}
+
+impl Kernels {
+    /// The kernel's name, written once per distinct text.
+    fn name(&mut self, pass: &str, kernel: Kernel) -> Option<syn::Ident> {
+        let (rest, ops) = kernel.print()?;
+        let text = rest.to_string();
+        if let Some(name) = self.by_text.get(&text) {
+            return Some(name.clone());
+        }
+        let name = format_ident!("{pass}_{}", self.items.len());
+        self.ops += ops;
+        self.items.push(quote!(#[inline(never)] fn #name #rest));
+        self.by_text.insert(text, name.clone());
+        Some(name)
+    }
+}
+
+fn lit(n: usize) -> proc_macro2::Literal {
+    proc_macro2::Literal::usize_unsuffixed(n)
+}
+
+/// Above [`LIMIT`]: one kernel per distinct joint and pass (a chain's
+/// identical links share theirs), called in tree order from straight-line
+/// code over per-joint arrays: the build grows with the distinct joints, the
+/// code with the tree. Kernels read no fields (masses, inertias and gravity
+/// must be numbers here): `None` otherwise.
+fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
+    let (qa, va) = offsets(joints);
+    let mut ks = Kernels { items: Vec::new(), by_text: Default::default(), ops: 0 };
+    let var = |name: &str, k: usize| format_ident!("{name}_{k}");
+    let (mut decls, mut down_calls, mut up_calls, mut out_calls) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (k, j) in joints.iter().enumerate() {
+        let (nqk, nvk) = j.kind.sizes();
+        let keep_len = 6 * nvk + nvk * nvk + nvk;
+        let (e, vel, c, pa, ia, keep, acc, qdd) = (
+            var("e", k),
+            var("vel", k),
+            var("c", k),
+            var("pa", k),
+            var("ia", k),
+            var("keep", k),
+            var("acc", k),
+            var("qdd", k),
+        );
+        let (nvk_l, keep_l) = (lit(nvk), lit(keep_len));
+        decls.push(quote! {
+            let (mut #e, mut #vel, mut #c, mut #pa) = ([0.0f64; 9], [0.0f64; 6], [0.0f64; 6], [0.0f64; 6]);
+            let (mut #ia, mut #keep, mut #acc, mut #qdd) = ([0.0f64; 21], [0.0f64; #keep_l], [0.0f64; 6], [0.0f64; #nvk_l]);
+        });
+        let qs = (qa[k]..qa[k] + nqk).map(|i| format_ident!("q_{i}"));
+        let vs = (va[k]..va[k] + nvk).map(|i| format_ident!("v_{i}"));
+        let taus = (va[k]..va[k] + nvk).map(|i| format_ident!("tau_{i}"));
+        // Pass 1.
+        let mut kd = Kernel::new();
+        let (q_in, v_in) = (kd.input("q", nqk), kd.input("v", nvk));
+        let parent = j.parent.map(|_| Kernel::v6(&kd.input("parent", 6)));
+        let d = kd.b.down(s, j, inbound(joints, j), &q_in, &v_in, parent);
+        kd.output("e", d.x.e.iter().flatten().copied().collect());
+        kd.output("vel", d.vel.to_vec());
+        kd.output("c", d.c.to_vec());
+        kd.output("pa", d.pa.to_vec());
+        kd.output("ia", Kernel::pack(&d.inertia));
+        let name = ks.name("down", kd)?;
+        let parent_arg = j.parent.map(|p| {
+            let pv = var("vel", p);
+            quote!(&#pv,)
+        });
+        down_calls.push(
+            quote!(#name(&[#(#qs),*], &[#(#vs),*], #parent_arg &mut #e, &mut #vel, &mut #c, &mut #pa, &mut #ia);),
+        );
+        // Pass 2.
+        let mut ku = Kernel::new();
+        let ia_in = Kernel::m6(&ku.input("ia", 21));
+        let pa_in = Kernel::v6(&ku.input("pa", 6));
+        let c_in = Kernel::v6(&ku.input("c", 6));
+        let e_in = Kernel::m3(&ku.input("e", 9));
+        let tau_in = ku.input("tau", nvk);
+        let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound(joints, j)[i]);
+        let x = Transform { e: e_in, r: ku.b.consts3(r) };
+        let parent_io = j.parent.map(|_| (Kernel::m6(&ku.input("ia_p", 21)), Kernel::v6(&ku.input("pa_p", 6))));
+        let (kept, back) = ku.b.up(j, &ia_in, pa_in, c_in, &x, &tau_in);
+        let mut kept_ids: Vec<Id> = kept.u_cols.iter().flat_map(|col| col.iter().copied()).collect();
+        kept_ids.extend(kept.dinv.iter().flatten().copied());
+        kept_ids.extend(kept.u.iter().copied());
+        ku.output("keep", kept_ids);
+        if let (Some((ia_p, pa_p)), Some((ib, fb))) = (parent_io, back) {
+            let sum = ku.b.add6(&ia_p, &ib);
+            ku.output("ia_p_next", Kernel::pack(&sum));
+            let pa_next: Vec<Id> = (0..6).map(|r| ku.b.g.add(pa_p[r], fb[r])).collect();
+            ku.output("pa_p_next", pa_next);
+        }
+        let name = ks.name("up", ku)?;
+        let to_parent = j.parent.map(|p| {
+            let (iap, pap) = (var("ia", p), var("pa", p));
+            (quote!(&#iap.clone(), &#pap.clone(),), quote!(, &mut #iap, &mut #pap))
+        });
+        let (pin, pout) = to_parent.unzip();
+        up_calls.push(quote!(#name(&#ia, &#pa, &#c, &#e, &[#(#taus),*], #pin &mut #keep #pout);));
+        // Pass 3.
+        let mut ko = Kernel::new();
+        let from = match j.parent {
+            Some(_) => Kernel::v6(&ko.input("from", 6)),
+            None => ko.b.ground(s),
+        };
+        let e_in = Kernel::m3(&ko.input("e", 9));
+        let c_in = Kernel::v6(&ko.input("c", 6));
+        let keep_in = ko.input("keep", keep_len);
+        let x = Transform { e: e_in, r: ko.b.consts3(r) };
+        let kept = Keep {
+            u_cols: (0..nvk).map(|i| Kernel::v6(&keep_in[6 * i..6 * i + 6])).collect(),
+            dinv: (0..nvk).map(|r| keep_in[6 * nvk + nvk * r..6 * nvk + nvk * r + nvk].to_vec()).collect(),
+            u: keep_in[6 * nvk + nvk * nvk..].to_vec(),
+        };
+        let (a, qdd_ids) = ko.b.out(j, &x, from, c_in, &kept);
+        ko.output("acc", a.to_vec());
+        ko.output("qdd", qdd_ids);
+        let name = ks.name("out", ko)?;
+        let from_arg = j.parent.map(|p| {
+            let ap = var("acc", p);
+            quote!(&#ap,)
+        });
+        out_calls.push(quote!(#name(#from_arg &#e, &#c, &#keep, &mut #acc, &mut #qdd);));
+    }
+    up_calls.reverse();
+    let outputs = joints.iter().enumerate().flat_map(|(k, j)| {
+        let qdd = var("qdd", k);
+        (0..j.kind.sizes().1).map(move |i| {
+            let i = lit(i);
+            quote!(#qdd[#i])
+        })
+    });
+    let (items, ops) = (ks.items, ks.ops);
+    let all = |prefix: &str, n: usize| {
+        let ids = (0..n).map(|i| format_ident!("{prefix}_{i}"));
+        quote!([#(#ids),*])
+    };
+    let (qp, vp, tp) = (all("q", nq), all("v", nv), all("tau", nv));
+    let method = quote! {
+        fn forward_dynamics_into(&self, q: &[f64; #nq], v: &[f64; #nv], tau: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
+            #(#items)*
+            let #qp = *q;
+            let #vp = *v;
+            let #tp = *tau;
+            #(#decls)*
+            #(#down_calls)*
+            #(#up_calls)*
+            #(#out_calls)*
             *out = [#(#outputs),*];
             true
         }

@@ -60,6 +60,19 @@ struct HeavyBar {
     mass: f64,
 }
 
+/// Past the derive's limit for one straight line (10 000 operations): a
+/// chain of 24 bars on spherical joints with a leg on a tilted revolute
+/// joint declared child first, written as one kernel per distinct joint and
+/// pass.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bar[24], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
+#[body(leg, mass = 0.5, inertia = [0.01, 0.012, 0.006, 0.001, 0.0, -0.001])]
+#[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(ball[i in 1..24] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(knee = revolute(leg, bar[10]), axis1 = [1, 0, 0], axis2 = [0, 1, 1], rho1 = [0, 0, 0.3], rho2 = [0.2, 0, 0])]
+struct LongChain;
+
 /// A body whose principal moments break the triangle inequality.
 #[derive(Scene, Clone, Copy, Debug, Default)]
 #[scene(coordinates = relative)]
@@ -293,6 +306,15 @@ fn the_written_out_algorithm_matches_the_recursion() {
     generated_against_recursion(&HeavyBar { mass: 2.0 }, &state, true);
     let field = FieldBar { mass: 2.0, end: Vector3::new(-0.5, 0.0, 0.0) };
     generated_against_recursion(&field, &state, false);
+    // The kernels: every quaternion turned, every joint moving.
+    let tree = Tree::of(&LongChain).unwrap();
+    let mut long = tree.zero_state();
+    for (i, x) in long.q.iter_mut().enumerate() {
+        *x += 0.1 * ((i * 7 % 5) as f64 - 2.0);
+    }
+    tree.normalise(&mut long.q);
+    long.v = SVector::from_fn(|i, _| 0.2 * ((i * 3 % 7) as f64 - 3.0));
+    generated_against_recursion(&LongChain, &long, true);
     // Both against the closed form: θ̈ = −m g (l/2) cos θ / (I_yy + m (l/2)²)
     // about +y for a bar turned by θ about y (gravity along −z).
     let closed = 2.0 * 9.81 * 0.5 * 0.7f64.cos() / (0.08 + 2.0 * 0.25);
