@@ -18,7 +18,10 @@
 //! `INTEGRATOR=alpha`, `midpoint` or `radau` the steps are that implicit
 //! integrator's (RK4 otherwise), so that their stack can be measured too.
 //! With `COORDINATES=relative` the chains and arms run in relative
-//! coordinates (`joint_runtime::tree`, RK4, the same start converted).
+//! coordinates (`joint_runtime::tree`, RK4, the same start converted); with
+//! `MEASURE=dynamics` as well, `STEPS` calls of inverse dynamics and of the
+//! mass matrix are timed instead (ns per call, at the state a MuJoCo harness
+//! can time `mj_inverse` and `mj_fullM` at).
 //!
 //! Each round restarts from the scene's start and times `STEPS` steps; the
 //! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
@@ -154,6 +157,9 @@ where
     S: TreeScene<NB, NQ, NV>,
 {
     let mut sim = Box::new(TreeSimulation::new(scene)?);
+    if std::env::var("MEASURE").as_deref() == Ok("dynamics") {
+        return time_dynamics(name, sim.tree(), steps, rounds);
+    }
     let start = sim.tree().tree_state(&start, 1e-12)?;
     let mut end = start;
     let mut us = Vec::with_capacity(rounds);
@@ -168,6 +174,51 @@ where
     us.sort_by(f64::total_cmp);
     let system = sim.tree().system_state(&end);
     print(name, NB, NV, steps, &us, &system.bodies[NB - 1], end.t);
+    Ok(())
+}
+
+/// ns per call of inverse dynamics (from `q, v, v̇`) and of the mass matrix
+/// (from `q`), at a state a MuJoCo harness can reproduce for `mj_inverse`
+/// and `mj_fullM` (`q_i = 0.3 (7i mod 5) − 0.6`, `v_i = 0.2 (3i mod 7) − 0.6`,
+/// `v̇_i = 0.5 (5i mod 3) − 0.5`, revolute joints only); prints `τ` too.
+fn time_dynamics<const NB: usize, const NQ: usize, const NV: usize>(
+    name: &str,
+    tree: &joint_runtime::tree::Tree<NB, NQ, NV>,
+    calls: usize,
+    rounds: usize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use joint_runtime::nalgebra::{SMatrix, SVector};
+    let mut state = tree.zero_state();
+    state.q = SVector::from_fn(|i, _| 0.3 * ((i * 7) % 5) as f64 - 0.6);
+    state.v = SVector::from_fn(|i, _| 0.2 * ((i * 3) % 7) as f64 - 0.6);
+    let vdot = SVector::<f64, NV>::from_fn(|i, _| 0.5 * ((i * 5) % 3) as f64 - 0.5);
+    let tau = tree.inverse_dynamics(&state, &vdot);
+    println!("tau {}", tau.iter().map(|x| format!("{x:.12}")).collect::<Vec<_>>().join(" "));
+    let (mut inverse, mut mass) = (Vec::new(), Vec::new());
+    let mut matrix = Box::new(SMatrix::<f64, NV, NV>::zeros());
+    let mut sink = 0.0;
+    for _ in 0..rounds {
+        let clock = Instant::now();
+        for _ in 0..calls {
+            state.q[0] += 1e-12;
+            sink += std::hint::black_box(tree.inverse_dynamics(&state, &vdot))[0];
+        }
+        inverse.push(clock.elapsed().as_secs_f64() * 1e9 / calls as f64);
+        let clock = Instant::now();
+        for _ in 0..calls {
+            state.q[0] += 1e-12;
+            tree.mass_matrix_into(&state.q, &mut matrix);
+            sink += std::hint::black_box(matrix[(0, 0)]);
+        }
+        mass.push(clock.elapsed().as_secs_f64() * 1e9 / calls as f64);
+    }
+    inverse.sort_by(f64::total_cmp);
+    mass.sort_by(f64::total_cmp);
+    println!(
+        "{{\"peer\":\"joint\",\"scene\":\"{name}\",\"nv\":{NV},\"ns_inverse\":{:.1},\"ns_mass_matrix\":{:.1},\"sink\":{sink:e}}}",
+        inverse[rounds / 2],
+        mass[rounds / 2]
+    );
     Ok(())
 }
 

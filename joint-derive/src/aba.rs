@@ -780,7 +780,9 @@ impl Kernel {
         let all: Vec<Id> = self.outputs.iter().flat_map(|(_, ids)| ids.iter().copied()).collect();
         let emitted = emit(&self.b.g, &all, &scalar());
         let used = used_names(&self.b.g, &emitted);
-        let params_in = self.inputs.iter().map(|(name, n)| {
+        // A port both read and written is one `&mut` parameter, among the outputs.
+        let written = |name: &String| self.outputs.iter().any(|(o, _)| o == name);
+        let params_in = self.inputs.iter().filter(|(name, _)| !written(name)).map(|(name, n)| {
             let id = format_ident!("__{name}");
             quote!(#id: &[f64; #n])
         });
@@ -900,17 +902,16 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         ku.output("keep", kept_ids);
         if let (Some((ia_p, pa_p)), Some((ib, fb))) = (parent_io, back) {
             let sum = ku.b.add6(&ia_p, &ib);
-            ku.output("ia_p_next", Kernel::pack(&sum));
+            ku.output("ia_p", Kernel::pack(&sum));
             let pa_next: Vec<Id> = (0..6).map(|r| ku.b.g.add(pa_p[r], fb[r])).collect();
-            ku.output("pa_p_next", pa_next);
+            ku.output("pa_p", pa_next);
         }
         let name = ks.name("up", ku)?;
         let to_parent = j.parent.map(|p| {
             let (iap, pap) = (var("ia", p), var("pa", p));
-            (quote!(&#iap.clone(), &#pap.clone(),), quote!(, &mut #iap, &mut #pap))
+            quote!(, &mut #iap, &mut #pap)
         });
-        let (pin, pout) = to_parent.unzip();
-        up_calls.push(quote!(#name(&#ia, &#pa, &#c, &#e, &[#(#taus),*], #pin &mut #keep #pout);));
+        up_calls.push(quote!(#name(&#ia, &#pa, &#c, &#e, &[#(#taus),*], &mut #keep #to_parent);));
         // Pass 3.
         let mut ko = Kernel::new();
         let from = match j.parent {
