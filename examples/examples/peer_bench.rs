@@ -158,7 +158,7 @@ where
 {
     let mut sim = Box::new(TreeSimulation::new(scene)?);
     if std::env::var("MEASURE").as_deref() == Ok("dynamics") {
-        return time_dynamics(name, sim.tree(), steps, rounds);
+        return time_dynamics(name, &sim, steps, rounds);
     }
     let start = sim.tree().tree_state(&start, 1e-12)?;
     let mut end = start;
@@ -178,21 +178,21 @@ where
 }
 
 /// ns per call of inverse dynamics (from `q, v, v̇`) and of the mass matrix
-/// (from `q`), at a state a MuJoCo harness can reproduce for `mj_inverse`
+/// (from `q`), written out by the derive where it wrote them, at a state a MuJoCo harness can reproduce for `mj_inverse`
 /// and `mj_fullM` (`q_i = 0.3 (7i mod 5) − 0.6`, `v_i = 0.2 (3i mod 7) − 0.6`,
 /// `v̇_i = 0.5 (5i mod 3) − 0.5`, revolute joints only); prints `τ` too.
-fn time_dynamics<const NB: usize, const NQ: usize, const NV: usize>(
+fn time_dynamics<S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>(
     name: &str,
-    tree: &joint_runtime::tree::Tree<NB, NQ, NV>,
+    sim: &TreeSimulation<S, NB, NQ, NV>,
     calls: usize,
     rounds: usize,
 ) -> Result<(), Box<dyn std::error::Error>> {
     use joint_runtime::nalgebra::{SMatrix, SVector};
-    let mut state = tree.zero_state();
+    let mut state = sim.tree().zero_state();
     state.q = SVector::from_fn(|i, _| 0.3 * ((i * 7) % 5) as f64 - 0.6);
     state.v = SVector::from_fn(|i, _| 0.2 * ((i * 3) % 7) as f64 - 0.6);
     let vdot = SVector::<f64, NV>::from_fn(|i, _| 0.5 * ((i * 5) % 3) as f64 - 0.5);
-    let tau = tree.inverse_dynamics(&state, &vdot);
+    let tau = sim.inverse_dynamics(&state, &vdot);
     println!("tau {}", tau.iter().map(|x| format!("{x:.12}")).collect::<Vec<_>>().join(" "));
     let (mut inverse, mut mass) = (Vec::new(), Vec::new());
     let mut matrix = Box::new(SMatrix::<f64, NV, NV>::zeros());
@@ -201,13 +201,13 @@ fn time_dynamics<const NB: usize, const NQ: usize, const NV: usize>(
         let clock = Instant::now();
         for _ in 0..calls {
             state.q[0] += 1e-12;
-            sink += std::hint::black_box(tree.inverse_dynamics(&state, &vdot))[0];
+            sink += std::hint::black_box(sim.inverse_dynamics(&state, &vdot))[0];
         }
         inverse.push(clock.elapsed().as_secs_f64() * 1e9 / calls as f64);
         let clock = Instant::now();
         for _ in 0..calls {
             state.q[0] += 1e-12;
-            tree.mass_matrix_into(&state.q, &mut matrix);
+            sim.mass_matrix_into(&state.q, &mut matrix);
             sink += std::hint::black_box(matrix[(0, 0)]);
         }
         mass.push(clock.elapsed().as_secs_f64() * 1e9 / calls as f64);

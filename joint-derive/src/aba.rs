@@ -991,3 +991,153 @@ impl Builder {
         (0..3).map(|r| (0..3).map(|c| self.g.mul(cofactors[c][r], inv_det)).collect()).collect()
     }
 }
+
+/// The inverse dynamics (recursive Newton–Euler) and the mass matrix
+/// (composite rigid bodies) written out, each when it has at most
+/// [`LIMIT`] operations: what a controller calls, with the same folding as
+/// the forward dynamics.
+pub fn controller_methods(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> TokenStream {
+    let Some(joints) = joints(s, edges) else { return TokenStream::new() };
+    let mut out = TokenStream::new();
+    out.extend(inverse_dynamics(s, &joints, nq, nv));
+    out.extend(mass_matrix(s, &joints, nq, nv));
+    out
+}
+
+/// Every joint's pass 1 on a fresh graph, `q` and `v` as inputs (`v` held at
+/// zero when `moving` is false).
+fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize, moving: bool) -> Vec<Down> {
+    let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
+    let v: Vec<Id> = if moving { (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect() } else { vec![b.c(0.0); nv] };
+    let (qa, va) = offsets(joints);
+    let mut out: Vec<Down> = Vec::with_capacity(joints.len());
+    for (k, j) in joints.iter().enumerate() {
+        let parent = j.parent.map(|p| out[p].vel);
+        let (nqk, nvk) = j.kind.sizes();
+        let d = b.down(s, j, inbound(joints, j), &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
+        out.push(d);
+    }
+    out
+}
+
+/// `fn inverse_dynamics_into`: `τ = Sᵀ f` with `f = I a + v ×* I v` summed
+/// from the leaves.
+fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
+    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
+    let d = downs(&mut b, s, joints, nq, nv, true);
+    let vdot: Vec<Id> = (0..nv).map(|i| b.g.param(format!("a_{i}"))).collect();
+    let (_, va) = offsets(joints);
+    let ground = b.ground(s);
+    let mut acc: Vec<V6> = Vec::with_capacity(joints.len());
+    let mut force: Vec<V6> = Vec::with_capacity(joints.len());
+    for (k, j) in joints.iter().enumerate() {
+        let from = j.parent.map_or(ground, |p| acc[p]);
+        let moved = b.motion(&d[k].x, from);
+        let mut a = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(moved[r], d[k].c[r]));
+        for (i, col) in b.columns(j).iter().enumerate() {
+            for r in 0..6 {
+                let t = b.g.mul(col[r], vdot[va[k] + i]);
+                a[r] = b.g.add(a[r], t);
+            }
+        }
+        let ia = b.m6v(&d[k].inertia, a);
+        force.push([0, 1, 2, 3, 4, 5].map(|r| b.g.add(ia[r], d[k].pa[r])));
+        acc.push(a);
+    }
+    let zero = b.c(0.0);
+    let mut tau = vec![zero; nv];
+    for (k, j) in joints.iter().enumerate().rev() {
+        for (i, col) in b.columns(j).iter().enumerate() {
+            tau[va[k] + i] = b.dot(col, &force[k]);
+        }
+        if let Some(p) = j.parent {
+            let back = b.force_back(&d[k].x, force[k]);
+            force[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(force[p][r], back[r]));
+        }
+    }
+    let emitted = emit(&b.g, &tau, &scalar());
+    if emitted.ops > LIMIT {
+        return None;
+    }
+    let used = used_names(&b.g, &emitted);
+    let binds = bindings(&b, &used);
+    let (qp, vp, ap) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, "a", nv));
+    let (body, outputs, ops) = (emitted.body, emitted.outputs, emitted.ops);
+    let doc = format!(" The recursive Newton–Euler algorithm written out: {ops} operations.");
+    Some(quote! {
+        #[doc = #doc]
+        #[inline]
+        fn inverse_dynamics_into(&self, q: &[f64; #nq], v: &[f64; #nv], vdot: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
+            let #qp = *q;
+            let #vp = *v;
+            let #ap = *vdot;
+            #(#binds)*
+            #body
+            *out = [#(#outputs),*];
+            true
+        }
+    })
+}
+
+/// `fn mass_matrix_into`: composite inertias from the leaves, then each
+/// freedom's force carried to the root.
+fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
+    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
+    let d = downs(&mut b, s, joints, nq, nv, false);
+    let (_, va) = offsets(joints);
+    let mut ic: Vec<M6> = d.iter().map(|x| x.inertia).collect();
+    for (k, j) in joints.iter().enumerate().rev() {
+        if let Some(p) = j.parent {
+            let back = b.inertia_back(&d[k].x, &ic[k]);
+            ic[p] = b.add6(&ic[p], &back);
+        }
+    }
+    let zero = b.c(0.0);
+    let mut m = vec![vec![zero; nv]; nv];
+    for (k, j) in joints.iter().enumerate() {
+        for (i, col) in b.columns(j).iter().enumerate() {
+            let c = va[k] + i;
+            let mut f = b.m6v(&ic[k], *col);
+            let mut at = k;
+            loop {
+                for (r, row_col) in b.columns(&joints[at]).iter().enumerate() {
+                    let value = b.dot(row_col, &f);
+                    let r = va[at] + r;
+                    m[r][c] = value;
+                    m[c][r] = value;
+                }
+                let Some(p) = joints[at].parent else { break };
+                f = b.force_back(&d[at].x, f);
+                at = p;
+            }
+        }
+    }
+    let flat: Vec<Id> = m.iter().flatten().copied().collect();
+    let emitted = emit(&b.g, &flat, &scalar());
+    if emitted.ops > LIMIT {
+        return None;
+    }
+    let used = used_names(&b.g, &emitted);
+    let binds = bindings(&b, &used);
+    let qp = pattern(&used, "q", nq);
+    let (body, ops) = (emitted.body, emitted.ops);
+    let mut outputs = emitted.outputs.into_iter();
+    let rows: Vec<TokenStream> = (0..nv)
+        .map(|_| {
+            let row: Vec<TokenStream> = outputs.by_ref().take(nv).collect();
+            quote!([#(#row),*])
+        })
+        .collect();
+    let doc = format!(" The composite-rigid-body algorithm written out: {ops} operations.");
+    Some(quote! {
+        #[doc = #doc]
+        #[inline]
+        fn mass_matrix_into(&self, q: &[f64; #nq], out: &mut [[f64; #nv]; #nv]) -> bool {
+            let #qp = *q;
+            #(#binds)*
+            #body
+            *out = [#(#rows),*];
+            true
+        }
+    })
+}

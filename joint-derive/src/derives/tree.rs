@@ -28,11 +28,13 @@ pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generi
         let doc = format!(" The articulated-body algorithm written out: {ops} operations.");
         quote!(#[doc = #doc] #[inline] #method)
     });
+    let controller = crate::aba::controller_methods(s, edges, nq, nv);
     let body = quote! {
         fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
         #aba
+        #controller
     };
     wrap(input, generics, s.bodies.len(), sizes(edges), body)
 }

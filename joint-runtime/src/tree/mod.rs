@@ -143,6 +143,22 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize> {
         let _ = (q, v, tau, out);
         false
     }
+    /// The recursive Newton–Euler algorithm written out by the derive (for
+    /// trees it writes the forward dynamics of in one straight line):
+    /// `τ(q, v, v̇)` into `out` and `true`, or `false` ([`Tree::inverse_dynamics`]).
+    #[inline]
+    fn inverse_dynamics_into(&self, q: &[f64; NQ], v: &[f64; NV], vdot: &[f64; NV], out: &mut [f64; NV]) -> bool {
+        let _ = (q, v, vdot, out);
+        false
+    }
+    /// The composite-rigid-body algorithm written out by the derive: `M(q)`
+    /// into `out` (symmetric, so rows or columns alike) and `true`, or
+    /// `false` ([`Tree::mass_matrix_into`]).
+    #[inline]
+    fn mass_matrix_into(&self, q: &[f64; NQ], out: &mut [[f64; NV]; NV]) -> bool {
+        let _ = (q, out);
+        false
+    }
 }
 
 /// The state of a tree: its joints' coordinates and velocities, and the time.

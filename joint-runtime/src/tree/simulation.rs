@@ -2,7 +2,7 @@
 //! quaternion integrated as four numbers (`ṗ = ½ p ⊗ (0, ω')`, fourth order)
 //! and renormalised after the step.
 
-use nalgebra::{Quaternion, SVector};
+use nalgebra::{Quaternion, SMatrix, SVector};
 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
@@ -49,6 +49,28 @@ impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: u
     /// The tree: its recursions, energy and conversions.
     pub fn tree(&self) -> &Tree<NB, NQ, NV> {
         &self.tree
+    }
+
+    /// The joint forces `τ(q, v, v̇)` (gravity included): the scene's
+    /// generated recursive Newton–Euler algorithm where the derive wrote one,
+    /// the tree's recursion otherwise.
+    pub fn inverse_dynamics(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> SVector<f64, NV> {
+        let mut out = SVector::<f64, NV>::zeros();
+        let (q, v, a) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0]);
+        if self.scene.inverse_dynamics_into(q, v, a, &mut out.data.0[0]) {
+            out
+        } else {
+            self.tree.inverse_dynamics(state, vdot)
+        }
+    }
+
+    /// The mass matrix `M(q)` into `out`: the scene's generated
+    /// composite-rigid-body algorithm where the derive wrote one, the tree's
+    /// recursion otherwise.
+    pub fn mass_matrix_into(&self, q: &SVector<f64, NQ>, out: &mut SMatrix<f64, NV, NV>) {
+        if !self.scene.mass_matrix_into(&q.data.0[0], &mut out.data.0) {
+            self.tree.mass_matrix_into(q, out);
+        }
     }
 
     /// One RK4 step of length `h` with no joint forces.

@@ -296,6 +296,21 @@ fn generated_against_recursion<S, const NB: usize, const NQ: usize, const NV: us
     if written {
         assert_eq!(SVector::<f64, NV>::from(out), generated);
     }
+    // The controller's two: inverse dynamics and the mass matrix, written out
+    // for the small trees, the recursion's otherwise.
+    let (mut ids, mut mass) = ([0.0; NV], [[0.0; NV]; NV]);
+    let small = NV <= 8;
+    assert!(!small || scene.inverse_dynamics_into(&q, &v, &t, &mut ids) == written);
+    assert!(!small || scene.mass_matrix_into(&q, &mut mass) == written);
+    let (tau_generated, tau_recursion) = (sim.inverse_dynamics(state, &tau), sim.tree().inverse_dynamics(state, &tau));
+    assert!(
+        (tau_generated - tau_recursion).norm() < 1e-13 * tau_recursion.norm(),
+        "{tau_generated} against {tau_recursion}"
+    );
+    let (mut m_generated, mut m_recursion) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
+    sim.mass_matrix_into(&state.q, &mut m_generated);
+    sim.tree().mass_matrix_into(&state.q, &mut m_recursion);
+    assert!((m_generated - m_recursion).norm() < 1e-13 * m_recursion.norm(), "{m_generated} against {m_recursion}");
 }
 
 #[test]
