@@ -31,7 +31,9 @@ impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: u
     }
 
     /// `v̇` under joint forces `tau`: the scene's generated articulated-body
-    /// algorithm where the derive wrote one, the tree's recursion otherwise.
+    /// algorithm where the derive wrote one, the tree's recursion otherwise
+    /// (and when the generated one is not finite, so that a singular
+    /// articulated inertia is named by its joint).
     pub fn forward_dynamics(
         &self,
         state: &TreeState<NQ, NV>,
@@ -39,7 +41,7 @@ impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: u
     ) -> Result<SVector<f64, NV>, TreeError> {
         let mut out = SVector::<f64, NV>::zeros();
         let (q, v, t) = (&state.q.data.0[0], &state.v.data.0[0], &tau.data.0[0]);
-        if self.scene.forward_dynamics_into(q, v, t, &mut out.data.0[0]) {
+        if self.scene.forward_dynamics_into(q, v, t, &mut out.data.0[0]) && out.iter().all(|x| x.is_finite()) {
             Ok(out)
         } else {
             self.tree.forward_dynamics(state, tau)
