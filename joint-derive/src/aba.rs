@@ -671,19 +671,33 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
         }
         acc.push(a);
     }
-    let emitted = emit(&b.g, &out, &scalar());
+    vector_method(&b, &out, ("forward_dynamics_into", "tau", "tau"), nq, nv)
+}
+
+/// `fn NAME(&self, q, v, THIRD: &[f64; NV], out: &mut [f64; NV]) -> bool`
+/// writing the graph's `outputs` (the third input's nodes named `PREFIX_i`),
+/// with its operation count; `None` above [`LIMIT`].
+fn vector_method(
+    b: &Builder,
+    outputs: &[Id],
+    (name, third, prefix): (&str, &str, &str),
+    nq: usize,
+    nv: usize,
+) -> Option<(TokenStream, usize)> {
+    let emitted = emit(&b.g, outputs, &scalar());
     if emitted.ops > LIMIT {
         return None;
     }
     let used = used_names(&b.g, &emitted);
-    let binds = bindings(&b, &used);
-    let (qp, vp, tp) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, "tau", nv));
+    let binds = bindings(b, &used);
+    let (qp, vp, tp) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, prefix, nv));
+    let (name, third) = (format_ident!("{name}"), format_ident!("{third}"));
     let (body, outputs, ops) = (emitted.body, emitted.outputs, emitted.ops);
     let method = quote! {
-        fn forward_dynamics_into(&self, q: &[f64; #nq], v: &[f64; #nv], tau: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
+        fn #name(&self, q: &[f64; #nq], v: &[f64; #nv], #third: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
             let #qp = *q;
             let #vp = *v;
-            let #tp = *tau;
+            let #tp = *#third;
             #(#binds)*
             #body
             *out = [#(#outputs),*];
@@ -1055,28 +1069,9 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
             force[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(force[p][r], back[r]));
         }
     }
-    let emitted = emit(&b.g, &tau, &scalar());
-    if emitted.ops > LIMIT {
-        return None;
-    }
-    let used = used_names(&b.g, &emitted);
-    let binds = bindings(&b, &used);
-    let (qp, vp, ap) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, "a", nv));
-    let (body, outputs, ops) = (emitted.body, emitted.outputs, emitted.ops);
+    let (method, ops) = vector_method(&b, &tau, ("inverse_dynamics_into", "vdot", "a"), nq, nv)?;
     let doc = format!(" The recursive Newton–Euler algorithm written out: {ops} operations.");
-    Some(quote! {
-        #[doc = #doc]
-        #[inline]
-        fn inverse_dynamics_into(&self, q: &[f64; #nq], v: &[f64; #nv], vdot: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
-            let #qp = *q;
-            let #vp = *v;
-            let #ap = *vdot;
-            #(#binds)*
-            #body
-            *out = [#(#outputs),*];
-            true
-        }
-    })
+    Some(quote!(#[doc = #doc] #[inline] #method))
 }
 
 /// `fn mass_matrix_into`: composite inertias from the leaves, then each
