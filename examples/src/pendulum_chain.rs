@@ -33,9 +33,11 @@ pub const INITIAL_ANGLE: f64 = core::f64::consts::FRAC_PI_3;
 pub const WHIRL: f64 = 2.0;
 
 /// The chain: `pivot` hangs `bar1` from the ground, `ball{i}` hangs `bar{i+1}`
-/// from `bar{i}`. Bar inertia as [`bar_inertia`].
+/// from `bar{i}`. Bar inertia as [`bar_inertia`]. In both coordinate choices:
+/// absolute (`Simulation`) and relative (`joint_runtime::tree::TreeSimulation`,
+/// fifteen coordinates of five quaternions, fifteen velocities, no rows).
 #[derive(joint_runtime::Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
 #[body(bar1, mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
 #[body(bar2, mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
 #[body(bar3, mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
