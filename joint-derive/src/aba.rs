@@ -16,6 +16,7 @@ use quote::{format_ident, quote};
 use crate::engine::emit::{ScalarTy, emit};
 use crate::engine::graph::{Graph, Id};
 use crate::front::attr::Number;
+use crate::front::geometry::{cross3, dot3, norm3, perpendicular_pair};
 use crate::front::resolve::Source;
 use crate::front::scene::{JointDecl, Quantity, SceneDecl};
 use crate::front::tree::{TreeEdge, TreeKind};
@@ -225,32 +226,25 @@ fn known(j: &JointDecl, name: &str) -> Option<[f64; 3]> {
     }
 }
 
+/// `a / |a|`, `None` for a zero or non-finite vector.
 fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let n = norm3(&a);
     (n > 0.0 && n.is_finite()).then(|| a.map(|x| x / n))
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 /// `R₀`, the shortest rotation taking `h` onto `a` (both unit), as the runtime
 /// makes it: half a turn about the first of `perpendicular_pair(h)` when opposite.
 fn rest_rotation(h: [f64; 3], a: [f64; 3]) -> [[f64; 3]; 3] {
-    let d: f64 = (0..3).map(|i| h[i] * a[i]).sum();
+    let d = dot3(&h, &a);
     let (axis, c, s) = if d > -1.0 + 1e-12 {
-        let k = cross(h, a);
-        let s = (k[0] * k[0] + k[1] * k[1] + k[2] * k[2]).sqrt();
+        let k = cross3(h, a);
+        let s = norm3(&k);
         match unit(k) {
             Some(k) => (k, d, s),
             None => return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         }
     } else {
-        // perpendicular_pair: h × (the coordinate axis least along h), unit.
-        let m = (0..3).min_by(|&i, &j| h[i].abs().total_cmp(&h[j].abs()).then(i.cmp(&j))).unwrap_or(0);
-        let mut e = [0.0; 3];
-        e[m] = 1.0;
-        (unit(cross(h, e)).unwrap_or([1.0, 0.0, 0.0]), -1.0, 0.0)
+        (perpendicular_pair(&h).0, -1.0, 0.0)
     };
     rodrigues(axis, c, s)
 }
@@ -286,22 +280,14 @@ fn joints(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
         let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
         let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
         if e.kind == TreeKind::Revolute {
-            let first = unit(cross(known(j, "f")?, known(j, "g")?))?;
+            let first = unit(cross3(known(j, "f")?, known(j, "g")?))?;
             let second = unit(known(j, "h")?)?;
             let (a, h) = if e.reversed { (second, first) } else { (first, second) };
             axis = h;
             rest = rest_rotation(h, a);
         }
         let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-        out.push(Joint {
-            kind: e.kind,
-            parent: parent.map(|p| moved_by[p]).unwrap_or(None),
-            child,
-            rho_p,
-            rho_c,
-            axis,
-            rest,
-        });
+        out.push(Joint { kind: e.kind, parent: parent.and_then(|p| moved_by[p]), child, rho_p, rho_c, axis, rest });
         moved_by[child] = Some(k);
     }
     Some(out)

@@ -36,7 +36,7 @@ pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generi
         #aba
         #controller
     };
-    wrap(input, generics, s.bodies.len(), sizes(edges), body)
+    wrap(input, generics, s.bodies.len(), (nq, nv), body)
 }
 
 /// The impl around `body` (the stub's too) and the alias.
@@ -130,7 +130,7 @@ fn first_axis(j: &JointDecl) -> TokenStream {
         && f.len() == 3
         && g.len() == 3
     {
-        let c = [f[1] * g[2] - f[2] * g[1], f[2] * g[0] - f[0] * g[2], f[0] * g[1] - f[1] * g[0]];
+        let c = crate::front::geometry::cross3([f[0], f[1], f[2]], [g[0], g[1], g[2]]);
         let numbers: Vec<_> = c.iter().map(|x| crate::front::attr::Number::Known(*x)).collect();
         return const_vector(&numbers);
     }

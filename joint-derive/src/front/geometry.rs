@@ -15,6 +15,11 @@ pub fn norm3(a: &[f64]) -> f64 {
     dot3(a, a).sqrt()
 }
 
+/// `a × b`.
+pub fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
 /// The cosine of the angle between `a` and `b`.
 pub fn cosine(a: &[f64], b: &[f64]) -> f64 {
     dot3(a, b) / (norm3(a) * norm3(b))
@@ -32,10 +37,8 @@ pub fn perpendicular_pair(d: &[f64]) -> ([f64; 3], [f64; 3]) {
     } else {
         [0.0, 0.0, 1.0]
     };
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let b = cross(u, e);
+    let b = cross3(u, e);
     let nb = norm3(&b);
     let b = [b[0] / nb, b[1] / nb, b[2] / nb];
-    (b, cross(u, b))
+    (b, cross3(u, b))
 }
