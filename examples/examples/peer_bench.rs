@@ -11,13 +11,15 @@
 //! ```
 //!
 //! `double-cardan 3` is `step_bench`'s free double Cardan shaft (3 bodies,
-//! 19 rows, 10 rad/s), which has no peer. With `STACK_KIB=n` in the
+//! 19 rows, 10 rad/s), which has no peer; `four-bar 4` and `bricard 5` are
+//! the IFToMM benchmarks A02 and A04 (closed loops; no peer here either),
+//! in both coordinate choices. With `STACK_KIB=n` in the
 //! environment the steps run in a thread with an `n` KiB stack (the
 //! simulation is built and boxed on the main thread; a step that needs more
 //! aborts the process: how the stack a step needs is found). With
 //! `INTEGRATOR=alpha`, `midpoint` or `radau` the steps are that implicit
 //! integrator's (RK4 otherwise), so that their stack can be measured too.
-//! With `COORDINATES=relative` the chains and arms run in relative
+//! With `COORDINATES=relative` the chains, arms and loops run in relative
 //! coordinates (`joint_runtime::tree`, RK4, the same start converted); with
 //! `MEASURE=dynamics` as well, `STEPS` calls of inverse dynamics and of the
 //! mass matrix are timed instead (ns per call, at the state a MuJoCo harness
@@ -32,6 +34,7 @@ use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::scaling::chain_start;
+use joint_examples::{bricard, four_bar};
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::tree::{TreeScene, TreeSimulation};
@@ -146,7 +149,7 @@ where
 
 /// [`run`] in relative coordinates: the same start, converted to the
 /// scene's tree.
-fn run_tree<S, const NB: usize, const NQ: usize, const NV: usize>(
+fn run_tree<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
     name: &str,
     scene: &S,
     start: SystemState<NB>,
@@ -154,7 +157,7 @@ fn run_tree<S, const NB: usize, const NQ: usize, const NV: usize>(
     rounds: usize,
 ) -> Result<(), Box<dyn std::error::Error>>
 where
-    S: TreeScene<NB, NQ, NV>,
+    S: TreeScene<NB, NQ, NV, NC>,
 {
     let mut sim = Box::new(TreeSimulation::new(scene)?);
     if std::env::var("MEASURE").as_deref() == Ok("dynamics") {
@@ -181,12 +184,15 @@ where
 /// (from `q`), written out by the derive where it wrote them, at a state a MuJoCo harness can reproduce for `mj_inverse`
 /// and `mj_fullM` (`q_i = 0.3 (7i mod 5) − 0.6`, `v_i = 0.2 (3i mod 7) − 0.6`,
 /// `v̇_i = 0.5 (5i mod 3) − 0.5`, revolute joints only); prints `τ` too.
-fn time_dynamics<S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>(
+fn time_dynamics<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
     name: &str,
-    sim: &TreeSimulation<S, NB, NQ, NV>,
+    sim: &TreeSimulation<S, NB, NQ, NV, NC>,
     calls: usize,
     rounds: usize,
-) -> Result<(), Box<dyn std::error::Error>> {
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    S: TreeScene<NB, NQ, NV, NC>,
+{
     use joint_runtime::nalgebra::{SMatrix, SVector};
     let mut state = sim.tree().zero_state();
     state.q = SVector::from_fn(|i, _| 0.3 * ((i * 7) % 5) as f64 - 0.6);
@@ -267,11 +273,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("arm", 2) => go!(Arm2, arm_start()),
         ("arm", 6) => go!(Arm6, arm_start()),
         ("arm", 12) => go!(Arm12, arm_start()),
+        ("four-bar", 4) => go!(four_bar::scene(), four_bar::initial_state()),
+        ("bricard", 5) => go!(bricard::scene(), bricard::initial_state()),
         ("double-cardan", 3) => {
             let geometry = Geometry::new(30f64.to_radians(), Arrangement::Z, Phasing::InPhase).ok_or("geometry")?;
             let start = DoubleCardan::new(geometry, 10.0).initial_state()?;
             run(&name, &FreeDoubleCardan::new(&geometry), start, steps, rounds)
         }
-        _ => Err(format!("no scene {name}: chain 3, 5, 10, 20, 40, 160, arm 2, 6, 12 or double-cardan 3").into()),
+        _ => Err(format!(
+            "no scene {name}: chain 3, 5, 10, 20, 40, 160, arm 2, 6, 12, four-bar 4, bricard 5 or double-cardan 3"
+        )
+        .into()),
     }
 }

@@ -49,7 +49,7 @@ pub fn bar_inertia() -> BodyInertia {
 /// `ji` sits at `Pi` with the axis `y, z, x, y, z, x` (`i = 0 … 5`), given in each
 /// body's components. Bar inertia as [`bar_inertia`].
 #[derive(joint_runtime::Scene)]
-#[scene(gravity = [0, -9.81, 0], second_order)]
+#[scene(gravity = [0, -9.81, 0], second_order, coordinates = both)]
 #[body(bar1, mass = 1.0, inertia = [0.0016666666666666668, 0.08416666666666667, 0.08416666666666667])]
 #[body(bar2, mass = 1.0, inertia = [0.0016666666666666668, 0.08416666666666667, 0.08416666666666667])]
 #[body(bar3, mass = 1.0, inertia = [0.0016666666666666668, 0.08416666666666667, 0.08416666666666667])]

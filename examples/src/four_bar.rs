@@ -56,7 +56,7 @@ pub const fn coupler(i: usize) -> usize {
 /// ground, `left{i}` and `right{i}` pin coupler `i` to cranks `i` and `i + 1`;
 /// every axis is `z`. Bar inertia as [`bar_inertia`].
 #[derive(joint_runtime::Scene)]
-#[scene(gravity = [0, -9.81, 0], second_order)]
+#[scene(gravity = [0, -9.81, 0], second_order, coordinates = both)]
 #[body(crank0, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
 #[body(coupler0, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
 #[body(crank1, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]

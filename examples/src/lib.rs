@@ -4,6 +4,7 @@
 
 pub mod bricard;
 pub mod cardan;
+pub mod coordinates;
 pub mod double_cardan;
 pub mod four_bar;
 pub mod pendulum_chain;

@@ -1,36 +1,22 @@
 //! The spatial pendulum chain: energy conserved over 10 s by each integrator;
 //! the same motion in relative coordinates.
 
+use joint_examples::coordinates;
 use joint_examples::pendulum_chain as chain;
 use joint_runtime::Scene;
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
-use joint_runtime::tree::TreeSimulation;
+use joint_runtime::dynamics::Integrator;
 
 /// The chain in both coordinate choices from the one declaration: the same
 /// start, RK4 at h = 1e-4 for 1 s (the motion is chaotic, so a longer run
 /// would compare round-off, not coordinates).
 #[test]
 fn both_coordinate_choices_give_the_same_motion() {
-    let scene = chain::scene();
-    let mut relative = TreeSimulation::new(&scene).expect("a tree");
     let start = chain::initial_state();
-    let mut tree_state = relative.tree().tree_state(&start, 1e-12).expect("the start holds its joints");
-    let mut absolute = Simulation::new(&scene, NoLoads, &[], SimulationOptions::default()).expect("builds");
-    let mut state = start;
-    for _ in 0..10_000 {
-        relative.step(&mut tree_state, 1e-4).expect("steps");
-        absolute.step(&mut state, 1e-4).expect("steps");
-    }
-    let mine = relative.tree().system_state(&tree_state);
-    let mut worst = 0.0_f64;
-    for (a, b) in mine.bodies.iter().zip(&state.bodies) {
-        worst = worst.max((a.r - b.r).norm()).max(a.rotation().angle_to(&b.rotation()));
-        worst = worst.max((a.rdot - b.rdot).norm()).max((a.omega - b.omega).norm());
-    }
-    assert!(worst < 1e-10, "the coordinate choices differ by {worst:e}");
-    assert!((chain::tip(&mine) - chain::tip(&start)).norm() > 1.0, "the tip travels");
+    let both = coordinates::both(&chain::scene(), &start, 1e-4, 10_000, |_, _| {}).expect("runs");
+    assert!(both.worst < 1e-10, "the coordinate choices differ by {:e}", both.worst);
+    assert!((chain::tip(&both.relative) - chain::tip(&start)).norm() > 1.0, "the tip travels");
     // Energy in the tree's coordinates, against the absolute scene's.
-    let (e_tree, e_abs) = (relative.tree().energy(&tree_state).total(), absolute.energy(&state).total());
+    let (e_tree, e_abs) = both.energies;
     assert!((e_tree - e_abs).abs() < 1e-10 * e_abs.abs(), "{e_tree} against {e_abs}");
 }
 

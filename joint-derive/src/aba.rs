@@ -34,10 +34,10 @@ type V6 = [Id; 6];
 type M6 = [[Id; 6]; 6];
 
 /// The graph and the inputs bound from the scene's fields.
-struct Builder {
-    g: Graph,
+pub(crate) struct Builder {
+    pub(crate) g: Graph,
     /// `(name, expression)` of every parameter input.
-    bindings: Vec<(String, TokenStream)>,
+    pub(crate) bindings: Vec<(String, TokenStream)>,
 }
 
 impl Builder {
@@ -83,13 +83,13 @@ impl Builder {
         out
     }
 
-    fn dot(&mut self, a: &[Id], b: &[Id]) -> Id {
+    pub(crate) fn dot(&mut self, a: &[Id], b: &[Id]) -> Id {
         let terms: Vec<Id> = a.iter().zip(b).map(|(x, y)| self.g.mul(*x, *y)).collect();
         self.g.sum(&terms)
     }
 
     /// `M v`.
-    fn mv(&mut self, m: &M3, v: V3) -> V3 {
+    pub(crate) fn mv(&mut self, m: &M3, v: V3) -> V3 {
         [0, 1, 2].map(|i| self.dot(&m[i], &v))
     }
 
@@ -206,13 +206,13 @@ impl Builder {
 }
 
 /// What the derive knows of one tree joint: numbers only.
-struct Joint {
-    kind: TreeKind,
+pub(crate) struct Joint {
+    pub(crate) kind: TreeKind,
     /// The edge index of the parent body's joint.
-    parent: Option<usize>,
-    child: usize,
-    rho_p: [f64; 3],
-    rho_c: [f64; 3],
+    pub(crate) parent: Option<usize>,
+    pub(crate) child: usize,
+    pub(crate) rho_p: [f64; 3],
+    pub(crate) rho_c: [f64; 3],
     /// Revolute: the child axis, unit, and `R₀`.
     axis: [f64; 3],
     rest: [[f64; 3]; 3],
@@ -270,7 +270,7 @@ fn rodrigues(k: [f64; 3], c: f64, s: f64) -> [[f64; 3]; 3] {
 
 /// The joints with their geometry as numbers, or `None` when a point or an
 /// axis is a field or a named constant.
-fn joints(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
+pub(crate) fn joints(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
     let mut moved_by = vec![None; s.bodies.len()];
     let mut out = Vec::new();
     for (k, e) in edges.iter().enumerate() {
@@ -328,7 +328,7 @@ impl Builder {
 
     /// The child's rotation relative to its parent, `R₀ rot(h, θ)` or the
     /// normalised quaternion's matrix.
-    fn relative(&mut self, j: &Joint, q: &[Id]) -> M3 {
+    pub(crate) fn relative(&mut self, j: &Joint, q: &[Id]) -> M3 {
         match j.kind {
             TreeKind::Revolute => {
                 let (c, s) = (self.g.cos(q[0]), self.g.sin(q[0]));
@@ -590,7 +590,7 @@ impl Builder {
 }
 
 /// Where each joint's coordinates and velocities start.
-fn offsets(joints: &[Joint]) -> (Vec<usize>, Vec<usize>) {
+pub(crate) fn offsets(joints: &[Joint]) -> (Vec<usize>, Vec<usize>) {
     let (mut qa, mut va) = (Vec::new(), Vec::new());
     let (mut at_q, mut at_v) = (0, 0);
     for j in joints {
@@ -693,7 +693,7 @@ fn vector_method(
     Some((method, ops))
 }
 
-fn scalar() -> ScalarTy {
+pub(crate) fn scalar() -> ScalarTy {
     ScalarTy { ty: quote!(f64), krate: krate(), concrete_f64: true }
 }
 

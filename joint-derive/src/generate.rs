@@ -323,13 +323,13 @@ pub fn print_none<'a>(d: &'a Derived, sty: &ScalarTy) -> Printed<'a> {
 }
 
 /// `SVector` from its entries.
-fn vector_tokens(outs: &[TokenStream]) -> TokenStream {
+pub(crate) fn vector_tokens(outs: &[TokenStream]) -> TokenStream {
     let k = krate();
     quote!(#k::__private::SMatrix::from_data(#k::__private::ArrayStorage([[#(#outs),*]])))
 }
 
 /// `SMatrix` from its entries in column-major order.
-fn matrix_tokens(outs: &[TokenStream], rows: usize) -> TokenStream {
+pub(crate) fn matrix_tokens(outs: &[TokenStream], rows: usize) -> TokenStream {
     let k = krate();
     let columns = outs.chunks(rows.max(1)).map(|c| quote!([#(#c),*]));
     quote!(#k::__private::SMatrix::from_data(#k::__private::ArrayStorage([#(#columns),*])))

@@ -202,6 +202,45 @@ impl Kinematics {
         k
     }
 
+    /// The inputs of a relative-coordinate tree: `state.q` and `state.v` of
+    /// its `TreeState`, in tree order. The caller states how each coordinate
+    /// moves ([`Kinematics::rate`], [`Kinematics::spin`]) and adds every
+    /// body's frame as the tree's kinematics makes it ([`Kinematics::frame`]),
+    /// in body order; time derivatives then go through the frames' expressions.
+    pub fn tree(nq: usize, nv: usize) -> Self {
+        let mut k = Kinematics::empty();
+        let q: Vec<Id> = (0..nq).map(|i| k.g.state(format!("q_{i}"))).collect();
+        let v: Vec<Id> = (0..nv).map(|i| k.g.velocity(format!("v_{i}"))).collect();
+        k.inputs.push(Input { root: "state", path: vec!["q".into()], vars: q.clone() });
+        k.inputs.push(Input { root: "state", path: vec!["v".into()], vars: v.clone() });
+        k.coords = q;
+        k.velocities = v;
+        k
+    }
+
+    /// `θ̇ = v` for a coordinate whose rate is a velocity (a revolute angle).
+    pub fn rate(&mut self, coordinate: Id, velocity: Id) {
+        self.rules.set_var(&self.g, coordinate, velocity);
+    }
+
+    /// `ṗ = ½ p ⊗ (0, ω')` for Euler parameters turned by `ω'` in the moving
+    /// frame's own components (a spherical joint's relative rotation).
+    pub fn spin(&mut self, p: [Id; 4], w: V3) {
+        let zero = self.g.zero();
+        let product = quat_mul(&mut self.g, p, [zero, w[0], w[1], w[2]]);
+        let half = self.g.constant(0.5);
+        for (e, x) in p.iter().zip(product) {
+            let rate = self.g.mul(half, x);
+            self.rules.set_var(&self.g, *e, rate);
+        }
+    }
+
+    /// Adds a body's frame (rotation matrix and origin as expressions of the
+    /// inputs): the next body of [`Kinematics::connect`].
+    pub fn frame(&mut self, a: [[Id; 3]; 3], r: V3) {
+        self.frames.push(Frame { a, r, omega: None, euler: None, body_rate: None });
+    }
+
     /// The ground frame alone: no inputs, no rules.
     fn empty() -> Self {
         let mut g = Graph::new();

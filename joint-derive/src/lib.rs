@@ -9,6 +9,7 @@
 //! their impls together.
 
 mod aba;
+mod closure;
 mod derives;
 mod engine;
 mod front;

@@ -519,6 +519,28 @@ fn scene_cardan_shaft() {
     );
 }
 
+/// A four-bar in relative coordinates: the tree's written-out dynamics and
+/// the closing joint `d` as closure rows in the tree's angles (two of its
+/// five rows: the planar tree keeps the other three, folded to zero).
+#[test]
+fn scene_four_bar_relative() {
+    check_with(
+        "scene_four_bar_relative",
+        parse_quote! {
+            #[scene(gravity = [0, -9.81, 0], coordinates = relative)]
+            #[body(crank, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
+            #[body(coupler, mass = 1.5, inertia = [0.1, 0.15, 0.2])]
+            #[body(rocker, mass = 2.0, inertia = [0.2, 0.1, 0.2])]
+            #[joint(a = revolute(ground, crank), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, -0.5, 0])]
+            #[joint(b = revolute(crank, coupler), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [-0.5, 0, 0])]
+            #[joint(c = revolute(coupler, rocker), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, 0.5, 0])]
+            #[joint(d = revolute(rocker, ground), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, -0.5, 0], rho2 = [1, 0, 0])]
+            struct FourBar;
+        },
+        crate::derives::scene::derive,
+    );
+}
+
 /// The derive's own time on chains of 80, 160 and 320 bodies (a build-time
 /// regression guard to run by hand: `cargo test -p joint-derive --lib
 /// time_large_scene -- --ignored --nocapture`; a debug build, as cargo builds

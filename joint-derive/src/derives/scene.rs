@@ -13,13 +13,22 @@ use crate::generate::{self, Printed, Signature, krate, lints};
 use crate::lower::{self, Block, Derived};
 use crate::second_order::{self, Terms};
 
+/// A tree's closures derived in its coordinates, and their row blocks.
+type Loops = (Derived, Vec<Block>);
+
 /// The derive's entry point.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     let parsed = scene::parse(input);
+    // A tree's closures (joints outside it), derived in its coordinates.
+    let loops = match parsed.as_ref().map(super::tree::closures) {
+        Ok(Err(e)) => return stub(input, e, scene::shape(input)),
+        Ok(Ok(loops)) => loops,
+        Err(_) => None,
+    };
     // `coordinates = relative`: the tree alone, nothing of the absolute path
     // derived or compiled.
     if let Ok(s @ SceneDecl { absolute: false, tree: Some(edges), .. }) = &parsed {
-        return tree_only(input, s, edges);
+        return tree_only(input, s, edges, loops.as_ref());
     }
     let derived = parsed.and_then(|s| lower::derive_scene(&s).map(|d| (s, d)));
     let with_second = derived.map(|(s, (mut d, blocks))| {
@@ -32,7 +41,7 @@ pub fn derive(input: &syn::DeriveInput) -> TokenStream {
         (s, d, blocks, second)
     });
     match with_second {
-        Ok((s, d, blocks, second)) => print(input, &s, &d, &blocks, second.as_ref()),
+        Ok((s, d, blocks, second)) => print(input, &s, &d, &blocks, second.as_ref(), loops.as_ref()),
         Err(e) => stub(input, e, scene::shape(input)),
     }
 }
@@ -134,6 +143,7 @@ fn print(
     d: &Derived,
     blocks: &[Block],
     second: Option<&Terms>,
+    loops: Option<&Loops>,
 ) -> TokenStream {
     let k = krate();
     let z = sizes(s.bodies.len(), d.phi.len());
@@ -174,7 +184,7 @@ fn print(
     let points = joint_points(s);
     let ident = &input.ident;
     let generics = generics_of(input, s);
-    let tree = s.tree.as_ref().map(|edges| super::tree::print(input, s, edges, &generics));
+    let tree = s.tree.as_ref().map(|edges| super::tree::print(input, s, edges, &generics, loops));
     let (ig, tg, wc) = generics.split_for_impl();
     let (mut second_method, second_ops) = match second.and_then(|t| t.dense.as_ref()) {
         Some(nodes) => generate::second_order_method(&z.signature, &printed, nodes),
@@ -240,14 +250,19 @@ fn generics_of(input: &syn::DeriveInput, s: &SceneDecl) -> syn::Generics {
 
 /// A `coordinates = relative` scene: the bodies' indices, `NB`, the absolute
 /// state's alias (for the conversions) and the tree.
-fn tree_only(input: &syn::DeriveInput, s: &SceneDecl, edges: &[crate::front::tree::TreeEdge]) -> TokenStream {
+fn tree_only(
+    input: &syn::DeriveInput,
+    s: &SceneDecl,
+    edges: &[crate::front::tree::TreeEdge],
+    loops: Option<&Loops>,
+) -> TokenStream {
     let (ident, lints) = (&input.ident, lints());
     let generics = generics_of(input, s);
     let (ig, tg, wc) = generics.split_for_impl();
     let nb = Literal::usize_unsuffixed(s.bodies.len());
     let indices = body_indices(&s.body_names());
     let alias = state_alias(input, &nb);
-    let tree = super::tree::print(input, s, edges, &generics);
+    let tree = super::tree::print(input, s, edges, &generics, loops);
     quote! {
         #alias
         #tree
@@ -558,7 +573,7 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
             fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { loop {} }
             fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { loop {} }
         };
-        super::tree::wrap(input, &input.generics, bodies.len(), sizes, body)
+        super::tree::wrap(input, &input.generics, bodies.len(), (sizes.0, sizes.1, 0), body)
     });
     quote! {
         #errors

@@ -10,14 +10,30 @@ use crate::front::resolve::{FieldShape, Source};
 use crate::front::scene::{JointDecl, SceneDecl};
 use crate::front::tree::{TreeEdge, TreeKind};
 use crate::generate::{krate, lints};
+use crate::lower::{Block, Derived};
 
 /// The tree's sizes: coordinates and velocities.
 pub fn sizes(edges: &[TreeEdge]) -> (usize, usize) {
     edges.iter().map(|e| e.kind.sizes()).fold((0, 0), |(q, v), (a, b)| (q + a, v + b))
 }
 
+/// The closures of a scene with a tree (joints outside it) derived in the
+/// tree's coordinates; `None` without a tree or without closures.
+pub fn closures(s: &SceneDecl) -> syn::Result<Option<(Derived, Vec<Block>)>> {
+    match &s.tree {
+        Some(edges) => crate::closure::derive(s, edges, sizes(edges)),
+        None => Ok(None),
+    }
+}
+
 /// The `TreeScene` impl and the state alias.
-pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generics: &syn::Generics) -> TokenStream {
+pub fn print(
+    input: &syn::DeriveInput,
+    s: &SceneDecl,
+    edges: &[TreeEdge],
+    generics: &syn::Generics,
+    loops: Option<&(Derived, Vec<Block>)>,
+) -> TokenStream {
     let k = krate();
     let nb = Literal::usize_unsuffixed(s.bodies.len());
     let joints = edges.iter().map(|e| joint(&s.joints[e.joint], e));
@@ -29,14 +45,16 @@ pub fn print(input: &syn::DeriveInput, s: &SceneDecl, edges: &[TreeEdge], generi
         quote!(#[doc = #doc] #[inline] #method)
     });
     let controller = crate::aba::controller_methods(s, edges, nq, nv);
+    let (closure, nc) = loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks));
     let body = quote! {
         fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
         #aba
         #controller
+        #closure
     };
-    wrap(input, generics, s.bodies.len(), (nq, nv), body)
+    wrap(input, generics, s.bodies.len(), (nq, nv, nc), body)
 }
 
 /// The impl around `body` (the stub's too) and the alias.
@@ -44,12 +62,12 @@ pub fn wrap(
     input: &syn::DeriveInput,
     generics: &syn::Generics,
     bodies: usize,
-    (nq, nv): (usize, usize),
+    (nq, nv, nc): (usize, usize, usize),
     body: TokenStream,
 ) -> TokenStream {
     let (k, lints, vis, ident) = (krate(), lints(), &input.vis, &input.ident);
     let lit = Literal::usize_unsuffixed;
-    let (nb, nq, nv) = (lit(bodies), lit(nq), lit(nv));
+    let (nb, nq, nv, nc) = (lit(bodies), lit(nq), lit(nv), lit(nc));
     let (ig, tg, wc) = generics.split_for_impl();
     let alias = format_ident!("{}TreeState", ident);
     let doc = format!(
@@ -60,7 +78,7 @@ pub fn wrap(
         #vis type #alias = #k::tree::TreeState<#nq, #nv>;
 
         #lints
-        impl #ig #k::tree::TreeScene<#nb, #nq, #nv> for #ident #tg #wc {
+        impl #ig #k::tree::TreeScene<#nb, #nq, #nv, #nc> for #ident #tg #wc {
             #body
         }
     }

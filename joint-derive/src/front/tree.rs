@@ -1,6 +1,6 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
-//! ground, checked: every joint a tree joint (`revolute`, `spherical` for
-//! now), no joint closing a loop, every body reached.
+//! ground through its tree joints (`revolute`, `spherical` for now), every
+//! body reached; the other joints close loops.
 
 use super::context::Errors;
 use super::scene::{Body, JointDecl};
@@ -45,73 +45,66 @@ pub struct TreeEdge {
     pub reversed: bool,
 }
 
-/// The joints in tree order, parents first: the first declared joint that
-/// reaches a new body from the reached ones, again and again (a
-/// breadth-first spanning tree that keeps the declaration's order among
-/// equals).
+/// The joints in tree order, parents first: the first declared tree joint
+/// (`revolute`, `spherical`) that reaches a new body from the reached ones,
+/// again and again (a breadth-first spanning tree that keeps the
+/// declaration's order among equals). Every other joint (one that closes a
+/// loop, or of a kind without a tree parametrisation) is a closure: its rows
+/// stay constraints, composed with the tree's kinematics ([`closures`]).
 pub fn spanning_tree(bodies: &[Body], joints: &[JointDecl], errors: &mut Errors) -> Vec<TreeEdge> {
-    let mut kinds_ok = true;
-    for j in joints {
-        if TreeKind::of(j.kind.name).is_none() {
-            kinds_ok = false;
-            errors.at(
-                j.kind_span,
-                format!(
-                    "`{}` has no tree parametrisation yet; relative coordinates take `revolute` and `spherical` \
-                     joints; expected `coordinates = absolute` for this scene",
-                    j.kind.name
-                ),
-            );
-        }
-    }
-    if !kinds_ok {
-        return Vec::new();
-    }
     let mut reached = vec![false; bodies.len()];
     let is_reached = |b: Option<usize>, reached: &[bool]| b.is_none_or(|i| reached[i]);
     let mut edges = Vec::new();
     let mut used = vec![false; joints.len()];
     loop {
         let next = joints.iter().enumerate().find_map(|(i, j)| {
+            let kind = TreeKind::of(j.kind.name)?;
             let [a, b] = j.bodies;
             let (ra, rb) = (is_reached(a, &reached), is_reached(b, &reached));
-            (!used[i] && ra != rb).then_some((i, rb))
+            (!used[i] && ra != rb).then_some((i, kind, rb))
         });
-        let Some((i, reversed)) = next else { break };
+        let Some((i, kind, reversed)) = next else { break };
         used[i] = true;
-        let child = joints[i].bodies[usize::from(!reversed)];
-        if let Some(c) = child {
+        if let Some(c) = joints[i].bodies[usize::from(!reversed)] {
             reached[c] = true;
         }
-        let kind = TreeKind::of(joints[i].kind.name).unwrap_or(TreeKind::Revolute);
         edges.push(TreeEdge { joint: i, kind, reversed });
     }
-    for j in joints.iter().zip(&used).filter(|(_, u)| !**u).map(|(j, _)| j) {
-        let closes = j.bodies.iter().all(|b| is_reached(*b, &reached));
-        if closes {
-            errors.at(
-                j.name.span(),
-                format!(
-                    "joint `{}` closes a loop; relative coordinates take trees for now; expected `coordinates = \
-                     absolute` for this scene",
-                    j.label()
-                ),
-            );
-        }
-    }
-    // One message for all of them: they are one mistake (a missing joint, or
-    // a floating base), at the first.
-    let unreached: Vec<&Body> = bodies.iter().zip(&reached).filter(|(_, r)| !**r).map(|(b, _)| b).collect();
-    if let Some(first) = unreached.first() {
-        let names: Vec<String> = unreached.iter().map(|b| format!("`{}`", b.label())).collect();
-        let (names, verb) = if names.len() == 1 { (names[0].clone(), "has") } else { (names.join(", "), "have") };
-        errors.at(
+    unreached(bodies, joints, &reached, errors);
+    edges
+}
+
+/// One message for the bodies no tree joint reaches: they are one mistake (a
+/// missing joint, a joint without a tree parametrisation, or a floating
+/// base), at the first such joint's kind or else at the first body.
+fn unreached(bodies: &[Body], joints: &[JointDecl], reached: &[bool], errors: &mut Errors) {
+    let unreached: Vec<&Body> = bodies.iter().zip(reached).filter(|(_, r)| !**r).map(|(b, _)| b).collect();
+    let Some(first) = unreached.first() else { return };
+    let names: Vec<String> = unreached.iter().map(|b| format!("`{}`", b.label())).collect();
+    let (names, verb) = if names.len() == 1 { (names[0].clone(), "has") } else { (names.join(", "), "have") };
+    let touches = |j: &&JointDecl| j.bodies.iter().any(|b| b.is_some_and(|i| !reached[i]));
+    match joints.iter().filter(touches).find(|j| TreeKind::of(j.kind.name).is_none()) {
+        Some(j) => errors.at(
+            j.kind_span,
+            format!(
+                "`{}` has no tree parametrisation yet, so {names} {verb} no path of tree joints (`revolute`, \
+                 `spherical`) to the ground; expected `coordinates = absolute` for this scene",
+                j.kind.name
+            ),
+        ),
+        None => errors.at(
             first.name.span(),
             format!(
                 "{names} {verb} no path of joints to the ground; relative coordinates need one for every body \
                  (floating bases are not supported yet); expected a joint to the ground or `coordinates = absolute`"
             ),
-        );
+        ),
     }
-    edges
+}
+
+/// The joints that are not in the tree, in declaration order: each closes a
+/// loop (or joins two bodies the tree moves already), and its rows are
+/// constraints on the tree's coordinates.
+pub fn closures(joints: &[JointDecl], edges: &[TreeEdge]) -> Vec<usize> {
+    (0..joints.len()).filter(|i| edges.iter().all(|e| e.joint != *i)).collect()
 }

@@ -1,23 +1,46 @@
 //! Stepping a tree: classical RK4 on `(q, v)`, each spherical joint's
 //! quaternion integrated as four numbers (`ṗ = ½ p ⊗ (0, ω')`, fourth order)
-//! and renormalised after the step.
+//! and renormalised after the step. With closures (loops), each stage solves
+//! `M v̇ + b = τ + Jᵀλ`, `J v̇ = γ` on the closure rows, and the step ends
+//! with the mass-metric projection of `q` onto `Φ = 0` and of `v` onto
+//! `J v + Φ_t = 0`, as the absolute `Simulation` does.
 
-use nalgebra::{Quaternion, SMatrix, SVector};
+use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion};
 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
+use crate::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
+
+/// The position projection's tolerance on the largest closure row, its
+/// Newton iterations, and the round-off floor it accepts (the absolute
+/// `Simulation`'s defaults).
+const PROJECTION: (f64, usize, f64) = (1e-12, 5, 1e-9);
 
 /// The simulation of a relative-coordinate scene: the scene (its generated
-/// articulated-body algorithm, where the derive wrote one) and its tree,
-/// checked once.
+/// articulated-body algorithm and closure rows, where the derive wrote them)
+/// and its tree, checked once.
 #[derive(Clone, Debug)]
-pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize> {
+pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0> {
     scene: &'a S,
     tree: Tree<NB, NQ, NV>,
 }
 
-impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>
-    TreeSimulation<'a, S, NB, NQ, NV>
+/// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
+/// dropped rows are the redundant closure rows.
+struct Saddle<const NV: usize, const NC: usize> {
+    minv_jt: SMatrix<f64, NV, NC>,
+    factor: PivotedCholesky<NC>,
+}
+
+impl<const NV: usize, const NC: usize> Saddle<NV, NC> {
+    /// `M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁺ r`: the mass-metric correction for the rows' residual `r`.
+    fn correction(&self, r: &SVector<f64, NC>) -> SVector<f64, NV> {
+        self.minv_jt * self.factor.solve(r)
+    }
+}
+
+impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>
+    TreeSimulation<'a, S, NB, NQ, NV, NC>
 {
     /// The simulation of `scene`; refused when its tree is not valid
     /// ([`TreeError`]: inertias, axes, order).
@@ -25,16 +48,133 @@ impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: u
         Ok(TreeSimulation { scene, tree: Tree::of(scene)? })
     }
 
-    /// The scene.
-    pub fn scene(&self) -> &'a S {
-        self.scene
+    /// `v̇` under joint forces `tau`, the closures' forces included: the
+    /// tree's own dynamics ([`TreeSimulation::tree_dynamics`]) corrected by
+    /// `M⁻¹ Jᵀ λ` with `J M⁻¹ Jᵀ λ = γ − J v̇_tree` (redundant closure rows
+    /// dropped by the pivoted factor).
+    pub fn forward_dynamics(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+    ) -> Result<SVector<f64, NV>, TreeError> {
+        Ok(self.constrained(state, tau, None)?.0)
     }
 
-    /// `v̇` under joint forces `tau`: the scene's generated articulated-body
-    /// algorithm where the derive wrote one, the tree's recursion otherwise
-    /// (and when the generated one is not finite, so that a singular
-    /// articulated inertia is named by its joint).
-    pub fn forward_dynamics(
+    /// The constrained `v̇` and the pivot order of its factor; `order` fixes
+    /// which rows are dropped (the later stages of a step keep the first's).
+    fn constrained(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        order: Option<&PivotedCholesky<NC>>,
+    ) -> Result<(SVector<f64, NV>, Option<PivotedCholesky<NC>>), TreeError> {
+        let free = self.tree_dynamics(state, tau)?;
+        if NC == 0 {
+            return Ok((free, None));
+        }
+        let rows = self.scene.closure_rows(state);
+        let saddle = self.saddle(&state.q, &rows.jacobian, order)?;
+        let vdot = free + saddle.correction(&(rows.gamma - rows.jacobian * free));
+        Ok((vdot, Some(saddle.factor)))
+    }
+
+    /// `M⁻¹ Jᵀ` and the factor of `J M⁻¹ Jᵀ` (in `order`'s pivots when given).
+    fn saddle(
+        &self,
+        q: &SVector<f64, NQ>,
+        jacobian: &SMatrix<f64, NC, NV>,
+        order: Option<&PivotedCholesky<NC>>,
+    ) -> Result<Saddle<NV, NC>, TreeError> {
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        self.mass_matrix_into(q, &mut m);
+        let mass = PivotedCholesky::new(&m, 0.0).map_err(|_| TreeError::NonFinite)?;
+        if !mass.is_full_rank() {
+            let joint = self.tree.joints.first().map_or("", |j| j.name);
+            return Err(TreeError::Singular { joint });
+        }
+        let mut minv_jt = SMatrix::<f64, NV, NC>::zeros();
+        for (c, row) in jacobian.row_iter().enumerate() {
+            minv_jt.set_column(c, &mass.solve(&row.transpose()));
+        }
+        let s = jacobian * minv_jt;
+        let factor = match order {
+            Some(f) => PivotedCholesky::with_order(&s, f.permutation(), f.rank(), DEFAULT_RANK_TOLERANCE),
+            None => PivotedCholesky::new(&s, DEFAULT_RANK_TOLERANCE),
+        }
+        .map_err(|_| TreeError::NonFinite)?;
+        Ok(Saddle { minv_jt, factor })
+    }
+
+    /// The closure rows at `state` (none for a tree without loops): `Φ`,
+    /// `J`, `γ`, `Φ_t`, generated by the derive.
+    pub fn closure_rows(&self, state: &TreeState<NQ, NV>) -> super::ClosureRows<NC, NV> {
+        self.scene.closure_rows(state)
+    }
+
+    /// Closes the loops after a step: `q` onto `Φ(q, t) = 0` by simplified
+    /// Newton in the mass metric (one factor), then `v` onto
+    /// `J v + Φ_t = 0` with that factor.
+    fn project(&self, state: &mut TreeState<NQ, NV>) -> Result<(), TreeError> {
+        let (tolerance, iterations, floor) = PROJECTION;
+        self.close(state, (tolerance, iterations, floor), false)
+    }
+
+    /// A state on its loops near `guess`: Newton in the mass metric from the
+    /// guess's coordinates (each step the smallest in that metric; refactored
+    /// every iteration, up to 50), then the velocities projected onto
+    /// `J v + Φ_t = 0`. Refused by the closing joint's name when the loops do
+    /// not close to 1e-9.
+    pub fn assemble(&self, guess: &TreeState<NQ, NV>) -> Result<TreeState<NQ, NV>, TreeError> {
+        let mut state = *guess;
+        self.tree.normalise(&mut state.q);
+        self.close(&mut state, (PROJECTION.0, 50, PROJECTION.2), true)?;
+        Ok(state)
+    }
+
+    /// Newton on `Φ(q, t) = 0` (`refactor`: full, else simplified), then the
+    /// velocity projection with the last factor.
+    fn close(
+        &self,
+        state: &mut TreeState<NQ, NV>,
+        (tolerance, iterations, floor): (f64, usize, f64),
+        refactor: bool,
+    ) -> Result<(), TreeError> {
+        if NC == 0 {
+            return Ok(());
+        }
+        let mut rows = self.scene.closure_rows(state);
+        let mut saddle = self.saddle(&state.q, &rows.jacobian, None)?;
+        for _ in 0..iterations {
+            if rows.phi.amax() <= tolerance {
+                break;
+            }
+            if refactor {
+                saddle = self.saddle(&state.q, &rows.jacobian, None)?;
+            }
+            let dq = -saddle.correction(&rows.phi);
+            self.tree.displace(&mut state.q, &dq);
+            rows = self.scene.closure_rows(state);
+        }
+        if !rows.phi.iter().chain(rows.jacobian.iter()).all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        let misfit = rows.phi.amax();
+        if misfit > floor {
+            let worst = rows.phi.iamax();
+            let joint =
+                S::CLOSURES.iter().find(|b| (b.start..b.start + b.rows).contains(&worst)).map_or("", |b| b.name);
+            return Err(TreeError::Closure { joint, misfit });
+        }
+        let drift = rows.jacobian * state.v + rows.phi_t;
+        state.v -= saddle.correction(&drift);
+        Ok(())
+    }
+
+    /// The tree's own `v̇` under joint forces `tau`, closures left out: the
+    /// scene's generated articulated-body algorithm where the derive wrote
+    /// one, the tree's recursion otherwise (and when the generated one is not
+    /// finite, so that a singular articulated inertia is named by its joint).
+    pub fn tree_dynamics(
         &self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
@@ -91,15 +231,18 @@ impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: u
         if !(h.is_finite() && tau.iter().all(|x| x.is_finite())) {
             return Err(TreeError::NonFinite);
         }
+        // Every stage drops the closure rows the first dropped: a redundant
+        // row switching between stages would break the method's order.
+        let (v1, first) = self.constrained(state, tau, None)?;
         let rate = |s: &TreeState<NQ, NV>| -> Result<(SVector<f64, NQ>, SVector<f64, NV>), TreeError> {
-            Ok((self.tree.coordinate_rates(&s.q, &s.v), self.forward_dynamics(s, tau)?))
+            Ok((self.tree.coordinate_rates(&s.q, &s.v), self.constrained(s, tau, first.as_ref())?.0))
         };
         let at = |dq: &SVector<f64, NQ>, dv: &SVector<f64, NV>, c: f64| TreeState {
             q: state.q + dq * c,
             v: state.v + dv * c,
             t: state.t + c,
         };
-        let (q1, v1) = rate(state)?;
+        let q1 = self.tree.coordinate_rates(&state.q, &state.v);
         let (q2, v2) = rate(&at(&q1, &v1, 0.5 * h))?;
         let (q3, v3) = rate(&at(&q2, &v2, 0.5 * h))?;
         let (q4, v4) = rate(&at(&q3, &v3, h))?;
@@ -109,6 +252,7 @@ impl<'a, S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: u
             t: state.t + h,
         };
         self.tree.normalise(&mut next.q);
+        self.project(&mut next)?;
         if !(next.q.iter().chain(next.v.iter()).all(|x| x.is_finite())) {
             return Err(TreeError::NonFinite);
         }
@@ -134,6 +278,31 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 }
             }
         }
+        out
+    }
+
+    /// `q ⊕ δ` in place: each joint's coordinates moved along the
+    /// velocity-shaped `δ` (an angle added; a quaternion turned by `δθ` in
+    /// its own frame, `p ⊗ exp(δθ / 2)`).
+    pub fn displace(&self, q: &mut SVector<f64, NQ>, delta: &SVector<f64, NV>) {
+        for (k, j) in self.joints.iter().enumerate() {
+            let (qa, va) = (self.q_at[k], self.v_at[k]);
+            match j.kind {
+                TreeJointKind::Revolute => q[qa] += delta[va],
+                TreeJointKind::Spherical => {
+                    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa).into_owned());
+                    let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());
+                    let d = (p * turn).into_inner();
+                    q.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+                }
+            }
+        }
+    }
+
+    /// `q ⊕ δ`.
+    pub fn displaced(&self, q: &SVector<f64, NQ>, delta: &SVector<f64, NV>) -> SVector<f64, NQ> {
+        let mut out = *q;
+        self.displace(&mut out, delta);
         out
     }
 

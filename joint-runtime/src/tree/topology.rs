@@ -53,6 +53,14 @@ pub enum TreeError {
     },
     /// A state or a torque that is not finite.
     NonFinite,
+    /// A loop that the position projection did not close: the closure's
+    /// largest row after the Newton iterations.
+    Closure {
+        /// The name of the joint closing the loop.
+        joint: &'static str,
+        /// Its largest row's magnitude.
+        misfit: f64,
+    },
 }
 
 impl fmt::Display for TreeError {
@@ -78,6 +86,9 @@ impl fmt::Display for TreeError {
                 write!(f, "the state does not hold joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::NonFinite => f.write_str("a state or torque that is not finite"),
+            TreeError::Closure { joint, misfit } => {
+                write!(f, "the projection did not close the loop of joint `{joint}` (misfit {misfit:e})")
+            }
         }
     }
 }
@@ -111,7 +122,7 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
 
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The tree of a scene.
-    pub fn of<S: TreeScene<NB, NQ, NV>>(scene: &S) -> Result<Self, TreeError> {
+    pub fn of<S: TreeScene<NB, NQ, NV, NC>, const NC: usize>(scene: &S) -> Result<Self, TreeError> {
         Tree::new(scene.tree_joints(), scene.tree_inertias(), scene.tree_gravity())
     }
 

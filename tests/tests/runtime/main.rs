@@ -4,6 +4,7 @@
 //! * `analysis`: assembly, velocity and acceleration analysis.
 //! * `batch`: batches scalar, in SIMD lanes and with rayon.
 //! * `dynamics`: forward dynamics and the integrators.
+//! * `loops`: closed loops in relative coordinates.
 //! * `record`: trajectories as CSV and SVG.
 //! * `serde_io`: the types through serde.
 //! * `tree`: relative coordinates (`coordinates = relative`).
@@ -14,6 +15,7 @@ mod analysis;
 mod batch;
 mod dynamics;
 mod linear;
+mod loops;
 mod record;
 mod second_order;
 mod serde_io;

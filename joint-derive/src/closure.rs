@@ -1,0 +1,179 @@
+//! Loops in relative coordinates: every joint outside the spanning tree (one
+//! that closes a loop, or of a kind without a tree parametrisation) keeps
+//! its rows as constraints. They are lowered, exactly as in absolute
+//! coordinates (`lower::lower_rows`), onto the bodies' frames as the tree's
+//! kinematics makes them: each body's rotation `A_child = A_parent R(q)` and
+//! centre `r_child = r_parent + A_parent ρ_parent − A_child ρ_child`,
+//! expressions of the joint coordinates with `θ̇ = v` and
+//! `ṗ = ½ p ⊗ (0, ω')`. The engine then differentiates them in the tree's
+//! own coordinates: `Φ(q, t)`, `J = ∂Φ̇/∂v`, `γ = −dΦ̇/dt` (v held) and `Φ_t`
+//! (`TreeScene::closure_rows`). No derivative is written by hand.
+//!
+//! A row that the tree keeps by construction folds to a constant: a planar
+//! loop's out-of-plane rows, when every joint's axis is normal to the
+//! plane. A zero is dropped at compile time (the four-bar's revolute keeps
+//! two of its five rows); any other constant means the loop cannot close,
+//! and is an error at the joint.
+
+use proc_macro2::{Span, TokenStream};
+use quote::quote;
+
+use crate::aba::{Builder, joints, offsets};
+use crate::engine::graph::Id;
+use crate::front::scene::SceneDecl;
+use crate::front::tree::{TreeEdge, TreeKind, closures};
+use crate::generate::{krate, matrix_tokens, print_none, vector_tokens};
+use crate::kinematics::Kinematics;
+use crate::lower::{Block, Derived, Naming, lower_rows, param_nodes};
+
+/// A constant row at most this far from zero is one the tree keeps (a
+/// planar loop's out-of-plane rows fold to exact zeros; this allows for a
+/// geometry whose numbers do not close exactly in binary).
+const KEPT: f64 = 1e-12;
+
+/// The closures' rows derived in the tree's coordinates, and each joint's
+/// block of them; `None` for a tree without closures.
+pub fn derive(
+    s: &SceneDecl,
+    edges: &[TreeEdge],
+    (nq, nv): (usize, usize),
+) -> syn::Result<Option<(Derived, Vec<Block>)>> {
+    let loops = closures(&s.joints, edges);
+    if loops.is_empty() {
+        return Ok(None);
+    }
+    let Some(tree) = joints(s, edges) else {
+        let e = &s.joints[edges.iter().map(|e| e.joint).find(|&j| !known(s, j)).unwrap_or(edges[0].joint)];
+        return Err(syn::Error::new(
+            e.name.span(),
+            format!(
+                "joint `{}` is in a tree with closed loops, whose joint points and axes must be numbers; expected \
+                 numbers for its `rho1`, `rho2` and axes, or `coordinates = absolute`",
+                e.label()
+            ),
+        ));
+    };
+    let mut k = Kinematics::tree(nq, nv);
+    frames(&mut k, s, &tree);
+    let mut bindings = Vec::new();
+    let (mut phi, mut blocks) = (Vec::new(), Vec::new());
+    let mut errors = crate::front::context::Errors::new();
+    for &i in &loops {
+        let j = &s.joints[i];
+        k.connect(j.bodies[0], j.bodies[1]);
+        let prefix = j.prefix();
+        let values = param_nodes(&mut k, j.kind, &j.params, Naming::ByField { joint: &prefix }, &mut bindings);
+        let rows = lower_rows(&mut k, j.kind, &values, &[], j.kind_span);
+        let start = phi.len();
+        for (n, &row) in rows.phi.iter().enumerate() {
+            match k.g.as_const(row) {
+                Some(c) if c.abs() <= KEPT => {}
+                Some(c) => errors.at(
+                    j.name.span(),
+                    format!(
+                        "joint `{}` cannot close its loop: its row {} is {c} at every position of the tree; \
+                         expected joint points and axes that meet",
+                        j.label(),
+                        n + 1
+                    ),
+                ),
+                None => phi.push(row),
+            }
+        }
+        blocks.push(Block { name: j.label(), start, rows: phi.len() - start });
+    }
+    errors.finish()?;
+    if phi.is_empty() {
+        return Ok(None);
+    }
+    let (mut jacobian, mut gamma, mut phi_t) = (Vec::new(), Vec::new(), Vec::new());
+    for &row in &phi {
+        let d = k.derive_row(row, None).map_err(|m| syn::Error::new(Span::call_site(), m))?;
+        jacobian.push(d.jacobian);
+        gamma.push(d.gamma);
+        phi_t.push(d.phi_t);
+    }
+    Ok(Some((Derived { kinematics: k, phi, phi_t, jacobian, gamma, bindings, singularity: None }, blocks)))
+}
+
+/// Whether joint `i`'s points and axes are all numbers.
+fn known(s: &SceneDecl, i: usize) -> bool {
+    s.joints[i].params.iter().all(|p| p.source.known().is_some())
+}
+
+/// Every body's frame from the tree's coordinates, in body order.
+fn frames(k: &mut Kinematics, s: &SceneDecl, tree: &[crate::aba::Joint]) {
+    let (qa, va) = offsets(tree);
+    let (q, v) = (k.coords.clone(), k.velocities.clone());
+    let mut b = Builder { g: std::mem::take(&mut k.g), bindings: Vec::new() };
+    let (zero, one) = (b.g.zero(), b.g.constant(1.0));
+    let identity = [[one, zero, zero], [zero, one, zero], [zero, zero, one]];
+    let mut poses: Vec<([[Id; 3]; 3], [Id; 3])> = Vec::with_capacity(tree.len());
+    let mut by_body = vec![(identity, [zero; 3]); s.bodies.len()];
+    let mut spins = Vec::new();
+    for (n, j) in tree.iter().enumerate() {
+        let (nq, nv) = j.kind.sizes();
+        let (qj, vj) = (&q[qa[n]..qa[n] + nq], &v[va[n]..va[n] + nv]);
+        let (a_p, r_p) = j.parent.map_or((identity, [zero; 3]), |p| poses[p]);
+        let rel = b.relative(j, qj);
+        let a: [[Id; 3]; 3] = [0, 1, 2].map(|r| [0, 1, 2].map(|c| b.dot(&a_p[r], &[rel[0][c], rel[1][c], rel[2][c]])));
+        let (rho_p, rho_c) = (j.rho_p.map(|x| b.g.constant(x)), j.rho_c.map(|x| b.g.constant(x)));
+        let (out, back) = (b.mv(&a_p, rho_p), b.mv(&a, rho_c));
+        let r = [0, 1, 2].map(|i| {
+            let t = b.g.add(r_p[i], out[i]);
+            b.g.sub(t, back[i])
+        });
+        poses.push((a, r));
+        by_body[j.child] = (a, r);
+        match j.kind {
+            TreeKind::Revolute => spins.push((vec![qj[0]], vec![vj[0]])),
+            TreeKind::Spherical => spins.push((qj.to_vec(), vj.to_vec())),
+        }
+    }
+    k.g = b.g;
+    for (qj, vj) in spins {
+        match qj.as_slice() {
+            [theta] => k.rate(*theta, vj[0]),
+            p => k.spin([p[0], p[1], p[2], p[3]], [vj[0], vj[1], vj[2]]),
+        }
+    }
+    for (a, r) in by_body {
+        k.frame(a, r);
+    }
+}
+
+/// `fn closure_rows(&self, state) -> ClosureRows<NC, NV>` and the closures'
+/// row blocks (`CLOSURES`), with the number of rows.
+pub fn print(d: &Derived, blocks: &[Block]) -> (TokenStream, usize) {
+    let k = krate();
+    let rows = d.phi.len();
+    let nv = d.kinematics.velocities.len();
+    let p = print_none(d, &crate::aba::scalar());
+    let mut outputs = d.phi.clone();
+    outputs.extend((0..nv).flat_map(|c| d.jacobian.iter().map(move |row| row[c])));
+    outputs.extend(&d.gamma);
+    outputs.extend(&d.phi_t);
+    let (body, outs, ops) = p.emit(&outputs);
+    let (phi, rest) = outs.split_at(rows);
+    let (jac, rest) = rest.split_at(rows * nv);
+    let (gamma, phi_t) = rest.split_at(rows);
+    let (phi, jac, gamma, phi_t) =
+        (vector_tokens(phi), matrix_tokens(jac, rows), vector_tokens(gamma), vector_tokens(phi_t));
+    let blocks = blocks.iter().map(|b| {
+        let (name, start, n) = (&b.name, b.start, b.rows);
+        quote!(#k::RowBlock { name: #name, start: #start, rows: #n })
+    });
+    let doc = format!(" The closures' rows in the tree's coordinates, derived by the engine: {ops} operations.");
+    let (nc, nv) = (proc_macro2::Literal::usize_unsuffixed(rows), proc_macro2::Literal::usize_unsuffixed(nv));
+    let nq = proc_macro2::Literal::usize_unsuffixed(d.kinematics.coords.len());
+    let method = quote! {
+        const CLOSURES: &'static [#k::RowBlock] = &[#(#blocks),*];
+        #[doc = #doc]
+        #[inline]
+        fn closure_rows(&self, state: &#k::tree::TreeState<#nq, #nv>) -> #k::tree::ClosureRows<#nc, #nv> {
+            #body
+            #k::tree::ClosureRows { phi: #phi, jacobian: #jac, gamma: #gamma, phi_t: #phi_t }
+        }
+    };
+    (method, rows)
+}
