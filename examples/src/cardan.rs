@@ -63,7 +63,7 @@ use joint_runtime::{AxisFrame, OmegaBody, Ramp, Scene, SparseJacobian, SystemSta
 /// joints `input_bearing`, `output_bearing` (revolute to the ground), `cross`
 /// (universal) and `motor` (rotational driver of the input).
 #[derive(Scene, Clone, Copy, Debug)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
 #[body(input, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(output, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[joint(input_bearing = revolute(ground, input), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [-0.5, 0, 0], rho2 = [0, 0, 0])]

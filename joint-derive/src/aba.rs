@@ -268,29 +268,65 @@ fn rodrigues(k: [f64; 3], c: f64, s: f64) -> [[f64; 3]; 3] {
     r
 }
 
+impl Joint {
+    /// A spherical joint (its relative rotation needs no geometry).
+    pub(crate) fn spherical() -> Self {
+        let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        Joint {
+            kind: TreeKind::Spherical,
+            parent: None,
+            child: 0,
+            rho_p: [0.0; 3],
+            rho_c: [0.0; 3],
+            axis: [0.0; 3],
+            rest: identity,
+        }
+    }
+}
+
 /// The joints with their geometry as numbers, or `None` when a point or an
 /// axis is a field or a named constant.
 pub(crate) fn joints(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
+    let parents = parent_edges(s, edges);
+    edges.iter().zip(parents).map(|(e, parent)| joint(s, e, parent)).collect()
+}
+
+/// Each edge's parent edge (the one that moves its parent body).
+pub(crate) fn parent_edges(s: &SceneDecl, edges: &[TreeEdge]) -> Vec<Option<usize>> {
     let mut moved_by = vec![None; s.bodies.len()];
     let mut out = Vec::new();
     for (k, e) in edges.iter().enumerate() {
-        let j = &s.joints[e.joint];
-        let (parent, child) = if e.reversed { (j.bodies[1], j.bodies[0]) } else { (j.bodies[0], j.bodies[1]) };
-        let child = child?;
-        let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
-        let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-        if e.kind == TreeKind::Revolute {
-            let first = unit(cross3(known(j, "f")?, known(j, "g")?))?;
-            let second = unit(known(j, "h")?)?;
-            let (a, h) = if e.reversed { (second, first) } else { (first, second) };
-            axis = h;
-            rest = rest_rotation(h, a);
+        let [parent, child] = ends(s, e);
+        out.push(parent.and_then(|p| moved_by[p]));
+        if let Some(c) = child {
+            moved_by[c] = Some(k);
         }
-        let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-        out.push(Joint { kind: e.kind, parent: parent.and_then(|p| moved_by[p]), child, rho_p, rho_c, axis, rest });
-        moved_by[child] = Some(k);
     }
-    Some(out)
+    out
+}
+
+/// `[parent, child]` bodies of an edge.
+pub(crate) fn ends(s: &SceneDecl, e: &TreeEdge) -> [Option<usize>; 2] {
+    let j = &s.joints[e.joint];
+    if e.reversed { [j.bodies[1], j.bodies[0]] } else { [j.bodies[0], j.bodies[1]] }
+}
+
+/// One edge's joint with its geometry as numbers (`parent`: its parent
+/// edge), or `None` when a point or an axis is not a number.
+pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Option<Joint> {
+    let j = &s.joints[e.joint];
+    let child = ends(s, e)[1]?;
+    let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
+    let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    if e.kind == TreeKind::Revolute {
+        let first = unit(cross3(known(j, "f")?, known(j, "g")?))?;
+        let second = unit(known(j, "h")?)?;
+        let (a, h) = if e.reversed { (second, first) } else { (first, second) };
+        axis = h;
+        rest = rest_rotation(h, a);
+    }
+    let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
+    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest })
 }
 
 impl Builder {

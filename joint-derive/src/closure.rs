@@ -18,12 +18,12 @@
 use proc_macro2::{Span, TokenStream};
 use quote::quote;
 
-use crate::aba::{Builder, joints, offsets};
+use crate::aba::{Builder, ends, joint, parent_edges};
 use crate::engine::graph::Id;
 use crate::front::scene::SceneDecl;
 use crate::front::tree::{TreeEdge, TreeKind, closures};
 use crate::generate::{krate, matrix_tokens, print_none, vector_tokens};
-use crate::kinematics::Kinematics;
+use crate::kinematics::{Input, Kinematics, V3};
 use crate::lower::{Block, Derived, Naming, lower_rows, param_nodes};
 
 /// A constant row at most this far from zero is one the tree keeps (a
@@ -42,19 +42,8 @@ pub fn derive(
     if loops.is_empty() {
         return Ok(None);
     }
-    let Some(tree) = joints(s, edges) else {
-        let e = &s.joints[edges.iter().map(|e| e.joint).find(|&j| !known(s, j)).unwrap_or(edges[0].joint)];
-        return Err(syn::Error::new(
-            e.name.span(),
-            format!(
-                "joint `{}` is in a tree with closed loops, whose joint points and axes must be numbers; expected \
-                 numbers for its `rho1`, `rho2` and axes, or `coordinates = absolute`",
-                e.label()
-            ),
-        ));
-    };
     let mut k = Kinematics::tree(nq, nv);
-    frames(&mut k, s, &tree);
+    frames(&mut k, s, edges);
     let mut bindings = Vec::new();
     let (mut phi, mut blocks) = (Vec::new(), Vec::new());
     let mut errors = crate::front::context::Errors::new();
@@ -96,41 +85,49 @@ pub fn derive(
     Ok(Some((Derived { kinematics: k, phi, phi_t, jacobian, gamma, bindings, singularity: None }, blocks)))
 }
 
-/// Whether joint `i`'s points and axes are all numbers.
-fn known(s: &SceneDecl, i: usize) -> bool {
-    s.joints[i].params.iter().all(|p| p.source.known().is_some())
-}
-
-/// Every body's frame from the tree's coordinates, in body order.
-fn frames(k: &mut Kinematics, s: &SceneDecl, tree: &[crate::aba::Joint]) {
-    let (qa, va) = offsets(tree);
+/// Every body's frame from the tree's coordinates, in body order. A joint
+/// whose points and axes are numbers is folded; any other reads them from
+/// the runtime's `TreeGeometry` (its unit axis and rest rotation made once).
+fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
+    let sizes: Vec<(usize, usize)> = edges.iter().map(|e| e.kind.sizes()).collect();
+    let (mut qa, mut va) = (vec![0], vec![0]);
+    for (nq, nv) in &sizes {
+        qa.push(qa[qa.len() - 1] + nq);
+        va.push(va[va.len() - 1] + nv);
+    }
     let (q, v) = (k.coords.clone(), k.velocities.clone());
     let mut b = Builder { g: std::mem::take(&mut k.g), bindings: Vec::new() };
+    let mut reads = Vec::new();
     let (zero, one) = (b.g.zero(), b.g.constant(1.0));
     let identity = [[one, zero, zero], [zero, one, zero], [zero, zero, one]];
-    let mut poses: Vec<([[Id; 3]; 3], [Id; 3])> = Vec::with_capacity(tree.len());
+    let mut poses: Vec<([[Id; 3]; 3], [Id; 3])> = Vec::with_capacity(edges.len());
     let mut by_body = vec![(identity, [zero; 3]); s.bodies.len()];
     let mut spins = Vec::new();
-    for (n, j) in tree.iter().enumerate() {
-        let (nq, nv) = j.kind.sizes();
+    for (n, (e, parent)) in edges.iter().zip(parent_edges(s, edges)).enumerate() {
+        let (nq, nv) = sizes[n];
         let (qj, vj) = (&q[qa[n]..qa[n] + nq], &v[va[n]..va[n] + nv]);
-        let (a_p, r_p) = j.parent.map_or((identity, [zero; 3]), |p| poses[p]);
-        let rel = b.relative(j, qj);
+        let (a_p, r_p) = parent.map_or((identity, [zero; 3]), |p| poses[p]);
+        let (rel, rho_p, rho_c) = match joint(s, e, parent) {
+            Some(j) => {
+                let rel = b.relative(&j, qj);
+                (rel, j.rho_p.map(|x| b.g.constant(x)), j.rho_c.map(|x| b.g.constant(x)))
+            }
+            None => read_joint(&mut b, &mut reads, e.kind, n, qj),
+        };
         let a: [[Id; 3]; 3] = [0, 1, 2].map(|r| [0, 1, 2].map(|c| b.dot(&a_p[r], &[rel[0][c], rel[1][c], rel[2][c]])));
-        let (rho_p, rho_c) = (j.rho_p.map(|x| b.g.constant(x)), j.rho_c.map(|x| b.g.constant(x)));
         let (out, back) = (b.mv(&a_p, rho_p), b.mv(&a, rho_c));
         let r = [0, 1, 2].map(|i| {
             let t = b.g.add(r_p[i], out[i]);
             b.g.sub(t, back[i])
         });
         poses.push((a, r));
-        by_body[j.child] = (a, r);
-        match j.kind {
-            TreeKind::Revolute => spins.push((vec![qj[0]], vec![vj[0]])),
-            TreeKind::Spherical => spins.push((qj.to_vec(), vj.to_vec())),
+        if let Some(child) = ends(s, e)[1] {
+            by_body[child] = (a, r);
         }
+        spins.push((qj.to_vec(), vj.to_vec()));
     }
     k.g = b.g;
+    k.inputs.extend(reads);
     for (qj, vj) in spins {
         match qj.as_slice() {
             [theta] => k.rate(*theta, vj[0]),
@@ -142,9 +139,70 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, tree: &[crate::aba::Joint]) {
     }
 }
 
+/// Edge `n`'s rotation relative to its parent and its two joint points, read
+/// from `geometry` (`R₀ rot(h, θ)` for a revolute joint, the normalised
+/// quaternion's matrix for a spherical one).
+fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize, q: &[Id]) -> ([[Id; 3]; 3], V3, V3) {
+    let mut read = |b: &mut Builder, path: [String; 2]| -> V3 {
+        let name = path.join("_");
+        let vars = ["x", "y", "z"].map(|c| b.g.param(format!("{name}_{c}")));
+        reads.push(Input { root: "geometry", path: path.to_vec(), vars: vars.to_vec() });
+        vars
+    };
+    let (rho_p, rho_c) = (read(b, ["rho_parent".into(), n.to_string()]), read(b, ["rho_child".into(), n.to_string()]));
+    let rel = match kind {
+        TreeKind::Spherical => {
+            let spherical = crate::aba::Joint::spherical();
+            b.relative(&spherical, q)
+        }
+        TreeKind::Revolute => {
+            let h = read(b, ["axis".into(), n.to_string()]);
+            let columns: [V3; 3] = [0, 1, 2].map(|c| read_column(b, reads, n, c));
+            let (c, s) = (b.g.cos(q[0]), b.g.sin(q[0]));
+            let turn = rotation_about(b, h, c, s);
+            [0, 1, 2].map(|r| {
+                [0, 1, 2].map(|j| {
+                    b.dot(&[columns[0][r], columns[1][r], columns[2][r]], &[turn[0][j], turn[1][j], turn[2][j]])
+                })
+            })
+        }
+    };
+    (rel, rho_p, rho_c)
+}
+
+/// Column `c` of edge `n`'s rest rotation, read from `geometry.rest[n][c]`.
+fn read_column(b: &mut Builder, reads: &mut Vec<Input>, n: usize, c: usize) -> V3 {
+    let vars = ["x", "y", "z"].map(|x| b.g.param(format!("rest_{n}_{c}_{x}")));
+    reads.push(Input {
+        root: "geometry",
+        path: vec!["rest".into(), n.to_string(), c.to_string()],
+        vars: vars.to_vec(),
+    });
+    vars
+}
+
+/// `rot(h, θ) = c I + s [h]× + (1 − c) h hᵀ` for a unit `h` of nodes.
+fn rotation_about(b: &mut Builder, h: V3, c: Id, s: Id) -> [[Id; 3]; 3] {
+    let one = b.g.constant(1.0);
+    let omc = b.g.sub(one, c);
+    [0, 1, 2].map(|i| {
+        [0, 1, 2].map(|j| {
+            let hh = b.g.mul(h[i], h[j]);
+            let outer = b.g.mul(omc, hh);
+            if i == j {
+                return b.g.add(c, outer);
+            }
+            // [h]×[i][j] = −ε_ijk h_k.
+            let k = 3 - i - j;
+            let sh = b.g.mul(s, h[k]);
+            if (i + 1) % 3 == j { b.g.sub(outer, sh) } else { b.g.add(outer, sh) }
+        })
+    })
+}
+
 /// `fn closure_rows(&self, state) -> ClosureRows<NC, NV>` and the closures'
 /// row blocks (`CLOSURES`), with the number of rows.
-pub fn print(d: &Derived, blocks: &[Block]) -> (TokenStream, usize) {
+pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usize) {
     let k = krate();
     let rows = d.phi.len();
     let nv = d.kinematics.velocities.len();
@@ -166,11 +224,16 @@ pub fn print(d: &Derived, blocks: &[Block]) -> (TokenStream, usize) {
     let doc = format!(" The closures' rows in the tree's coordinates, derived by the engine: {ops} operations.");
     let (nc, nv) = (proc_macro2::Literal::usize_unsuffixed(rows), proc_macro2::Literal::usize_unsuffixed(nv));
     let nq = proc_macro2::Literal::usize_unsuffixed(d.kinematics.coords.len());
+    let nb = proc_macro2::Literal::usize_unsuffixed(bodies);
     let method = quote! {
         const CLOSURES: &'static [#k::RowBlock] = &[#(#blocks),*];
         #[doc = #doc]
         #[inline]
-        fn closure_rows(&self, state: &#k::tree::TreeState<#nq, #nv>) -> #k::tree::ClosureRows<#nc, #nv> {
+        fn closure_rows(
+            &self,
+            state: &#k::tree::TreeState<#nq, #nv>,
+            geometry: &#k::tree::TreeGeometry<#nb>,
+        ) -> #k::tree::ClosureRows<#nc, #nv> {
             #body
             #k::tree::ClosureRows { phi: #phi, jacobian: #jac, gamma: #gamma, phi_t: #phi_t }
         }

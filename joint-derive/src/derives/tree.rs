@@ -45,7 +45,8 @@ pub fn print(
         quote!(#[doc = #doc] #[inline] #method)
     });
     let controller = crate::aba::controller_methods(s, edges, nq, nv);
-    let (closure, nc) = loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks));
+    let (closure, nc) =
+        loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
     let body = quote! {
         fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }

@@ -177,11 +177,28 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     /// joints' rows composed with the tree's kinematics (rows that the tree
     /// keeps by construction, such as a planar loop's out-of-plane rows,
     /// left out at compile time). Nothing for a tree without loops.
+    /// `geometry` is the tree's ([`Tree::geometry`]), read where a tree
+    /// joint's points or axes are fields.
     #[inline]
-    fn closure_rows(&self, state: &TreeState<NQ, NV>) -> ClosureRows<NC, NV> {
-        let _ = state;
+    fn closure_rows(&self, state: &TreeState<NQ, NV>, geometry: &TreeGeometry<NB>) -> ClosureRows<NC, NV> {
+        let _ = (state, geometry);
         ClosureRows::zeros()
     }
+}
+
+/// Each tree joint's geometry, in tree order, as [`Tree::new`] prepared it
+/// from [`TreeScene::tree_joints`]: what generated closure rows read where a
+/// joint's points or axes are fields (numbers are folded into the code).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeGeometry<const NB: usize> {
+    /// The rest rotation `R₀` (revolute; the identity otherwise), by columns.
+    pub rest: [[Vector3<f64>; 3]; NB],
+    /// The child's unit axis `h` (revolute; zero otherwise).
+    pub axis: [Vector3<f64>; NB],
+    /// The joint point in the parent's frame.
+    pub rho_parent: [Vector3<f64>; NB],
+    /// The joint point in the child's frame.
+    pub rho_child: [Vector3<f64>; NB],
 }
 
 /// The closure rows of a relative-coordinate scene at one state: `Φ(q, t)`,

@@ -7,7 +7,7 @@ use nalgebra::{Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4, Vector6
 
 use super::kinematics::Subspace;
 use super::spatial::{link_inertia, split};
-use super::{TreeJoint, TreeJointKind, TreeScene, TreeState};
+use super::{TreeGeometry, TreeJoint, TreeJointKind, TreeScene, TreeState};
 use crate::{BodyInertia, OmegaBody, SystemState};
 
 /// Why a tree or a state was refused.
@@ -118,6 +118,8 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     pub(crate) q_at: [usize; NB],
     pub(crate) v_at: [usize; NB],
     pub(crate) gravity: Vector3<f64>,
+    /// The joints' geometry as the generated closure rows read it.
+    pub(crate) geometry: TreeGeometry<NB>,
 }
 
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
@@ -141,6 +143,12 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             q_at: [0; NB],
             v_at: [0; NB],
             gravity,
+            geometry: TreeGeometry {
+                rest: [[Vector3::zeros(); 3]; NB],
+                axis: [Vector3::zeros(); NB],
+                rho_parent: [Vector3::zeros(); NB],
+                rho_child: [Vector3::zeros(); NB],
+            },
         };
         let mut moved_by: [Option<usize>; NB] = [None; NB];
         let (mut nq, mut nv) = (0, 0);
@@ -173,6 +181,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 tree.rest[k] = rest_rotation(&h, &a);
             }
             tree.subspace[k] = tree.make_subspace(k);
+            let rest = tree.rest[k].to_rotation_matrix().into_inner();
+            tree.geometry.rest[k] = [0, 1, 2].map(|c| rest.column(c).into_owned());
+            tree.geometry.axis[k] = tree.axis[k];
+            tree.geometry.rho_parent[k] = j.rho_parent;
+            tree.geometry.rho_child[k] = j.rho_child;
             tree.q_at[k] = nq;
             tree.v_at[k] = nv;
             nq += j.kind.coordinates();
@@ -182,6 +195,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             return Err(TreeError::Sizes { coordinates: nq, freedoms: nv });
         }
         Ok(tree)
+    }
+
+    /// The joints' geometry as prepared here (unit axes, rest rotations),
+    /// which generated closure rows read where a tree joint's points or axes
+    /// are fields.
+    pub fn geometry(&self) -> &TreeGeometry<NB> {
+        &self.geometry
     }
 
     /// The joints, in tree order.
