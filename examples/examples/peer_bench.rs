@@ -25,6 +25,9 @@
 //! mass matrix are timed instead (ns per call, at the state a MuJoCo harness
 //! can time `mj_inverse` and `mj_fullM` at).
 //!
+//! `H=1e-4` (say) steps by that instead of 1 ms: a reference for the error
+//! of the 1 ms steps at the same time (`STEPS` × `H`).
+//!
 //! Each round restarts from the scene's start and times `STEPS` steps; the
 //! median round is printed with the tip (the last bar's end at `(0.5, 0, 0)`)
 //! after the round, which the peers print too (the arm of 6 after 2 s:
@@ -125,7 +128,7 @@ where
             *end = *start;
             let clock = Instant::now();
             for _ in 0..steps {
-                sim.step(&mut end, 1e-3).map_err(|e| e.to_string())?;
+                sim.step(&mut end, step()).map_err(|e| e.to_string())?;
             }
             us.push(clock.elapsed().as_secs_f64() * 1e6 / steps as f64);
         }
@@ -170,7 +173,7 @@ where
         end = start;
         let clock = Instant::now();
         for _ in 0..steps {
-            sim.step(&mut end, 1e-3)?;
+            sim.step(&mut end, step())?;
         }
         us.push(clock.elapsed().as_secs_f64() * 1e6 / steps as f64);
     }
@@ -228,18 +231,28 @@ where
     Ok(())
 }
 
-/// The JSON line: the median round, its spread, the tip.
+/// The step: 1 ms, or `H` from the environment (a finer reference run, to
+/// measure the error of the 1 ms steps).
+fn step() -> f64 {
+    std::env::var("H").ok().and_then(|s| s.parse().ok()).unwrap_or(1e-3)
+}
+
+/// The JSON line: the median round, its spread, the tip and the last body's centre.
 fn print(name: &str, bodies: usize, rows: usize, steps: usize, us: &[f64], last: &OmegaBody<f64>, t: f64) {
     let tip = last.point(&Vector3::new(0.5, 0.0, 0.0));
     println!(
         "{{\"peer\":\"joint\",\"scene\":\"{name}\",\"bodies\":{bodies},\"rows\":{rows},\"steps\":{steps},\
-         \"us_per_step\":{:.4},\"us_min\":{:.4},\"us_max\":{:.4},\"tip\":[{:.10},{:.10},{:.10}],\"time\":{:.6}}}",
+         \"us_per_step\":{:.4},\"us_min\":{:.4},\"us_max\":{:.4},\"tip\":[{:.10},{:.10},{:.10}],\
+         \"centre\":[{:.10},{:.10},{:.10}],\"time\":{:.6}}}",
         us[us.len() / 2],
         us[0],
         us[us.len() - 1],
         tip.x,
         tip.y,
         tip.z,
+        last.r.x,
+        last.r.y,
+        last.r.z,
         t
     );
 }

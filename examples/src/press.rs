@@ -26,7 +26,7 @@ pub const DAMPING: f64 = 400.0;
 
 /// The press (see the module documentation).
 #[derive(joint_runtime::Scene)]
-#[scene(gravity = [0, -9.81, 0], second_order)]
+#[scene(gravity = [0, -9.81, 0], second_order, coordinates = both)]
 #[body(crank, mass = 1.0, inertia = [0.001, 0.02, 0.02])]
 #[body(coupler, mass = 2.0, inertia = [0.002, 0.67, 0.67])]
 #[body(rocker, mass = 1.5, inertia = [0.0015, 0.125, 0.125])]

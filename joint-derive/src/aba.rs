@@ -213,9 +213,11 @@ pub(crate) struct Joint {
     pub(crate) child: usize,
     pub(crate) rho_p: [f64; 3],
     pub(crate) rho_c: [f64; 3],
-    /// Revolute: the child axis, unit, and `R₀`.
+    /// Revolute, prismatic: the child axis, unit, and `R₀`.
     axis: [f64; 3],
     rest: [[f64; 3]; 3],
+    /// Prismatic: the unit axis in the parent's frame, `R₀ h`.
+    slide: [f64; 3],
 }
 
 fn known(j: &JointDecl, name: &str) -> Option<[f64; 3]> {
@@ -249,6 +251,20 @@ fn rest_rotation(h: [f64; 3], a: [f64; 3]) -> [[f64; 3]; 3] {
     rodrigues(axis, c, s)
 }
 
+/// The rotation taking the child's axes `(h, k)` onto the parent's `(a, g)`
+/// (each second axis made perpendicular to its unit first), as the runtime
+/// makes it; `None` when a second axis is along its first.
+fn locked_rotation(h: [f64; 3], k: [f64; 3], a: [f64; 3], g: [f64; 3]) -> Option<[[f64; 3]; 3]> {
+    let frame = |x: [f64; 3], y: [f64; 3]| -> Option<[[f64; 3]; 3]> {
+        let d = dot3(&x, &y);
+        let y = unit([0, 1, 2].map(|i| y[i] - x[i] * d))?;
+        Some([x, y, cross3(x, y)])
+    };
+    let (child, parent) = (frame(h, k)?, frame(a, g)?);
+    // Σ_c parent[c] ⊗ child[c]: the parent frame's columns times the child's rows.
+    Some([0, 1, 2].map(|r| [0, 1, 2].map(|s| (0..3).map(|c| parent[c][r] * child[c][s]).sum())))
+}
+
 fn rodrigues(k: [f64; 3], c: f64, s: f64) -> [[f64; 3]; 3] {
     let mut r = [[0.0; 3]; 3];
     for (i, row) in r.iter_mut().enumerate() {
@@ -280,6 +296,7 @@ impl Joint {
             rho_c: [0.0; 3],
             axis: [0.0; 3],
             rest: identity,
+            slide: [0.0; 3],
         }
     }
 }
@@ -318,15 +335,23 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
     let child = ends(s, e)[1]?;
     let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
     let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    if e.kind == TreeKind::Revolute {
+    let mut slide = [0.0; 3];
+    if e.kind != TreeKind::Spherical {
         let first = unit(cross3(known(j, "f")?, known(j, "g")?))?;
         let second = unit(known(j, "h")?)?;
         let (a, h) = if e.reversed { (second, first) } else { (first, second) };
         axis = h;
         rest = rest_rotation(h, a);
+        if e.kind == TreeKind::Prismatic {
+            // The second axes `g` (body 1) and `k` (body 2) lock the turn.
+            let (g, k) = (known(j, "g")?, known(j, "k")?);
+            let (g, k) = if e.reversed { (k, g) } else { (g, k) };
+            rest = locked_rotation(h, k, a, g)?;
+            slide = a;
+        }
     }
     let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest })
+    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide })
 }
 
 impl Builder {
@@ -362,6 +387,18 @@ impl Builder {
         (m, i)
     }
 
+    /// `r + d a`: a prismatic joint's offset moved by its slide `d` along its
+    /// parent-frame axis `a`; `r` otherwise.
+    pub(crate) fn slid(&mut self, j: &Joint, r: V3, q: &[Id]) -> V3 {
+        if j.kind != TreeKind::Prismatic {
+            return r;
+        }
+        [0, 1, 2].map(|i| {
+            let t = self.scale(j.slide[i], q[0]);
+            self.g.add(r[i], t)
+        })
+    }
+
     /// The child's rotation relative to its parent, `R₀ rot(h, θ)` or the
     /// normalised quaternion's matrix.
     pub(crate) fn relative(&mut self, j: &Joint, q: &[Id]) -> M3 {
@@ -395,6 +432,7 @@ impl Builder {
                 let rest: M3 = j.rest.map(|row| row.map(|x| self.c(x)));
                 [0, 1, 2].map(|a| [0, 1, 2].map(|b| self.dot(&rest[a], &[rot[0][b], rot[1][b], rot[2][b]])))
             }
+            TreeKind::Prismatic => j.rest.map(|row| row.map(|x| self.c(x))),
             TreeKind::Spherical => {
                 let (e0, e) = (q[0], [q[1], q[2], q[3]]);
                 let n2 = self.dot(q, q);
@@ -430,11 +468,12 @@ impl Builder {
 /// joint point): `[a; 0]` per freedom, a coordinate axis for a spherical
 /// joint and for a revolute joint about `x`, `y` or `z`.
 fn subspace(j: &Joint) -> Vec<[f64; 6]> {
-    let axes = match j.kind {
-        TreeKind::Revolute => vec![j.axis],
-        TreeKind::Spherical => vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-    };
-    axes.into_iter().map(|a| [a[0], a[1], a[2], 0.0, 0.0, 0.0]).collect()
+    let turn = |a: [f64; 3]| [a[0], a[1], a[2], 0.0, 0.0, 0.0];
+    match j.kind {
+        TreeKind::Revolute => vec![turn(j.axis)],
+        TreeKind::Spherical => vec![turn([1.0, 0.0, 0.0]), turn([0.0, 1.0, 0.0]), turn([0.0, 0.0, 1.0])],
+        TreeKind::Prismatic => vec![[0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
+    }
 }
 
 /// The entries a subspace of coordinate axes selects (`None` when a column
@@ -505,8 +544,9 @@ impl Builder {
         // Link frames: each body's axes, origin at its inbound joint point, so
         // that the joint's subspace is constant coordinate axes and the
         // offset between two joint points a constant of the parent.
-        let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound[i]);
-        let x = Transform { e, r: self.consts3(r) };
+        let r = self.consts3([0, 1, 2].map(|i| j.rho_p[i] - inbound[i]));
+        let r = self.slid(j, r, q);
+        let x = Transform { e, r };
         let s_k = self.columns(j);
         let mut vj = [zero; 6];
         for (i, col) in s_k.iter().enumerate() {

@@ -110,7 +110,8 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
         let (rel, rho_p, rho_c) = match joint(s, e, parent) {
             Some(j) => {
                 let rel = b.relative(&j, qj);
-                (rel, j.rho_p.map(|x| b.g.constant(x)), j.rho_c.map(|x| b.g.constant(x)))
+                let rho_p = j.rho_p.map(|x| b.g.constant(x));
+                (rel, b.slid(&j, rho_p, qj), j.rho_c.map(|x| b.g.constant(x)))
             }
             None => read_joint(&mut b, &mut reads, e.kind, n, qj),
         };
@@ -139,45 +140,40 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
     }
 }
 
-/// Edge `n`'s rotation relative to its parent and its two joint points, read
-/// from `geometry` (`R₀ rot(h, θ)` for a revolute joint, the normalised
-/// quaternion's matrix for a spherical one).
+/// Edge `n`'s rotation relative to its parent and its two joint points (the
+/// parent's slid along the axis, prismatic), read from `geometry`:
+/// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic one, the
+/// normalised quaternion's matrix for a spherical one.
 fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize, q: &[Id]) -> ([[Id; 3]; 3], V3, V3) {
-    let mut read = |b: &mut Builder, path: [String; 2]| -> V3 {
-        let name = path.join("_");
-        let vars = ["x", "y", "z"].map(|c| b.g.param(format!("{name}_{c}")));
-        reads.push(Input { root: "geometry", path: path.to_vec(), vars: vars.to_vec() });
-        vars
-    };
-    let (rho_p, rho_c) = (read(b, ["rho_parent".into(), n.to_string()]), read(b, ["rho_child".into(), n.to_string()]));
-    let rel = match kind {
-        TreeKind::Spherical => {
-            let spherical = crate::aba::Joint::spherical();
-            b.relative(&spherical, q)
-        }
-        TreeKind::Revolute => {
-            let h = read(b, ["axis".into(), n.to_string()]);
-            let columns: [V3; 3] = [0, 1, 2].map(|c| read_column(b, reads, n, c));
-            let (c, s) = (b.g.cos(q[0]), b.g.sin(q[0]));
-            let turn = rotation_about(b, h, c, s);
-            [0, 1, 2].map(|r| {
-                [0, 1, 2].map(|j| {
-                    b.dot(&[columns[0][r], columns[1][r], columns[2][r]], &[turn[0][j], turn[1][j], turn[2][j]])
-                })
-            })
-        }
-    };
+    let at = n.to_string();
+    let rho_p = read(b, reads, &["rho_parent", &at]);
+    let rho_c = read(b, reads, &["rho_child", &at]);
+    if kind == TreeKind::Spherical {
+        return (b.relative(&crate::aba::Joint::spherical(), q), rho_p, rho_c);
+    }
+    let h = read(b, reads, &["axis", &at]);
+    let columns: [V3; 3] = [0, 1, 2].map(|c| read(b, reads, &["rest", &at, &c.to_string()]));
+    let rest: [[Id; 3]; 3] = [0, 1, 2].map(|r| [0, 1, 2].map(|c| columns[c][r]));
+    if kind == TreeKind::Prismatic {
+        // `a = R₀ h`, the axis in the parent's frame.
+        let a = b.mv(&rest, h);
+        let slid = [0, 1, 2].map(|i| {
+            let t = b.g.mul(a[i], q[0]);
+            b.g.add(rho_p[i], t)
+        });
+        return (rest, slid, rho_c);
+    }
+    let (c, s) = (b.g.cos(q[0]), b.g.sin(q[0]));
+    let turn = rotation_about(b, h, c, s);
+    let rel = [0, 1, 2].map(|r| [0, 1, 2].map(|j| b.dot(&rest[r], &[turn[0][j], turn[1][j], turn[2][j]])));
     (rel, rho_p, rho_c)
 }
 
-/// Column `c` of edge `n`'s rest rotation, read from `geometry.rest[n][c]`.
-fn read_column(b: &mut Builder, reads: &mut Vec<Input>, n: usize, c: usize) -> V3 {
-    let vars = ["x", "y", "z"].map(|x| b.g.param(format!("rest_{n}_{c}_{x}")));
-    reads.push(Input {
-        root: "geometry",
-        path: vec!["rest".into(), n.to_string(), c.to_string()],
-        vars: vars.to_vec(),
-    });
+/// A vector of `geometry` at `path` (`rest`, `3`, `0`: `geometry.rest[3][0]`).
+fn read(b: &mut Builder, reads: &mut Vec<Input>, path: &[&str]) -> V3 {
+    let name = path.join("_");
+    let vars = ["x", "y", "z"].map(|c| b.g.param(format!("{name}_{c}")));
+    reads.push(Input { root: "geometry", path: path.iter().map(|p| p.to_string()).collect(), vars: vars.to_vec() });
     vars
 }
 

@@ -100,14 +100,21 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     let child = Literal::usize_unsuffixed(child.unwrap_or(0));
     let (rho1, rho2) = (param(j, "rho1"), param(j, "rho2"));
     let (axis1, axis2) = match e.kind {
-        TreeKind::Revolute => (first_axis(j), param(j, "h")),
+        TreeKind::Revolute | TreeKind::Prismatic => (first_axis(j), param(j, "h")),
         TreeKind::Spherical => (zero(), zero()),
+    };
+    // The second axes that lock a prismatic joint's turn: `g` and `k`.
+    let (lock1, lock2) = match e.kind {
+        TreeKind::Prismatic => (param(j, "g"), param(j, "k")),
+        _ => (zero(), zero()),
     };
     let (rho_p, rho_c, axis_p, axis_c) =
         if e.reversed { (rho2, rho1, axis2, axis1) } else { (rho1, rho2, axis1, axis2) };
+    let (lock_p, lock_c) = if e.reversed { (lock2, lock1) } else { (lock1, lock2) };
     let kind = match e.kind {
         TreeKind::Revolute => quote!(Revolute),
         TreeKind::Spherical => quote!(Spherical),
+        TreeKind::Prismatic => quote!(Prismatic),
     };
     quote! {
         #k::tree::TreeJoint {
@@ -119,6 +126,8 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
             rho_child: #rho_c,
             axis_parent: #axis_p,
             axis_child: #axis_c,
+            lock_parent: #lock_p,
+            lock_child: #lock_c,
         }
     }
 }

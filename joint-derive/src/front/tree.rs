@@ -1,5 +1,5 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
-//! ground through its tree joints (`revolute`, `spherical` for now), every
+//! ground through its tree joints (`revolute`, `spherical`, `translational`), every
 //! body reached; the other joints close loops.
 
 use super::context::Errors;
@@ -12,6 +12,8 @@ pub enum TreeKind {
     Revolute,
     /// A unit quaternion.
     Spherical,
+    /// A slide along the axis (`translational`), rotation locked.
+    Prismatic,
 }
 
 impl TreeKind {
@@ -20,6 +22,7 @@ impl TreeKind {
         match name {
             "revolute" => Some(TreeKind::Revolute),
             "spherical" => Some(TreeKind::Spherical),
+            "translational" => Some(TreeKind::Prismatic),
             _ => None,
         }
     }
@@ -27,7 +30,7 @@ impl TreeKind {
     /// Coordinates and velocities.
     pub fn sizes(self) -> (usize, usize) {
         match self {
-            TreeKind::Revolute => (1, 1),
+            TreeKind::Revolute | TreeKind::Prismatic => (1, 1),
             TreeKind::Spherical => (4, 3),
         }
     }
@@ -46,7 +49,7 @@ pub struct TreeEdge {
 }
 
 /// The joints in tree order, parents first: the first declared tree joint
-/// (`revolute`, `spherical`) that reaches a new body from the reached ones,
+/// (`revolute`, `spherical`, `translational`) that reaches a new body from the reached ones,
 /// again and again (a breadth-first spanning tree that keeps the
 /// declaration's order among equals). Every other joint (one that closes a
 /// loop, or of a kind without a tree parametrisation) is a closure: its rows
@@ -88,7 +91,7 @@ fn unreached(bodies: &[Body], joints: &[JointDecl], reached: &[bool], errors: &m
             j.kind_span,
             format!(
                 "`{}` has no tree parametrisation yet, so {names} {verb} no path of tree joints (`revolute`, \
-                 `spherical`) to the ground; expected `coordinates = absolute` for this scene",
+                 `spherical`, `translational`) to the ground; expected `coordinates = absolute` for this scene",
                 j.kind.name
             ),
         ),

@@ -37,6 +37,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             TreeJointKind::Spherical => {
                 Subspace { cols: [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| turning(&e)), n: 3 }
             }
+            TreeJointKind::Prismatic => {
+                Subspace { cols: [join(&Vector3::zeros(), &self.axis[k]), Vector6::zeros(), Vector6::zeros()], n: 1 }
+            }
         }
     }
 
@@ -49,14 +52,20 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at])
             }
             TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
+            TreeJointKind::Prismatic => self.rest[k],
         }
     }
 
     /// Joint `k`'s transform from its parent's link frame to its child's:
-    /// the offset between the two joint points is a constant of the parent.
+    /// the offset between the two joint points is a constant of the parent
+    /// (plus the slide along the parent's axis, prismatic).
     pub(crate) fn transform(&self, k: usize, q: &SVector<f64, NQ>) -> Transform {
         let rel: Matrix3<f64> = self.relative_rotation(k, q).to_rotation_matrix().into_inner();
-        Transform { e: rel.transpose(), r: self.offset[k] }
+        let r = match self.joints[k].kind {
+            TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * q[self.q_at[k]],
+            _ => self.offset[k],
+        };
+        Transform { e: rel.transpose(), r }
     }
 
     /// `S q̇` of joint `k`.

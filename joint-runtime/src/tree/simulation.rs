@@ -269,7 +269,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for (k, j) in self.joints.iter().enumerate() {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
-                TreeJointKind::Revolute => out[qa] = v[va],
+                TreeJointKind::Revolute | TreeJointKind::Prismatic => out[qa] = v[va],
                 TreeJointKind::Spherical => {
                     let p = Quaternion::new(q[qa], q[qa + 1], q[qa + 2], q[qa + 3]);
                     let w = Quaternion::new(0.0, v[va], v[va + 1], v[va + 2]);
@@ -288,7 +288,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for (k, j) in self.joints.iter().enumerate() {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
-                TreeJointKind::Revolute => q[qa] += delta[va],
+                TreeJointKind::Revolute | TreeJointKind::Prismatic => q[qa] += delta[va],
                 TreeJointKind::Spherical => {
                     let p = super::kinematics::unit(&q.fixed_rows::<4>(qa).into_owned());
                     let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());

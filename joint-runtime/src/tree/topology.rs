@@ -3,7 +3,7 @@
 
 use core::fmt;
 
-use nalgebra::{Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4, Vector6};
+use nalgebra::{Matrix3, Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4, Vector6};
 
 use super::kinematics::Subspace;
 use super::spatial::{link_inertia, split};
@@ -104,8 +104,11 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     pub(crate) parent: [Option<usize>; NB],
     /// Revolute: the child axis `h`, unit.
     pub(crate) axis: [Vector3<f64>; NB],
-    /// Revolute: `R₀`, the shortest rotation taking `h` onto the parent's axis.
+    /// Revolute: `R₀`, the shortest rotation taking `h` onto the parent's
+    /// axis; prismatic: the rotation taking `(h, k)` onto `(a, g)`.
     pub(crate) rest: [UnitQuaternion<f64>; NB],
+    /// Prismatic: the unit axis `a = R₀ h` in the parent's frame.
+    pub(crate) slide: [Vector3<f64>; NB],
     /// The spatial inertia of joint `k`'s child about its joint point
     /// (its link frame's origin).
     pub(crate) inertia: [Matrix6<f64>; NB],
@@ -136,6 +139,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             parent: [None; NB],
             axis: [Vector3::zeros(); NB],
             rest: [UnitQuaternion::identity(); NB],
+            slide: [Vector3::zeros(); NB],
             inertia: [Matrix6::zeros(); NB],
             offset: [Vector3::zeros(); NB],
             mass: inertias,
@@ -170,7 +174,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 return Err(TreeError::Inertia { body: j.child });
             }
             tree.inertia[k] = link_inertia(b.mass, &b.inertia, &(-j.rho_child));
-            if j.kind == TreeJointKind::Revolute {
+            if j.kind != TreeJointKind::Spherical {
                 let axis_error = TreeError::Axis { joint: j.name };
                 let h = Unit::try_new(j.axis_child, 1e-300).ok_or(axis_error)?;
                 let a = Unit::try_new(j.axis_parent, 1e-300).ok_or(axis_error)?;
@@ -178,7 +182,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     return Err(axis_error);
                 }
                 tree.axis[k] = h.into_inner();
-                tree.rest[k] = rest_rotation(&h, &a);
+                tree.rest[k] = match j.kind {
+                    TreeJointKind::Prismatic => {
+                        locked_rotation(&h, &j.lock_child, &a, &j.lock_parent).ok_or(axis_error)?
+                    }
+                    _ => rest_rotation(&h, &a),
+                };
+                tree.slide[k] = a.into_inner();
             }
             tree.subspace[k] = tree.make_subspace(k);
             let rest = tree.rest[k].to_rotation_matrix().into_inner();
@@ -285,6 +295,23 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     state.v.fixed_rows_mut::<3>(va).copy_from(&w_rel);
                     0.0
                 }
+                TreeJointKind::Prismatic => {
+                    // The child's point slides along the parent's axis: the
+                    // gap and slip along it are the coordinate and its rate.
+                    let axis = a_p * self.slide[k];
+                    state.q[qa] = -gap.dot(&axis);
+                    state.v[va] = -slip.dot(&axis);
+                    rel.angle_to(&self.rest[k]) + w_rel.norm()
+                }
+            };
+            let (gap, slip) = match j.kind {
+                TreeJointKind::Prismatic => {
+                    let axis = a_p * self.slide[k];
+                    // The parent's material point under the child's turns with it.
+                    let carried = w_p_inertial.cross(&(axis * state.q[qa]));
+                    (gap + axis * state.q[qa], slip + axis * state.v[va] + carried)
+                }
+                _ => (gap, slip),
             };
             let misfit = gap.norm() + slip.norm() + turn_misfit;
             if !misfit.is_finite() || misfit > tolerance {
@@ -293,6 +320,24 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         Ok(state)
     }
+}
+
+/// The rotation taking the child's axes `(h, k)` onto the parent's `(a, g)`
+/// (each second axis made perpendicular to its first), or `None` when a
+/// second axis is zero or along its first.
+fn locked_rotation(
+    h: &Unit<Vector3<f64>>,
+    k: &Vector3<f64>,
+    a: &Unit<Vector3<f64>>,
+    g: &Vector3<f64>,
+) -> Option<UnitQuaternion<f64>> {
+    let frame = |x: &Unit<Vector3<f64>>, y: &Vector3<f64>| -> Option<Matrix3<f64>> {
+        let y = Unit::try_new(y - x.as_ref() * x.dot(y), 1e-12)?;
+        Some(Matrix3::from_columns(&[x.into_inner(), y.into_inner(), x.cross(&y)]))
+    };
+    let (child, parent) = (frame(h, k)?, frame(a, g)?);
+    let rotation = nalgebra::Rotation3::from_matrix_unchecked(parent * child.transpose());
+    Some(UnitQuaternion::from_rotation_matrix(&rotation))
 }
 
 /// `R₀`: the shortest rotation taking `h` onto `a` (half a turn about a

@@ -80,6 +80,27 @@ struct LongChain;
 #[joint(ball = spherical(ground, rod), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
 struct Impossible;
 
+/// A block on a rail tilted in the x–z plane (`translational`: a prismatic
+/// tree joint), its frame turned on the rail (its y axis along it).
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(block, mass = 2.0, inertia = [0.1, 0.2, 0.25])]
+#[joint(rail = translational(ground, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, 1], rho2 = [0.1, 0, 0])]
+struct Slider;
+
+/// A cart on that rail and a pole pinned to it: prismatic, then revolute.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(cart, mass = 2.0, inertia = [0.1, 0.2, 0.25])]
+#[body(pole, mass = 0.5, inertia = [0.04, 0.04, 0.001])]
+#[joint(rail = translational(ground, cart), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, 1], rho2 = [0.1, 0, 0])]
+#[joint(pin = revolute(cart, pole), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0.2], rho2 = [0, 0, 0.5])]
+struct CartPole;
+
+fn cart_pole_state() -> CartPoleTreeState {
+    TreeState { q: SVector::from([0.2, 0.5]), v: SVector::from([1.0, -0.7]), t: 0.0 }
+}
+
 fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
     let n = (w * w + x * x + y * y + z * z).sqrt();
     [w / n, x / n, y / n, z / n]
@@ -181,6 +202,7 @@ fn mass_matrix_against_energy<S, const NB: usize, const NV6: usize, const M: usi
 fn mass_matrix_is_the_kinetic_energy_hessian() {
     mass_matrix_against_energy(&Walker, &walker_state());
     mass_matrix_against_energy(&Arm3, &arm_state());
+    mass_matrix_against_energy(&CartPole, &cart_pole_state());
 }
 
 /// The recursions agree with each other: `RNEA(q, v, ABA(q, v, τ)) = τ`, and
@@ -251,6 +273,32 @@ fn same_motion<
 fn both_coordinate_choices_give_the_same_motion() {
     same_motion(&Walker, walker_state(), 1e-10);
     same_motion(&Arm3, arm_state(), 1e-10);
+    same_motion(&CartPole, cart_pole_state(), 1e-10);
+}
+
+/// A block sliding down its rail: `d̈ = −g a_z / |a|` (the rail's slope), the
+/// pose carried along the rail with the block's frame turned onto it.
+#[test]
+fn prismatic_joint_against_its_closed_form() {
+    let sim = TreeSimulation::new(&Slider).unwrap();
+    let state = TreeState { q: SVector::from([0.3]), v: SVector::from([0.4]), t: 0.0 };
+    let a = Vector3::new(1.0, 0.0, 0.5).normalize();
+    let vdot = sim.forward_dynamics(&state, &SVector::zeros()).unwrap();
+    assert!((vdot[0] + 9.81 * a.z).abs() < 1e-14, "{vdot}");
+    assert!((sim.tree().forward_dynamics(&state, &SVector::zeros()).unwrap()[0] - vdot[0]).abs() < 1e-14);
+    // The block's point `rho2` on the rail 0.3 m from the ground's `rho1`.
+    let system = sim.tree().system_state(&state);
+    let block = &system.bodies[0];
+    let point = block.point(&Vector3::new(0.1, 0.0, 0.0));
+    assert!((point - (Vector3::new(0.0, 0.0, 1.0) + a * 0.3)).norm() < 1e-15);
+    assert!((block.rotation_matrix() * Vector3::y() - a).norm() < 1e-15, "its y axis along the rail");
+    assert!((block.rdot - a * 0.4).norm() < 1e-15 && block.omega.norm() == 0.0);
+    // And back: the slide and its rate from the absolute state.
+    let back = sim.tree().tree_state(&system, 1e-12).unwrap();
+    assert!((back.q[0] - 0.3).abs() < 1e-15 && (back.v[0] - 0.4).abs() < 1e-15);
+    // Pushed with 2 N along the rail against 2 kg: d̈ grows by 1 m/s².
+    let pushed = sim.forward_dynamics(&state, &SVector::from([2.0])).unwrap();
+    assert!((pushed[0] - vdot[0] - 1.0).abs() < 1e-14);
 }
 
 #[test]
@@ -317,6 +365,7 @@ fn generated_against_recursion<S, const NB: usize, const NQ: usize, const NV: us
 fn the_written_out_algorithm_matches_the_recursion() {
     generated_against_recursion(&Walker, &walker_state(), true);
     generated_against_recursion(&Arm3, &arm_state(), true);
+    generated_against_recursion(&CartPole, &cart_pole_state(), true);
     let state = TreeState { q: SVector::from([0.7]), v: SVector::from([3.0]), t: 0.0 };
     generated_against_recursion(&HeavyBar { mass: 2.0 }, &state, true);
     let field = FieldBar { mass: 2.0, end: Vector3::new(-0.5, 0.0, 0.0) };
