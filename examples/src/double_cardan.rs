@@ -160,7 +160,7 @@ impl Geometry {
 /// `input_bearing`, `output_bearing` (revolute to the ground), `first`, `second`
 /// (universal) and `motor` (rotational driver of the input, `θ = ω₁ t`).
 #[derive(Scene, Clone, Copy, Debug)]
-#[scene(gravity = [0, 0, -9.81], second_order)]
+#[scene(gravity = [0, 0, -9.81], second_order, coordinates = both)]
 #[body(input, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(middle, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(output, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
@@ -218,7 +218,7 @@ impl DoubleCardan {
 /// input spins freely in its bearing). Joints `input_bearing`, `output_bearing`,
 /// `first`, `second`; gravity along −z.
 #[derive(Scene, Clone, Copy, Debug)]
-#[scene(gravity = [0, 0, -9.81], second_order)]
+#[scene(gravity = [0, 0, -9.81], second_order, coordinates = both)]
 #[body(input, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(middle, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(output, mass = 2.0, inertia = [0.001, 0.17, 0.17])]

@@ -123,6 +123,7 @@ pub fn lower_joint_position() -> Vector3<f64> {
 /// lower one the two-angle joint with one translational degree of freedom); the
 /// pinion shaft in its bearing. See the module documentation.
 #[derive(joint_runtime::Scene)]
+#[scene(coordinates = both)]
 #[body(input, mass = 1.5, inertia = [0.0008, 0.045, 0.045])]
 #[body(intermediate, mass = 0.9, inertia = [0.0003, 0.012, 0.012])]
 #[body(output, mass = 0.4, inertia = [0.0001, 0.0008, 0.0008])]
@@ -151,6 +152,7 @@ pub struct SteeringColumn<F> {
 /// two-angle joint with one translational degree of freedom of
 /// [`SteeringColumn`] is the spline and the Cardan joint together.
 #[derive(joint_runtime::Scene)]
+#[scene(coordinates = both)]
 #[body(input, mass = 1.5, inertia = [0.0008, 0.045, 0.045])]
 #[body(upper_half, mass = 0.5, inertia = [0.0002, 0.006, 0.006])]
 #[body(lower_half, mass = 0.4, inertia = [0.0001, 0.005, 0.005])]

@@ -251,6 +251,16 @@ fn rest_rotation(h: [f64; 3], a: [f64; 3]) -> [[f64; 3]; 3] {
     rodrigues(axis, c, s)
 }
 
+/// `h` made perpendicular to `a` (both unit), as the runtime makes a
+/// universal joint's rest direction (`perpendicular_pair`'s first when `h` is
+/// along `a`).
+fn across(h: [f64; 3], a: [f64; 3]) -> [f64; 3] {
+    let d = dot3(&h, &a);
+    unit([0, 1, 2].map(|i| h[i] - a[i] * d))
+        .filter(|_| (1.0 - d * d).sqrt() > 1e-9)
+        .unwrap_or_else(|| perpendicular_pair(&a).0)
+}
+
 /// The rotation taking the child's axes `(h, k)` onto the parent's `(a, g)`
 /// (each second axis made perpendicular to its unit first), as the runtime
 /// makes it; `None` when a second axis is along its first.
@@ -336,6 +346,13 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
     let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
     let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
     let mut slide = [0.0; 3];
+    if e.kind == TreeKind::Universal {
+        let (first, second) = (unit(known(j, "s")?)?, unit(known(j, "h")?)?);
+        let (a, h) = if e.reversed { (second, first) } else { (first, second) };
+        let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
+        let rest = rest_rotation(h, across(h, a));
+        return Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis: h, rest, slide: a });
+    }
     if e.kind != TreeKind::Spherical {
         let first = unit(cross3(known(j, "f")?, known(j, "g")?))?;
         let second = unit(known(j, "h")?)?;
@@ -399,38 +416,53 @@ impl Builder {
         })
     }
 
-    /// The child's rotation relative to its parent, `R₀ rot(h, θ)` or the
-    /// normalised quaternion's matrix.
+    /// `rot(h, θ)` about a unit axis of numbers.
+    fn turn(&mut self, h: [f64; 3], theta: Id) -> M3 {
+        let (c, s) = (self.g.cos(theta), self.g.sin(theta));
+        let one = self.c(1.0);
+        let omc = self.g.sub(one, c);
+        [0, 1, 2].map(|a| {
+            [0, 1, 2].map(|b| {
+                if a == b {
+                    // c + (1 − c) h²: exactly 1 or c on a coordinate axis.
+                    match h[a] * h[a] {
+                        1.0 => one,
+                        0.0 => c,
+                        x => {
+                            let t = self.scale(x, omc);
+                            self.g.add(c, t)
+                        }
+                    }
+                } else {
+                    let k = 3 - a - b;
+                    let sign = if (a + 1) % 3 == b { -1.0 } else { 1.0 };
+                    let t1 = self.scale(h[a] * h[b], omc);
+                    let t2 = self.scale(sign * h[k], s);
+                    self.g.add(t1, t2)
+                }
+            })
+        })
+    }
+
+    /// `A B` for 3 × 3 blocks.
+    fn mm(&mut self, a: &M3, b: &M3) -> M3 {
+        [0, 1, 2].map(|r| [0, 1, 2].map(|c| self.dot(&a[r], &[b[0][c], b[1][c], b[2][c]])))
+    }
+
+    /// The child's rotation relative to its parent: `R₀ rot(h, θ)`,
+    /// `R₀`, `rot(s, θ₁) R₀ rot(h, θ₂)` or the normalised quaternion's matrix.
     pub(crate) fn relative(&mut self, j: &Joint, q: &[Id]) -> M3 {
         match j.kind {
             TreeKind::Revolute => {
-                let (c, s) = (self.g.cos(q[0]), self.g.sin(q[0]));
-                let one = self.c(1.0);
-                let omc = self.g.sub(one, c);
-                let h = j.axis;
-                let rot: M3 = [0, 1, 2].map(|a| {
-                    [0, 1, 2].map(|b| {
-                        if a == b {
-                            // c + (1 − c) h²: exactly 1 or c on a coordinate axis.
-                            match h[a] * h[a] {
-                                1.0 => one,
-                                0.0 => c,
-                                x => {
-                                    let t = self.scale(x, omc);
-                                    self.g.add(c, t)
-                                }
-                            }
-                        } else {
-                            let k = 3 - a - b;
-                            let sign = if (a + 1) % 3 == b { -1.0 } else { 1.0 };
-                            let t1 = self.scale(h[a] * h[b], omc);
-                            let t2 = self.scale(sign * h[k], s);
-                            self.g.add(t1, t2)
-                        }
-                    })
-                });
+                let rot = self.turn(j.axis, q[0]);
                 let rest: M3 = j.rest.map(|row| row.map(|x| self.c(x)));
-                [0, 1, 2].map(|a| [0, 1, 2].map(|b| self.dot(&rest[a], &[rot[0][b], rot[1][b], rot[2][b]])))
+                self.mm(&rest, &rot)
+            }
+            TreeKind::Universal => {
+                let (first, second) = (self.turn(j.slide, q[0]), self.turn(j.axis, q[1]));
+                let rest: M3 = j.rest.map(|row| row.map(|x| self.c(x)));
+                let turned = self.mm(&first, &rest);
+                self.mm(&turned, &second)
             }
             TreeKind::Prismatic => j.rest.map(|row| row.map(|x| self.c(x))),
             TreeKind::Spherical => {
@@ -473,6 +505,12 @@ fn subspace(j: &Joint) -> Vec<[f64; 6]> {
         TreeKind::Revolute => vec![turn(j.axis)],
         TreeKind::Spherical => vec![turn([1.0, 0.0, 0.0]), turn([0.0, 1.0, 0.0]), turn([0.0, 0.0, 1.0])],
         TreeKind::Prismatic => vec![[0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
+        // At θ₂ = 0 only: its first column turns with θ₂, so no algorithm is
+        // written for a tree with one (`method`), the runtime's recursion runs.
+        TreeKind::Universal => {
+            let b = [0, 1, 2].map(|i| (0..3).map(|r| j.rest[r][i] * j.slide[r]).sum());
+            vec![turn(b), turn(j.axis)]
+        }
     }
 }
 
@@ -688,8 +726,15 @@ fn inbound(joints: &[Joint], j: &Joint) -> [f64; 3] {
 /// [`LIMIT`] operations, one kernel per distinct joint and pass above it;
 /// nothing when a joint's points or axes are not numbers.
 pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
-    let joints = joints(s, edges)?;
+    let joints = written(s, edges)?;
     inline(s, &joints, nq, nv).or_else(|| kernels(s, &joints, nq, nv))
+}
+
+/// The joints of a tree whose algorithms the derive writes: every point and
+/// axis a number, and no universal joint (its subspace turns with its second
+/// angle; the passes here take constant ones).
+fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
+    joints(s, edges).filter(|j| j.iter().all(|j| j.kind != TreeKind::Universal))
 }
 
 /// The whole tree in one function.
@@ -1073,7 +1118,7 @@ impl Builder {
 /// [`LIMIT`] operations: what a controller calls, with the same folding as
 /// the forward dynamics.
 pub fn controller_methods(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> TokenStream {
-    let Some(joints) = joints(s, edges) else { return TokenStream::new() };
+    let Some(joints) = written(s, edges) else { return TokenStream::new() };
     let mut out = TokenStream::new();
     out.extend(inverse_dynamics(s, &joints, nq, nv));
     out.extend(mass_matrix(s, &joints, nq, nv));

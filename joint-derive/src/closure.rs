@@ -130,9 +130,10 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
     k.g = b.g;
     k.inputs.extend(reads);
     for (qj, vj) in spins {
-        match qj.as_slice() {
-            [theta] => k.rate(*theta, vj[0]),
-            p => k.spin([p[0], p[1], p[2], p[3]], [vj[0], vj[1], vj[2]]),
+        match (qj.as_slice(), vj.as_slice()) {
+            (&[p0, p1, p2, p3], &[w0, w1, w2]) => k.spin([p0, p1, p2, p3], [w0, w1, w2]),
+            // An angle or a slide per velocity (revolute, universal, prismatic).
+            (angles, rates) => angles.iter().zip(rates).for_each(|(&q, &v)| k.rate(q, v)),
         }
     }
     for (a, r) in by_body {
@@ -142,8 +143,9 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
 
 /// Edge `n`'s rotation relative to its parent and its two joint points (the
 /// parent's slid along the axis, prismatic), read from `geometry`:
-/// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic one, the
-/// normalised quaternion's matrix for a spherical one.
+/// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic one,
+/// `rot(s, θ₁) R₀ rot(h, θ₂)` for a universal one, the normalised
+/// quaternion's matrix for a spherical one.
 fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize, q: &[Id]) -> ([[Id; 3]; 3], V3, V3) {
     let at = n.to_string();
     let rho_p = read(b, reads, &["rho_parent", &at]);
@@ -163,9 +165,23 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
         });
         return (rest, slid, rho_c);
     }
-    let (c, s) = (b.g.cos(q[0]), b.g.sin(q[0]));
-    let turn = rotation_about(b, h, c, s);
-    let rel = [0, 1, 2].map(|r| [0, 1, 2].map(|j| b.dot(&rest[r], &[turn[0][j], turn[1][j], turn[2][j]])));
+    let turn = |b: &mut Builder, axis: V3, angle: Id| {
+        let (c, s) = (b.g.cos(angle), b.g.sin(angle));
+        rotation_about(b, axis, c, s)
+    };
+    let times = |b: &mut Builder, x: &[[Id; 3]; 3], y: &[[Id; 3]; 3]| -> [[Id; 3]; 3] {
+        [0, 1, 2].map(|r| [0, 1, 2].map(|j| b.dot(&x[r], &[y[0][j], y[1][j], y[2][j]])))
+    };
+    let rel = if kind == TreeKind::Universal {
+        // rot(s, θ₁) R₀ rot(h, θ₂), `s` the parent's axis.
+        let s = read(b, reads, &["axis_parent", &at]);
+        let (first, second) = (turn(b, s, q[0]), turn(b, h, q[1]));
+        let turned = times(b, &first, &rest);
+        times(b, &turned, &second)
+    } else {
+        let second = turn(b, h, q[0]);
+        times(b, &rest, &second)
+    };
     (rel, rho_p, rho_c)
 }
 

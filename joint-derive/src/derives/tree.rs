@@ -101,6 +101,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     let (rho1, rho2) = (param(j, "rho1"), param(j, "rho2"));
     let (axis1, axis2) = match e.kind {
         TreeKind::Revolute | TreeKind::Prismatic => (first_axis(j), param(j, "h")),
+        TreeKind::Universal => (param(j, "s"), param(j, "h")),
         TreeKind::Spherical => (zero(), zero()),
     };
     // The second axes that lock a prismatic joint's turn: `g` and `k`.
@@ -115,6 +116,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
         TreeKind::Revolute => quote!(Revolute),
         TreeKind::Spherical => quote!(Spherical),
         TreeKind::Prismatic => quote!(Prismatic),
+        TreeKind::Universal => quote!(Universal),
     };
     quote! {
         #k::tree::TreeJoint {

@@ -1,5 +1,6 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
-//! ground through its tree joints (`revolute`, `spherical`, `translational`), every
+//! ground through its tree joints (`revolute`, `spherical`, `translational`,
+//! `universal`), every
 //! body reached; the other joints close loops.
 
 use super::context::Errors;
@@ -14,6 +15,8 @@ pub enum TreeKind {
     Spherical,
     /// A slide along the axis (`translational`), rotation locked.
     Prismatic,
+    /// Two angles (`universal`): about the parent's axis, then the child's.
+    Universal,
 }
 
 impl TreeKind {
@@ -23,6 +26,7 @@ impl TreeKind {
             "revolute" => Some(TreeKind::Revolute),
             "spherical" => Some(TreeKind::Spherical),
             "translational" => Some(TreeKind::Prismatic),
+            "universal" => Some(TreeKind::Universal),
             _ => None,
         }
     }
@@ -31,6 +35,7 @@ impl TreeKind {
     pub fn sizes(self) -> (usize, usize) {
         match self {
             TreeKind::Revolute | TreeKind::Prismatic => (1, 1),
+            TreeKind::Universal => (2, 2),
             TreeKind::Spherical => (4, 3),
         }
     }
@@ -49,7 +54,7 @@ pub struct TreeEdge {
 }
 
 /// The joints in tree order, parents first: the first declared tree joint
-/// (`revolute`, `spherical`, `translational`) that reaches a new body from the reached ones,
+/// (`revolute`, `spherical`, `translational`, `universal`) that reaches a new body from the reached ones,
 /// again and again (a breadth-first spanning tree that keeps the
 /// declaration's order among equals). Every other joint (one that closes a
 /// loop, or of a kind without a tree parametrisation) is a closure: its rows
@@ -91,7 +96,7 @@ fn unreached(bodies: &[Body], joints: &[JointDecl], reached: &[bool], errors: &m
             j.kind_span,
             format!(
                 "`{}` has no tree parametrisation yet, so {names} {verb} no path of tree joints (`revolute`, \
-                 `spherical`, `translational`) to the ground; expected `coordinates = absolute` for this scene",
+                 `spherical`, `translational`, `universal`) to the ground; expected `coordinates = absolute` for this scene",
                 j.kind.name
             ),
         ),

@@ -71,7 +71,12 @@ impl Articulated {
             let d = s.cols[0].dot(&u_cols[0]);
             (d > 0.0).then(|| Matrix3::new(1.0 / d, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0))?
         } else {
-            spd_inverse(&Matrix3::from_fn(|r, c| s.cols[r].dot(&u_cols[c])))?
+            // Padded with the identity past the joint's freedoms (a universal's 2).
+            let d = Matrix3::from_fn(|r, c| match (r < s.n, c < s.n) {
+                (true, true) => s.cols[r].dot(&u_cols[c]),
+                _ => f64::from(u8::from(r == c)),
+            });
+            spd_inverse(&d)?
         };
         Some(Articulated { u_cols, d_inv, u: tau - project(s, pa) })
     }
@@ -123,13 +128,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut c = [Vector6::zeros(); NB];
         for k in 0..NB {
             let vel = kin.vel[k];
-            c[k] = cross_motion(&vel, &self.joint_motion(&self.subspace[k], k, &state.v));
+            c[k] = cross_motion(&vel, &self.joint_motion(&kin.s[k], k, &state.v)) + kin.bias[k];
             pa[k] = cross_force(&vel, &(self.inertia[k] * vel));
         }
         let blank = Articulated { u_cols: [Vector6::zeros(); 3], d_inv: Matrix3::zeros(), u: Vector3::zeros() };
         let mut art = [blank; NB];
         for k in (0..NB).rev() {
-            let s = &self.subspace[k];
+            let s = &kin.s[k];
             let t = self.joint_forces(k, tau);
             let a = Articulated::new(s, &ia[k], &pa[k], t).ok_or(TreeError::Singular { joint: self.joints[k].name })?;
             if let Some(p) = self.parent[k] {
@@ -154,7 +159,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut acc = [Vector6::zeros(); NB];
         let mut vdot = SVector::<f64, NV>::zeros();
         for k in 0..NB {
-            let s = &self.subspace[k];
+            let s = &kin.s[k];
             let a = self.parent_acceleration(&kin, k, &acc) + c[k];
             let u_t_a = Vector3::from_fn(|i, _| if i < s.n { art[k].u_cols[i].dot(&a) } else { 0.0 });
             let qdd = art[k].d_inv * (art[k].u - u_t_a);
@@ -171,15 +176,17 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut acc = [Vector6::zeros(); NB];
         let mut f = [Vector6::zeros(); NB];
         for k in 0..NB {
-            let (s, vel) = (&self.subspace[k], kin.vel[k]);
+            let (s, vel) = (&kin.s[k], kin.vel[k]);
             let joint = self.joint_motion(s, k, &state.v);
-            acc[k] =
-                self.parent_acceleration(&kin, k, &acc) + self.joint_motion(s, k, vdot) + cross_motion(&vel, &joint);
+            acc[k] = self.parent_acceleration(&kin, k, &acc)
+                + self.joint_motion(s, k, vdot)
+                + cross_motion(&vel, &joint)
+                + kin.bias[k];
             f[k] = self.inertia[k] * acc[k] + cross_force(&vel, &(self.inertia[k] * vel));
         }
         let mut tau = SVector::<f64, NV>::zeros();
         for k in (0..NB).rev() {
-            self.put(k, &project(&self.subspace[k], &f[k]), &mut tau);
+            self.put(k, &project(&kin.s[k], &f[k]), &mut tau);
             if let Some(p) = self.parent[k] {
                 let back = kin.x[k].force_back(&f[k]);
                 f[p] += back;
@@ -207,13 +214,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         out.fill(0.0);
         for (k, ic_k) in ic.iter().enumerate() {
-            let s = &self.subspace[k];
+            let s = &kin.s[k];
             for i in 0..s.n {
                 let col = self.v_at[k] + i;
                 let mut force = ic_k * s.cols[i];
                 let mut j = k;
                 loop {
-                    let sj = &self.subspace[j];
+                    let sj = &kin.s[j];
                     for r in 0..sj.n {
                         let row = self.v_at[j] + r;
                         let m = sj.cols[r].dot(&force);

@@ -40,7 +40,36 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             TreeJointKind::Prismatic => {
                 Subspace { cols: [join(&Vector3::zeros(), &self.axis[k]), Vector6::zeros(), Vector6::zeros()], n: 1 }
             }
+            // At θ₂ = 0; `subspace_at` turns the first column with θ₂.
+            TreeJointKind::Universal => {
+                let b = self.rest[k].inverse() * self.slide[k];
+                Subspace { cols: [turning(&b), turning(&self.axis[k]), Vector6::zeros()], n: 2 }
+            }
         }
+    }
+
+    /// Joint `k`'s subspace at `q`: constant but for a universal joint, whose
+    /// first column `rot(h, θ₂)ᵀ R₀ᵀ s` turns with θ₂.
+    pub(crate) fn subspace_at(&self, k: usize, q: &SVector<f64, NQ>) -> Subspace {
+        let mut s = self.subspace[k];
+        if self.joints[k].kind == TreeJointKind::Universal {
+            let h = nalgebra::Unit::new_unchecked(self.axis[k]);
+            let turn = UnitQuaternion::from_axis_angle(&h, -q[self.q_at[k] + 1]);
+            let b = self.rest[k].inverse() * self.slide[k];
+            s.cols[0] = turning(&(turn * b));
+        }
+        s
+    }
+
+    /// `Ṡ q̇` of joint `k` (a universal joint's: `θ̇₁ θ̇₂ (S₁ × h)`; zero
+    /// for the others, whose subspace is constant).
+    fn joint_bias(&self, s: &Subspace, k: usize, v: &SVector<f64, NV>) -> Vector6<f64> {
+        if self.joints[k].kind != TreeJointKind::Universal {
+            return Vector6::zeros();
+        }
+        let at = self.v_at[k];
+        let s1 = s.cols[0].fixed_rows::<3>(0).into_owned();
+        turning(&(s1.cross(&self.axis[k]) * (v[at] * v[at + 1])))
     }
 
     /// The child's rotation relative to its parent (`A_child = A_parent R`).
@@ -53,6 +82,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             }
             TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
             TreeJointKind::Prismatic => self.rest[k],
+            TreeJointKind::Universal => {
+                let a = nalgebra::Unit::new_unchecked(self.slide[k]);
+                let h = nalgebra::Unit::new_unchecked(self.axis[k]);
+                UnitQuaternion::from_axis_angle(&a, q[at])
+                    * self.rest[k]
+                    * UnitQuaternion::from_axis_angle(&h, q[at + 1])
+            }
         }
     }
 
@@ -80,11 +116,15 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut out = Kinematics {
             x: [Transform { e: Matrix3::identity(), r: Vector3::zeros() }; NB],
             vel: [Vector6::zeros(); NB],
+            s: self.subspace,
+            bias: [Vector6::zeros(); NB],
         };
         for k in 0..NB {
             out.x[k] = self.transform(k, q);
+            out.s[k] = self.subspace_at(k, q);
+            out.bias[k] = self.joint_bias(&out.s[k], k, v);
             let parent = self.parent[k].map_or_else(Vector6::zeros, |p| out.x[k].motion(&out.vel[p]));
-            out.vel[k] = parent + self.joint_motion(&self.subspace[k], k, v);
+            out.vel[k] = parent + self.joint_motion(&out.s[k], k, v);
         }
         out
     }
@@ -94,4 +134,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
 pub(crate) struct Kinematics<const NB: usize> {
     pub x: [Transform; NB],
     pub vel: [Vector6<f64>; NB],
+    /// Each joint's motion subspace at this state.
+    pub s: [Subspace; NB],
+    /// Each joint's `Ṡ q̇` (a universal joint's; zero for the others).
+    pub bias: [Vector6<f64>; NB],
 }

@@ -20,13 +20,16 @@
 //! | `revolute` | the angle θ | θ̇ | `R₀ · rot(h, θ)` |
 //! | `spherical` | unit quaternion `[e0, e1, e2, e3]` | ω' of the child relative to the parent, child components | `q` |
 //! | `translational` (prismatic) | the slide `d` along the axis | `ḋ` | `R₀` |
+//! | `universal` | the angles θ₁ about `s` (parent), θ₂ about `h` (child) | θ̇₁, θ̇₂ | `rot(s, θ₁) · R₀ · rot(h, θ₂)` |
 //!
 //! `R₀` is the shortest rotation that takes the child's axis `h` (`axis2`) onto
 //! the parent's (`axis1`): θ = 0 where the two bodies' frames differ by that
 //! rotation alone (with `axis1 = axis2`, where the frames are parallel). A
 //! prismatic joint's `R₀` takes the child's axes `(h, k)` onto the parent's
 //! `(a, g)` (the catalogue's second axes, across the first), and `d = 0`
-//! where its two joint points coincide. The joint points (a prismatic
+//! where its two joint points coincide. A universal joint's `R₀` is the
+//! shortest rotation that takes `h` across `s` (the identity when the two are
+//! already perpendicular in the bodies' frames). The joint points (a prismatic
 //! joint's line) hold at every `q`, so a tree state is assembled by
 //! construction; [`Tree::system_state`] and [`Tree::tree_state`] convert to
 //! and from the absolute [`SystemState`](crate::SystemState).
@@ -40,10 +43,11 @@
 //! compile time. [`TreeSimulation`] then solves `M v̇ + b = τ + Jᵀλ`,
 //! `J v̇ = γ` (redundant closure rows dropped by a pivoted factorisation, as
 //! the absolute `Simulation` drops redundant joint rows) and projects each
-//! step back onto `Φ = 0`, `J v + Φ_t = 0`. For now every joint of a tree
-//! with closures needs its points and axes as numbers; a body that only a
-//! joint without a tree parametrisation reaches is refused by the derive:
-//! such scenes run in absolute coordinates.
+//! step back onto `Φ = 0`, `J v + Φ_t = 0`. A tree joint's points and axes
+//! given as numbers are folded into the closure rows; given as fields they
+//! are read from the tree's [`TreeGeometry`]. A body that only a joint
+//! without a tree parametrisation reaches (`universal`, `cylindrical`, …) is
+//! refused by the derive: such scenes run in absolute coordinates.
 //!
 //! ```
 //! use joint_runtime::Scene;
@@ -97,6 +101,10 @@ pub enum TreeJointKind {
     /// A slide along the joint's axis, rotation locked (the catalogue's
     /// `translational`; 1 coordinate, 1 velocity).
     Prismatic,
+    /// Two angles: about the parent's axis, then about the child's (the
+    /// catalogue's `universal`, the notes' two-angle joint; 2 coordinates,
+    /// 2 velocities).
+    Universal,
 }
 
 impl TreeJointKind {
@@ -104,6 +112,7 @@ impl TreeJointKind {
     pub const fn coordinates(self) -> usize {
         match self {
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
+            TreeJointKind::Universal => 2,
             TreeJointKind::Spherical => 4,
         }
     }
@@ -112,6 +121,7 @@ impl TreeJointKind {
     pub const fn freedoms(self) -> usize {
         match self {
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
+            TreeJointKind::Universal => 2,
             TreeJointKind::Spherical => 3,
         }
     }
@@ -133,11 +143,11 @@ pub struct TreeJoint {
     pub rho_parent: Vector3<f64>,
     /// The joint point in the child's frame.
     pub rho_child: Vector3<f64>,
-    /// The joint's axis in the parent's frame (`revolute`, `prismatic`;
-    /// unused otherwise).
+    /// The joint's axis in the parent's frame (`revolute`, `prismatic`; `s`
+    /// of a `universal` joint; unused otherwise).
     pub axis_parent: Vector3<f64>,
-    /// The joint's axis in the child's frame (`revolute`, `prismatic`;
-    /// unused otherwise).
+    /// The joint's axis in the child's frame (`revolute`, `prismatic`; `h`
+    /// of a `universal` joint; unused otherwise).
     pub axis_child: Vector3<f64>,
     /// `prismatic`: a second axis of the parent, across the first (the
     /// catalogue's `g`), that the child's [`lock_child`](Self::lock_child)
@@ -209,8 +219,10 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
 pub struct TreeGeometry<const NB: usize> {
     /// The rest rotation `R₀` (revolute; the identity otherwise), by columns.
     pub rest: [[Vector3<f64>; 3]; NB],
-    /// The child's unit axis `h` (revolute; zero otherwise).
+    /// The child's unit axis `h` (revolute, prismatic, universal; zero otherwise).
     pub axis: [Vector3<f64>; NB],
+    /// The parent's unit axis (revolute, prismatic, universal; zero otherwise).
+    pub axis_parent: [Vector3<f64>; NB],
     /// The joint point in the parent's frame.
     pub rho_parent: [Vector3<f64>; NB],
     /// The joint point in the child's frame.

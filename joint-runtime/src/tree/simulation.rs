@@ -270,6 +270,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => out[qa] = v[va],
+                TreeJointKind::Universal => {
+                    out[qa] = v[va];
+                    out[qa + 1] = v[va + 1];
+                }
                 TreeJointKind::Spherical => {
                     let p = Quaternion::new(q[qa], q[qa + 1], q[qa + 2], q[qa + 3]);
                     let w = Quaternion::new(0.0, v[va], v[va + 1], v[va + 2]);
@@ -289,6 +293,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => q[qa] += delta[va],
+                TreeJointKind::Universal => {
+                    q[qa] += delta[va];
+                    q[qa + 1] += delta[va + 1];
+                }
                 TreeJointKind::Spherical => {
                     let p = super::kinematics::unit(&q.fixed_rows::<4>(qa).into_owned());
                     let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());

@@ -107,7 +107,8 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     /// Revolute: `R₀`, the shortest rotation taking `h` onto the parent's
     /// axis; prismatic: the rotation taking `(h, k)` onto `(a, g)`.
     pub(crate) rest: [UnitQuaternion<f64>; NB],
-    /// Prismatic: the unit axis `a = R₀ h` in the parent's frame.
+    /// Revolute, prismatic, universal: the parent's unit axis `a` (`R₀ h`
+    /// for the first two; the universal's `s`).
     pub(crate) slide: [Vector3<f64>; NB],
     /// The spatial inertia of joint `k`'s child about its joint point
     /// (its link frame's origin).
@@ -150,6 +151,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             geometry: TreeGeometry {
                 rest: [[Vector3::zeros(); 3]; NB],
                 axis: [Vector3::zeros(); NB],
+                axis_parent: [Vector3::zeros(); NB],
                 rho_parent: [Vector3::zeros(); NB],
                 rho_child: [Vector3::zeros(); NB],
             },
@@ -186,6 +188,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     TreeJointKind::Prismatic => {
                         locked_rotation(&h, &j.lock_child, &a, &j.lock_parent).ok_or(axis_error)?
                     }
+                    TreeJointKind::Universal => rest_rotation(&h, &across(&h, &a)),
                     _ => rest_rotation(&h, &a),
                 };
                 tree.slide[k] = a.into_inner();
@@ -194,6 +197,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let rest = tree.rest[k].to_rotation_matrix().into_inner();
             tree.geometry.rest[k] = [0, 1, 2].map(|c| rest.column(c).into_owned());
             tree.geometry.axis[k] = tree.axis[k];
+            tree.geometry.axis_parent[k] = tree.slide[k];
             tree.geometry.rho_parent[k] = j.rho_parent;
             tree.geometry.rho_child[k] = j.rho_child;
             tree.q_at[k] = nq;
@@ -295,6 +299,20 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     state.v.fixed_rows_mut::<3>(va).copy_from(&w_rel);
                     0.0
                 }
+                TreeJointKind::Universal => {
+                    let (a, h) = (self.slide[k], self.axis[k]);
+                    let (p, b) = (self.rest[k] * h, self.rest[k].inverse() * a);
+                    let (rh, rta) = (rel * h, rel.inverse() * a);
+                    let theta1 = nalgebra::RealField::atan2(a.dot(&p.cross(&rh)), p.dot(&rh));
+                    let theta2 = -nalgebra::RealField::atan2(h.dot(&b.cross(&rta)), b.dot(&rta));
+                    state.q[qa] = theta1;
+                    state.q[qa + 1] = theta2;
+                    let s1 = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(h), -theta2) * b;
+                    state.v[va] = s1.dot(&w_rel);
+                    state.v[va + 1] = h.dot(&w_rel);
+                    let back = self.relative_rotation(k, &state.q);
+                    rel.angle_to(&back) + (w_rel - s1 * state.v[va] - h * state.v[va + 1]).norm()
+                }
                 TreeJointKind::Prismatic => {
                     // The child's point slides along the parent's axis: the
                     // gap and slip along it are the coordinate and its rate.
@@ -338,6 +356,16 @@ fn locked_rotation(
     let (child, parent) = (frame(h, k)?, frame(a, g)?);
     let rotation = nalgebra::Rotation3::from_matrix_unchecked(parent * child.transpose());
     Some(UnitQuaternion::from_rotation_matrix(&rotation))
+}
+
+/// `h` made perpendicular to `a` (both unit): a universal joint's rest
+/// direction of its child axis in the parent's frame (`perpendicular_pair`'s
+/// first when `h` is along `a`).
+fn across(h: &Unit<Vector3<f64>>, a: &Unit<Vector3<f64>>) -> Unit<Vector3<f64>> {
+    Unit::try_new(h.as_ref() - a.as_ref() * a.dot(h), 1e-9).unwrap_or_else(|| {
+        let first = crate::perpendicular_pair(a).map_or(Vector3::x(), |(b, _)| b);
+        Unit::new_normalize(first)
+    })
 }
 
 /// `R₀`: the shortest rotation taking `h` onto `a` (half a turn about a

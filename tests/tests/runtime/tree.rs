@@ -97,6 +97,21 @@ struct Slider;
 #[joint(pin = revolute(cart, pole), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0.2], rho2 = [0, 0, 0.5])]
 struct CartPole;
 
+/// A bar hung from the ground by a universal joint (its axes not
+/// perpendicular as declared: `R₀` turns the bar), and a second bar pinned
+/// to it: the runtime's recursion with a subspace that turns with θ₂.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(upper, mass = 1.0, inertia = [0.08, 0.08, 0.002])]
+#[body(lower, mass = 0.6, inertia = [0.05, 0.05, 0.004, 0.002, 0.0, 0.0])]
+#[joint(gimbal = universal(ground, upper), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 2], rho2 = [0, 0, 0.5])]
+#[joint(knee = revolute(upper, lower), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.4])]
+struct Gimbal;
+
+fn gimbal_state() -> GimbalTreeState {
+    TreeState { q: SVector::from([0.4, -0.7, 0.3]), v: SVector::from([1.2, -0.8, 2.0]), t: 0.0 }
+}
+
 fn cart_pole_state() -> CartPoleTreeState {
     TreeState { q: SVector::from([0.2, 0.5]), v: SVector::from([1.0, -0.7]), t: 0.0 }
 }
@@ -203,6 +218,7 @@ fn mass_matrix_is_the_kinetic_energy_hessian() {
     mass_matrix_against_energy(&Walker, &walker_state());
     mass_matrix_against_energy(&Arm3, &arm_state());
     mass_matrix_against_energy(&CartPole, &cart_pole_state());
+    mass_matrix_against_energy(&Gimbal, &gimbal_state());
 }
 
 /// The recursions agree with each other: `RNEA(q, v, ABA(q, v, τ)) = τ`, and
@@ -220,6 +236,18 @@ fn inverse_dynamics_inverts_forward_dynamics() {
     let rnea = tree.inverse_dynamics(&state, &vdot);
     let crba = mass * vdot + tree.bias_forces(&state);
     assert!((rnea - crba).norm() < 1e-12 * rnea.norm(), "{rnea} against {crba}");
+    // With a universal joint (its subspace turning with θ₂: the joint's own
+    // Ṡ q̇ enters both recursions).
+    let tree = Tree::of(&Gimbal).unwrap();
+    let state = gimbal_state();
+    let tau = SVector::<f64, 3>::from([0.7, -1.1, 0.4]);
+    let vdot = tree.forward_dynamics(&state, &tau).unwrap();
+    let back = tree.inverse_dynamics(&state, &vdot);
+    assert!((back - tau).norm() < 1e-12 * tau.norm(), "{back} against {tau}");
+    let mut mass = SMatrix::<f64, 3, 3>::zeros();
+    tree.mass_matrix_into(&state.q, &mut mass);
+    let crba = mass * vdot + tree.bias_forces(&state);
+    assert!((back - crba).norm() < 1e-12 * back.norm(), "{back} against {crba}");
 }
 
 /// Both coordinate choices of one declaration: the same start, RK4 at
@@ -274,6 +302,7 @@ fn both_coordinate_choices_give_the_same_motion() {
     same_motion(&Walker, walker_state(), 1e-10);
     same_motion(&Arm3, arm_state(), 1e-10);
     same_motion(&CartPole, cart_pole_state(), 1e-10);
+    same_motion(&Gimbal, gimbal_state(), 1e-10);
 }
 
 /// A block sliding down its rail: `d̈ = −g a_z / |a|` (the rail's slope), the
