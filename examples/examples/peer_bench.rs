@@ -291,7 +291,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("double-cardan", 3) => {
             let geometry = Geometry::new(30f64.to_radians(), Arrangement::Z, Phasing::InPhase).ok_or("geometry")?;
             let start = DoubleCardan::new(geometry, 10.0).initial_state()?;
-            run(&name, &FreeDoubleCardan::new(&geometry), start, steps, rounds)
+            go!(FreeDoubleCardan::new(&geometry), start)
         }
         _ => Err(format!(
             "no scene {name}: chain 3, 5, 10, 20, 40, 160, arm 2, 6, 12, four-bar 4, bricard 5 or double-cardan 3"

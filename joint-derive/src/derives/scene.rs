@@ -21,7 +21,15 @@ pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     let parsed = scene::parse(input);
     // A tree's closures (joints outside it), derived in its coordinates.
     let loops = match parsed.as_ref().map(super::tree::closures) {
-        Ok(Err(e)) => return stub(input, e, scene::shape(input)),
+        Ok(Err(e)) => {
+            // The declaration parsed: the stub takes the tree's own sizes
+            // (shape() alone counts every tree-kind joint, loops included).
+            let mut shape = scene::shape(input);
+            if let (Some(shape), Ok(SceneDecl { tree: Some(edges), .. })) = (&mut shape, &parsed) {
+                shape.tree = Some(super::tree::sizes(edges));
+            }
+            return stub(input, e, shape);
+        }
         Ok(Ok(loops)) => loops,
         Err(_) => None,
     };

@@ -290,7 +290,9 @@ pub struct SceneShape {
     /// Rows of all joints.
     pub rows: usize,
     /// With `coordinates = relative`: the tree's coordinates and velocities
-    /// (the joints that are not tree joints count none).
+    /// (the joints that are not tree joints count none; read from the
+    /// attributes alone, a joint of a tree kind that closes a loop counts
+    /// too: the derive puts the spanning tree's sizes here when it has them).
     pub tree: Option<(usize, usize)>,
 }
 

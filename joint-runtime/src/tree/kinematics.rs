@@ -1,7 +1,7 @@
 //! Each joint's transform and motion subspace from its coordinates, and the
 //! bodies' spatial velocities, root to leaves.
 
-use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3, Vector4, Vector6};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3, Vector4, Vector6};
 
 use super::TreeJointKind;
 use super::spatial::{Transform, join};
@@ -127,6 +127,50 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             out.vel[k] = parent + self.joint_motion(&out.s[k], k, v);
         }
         out
+    }
+}
+
+impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
+    /// The Jacobian of a point fixed in `body` (its index in the scene; the
+    /// point in the body's frame, from its centre of mass): `[ω; ṗ] = J v`,
+    /// 6 × NV, inertial components (the body's angular velocity, then the
+    /// point's velocity). Each ancestor joint's columns of `S`, turned into
+    /// the ground's axes and moved to the point; `None` for a body no joint
+    /// moves (an index out of range).
+    pub fn point_jacobian(
+        &self,
+        q: &SVector<f64, NQ>,
+        body: usize,
+        point: &Vector3<f64>,
+    ) -> Option<SMatrix<f64, 6, NV>> {
+        let target = self.joints.iter().position(|j| j.child == body)?;
+        let poses = self.link_poses(q);
+        let (a, o) = poses[target];
+        let p = o + a * (point - self.joints[target].rho_child);
+        let mut out = SMatrix::<f64, 6, NV>::zeros();
+        let mut k = Some(target);
+        while let Some(j) = k {
+            let (a, o) = poses[j];
+            let s = self.subspace_at(j, q);
+            for i in 0..s.n {
+                let (w, v) = (a * s.cols[i].fixed_rows::<3>(0), a * s.cols[i].fixed_rows::<3>(3));
+                let column = join(&w, &(v + w.cross(&(p - o))));
+                out.set_column(self.v_at[j] + i, &column);
+            }
+            k = self.parent[j];
+        }
+        Some(out)
+    }
+
+    /// Each link frame's orientation and origin (its inbound joint point), in
+    /// the ground's axes, root to leaves.
+    pub(crate) fn link_poses(&self, q: &SVector<f64, NQ>) -> [(UnitQuaternion<f64>, Vector3<f64>); NB] {
+        let mut pose = [(UnitQuaternion::identity(), Vector3::zeros()); NB];
+        for k in 0..NB {
+            let (a_p, o_p) = self.parent[k].map_or((UnitQuaternion::identity(), Vector3::zeros()), |p| pose[p]);
+            pose[k] = (a_p * self.relative_rotation(k, q), o_p + a_p * self.transform(k, q).r);
+        }
+        pose
     }
 }
 

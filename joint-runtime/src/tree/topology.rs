@@ -244,12 +244,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let kin = self.kinematics(&state.q, &state.v);
         let mut bodies = [OmegaBody::default(); NB];
         // Each link frame's orientation and origin (the joint point).
-        let mut pose: [(UnitQuaternion<f64>, Vector3<f64>); NB] = [(UnitQuaternion::identity(), Vector3::zeros()); NB];
-        for k in 0..NB {
-            let (a_p, o_p) = self.parent[k].map_or((UnitQuaternion::identity(), Vector3::zeros()), |p| pose[p]);
-            let a = a_p * self.relative_rotation(k, &state.q);
-            let o = o_p + a_p * kin.x[k].r;
-            pose[k] = (a, o);
+        let pose = self.link_poses(&state.q);
+        for (k, &(a, o)) in pose.iter().enumerate() {
             // The centre of mass is −ρ from the joint point.
             let (w, v) = split(&kin.vel[k]);
             let rho = self.joints[k].rho_child;

@@ -424,3 +424,41 @@ fn bodies_that_cannot_exist_are_refused() {
     assert_eq!(Tree::of(&Impossible).err(), Some(TreeError::Inertia { body: 0 }));
     assert!(TreeSimulation::new(&Impossible).is_err());
 }
+
+/// A body point's Jacobian against the point's velocity in the absolute
+/// state (the bodies' velocities, root to leaves) and against central
+/// differences of its position along `q ⊕ ε v`.
+fn point_jacobian_against_the_motion<S, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    state: &TreeState<NQ, NV>,
+    body: usize,
+    point: Vector3<f64>,
+) where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let tree = Tree::of(scene).unwrap();
+    let jacobian = tree.point_jacobian(&state.q, body, &point).unwrap();
+    let b = tree.system_state(state).bodies[body];
+    let omega = b.rotation() * b.omega;
+    let velocity = b.rdot + omega.cross(&(b.rotation() * point));
+    let jv = jacobian * state.v;
+    let scale = velocity.norm() + omega.norm();
+    assert!((jv.fixed_rows::<3>(0) - omega).norm() < 1e-14 * scale, "ω: {jv} against {omega}");
+    assert!((jv.fixed_rows::<3>(3) - velocity).norm() < 1e-14 * scale, "ṗ: {jv} against {velocity}");
+    let at = |c: f64| {
+        let q = tree.displaced(&state.q, &(state.v * c));
+        tree.system_state(&TreeState { q, ..*state }).bodies[body].point(&point)
+    };
+    let eps = 1e-6;
+    let diff = (at(eps) - at(-eps)) / (2.0 * eps);
+    assert!((diff - velocity).norm() < 1e-8 * scale, "{diff} against {velocity}");
+    assert!(tree.point_jacobian(&state.q, NB, &point).is_none());
+}
+
+#[test]
+fn point_jacobians_move_points_as_the_bodies_do() {
+    point_jacobian_against_the_motion(&Walker, &walker_state(), 3, Vector3::new(0.1, -0.05, 0.2));
+    point_jacobian_against_the_motion(&Gimbal, &gimbal_state(), 1, Vector3::new(0.0, 0.03, -0.4));
+    point_jacobian_against_the_motion(&CartPole, &cart_pole_state(), 1, Vector3::new(0.0, 0.0, -0.5));
+    point_jacobian_against_the_motion(&Arm3, &arm_state(), 2, Vector3::new(0.5, 0.0, 0.0));
+}
