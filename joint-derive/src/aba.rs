@@ -359,7 +359,7 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         let (a, h) = if e.reversed { (second, first) } else { (first, second) };
         axis = h;
         rest = rest_rotation(h, a);
-        if e.kind == TreeKind::Prismatic {
+        if matches!(e.kind, TreeKind::Prismatic | TreeKind::Fixed) {
             // The second axes `g` (body 1) and `k` (body 2) lock the turn.
             let (g, k) = (known(j, "g")?, known(j, "k")?);
             let (g, k) = if e.reversed { (k, g) } else { (g, k) };
@@ -464,7 +464,7 @@ impl Builder {
                 let turned = self.mm(&first, &rest);
                 self.mm(&turned, &second)
             }
-            TreeKind::Prismatic => j.rest.map(|row| row.map(|x| self.c(x))),
+            TreeKind::Prismatic | TreeKind::Fixed => j.rest.map(|row| row.map(|x| self.c(x))),
             TreeKind::Spherical => {
                 let (e0, e) = (q[0], [q[1], q[2], q[3]]);
                 let n2 = self.dot(q, q);
@@ -505,6 +505,7 @@ fn subspace(j: &Joint) -> Vec<[f64; 6]> {
         TreeKind::Revolute => vec![turn(j.axis)],
         TreeKind::Spherical => vec![turn([1.0, 0.0, 0.0]), turn([0.0, 1.0, 0.0]), turn([0.0, 0.0, 1.0])],
         TreeKind::Prismatic => vec![[0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
+        TreeKind::Fixed => Vec::new(),
         // At θ₂ = 0 only: its first column turns with θ₂, so no algorithm is
         // written for a tree with one (`method`), the runtime's recursion runs.
         TreeKind::Universal => {
@@ -1093,6 +1094,9 @@ impl Builder {
     /// The inverse of a 1 × 1 or symmetric 3 × 3 matrix (adjugate over the
     /// determinant: one division).
     fn inverse(&mut self, d: &[Vec<Id>]) -> Vec<Vec<Id>> {
+        if d.is_empty() {
+            return Vec::new();
+        }
         let one = self.c(1.0);
         if d.len() == 1 {
             return vec![vec![self.g.div(one, d[0][0])]];

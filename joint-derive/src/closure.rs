@@ -143,7 +143,7 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
 
 /// Edge `n`'s rotation relative to its parent and its two joint points (the
 /// parent's slid along the axis, prismatic), read from `geometry`:
-/// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic one,
+/// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic or fixed one,
 /// `rot(s, θ₁) R₀ rot(h, θ₂)` for a universal one, the normalised
 /// quaternion's matrix for a spherical one.
 fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize, q: &[Id]) -> ([[Id; 3]; 3], V3, V3) {
@@ -156,6 +156,9 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
     let h = read(b, reads, &["axis", &at]);
     let columns: [V3; 3] = [0, 1, 2].map(|c| read(b, reads, &["rest", &at, &c.to_string()]));
     let rest: [[Id; 3]; 3] = [0, 1, 2].map(|r| [0, 1, 2].map(|c| columns[c][r]));
+    if kind == TreeKind::Fixed {
+        return (rest, rho_p, rho_c);
+    }
     if kind == TreeKind::Prismatic {
         // `a = R₀ h`, the axis in the parent's frame.
         let a = b.mv(&rest, h);

@@ -100,13 +100,13 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     let child = Literal::usize_unsuffixed(child.unwrap_or(0));
     let (rho1, rho2) = (param(j, "rho1"), param(j, "rho2"));
     let (axis1, axis2) = match e.kind {
-        TreeKind::Revolute | TreeKind::Prismatic => (first_axis(j), param(j, "h")),
+        TreeKind::Revolute | TreeKind::Prismatic | TreeKind::Fixed => (first_axis(j), param(j, "h")),
         TreeKind::Universal => (param(j, "s"), param(j, "h")),
         TreeKind::Spherical => (zero(), zero()),
     };
     // The second axes that lock a prismatic joint's turn: `g` and `k`.
     let (lock1, lock2) = match e.kind {
-        TreeKind::Prismatic => (param(j, "g"), param(j, "k")),
+        TreeKind::Prismatic | TreeKind::Fixed => (param(j, "g"), param(j, "k")),
         _ => (zero(), zero()),
     };
     let (rho_p, rho_c, axis_p, axis_c) =
@@ -117,6 +117,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
         TreeKind::Spherical => quote!(Spherical),
         TreeKind::Prismatic => quote!(Prismatic),
         TreeKind::Universal => quote!(Universal),
+        TreeKind::Fixed => quote!(Fixed),
     };
     quote! {
         #k::tree::TreeJoint {

@@ -1,6 +1,6 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
 //! ground through its tree joints (`revolute`, `spherical`, `translational`,
-//! `universal`), every
+//! `universal`, `fixed`), every
 //! body reached; the other joints close loops.
 
 use super::context::Errors;
@@ -17,6 +17,8 @@ pub enum TreeKind {
     Prismatic,
     /// Two angles (`universal`): about the parent's axis, then the child's.
     Universal,
+    /// Welded (`fixed`): no freedom.
+    Fixed,
 }
 
 impl TreeKind {
@@ -27,6 +29,7 @@ impl TreeKind {
             "spherical" => Some(TreeKind::Spherical),
             "translational" => Some(TreeKind::Prismatic),
             "universal" => Some(TreeKind::Universal),
+            "fixed" => Some(TreeKind::Fixed),
             _ => None,
         }
     }
@@ -36,6 +39,7 @@ impl TreeKind {
         match self {
             TreeKind::Revolute | TreeKind::Prismatic => (1, 1),
             TreeKind::Universal => (2, 2),
+            TreeKind::Fixed => (0, 0),
             TreeKind::Spherical => (4, 3),
         }
     }
@@ -54,7 +58,7 @@ pub struct TreeEdge {
 }
 
 /// The joints in tree order, parents first: the first declared tree joint
-/// (`revolute`, `spherical`, `translational`, `universal`) that reaches a new body from the reached ones,
+/// (`revolute`, `spherical`, `translational`, `universal`, `fixed`) that reaches a new body from the reached ones,
 /// again and again (a breadth-first spanning tree that keeps the
 /// declaration's order among equals). Every other joint (one that closes a
 /// loop, or of a kind without a tree parametrisation) is a closure: its rows
@@ -96,7 +100,7 @@ fn unreached(bodies: &[Body], joints: &[JointDecl], reached: &[bool], errors: &m
             j.kind_span,
             format!(
                 "`{}` has no tree parametrisation yet, so {names} {verb} no path of tree joints (`revolute`, \
-                 `spherical`, `translational`, `universal`) to the ground; expected `coordinates = absolute` for this scene",
+                 `spherical`, `translational`, `universal`, `fixed`) to the ground; expected `coordinates = absolute` for this scene",
                 j.kind.name
             ),
         ),

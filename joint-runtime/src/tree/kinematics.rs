@@ -40,6 +40,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             TreeJointKind::Prismatic => {
                 Subspace { cols: [join(&Vector3::zeros(), &self.axis[k]), Vector6::zeros(), Vector6::zeros()], n: 1 }
             }
+            TreeJointKind::Fixed => Subspace { cols: [Vector6::zeros(); 3], n: 0 },
             // At θ₂ = 0; `subspace_at` turns the first column with θ₂.
             TreeJointKind::Universal => {
                 let b = self.rest[k].inverse() * self.slide[k];
@@ -81,7 +82,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at])
             }
             TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
-            TreeJointKind::Prismatic => self.rest[k],
+            TreeJointKind::Prismatic | TreeJointKind::Fixed => self.rest[k],
             TreeJointKind::Universal => {
                 let a = nalgebra::Unit::new_unchecked(self.slide[k]);
                 let h = nalgebra::Unit::new_unchecked(self.axis[k]);

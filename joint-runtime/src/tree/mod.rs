@@ -21,6 +21,7 @@
 //! | `spherical` | unit quaternion `[e0, e1, e2, e3]` | ω' of the child relative to the parent, child components | `q` |
 //! | `translational` (prismatic) | the slide `d` along the axis | `ḋ` | `R₀` |
 //! | `universal` | the angles θ₁ about `s` (parent), θ₂ about `h` (child) | θ̇₁, θ̇₂ | `rot(s, θ₁) · R₀ · rot(h, θ₂)` |
+//! | `fixed` | none | none | `R₀`, as `translational`'s |
 //!
 //! `R₀` is the shortest rotation that takes the child's axis `h` (`axis2`) onto
 //! the parent's (`axis1`): θ = 0 where the two bodies' frames differ by that
@@ -105,12 +106,16 @@ pub enum TreeJointKind {
     /// catalogue's `universal`, the notes' two-angle joint; 2 coordinates,
     /// 2 velocities).
     Universal,
+    /// Welded: no freedom, the relative rotation locked as a prismatic
+    /// joint's (the catalogue's `fixed`; URDF's fixed links).
+    Fixed,
 }
 
 impl TreeJointKind {
     /// Its number of coordinates.
     pub const fn coordinates(self) -> usize {
         match self {
+            TreeJointKind::Fixed => 0,
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
             TreeJointKind::Universal => 2,
             TreeJointKind::Spherical => 4,
@@ -120,6 +125,7 @@ impl TreeJointKind {
     /// Its number of velocities (freedoms).
     pub const fn freedoms(self) -> usize {
         match self {
+            TreeJointKind::Fixed => 0,
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
             TreeJointKind::Universal => 2,
             TreeJointKind::Spherical => 3,
@@ -149,12 +155,12 @@ pub struct TreeJoint {
     /// The joint's axis in the child's frame (`revolute`, `prismatic`; `h`
     /// of a `universal` joint; unused otherwise).
     pub axis_child: Vector3<f64>,
-    /// `prismatic`: a second axis of the parent, across the first (the
+    /// `prismatic`, `fixed`: a second axis of the parent, across the first (the
     /// catalogue's `g`), that the child's [`lock_child`](Self::lock_child)
     /// stays on: with the axes, it fixes the relative rotation. Unused
     /// otherwise.
     pub lock_parent: Vector3<f64>,
-    /// `prismatic`: the child's second axis (the catalogue's `k`).
+    /// `prismatic`, `fixed`: the child's second axis (the catalogue's `k`).
     pub lock_child: Vector3<f64>,
 }
 

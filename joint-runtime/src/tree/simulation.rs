@@ -269,6 +269,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for (k, j) in self.joints.iter().enumerate() {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
+                TreeJointKind::Fixed => {}
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => out[qa] = v[va],
                 TreeJointKind::Universal => {
                     out[qa] = v[va];
@@ -292,6 +293,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for (k, j) in self.joints.iter().enumerate() {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
+                TreeJointKind::Fixed => {}
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => q[qa] += delta[va],
                 TreeJointKind::Universal => {
                     q[qa] += delta[va];

@@ -185,7 +185,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 }
                 tree.axis[k] = h.into_inner();
                 tree.rest[k] = match j.kind {
-                    TreeJointKind::Prismatic => {
+                    TreeJointKind::Prismatic | TreeJointKind::Fixed => {
                         locked_rotation(&h, &j.lock_child, &a, &j.lock_parent).ok_or(axis_error)?
                     }
                     TreeJointKind::Universal => rest_rotation(&h, &across(&h, &a)),
@@ -309,6 +309,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     let back = self.relative_rotation(k, &state.q);
                     rel.angle_to(&back) + (w_rel - s1 * state.v[va] - h * state.v[va + 1]).norm()
                 }
+                TreeJointKind::Fixed => rel.angle_to(&self.rest[k]) + w_rel.norm(),
                 TreeJointKind::Prismatic => {
                     // The child's point slides along the parent's axis: the
                     // gap and slip along it are the coordinate and its rate.

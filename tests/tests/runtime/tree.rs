@@ -112,6 +112,16 @@ fn gimbal_state() -> GimbalTreeState {
     TreeState { q: SVector::from([0.4, -0.7, 0.3]), v: SVector::from([1.2, -0.8, 2.0]), t: 0.0 }
 }
 
+/// A bar pinned at one end with a block welded at the other (`fixed`: no
+/// freedom; the block's frame turned, its x along the bar's z).
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
+#[body(block, mass = 0.5, inertia = [0.002, 0.002, 0.002])]
+#[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(weld = fixed(bar, block), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.5, 0, 0], rho2 = [0, 0, 0])]
+struct Welded;
+
 fn cart_pole_state() -> CartPoleTreeState {
     TreeState { q: SVector::from([0.2, 0.5]), v: SVector::from([1.0, -0.7]), t: 0.0 }
 }
@@ -219,6 +229,8 @@ fn mass_matrix_is_the_kinetic_energy_hessian() {
     mass_matrix_against_energy(&Arm3, &arm_state());
     mass_matrix_against_energy(&CartPole, &cart_pole_state());
     mass_matrix_against_energy(&Gimbal, &gimbal_state());
+    let welded = TreeState { q: SVector::from([0.7]), v: SVector::from([1.5]), t: 0.0 };
+    mass_matrix_against_energy(&Welded, &welded);
 }
 
 /// The recursions agree with each other: `RNEA(q, v, ABA(q, v, τ)) = τ`, and
@@ -310,6 +322,12 @@ fn both_coordinate_choices_give_the_same_motion() {
         same_motion(&Arm3, arm_state(), 3000, (1e-10, 1e-9)),
         same_motion(&CartPole, cart_pole_state(), 3000, (1e-10, 1e-9)),
         same_motion(&Gimbal, gimbal_state(), 3000, (1e-10, 1e-9)),
+        same_motion(
+            &Welded,
+            TreeState { q: SVector::from([0.7]), v: SVector::from([1.5]), t: 0.0 },
+            3000,
+            (1e-10, 1e-9),
+        ),
     ];
     // Each last body moved: something was compared.
     assert!(starts.iter().all(|&moved| moved > 0.1), "{starts:?}");
@@ -471,4 +489,29 @@ fn point_jacobians_move_points_as_the_bodies_do() {
     point_jacobian_against_the_motion(&Gimbal, &gimbal_state(), 1, Vector3::new(0.0, 0.03, -0.4));
     point_jacobian_against_the_motion(&CartPole, &cart_pole_state(), 1, Vector3::new(0.0, 0.0, -0.5));
     point_jacobian_against_the_motion(&Arm3, &arm_state(), 2, Vector3::new(0.5, 0.0, 0.0));
+}
+
+/// A welded block moves with its bar: the pendulum's closed form with the
+/// block's mass and inertia added about the pivot,
+/// `θ̈ = (m₁ l/2 + m₂ l) g cos θ / (I₁ + m₁ (l/2)² + I₂ + m₂ l²)` (a turn
+/// about +y takes the bar's x down), from the
+/// written-out algorithm and from the recursion.
+#[test]
+fn a_welded_body_moves_with_its_parent() {
+    let sim = TreeSimulation::new(&Welded).unwrap();
+    let theta: f64 = 0.7;
+    let state = TreeState { q: SVector::from([theta]), v: SVector::from([1.5]), t: 0.0 };
+    let expected = (1.0 * 0.5 + 0.5 * 1.0) * 9.81 * theta.cos() / (0.08 + 0.25 + 0.002 + 0.5);
+    let generated = sim.forward_dynamics(&state, &SVector::zeros()).unwrap()[0];
+    let recursion = sim.tree().forward_dynamics(&state, &SVector::zeros()).unwrap()[0];
+    assert!(
+        (generated - expected).abs() < 1e-14 && (recursion - expected).abs() < 1e-14,
+        "{generated}, {recursion} against {expected}"
+    );
+    // The block sits at the bar's end, its x axis along the bar's z.
+    let system = sim.tree().system_state(&state);
+    let (bar, block) = (&system.bodies[0], &system.bodies[1]);
+    assert!((block.r - bar.point(&Vector3::new(0.5, 0.0, 0.0))).norm() < 1e-15);
+    let turned = block.rotation_matrix() * Vector3::x() - bar.rotation_matrix() * Vector3::z();
+    assert!(turned.norm() < 1e-15, "{turned}");
 }
