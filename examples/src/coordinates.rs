@@ -2,7 +2,7 @@
 //! both)]`): the same start stepped by the absolute [`Simulation`] and by the
 //! relative [`TreeSimulation`], RK4 at one step size, compared body by body.
 
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions, SpringDamper};
 use joint_runtime::tree::{TreeScene, TreeSimulation};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
@@ -21,7 +21,8 @@ pub struct Both<const NB: usize> {
 }
 
 /// Steps `start` (converted to the tree's joints) `steps` times by `h` in both
-/// coordinate choices; `each` sees both runs' bodies after every step.
+/// coordinate choices, under `springs`; `each` sees both runs' bodies after
+/// every step.
 ///
 /// # Errors
 /// A start off the tree's joints, or a failed step, as text.
@@ -37,6 +38,7 @@ pub fn both<
 >(
     scene: &S,
     start: &SystemState<NB>,
+    springs: &[SpringDamper],
     h: f64,
     steps: usize,
     mut each: impl FnMut(&SystemState<NB>, &SystemState<NB>),
@@ -44,9 +46,10 @@ pub fn both<
 where
     S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + TreeScene<NB, NQ, NV, NC>,
 {
-    let mut relative = TreeSimulation::new(scene).map_err(|e| e.to_string())?;
+    let mut relative = TreeSimulation::new(scene).and_then(|s| s.with_springs(springs)).map_err(|e| e.to_string())?;
     let mut tree_state = relative.tree().tree_state(start, 1e-12).map_err(|e| e.to_string())?;
-    let mut absolute = Simulation::new(scene, NoLoads, &[], SimulationOptions::default()).map_err(|e| e.to_string())?;
+    let mut absolute =
+        Simulation::new(scene, NoLoads, springs, SimulationOptions::default()).map_err(|e| e.to_string())?;
     let mut state = *start;
     for _ in 0..steps {
         relative.step(&mut tree_state, h).map_err(|e| e.to_string())?;

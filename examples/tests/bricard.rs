@@ -87,7 +87,7 @@ fn rk4_is_fourth_order_with_a_redundant_row() {
 #[test]
 fn both_coordinate_choices_agree() {
     let start = bricard::initial_state();
-    let both = coordinates::both(&bricard::scene(), &start, 1e-4, 10_000, |_, _| {}).expect("both run");
+    let both = coordinates::both(&bricard::scene(), &start, &[], 1e-4, 10_000, |_, _| {}).expect("both run");
     assert!(both.worst < 1e-10, "the coordinate choices differ by {:e}", both.worst);
     assert!((bricard::p3(&both.relative) - bricard::p3(&start)).norm() > 0.1, "P3 moves");
     let (e_tree, e_abs) = both.energies;

@@ -73,7 +73,7 @@ fn both_coordinate_choices_agree_with_the_closed_form() {
     let shaft = CardanShaft::new(bend, SPEED).expect("a shaft");
     let mut start = shaft.reference_state();
     joint_runtime::analysis::velocities(&shaft, &mut start).expect("the driven velocities");
-    let both = coordinates::both(&shaft, &start, 1e-4, 4_000, |_, _| {}).expect("both run");
+    let both = coordinates::both(&shaft, &start, &[], 1e-4, 4_000, |_, _| {}).expect("both run");
     assert!(both.worst < 1e-10, "the coordinate choices differ by {:e}", both.worst);
     let reference = shaft.reference_state();
     let phi1 = cardan::shaft_angle(&both.relative.bodies[0], &reference.bodies[0].rotation());

@@ -71,13 +71,13 @@ fn both_coordinate_choices_agree() {
     let geometry = Geometry::new(30f64.to_radians(), Arrangement::Z, Phasing::InPhase).expect("a geometry");
     let shaft = DoubleCardan::new(geometry, SPEED);
     let start = shaft.initial_state().expect("assembled");
-    let both = coordinates::both(&shaft, &start, 1e-4, 4_000, |_, _| {}).expect("both run");
+    let both = coordinates::both(&shaft, &start, &[], 1e-4, 4_000, |_, _| {}).expect("both run");
     assert!(both.worst < 1e-10, "the coordinate choices differ by {:e}", both.worst);
     let [qi, _, qo] = geometry.references();
     let (phi_i, phi_o) = (shaft_angle(&both.relative.bodies[0], &qi), shaft_angle(&both.relative.bodies[2], &qo));
     assert!((phi_i - SPEED * 0.4).abs() < 1e-10, "input at {phi_i}");
     assert!((phi_o - phi_i).abs() < 1e-10, "output at {phi_o}, input at {phi_i}");
     let free = FreeDoubleCardan::new(&geometry);
-    let both = coordinates::both(&free, &start, 1e-4, 4_000, |_, _| {}).expect("both run");
+    let both = coordinates::both(&free, &start, &[], 1e-4, 4_000, |_, _| {}).expect("both run");
     assert!(both.worst < 1e-10, "the free shaft's coordinate choices differ by {:e}", both.worst);
 }

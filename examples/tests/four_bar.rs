@@ -67,7 +67,7 @@ fn a_step_from_exactly_the_singular_position() {
 #[test]
 fn both_coordinate_choices_agree_through_the_singular_position() {
     let (mut passages, mut last) = (0, f64::NAN);
-    let both = coordinates::both(&four_bar::scene(), &four_bar::initial_state(), 1e-4, 10_000, |relative, _| {
+    let both = coordinates::both(&four_bar::scene(), &four_bar::initial_state(), &[], 1e-4, 10_000, |relative, _| {
         let s = four_bar::crank_angle(relative, 0).sin();
         passages += usize::from(s * last < 0.0);
         last = s;

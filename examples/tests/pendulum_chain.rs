@@ -12,7 +12,7 @@ use joint_runtime::dynamics::Integrator;
 #[test]
 fn both_coordinate_choices_give_the_same_motion() {
     let start = chain::initial_state();
-    let both = coordinates::both(&chain::scene(), &start, 1e-4, 10_000, |_, _| {}).expect("runs");
+    let both = coordinates::both(&chain::scene(), &start, &[], 1e-4, 10_000, |_, _| {}).expect("runs");
     assert!(both.worst < 1e-10, "the coordinate choices differ by {:e}", both.worst);
     assert!((chain::tip(&both.relative) - chain::tip(&start)).norm() > 1.0, "the tip travels");
     // Energy in the tree's coordinates, against the absolute scene's.

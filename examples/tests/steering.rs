@@ -110,7 +110,7 @@ fn both_coordinate_choices_agree_with_the_closed_form() {
     let mut start = column.rough_state(0.0);
     assemble(&column, &mut start, &AssemblyOptions::default().with_tolerance(1e-14)).expect("assembles");
     velocities(&column, &mut start).expect("driven velocities");
-    let both = coordinates::both(&column, &start, 1e-4, 3_000, |_, _| {}).expect("both run");
+    let both = coordinates::both(&column, &start, &[], 1e-4, 3_000, |_, _| {}).expect("both run");
     assert!(both.worst < 1e-10, "the coordinate choices differ by {:e}", both.worst);
     let closed = column.closed_form(joint_runtime::TimeFunction::eval(&column.steer, 0.3));
     let angle = column.output_angle(&both.relative);
@@ -123,6 +123,6 @@ fn both_coordinate_choices_agree_with_the_closed_form() {
     let mut start = split.rough_state(0.0);
     assemble(&split, &mut start, &AssemblyOptions::default().with_tolerance(1e-14)).expect("assembles");
     velocities(&split, &mut start).expect("driven velocities");
-    let both = coordinates::both(&split, &start, 1e-4, 3_000, |_, _| {}).expect("both run");
+    let both = coordinates::both(&split, &start, &[], 1e-4, 3_000, |_, _| {}).expect("both run");
     assert!(both.worst < 1e-10, "the split column's coordinate choices differ by {:e}", both.worst);
 }

@@ -44,7 +44,8 @@
 //! compile time. [`TreeSimulation`] then solves `M v̇ + b = τ + Jᵀλ`,
 //! `J v̇ = γ` (redundant closure rows dropped by a pivoted factorisation, as
 //! the absolute `Simulation` drops redundant joint rows) and projects each
-//! step back onto `Φ = 0`, `J v + Φ_t = 0`. A tree joint's points and axes
+//! step back onto `Φ = 0`, `J v + Φ_t = 0`. Spring-dampers act through
+//! [`TreeSimulation::with_springs`] (their forces as joint forces `Jₚᵀ f`). A tree joint's points and axes
 //! given as numbers are folded into the closure rows; given as fields they
 //! are read from the tree's [`TreeGeometry`]. A body that only a joint
 //! without a tree parametrisation reaches (`universal`, `cylindrical`, …) is

@@ -9,6 +9,7 @@ use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion};
 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
+use crate::dynamics::{Attachment, SpringDamper};
 use crate::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 
 /// The position projection's tolerance on the largest closure row, its
@@ -23,6 +24,8 @@ const PROJECTION: (f64, usize, f64) = (1e-12, 5, 1e-9);
 pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0> {
     scene: &'a S,
     tree: Tree<NB, NQ, NV>,
+    /// Spring-dampers between body points (their forces as joint forces).
+    springs: &'a [SpringDamper],
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -45,7 +48,57 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// The simulation of `scene`; refused when its tree is not valid
     /// ([`TreeError`]: inertias, axes, order).
     pub fn new(scene: &'a S) -> Result<Self, TreeError> {
-        Ok(TreeSimulation { scene, tree: Tree::of(scene)? })
+        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[] })
+    }
+
+    /// The same simulation with `springs` acting (the absolute
+    /// `Simulation`'s [`SpringDamper`]s: tension `k (L − L₀) + c L̇` along the
+    /// line between two points), each entering the dynamics as the joint
+    /// forces `Jₚᵀ f` of its two ends ([`Tree::point_jacobian`]). Refused when
+    /// an end names a body the scene does not have.
+    pub fn with_springs(mut self, springs: &'a [SpringDamper]) -> Result<Self, TreeError> {
+        for (spring, s) in springs.iter().enumerate() {
+            for end in [&s.a, &s.b] {
+                if matches!(end, Attachment::Body { body, .. } if *body >= NB) {
+                    return Err(TreeError::Attachment { spring });
+                }
+            }
+        }
+        self.springs = springs;
+        Ok(self)
+    }
+
+    /// The springs' joint forces at `state`: each end's force `±T u` (`u`
+    /// from `a` to `b`) through its point's Jacobian.
+    fn spring_forces(&self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
+        let mut out = SVector::<f64, NV>::zeros();
+        if self.springs.is_empty() {
+            return out;
+        }
+        let system = self.tree.system_state(state);
+        let end = |at: &Attachment| match *at {
+            Attachment::Ground(p) => (p, nalgebra::Vector3::zeros(), None),
+            Attachment::Body { body, point } => {
+                let b = &system.bodies[body];
+                let arm = b.rotation() * point;
+                (b.r + arm, b.rdot + (b.rotation() * b.omega).cross(&arm), Some((body, point)))
+            }
+        };
+        for s in self.springs {
+            let ((pa, va, ba), (pb, vb, bb)) = (end(&s.a), end(&s.b));
+            let (d, length) = (pb - pa, (pb - pa).norm());
+            if length < 1e-12 {
+                continue;
+            }
+            let u = d / length;
+            let tension = s.stiffness * (length - s.rest_length) + s.damping * u.dot(&(vb - va));
+            for (at, sign) in [(ba, 1.0), (bb, -1.0)] {
+                if let Some(j) = at.and_then(|(body, point)| self.tree.point_jacobian(&state.q, body, &point)) {
+                    out += j.fixed_rows::<3>(3).transpose() * (u * (sign * tension));
+                }
+            }
+        }
+        out
     }
 
     /// `v̇` under joint forces `tau`, the closures' forces included: the
@@ -68,7 +121,11 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
         tau: &SVector<f64, NV>,
         order: Option<&PivotedCholesky<NC>>,
     ) -> Result<(SVector<f64, NV>, Option<PivotedCholesky<NC>>), TreeError> {
-        let free = self.tree_dynamics(state, tau)?;
+        let free = if self.springs.is_empty() {
+            self.tree_dynamics(state, tau)?
+        } else {
+            self.tree_dynamics(state, &(tau + self.spring_forces(state)))?
+        };
         if NC == 0 {
             return Ok((free, None));
         }

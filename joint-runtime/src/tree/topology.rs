@@ -61,6 +61,11 @@ pub enum TreeError {
         /// Its largest row's magnitude.
         misfit: f64,
     },
+    /// A spring-damper whose end names a body the scene does not have.
+    Attachment {
+        /// The spring's index.
+        spring: usize,
+    },
 }
 
 impl fmt::Display for TreeError {
@@ -86,6 +91,9 @@ impl fmt::Display for TreeError {
                 write!(f, "the state does not hold joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::NonFinite => f.write_str("a state or torque that is not finite"),
+            TreeError::Attachment { spring } => {
+                write!(f, "spring {spring} is attached to a body the scene does not have")
+            }
             TreeError::Closure { joint, misfit } => {
                 write!(f, "the projection did not close the loop of joint `{joint}` (misfit {misfit:e})")
             }

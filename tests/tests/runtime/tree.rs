@@ -515,3 +515,29 @@ fn a_welded_body_moves_with_its_parent() {
     let turned = block.rotation_matrix() * Vector3::x() - bar.rotation_matrix() * Vector3::z();
     assert!(turned.norm() < 1e-15, "{turned}");
 }
+
+/// A spring whose end names a body the scene does not have is refused when
+/// it is given, by its index.
+#[test]
+fn springs_on_missing_bodies_are_refused() {
+    use joint_runtime::dynamics::{Attachment, SpringDamper};
+    let springs = [
+        SpringDamper {
+            a: Attachment::Ground(Vector3::zeros()),
+            b: Attachment::Body { body: 0, point: Vector3::zeros() },
+            stiffness: 10.0,
+            damping: 0.0,
+            rest_length: 0.5,
+        },
+        SpringDamper {
+            a: Attachment::Ground(Vector3::zeros()),
+            b: Attachment::Body { body: 2, point: Vector3::zeros() },
+            stiffness: 10.0,
+            damping: 0.0,
+            rest_length: 0.5,
+        },
+    ];
+    assert!(TreeSimulation::new(&Welded).unwrap().with_springs(&springs[..1]).is_ok());
+    let refused = TreeSimulation::new(&Welded).unwrap().with_springs(&springs).err();
+    assert_eq!(refused, Some(TreeError::Attachment { spring: 1 }));
+}
