@@ -506,8 +506,7 @@ fn subspace(j: &Joint) -> Vec<[f64; 6]> {
         TreeKind::Spherical => vec![turn([1.0, 0.0, 0.0]), turn([0.0, 1.0, 0.0]), turn([0.0, 0.0, 1.0])],
         TreeKind::Prismatic => vec![[0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
         TreeKind::Fixed => Vec::new(),
-        // At θ₂ = 0 only: its first column turns with θ₂, so no algorithm is
-        // written for a tree with one (`method`), the runtime's recursion runs.
+        // At θ₂ = 0 only: `Builder::columns` turns the first with θ₂.
         TreeKind::Universal => {
             let b = [0, 1, 2].map(|i| (0..3).map(|r| j.rest[r][i] * j.slide[r]).sum());
             vec![turn(b), turn(j.axis)]
@@ -555,11 +554,17 @@ impl Builder {
 /// acceleration `c`, bias force `pᴬ` and link inertia.
 struct Down {
     x: Transform,
+    /// The joint's subspace columns (a universal's first turns with θ₂).
+    s: Vec<V6>,
     vel: V6,
     c: V6,
     pa: V6,
     inertia: M6,
 }
+
+/// Pass 2's result for one joint: what it keeps, and, with a parent, the
+/// articulated inertia and bias it hands on.
+type UpPass = (Keep, Option<(M6, V6)>);
 
 /// What pass 2 keeps of one joint for pass 3: `U`, `D⁻¹`, `u`.
 struct Keep {
@@ -569,8 +574,19 @@ struct Keep {
 }
 
 impl Builder {
-    /// The joint's subspace columns as nodes.
-    fn columns(&mut self, j: &Joint) -> Vec<V6> {
+    /// The joint's subspace columns as nodes at `q` (its coordinates): a
+    /// universal joint's first is `rot(h, θ₂)ᵀ R₀ᵀ s`, the rest numbers (`q`
+    /// unread: empty will do).
+    fn columns(&mut self, j: &Joint, q: &[Id]) -> Vec<V6> {
+        if j.kind == TreeKind::Universal {
+            let b = [0, 1, 2].map(|i| (0..3).map(|r| j.rest[r][i] * j.slide[r]).sum::<f64>());
+            let turn = self.turn(j.axis, q[1]);
+            let b = self.consts3(b);
+            let first = self.mtv(&turn, b);
+            let zero = self.c(0.0);
+            let h = self.consts3(j.axis);
+            return vec![join(first, [zero; 3]), join(h, [zero; 3])];
+        }
         subspace(j).into_iter().map(|col| col.map(|x| self.c(x))).collect()
     }
 
@@ -586,7 +602,7 @@ impl Builder {
         let r = self.consts3([0, 1, 2].map(|i| j.rho_p[i] - inbound[i]));
         let r = self.slid(j, r, q);
         let x = Transform { e, r };
-        let s_k = self.columns(j);
+        let s_k = self.columns(j, q);
         let mut vj = [zero; 6];
         for (i, col) in s_k.iter().enumerate() {
             for r in 0..6 {
@@ -608,15 +624,25 @@ impl Builder {
         let inertia = self.link_inertia(m, &ic, j.rho_c.map(|x| -x));
         let iv = self.m6v(&inertia, vel);
         let pa = self.cross_force(vel, iv);
-        let c = self.cross_motion(vel, vj);
-        Down { x, vel, c, pa, inertia }
+        let mut c = self.cross_motion(vel, vj);
+        if j.kind == TreeKind::Universal {
+            // Ṡ q̇ = θ̇₁ θ̇₂ [S₁ × h; 0]: the first column turns with θ₂.
+            let first = [s_k[0][0], s_k[0][1], s_k[0][2]];
+            let h = self.consts3(j.axis);
+            let turn = self.cross(first, h);
+            let rates = self.g.mul(v[0], v[1]);
+            for (i, t) in turn.iter().enumerate() {
+                let bias = self.g.mul(rates, *t);
+                c[i] = self.g.add(c[i], bias);
+            }
+        }
+        Down { x, s: s_k, vel, c, pa, inertia }
     }
 
     /// Pass 2 (leaves to root) of joint `j`: what it keeps, and, with a
     /// parent, the articulated inertia and bias it hands on (parent frame).
-    fn up(&mut self, j: &Joint, ia: &M6, pa: V6, c: V6, x: &Transform, tau: &[Id]) -> (Keep, Option<(M6, V6)>) {
+    fn up(&mut self, j: &Joint, s_k: &[V6], ia: &M6, pa: V6, c: V6, x: &Transform, tau: &[Id]) -> UpPass {
         let zero = self.c(0.0);
-        let s_k = self.columns(j);
         let dof = s_k.len();
         let u_cols: Vec<V6> = s_k.iter().map(|col| self.m6v(ia, *col)).collect();
         let d: Vec<Vec<Id>> = (0..dof).map(|r| (0..dof).map(|c| self.dot(&s_k[r], &u_cols[c])).collect()).collect();
@@ -655,7 +681,8 @@ impl Builder {
         let mut reduced = self.sub6(ia, &outer);
         // Exact zeros the graph cannot see (A − A A⁻¹ A): the reduced
         // inertia moves nothing along the joint's own freedoms.
-        for &i in selected(&subspace(j)).iter().flatten() {
+        let constant = j.kind != TreeKind::Universal;
+        for &i in selected(&subspace(j)).filter(|_| constant).iter().flatten() {
             reduced[i] = [zero; 6];
             for row in reduced.iter_mut() {
                 row[i] = zero;
@@ -676,10 +703,9 @@ impl Builder {
     }
 
     /// Pass 3 (root to leaves) of joint `j`: its acceleration and `v̇`.
-    fn out(&mut self, j: &Joint, x: &Transform, from: V6, c: V6, keep: &Keep) -> (V6, Vec<Id>) {
+    fn out(&mut self, s_k: &[V6], x: &Transform, from: V6, c: V6, keep: &Keep) -> (V6, Vec<Id>) {
         let moved = self.motion(x, from);
         let mut a = [0, 1, 2, 3, 4, 5].map(|r| self.g.add(moved[r], c[r]));
-        let s_k = self.columns(j);
         let rhs: Vec<Id> = (0..s_k.len())
             .map(|i| {
                 let ua = self.dot(&keep.u_cols[i], &a);
@@ -732,10 +758,9 @@ pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option
 }
 
 /// The joints of a tree whose algorithms the derive writes: every point and
-/// axis a number, and no universal joint (its subspace turns with its second
-/// angle; the passes here take constant ones).
+/// axis a number.
 fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
-    joints(s, edges).filter(|j| j.iter().all(|j| j.kind != TreeKind::Universal))
+    joints(s, edges)
 }
 
 /// The whole tree in one function.
@@ -760,7 +785,7 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
     for k in (0..n).rev() {
         let j = &joints[k];
         let nvk = j.kind.sizes().1;
-        let (keep, back) = b.up(j, &ia[k], pa[k], downs[k].c, &downs[k].x, &tau[va[k]..va[k] + nvk]);
+        let (keep, back) = b.up(j, &downs[k].s, &ia[k], pa[k], downs[k].c, &downs[k].x, &tau[va[k]..va[k] + nvk]);
         if let (Some(p), Some((ib, fb))) = (j.parent, back) {
             ia[p] = b.add6(&ia[p], &ib);
             pa[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(pa[p][r], fb[r]));
@@ -773,7 +798,7 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
     for (k, j) in joints.iter().enumerate() {
         let from = j.parent.map_or(ground, |p| acc[p]);
         let keep = keeps[k].as_ref()?;
-        let (a, qdd) = b.out(j, &downs[k].x, from, downs[k].c, keep);
+        let (a, qdd) = b.out(&downs[k].s, &downs[k].x, from, downs[k].c, keep);
         for (i, x) in qdd.into_iter().enumerate() {
             out[va[k] + i] = x;
         }
@@ -964,6 +989,12 @@ fn lit(n: usize) -> proc_macro2::Literal {
 /// code with the tree. Kernels read no fields (masses, inertias and gravity
 /// must be numbers here): `None` otherwise.
 fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
+    // A kernel is shared by joints of one text, its subspace constant: a
+    // universal joint's turns with θ₂ (the runtime's recursion runs such a
+    // tree past the limit).
+    if joints.iter().any(|j| j.kind == TreeKind::Universal) {
+        return None;
+    }
     let (qa, va) = offsets(joints);
     let mut ks = Kernels { items: Vec::new(), by_text: Default::default(), ops: 0 };
     let var = |name: &str, k: usize| format_ident!("{name}_{k}");
@@ -1017,7 +1048,8 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound(joints, j)[i]);
         let x = Transform { e: e_in, r: ku.b.consts3(r) };
         let parent_io = j.parent.map(|_| (Kernel::m6(&ku.input("ia_p", 21)), Kernel::v6(&ku.input("pa_p", 6))));
-        let (kept, back) = ku.b.up(j, &ia_in, pa_in, c_in, &x, &tau_in);
+        let columns = ku.b.columns(j, &[]);
+        let (kept, back) = ku.b.up(j, &columns, &ia_in, pa_in, c_in, &x, &tau_in);
         let mut kept_ids: Vec<Id> = kept.u_cols.iter().flat_map(|col| col.iter().copied()).collect();
         kept_ids.extend(kept.dinv.iter().flatten().copied());
         kept_ids.extend(kept.u.iter().copied());
@@ -1049,7 +1081,8 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
             dinv: (0..nvk).map(|r| keep_in[6 * nvk + nvk * r..6 * nvk + nvk * r + nvk].to_vec()).collect(),
             u: keep_in[6 * nvk + nvk * nvk..].to_vec(),
         };
-        let (a, qdd_ids) = ko.b.out(j, &x, from, c_in, &kept);
+        let columns = ko.b.columns(j, &[]);
+        let (a, qdd_ids) = ko.b.out(&columns, &x, from, c_in, &kept);
         ko.output("acc", a.to_vec());
         ko.output("qdd", qdd_ids);
         let name = ks.name("out", ko)?;
@@ -1091,8 +1124,8 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
 }
 
 impl Builder {
-    /// The inverse of a 1 × 1 or symmetric 3 × 3 matrix (adjugate over the
-    /// determinant: one division).
+    /// The inverse of a 1 × 1, 2 × 2 or symmetric 3 × 3 matrix (adjugate
+    /// over the determinant: one division).
     fn inverse(&mut self, d: &[Vec<Id>]) -> Vec<Vec<Id>> {
         if d.is_empty() {
             return Vec::new();
@@ -1100,6 +1133,15 @@ impl Builder {
         let one = self.c(1.0);
         if d.len() == 1 {
             return vec![vec![self.g.div(one, d[0][0])]];
+        }
+        if d.len() == 2 {
+            // [d₁₁ −d₀₁; −d₁₀ d₀₀] / det (a universal joint's).
+            let (x, y) = (self.g.mul(d[0][0], d[1][1]), self.g.mul(d[0][1], d[1][0]));
+            let det = self.g.sub(x, y);
+            let inv_det = self.g.div(one, det);
+            let (a, b) = (self.g.mul(d[1][1], inv_det), self.g.mul(d[0][0], inv_det));
+            let (c, e) = (self.g.mul(d[0][1], inv_det), self.g.mul(d[1][0], inv_det));
+            return vec![vec![a, self.g.neg(c)], vec![self.g.neg(e), b]];
         }
         let m = |r: usize, c: usize| d[r][c];
         let cof = |b: &mut Builder, r: usize, c: usize| {
@@ -1159,7 +1201,7 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
         let from = j.parent.map_or(ground, |p| acc[p]);
         let moved = b.motion(&d[k].x, from);
         let mut a = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(moved[r], d[k].c[r]));
-        for (i, col) in b.columns(j).iter().enumerate() {
+        for (i, col) in d[k].s.iter().enumerate() {
             for r in 0..6 {
                 let t = b.g.mul(col[r], vdot[va[k] + i]);
                 a[r] = b.g.add(a[r], t);
@@ -1172,7 +1214,7 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
     let zero = b.c(0.0);
     let mut tau = vec![zero; nv];
     for (k, j) in joints.iter().enumerate().rev() {
-        for (i, col) in b.columns(j).iter().enumerate() {
+        for (i, col) in d[k].s.iter().enumerate() {
             tau[va[k] + i] = b.dot(col, &force[k]);
         }
         if let Some(p) = j.parent {
@@ -1200,13 +1242,13 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
     }
     let zero = b.c(0.0);
     let mut m = vec![vec![zero; nv]; nv];
-    for (k, j) in joints.iter().enumerate() {
-        for (i, col) in b.columns(j).iter().enumerate() {
+    for (k, _) in joints.iter().enumerate() {
+        for (i, col) in d[k].s.iter().enumerate() {
             let c = va[k] + i;
             let mut f = b.m6v(&ic[k], *col);
             let mut at = k;
             loop {
-                for (r, row_col) in b.columns(&joints[at]).iter().enumerate() {
+                for (r, row_col) in d[at].s.iter().enumerate() {
                     let value = b.dot(row_col, &f);
                     let r = va[at] + r;
                     m[r][c] = value;

@@ -423,6 +423,9 @@ fn the_written_out_algorithm_matches_the_recursion() {
     generated_against_recursion(&Walker, &walker_state(), true);
     generated_against_recursion(&Arm3, &arm_state(), true);
     generated_against_recursion(&CartPole, &cart_pole_state(), true);
+    generated_against_recursion(&Gimbal, &gimbal_state(), true);
+    let welded = TreeState { q: SVector::from([0.7]), v: SVector::from([1.5]), t: 0.0 };
+    generated_against_recursion(&Welded, &welded, true);
     let state = TreeState { q: SVector::from([0.7]), v: SVector::from([3.0]), t: 0.0 };
     generated_against_recursion(&HeavyBar { mass: 2.0 }, &state, true);
     let field = FieldBar { mass: 2.0, end: Vector3::new(-0.5, 0.0, 0.0) };
