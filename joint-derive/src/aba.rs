@@ -641,7 +641,7 @@ impl Builder {
 
     /// Pass 2 (leaves to root) of joint `j`: what it keeps, and, with a
     /// parent, the articulated inertia and bias it hands on (parent frame).
-    fn up(&mut self, j: &Joint, s_k: &[V6], ia: &M6, pa: V6, c: V6, x: &Transform, tau: &[Id]) -> UpPass {
+    fn up(&mut self, j: &Joint, (s_k, x): (&[V6], &Transform), ia: &M6, pa: V6, c: V6, tau: &[Id]) -> UpPass {
         let zero = self.c(0.0);
         let dof = s_k.len();
         let u_cols: Vec<V6> = s_k.iter().map(|col| self.m6v(ia, *col)).collect();
@@ -785,7 +785,7 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
     for k in (0..n).rev() {
         let j = &joints[k];
         let nvk = j.kind.sizes().1;
-        let (keep, back) = b.up(j, &downs[k].s, &ia[k], pa[k], downs[k].c, &downs[k].x, &tau[va[k]..va[k] + nvk]);
+        let (keep, back) = b.up(j, (&downs[k].s, &downs[k].x), &ia[k], pa[k], downs[k].c, &tau[va[k]..va[k] + nvk]);
         if let (Some(p), Some((ib, fb))) = (j.parent, back) {
             ia[p] = b.add6(&ia[p], &ib);
             pa[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(pa[p][r], fb[r]));
@@ -1049,7 +1049,7 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         let x = Transform { e: e_in, r: ku.b.consts3(r) };
         let parent_io = j.parent.map(|_| (Kernel::m6(&ku.input("ia_p", 21)), Kernel::v6(&ku.input("pa_p", 6))));
         let columns = ku.b.columns(j, &[]);
-        let (kept, back) = ku.b.up(j, &columns, &ia_in, pa_in, c_in, &x, &tau_in);
+        let (kept, back) = ku.b.up(j, (&columns, &x), &ia_in, pa_in, c_in, &tau_in);
         let mut kept_ids: Vec<Id> = kept.u_cols.iter().flat_map(|col| col.iter().copied()).collect();
         kept_ids.extend(kept.dinv.iter().flatten().copied());
         kept_ids.extend(kept.u.iter().copied());
