@@ -524,22 +524,14 @@ fn a_welded_body_moves_with_its_parent() {
 #[test]
 fn springs_on_missing_bodies_are_refused() {
     use joint_runtime::dynamics::{Attachment, SpringDamper};
-    let springs = [
-        SpringDamper {
-            a: Attachment::Ground(Vector3::zeros()),
-            b: Attachment::Body { body: 0, point: Vector3::zeros() },
-            stiffness: 10.0,
-            damping: 0.0,
-            rest_length: 0.5,
-        },
-        SpringDamper {
-            a: Attachment::Ground(Vector3::zeros()),
-            b: Attachment::Body { body: 2, point: Vector3::zeros() },
-            stiffness: 10.0,
-            damping: 0.0,
-            rest_length: 0.5,
-        },
-    ];
+    let to = |body: usize| SpringDamper {
+        a: Attachment::Ground(Vector3::zeros()),
+        b: Attachment::Body { body, point: Vector3::zeros() },
+        stiffness: 10.0,
+        damping: 0.0,
+        rest_length: 0.5,
+    };
+    let springs = [to(0), to(2)];
     assert!(TreeSimulation::new(&Welded).unwrap().with_springs(&springs[..1]).is_ok());
     let refused = TreeSimulation::new(&Welded).unwrap().with_springs(&springs).err();
     assert_eq!(refused, Some(TreeError::Attachment { spring: 1 }));
