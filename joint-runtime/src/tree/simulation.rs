@@ -144,15 +144,16 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     ) -> Result<Saddle<NV, NC>, TreeError> {
         let mut m = SMatrix::<f64, NV, NV>::zeros();
         self.mass_matrix_into(q, &mut m);
-        let mass = PivotedCholesky::new(&m, 0.0).map_err(|_| TreeError::NonFinite)?;
-        if !mass.is_full_rank() {
+        if !m.iter().all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        // `M` is positive definite for a valid tree (`Tree::new` checks every
+        // inertia): a plain Cholesky, all columns of `Jᵀ` solved at once.
+        let Some(mass) = nalgebra::Cholesky::new(m) else {
             let joint = self.tree.joints.first().map_or("", |j| j.name);
             return Err(TreeError::Singular { joint });
-        }
-        let mut minv_jt = SMatrix::<f64, NV, NC>::zeros();
-        for (c, row) in jacobian.row_iter().enumerate() {
-            minv_jt.set_column(c, &mass.solve(&row.transpose()));
-        }
+        };
+        let minv_jt = mass.solve(&jacobian.transpose());
         let s = jacobian * minv_jt;
         let factor = match order {
             Some(f) => PivotedCholesky::with_order(&s, f.permutation(), f.rank(), DEFAULT_RANK_TOLERANCE),
