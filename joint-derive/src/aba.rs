@@ -732,10 +732,15 @@ impl Builder {
 
 /// Where each joint's coordinates and velocities start.
 pub(crate) fn offsets(joints: &[Joint]) -> (Vec<usize>, Vec<usize>) {
+    kind_offsets(joints.iter().map(|j| j.kind))
+}
+
+/// Where each of a tree's joints' coordinates and velocities start, by kind.
+pub(crate) fn kind_offsets(kinds: impl Iterator<Item = TreeKind>) -> (Vec<usize>, Vec<usize>) {
     let (mut qa, mut va) = (Vec::new(), Vec::new());
     let (mut at_q, mut at_v) = (0, 0);
-    for j in joints {
-        let (a, b) = j.kind.sizes();
+    for kind in kinds {
+        let (a, b) = kind.sizes();
         qa.push(at_q);
         va.push(at_v);
         at_q += a;

@@ -18,7 +18,7 @@
 use proc_macro2::{Span, TokenStream};
 use quote::quote;
 
-use crate::aba::{Builder, ends, joint, parent_edges};
+use crate::aba::{Builder, ends, joint, kind_offsets, parent_edges};
 use crate::engine::graph::Id;
 use crate::front::scene::SceneDecl;
 use crate::front::tree::{TreeEdge, TreeKind, closures};
@@ -89,12 +89,7 @@ pub fn derive(
 /// whose points and axes are numbers is folded; any other reads them from
 /// the runtime's `TreeGeometry` (its unit axis and rest rotation made once).
 fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
-    let sizes: Vec<(usize, usize)> = edges.iter().map(|e| e.kind.sizes()).collect();
-    let (mut qa, mut va) = (vec![0], vec![0]);
-    for (nq, nv) in &sizes {
-        qa.push(qa[qa.len() - 1] + nq);
-        va.push(va[va.len() - 1] + nv);
-    }
+    let (qa, va) = kind_offsets(edges.iter().map(|e| e.kind));
     let (q, v) = (k.coords.clone(), k.velocities.clone());
     let mut b = Builder { g: std::mem::take(&mut k.g), bindings: Vec::new() };
     let mut reads = Vec::new();
@@ -104,7 +99,7 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
     let mut by_body = vec![(identity, [zero; 3]); s.bodies.len()];
     let mut spins = Vec::new();
     for (n, (e, parent)) in edges.iter().zip(parent_edges(s, edges)).enumerate() {
-        let (nq, nv) = sizes[n];
+        let (nq, nv) = e.kind.sizes();
         let (qj, vj) = (&q[qa[n]..qa[n] + nq], &v[va[n]..va[n] + nv]);
         let (a_p, r_p) = parent.map_or((identity, [zero; 3]), |p| poses[p]);
         let (rel, rho_p, rho_c) = match joint(s, e, parent) {

@@ -76,6 +76,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
             return out;
         }
         let system = self.tree.system_state(state);
+        let poses = self.tree.link_poses(&state.q);
         let end = |at: &Attachment| match *at {
             Attachment::Ground(p) => (p, nalgebra::Vector3::zeros(), None),
             Attachment::Body { body, point } => {
@@ -93,7 +94,9 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
             let u = d / length;
             let tension = s.stiffness * (length - s.rest_length) + s.damping * u.dot(&(vb - va));
             for (at, sign) in [(ba, 1.0), (bb, -1.0)] {
-                if let Some(j) = at.and_then(|(body, point)| self.tree.point_jacobian(&state.q, body, &point)) {
+                if let Some(j) =
+                    at.and_then(|(body, point)| self.tree.point_jacobian_at(&poses, &state.q, body, &point))
+                {
                     out += j.fixed_rows::<3>(3).transpose() * (u * (sign * tension));
                 }
             }
@@ -121,11 +124,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
         tau: &SVector<f64, NV>,
         order: Option<&PivotedCholesky<NC>>,
     ) -> Result<(SVector<f64, NV>, Option<PivotedCholesky<NC>>), TreeError> {
-        let free = if self.springs.is_empty() {
-            self.tree_dynamics(state, tau)?
-        } else {
-            self.tree_dynamics(state, &(tau + self.spring_forces(state)))?
-        };
+        let free = self.tree_dynamics(state, &(tau + self.spring_forces(state)))?;
         if NC == 0 {
             return Ok((free, None));
         }
@@ -173,8 +172,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// Newton in the mass metric (one factor), then `v` onto
     /// `J v + Φ_t = 0` with that factor.
     fn project(&self, state: &mut TreeState<NQ, NV>) -> Result<(), TreeError> {
-        let (tolerance, iterations, floor) = PROJECTION;
-        self.close(state, (tolerance, iterations, floor), false)
+        self.close(state, PROJECTION, false)
     }
 
     /// A state on its loops near `guess`: Newton in the mass metric from the
@@ -206,12 +204,12 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
             if rows.phi.amax() <= tolerance {
                 break;
             }
-            if refactor {
-                saddle = self.saddle(&state.q, &rows.jacobian, None)?;
-            }
             let dq = -saddle.correction(&rows.phi);
             self.tree.displace(&mut state.q, &dq);
             rows = self.scene.closure_rows(state, &self.tree.geometry);
+            if refactor {
+                saddle = self.saddle(&state.q, &rows.jacobian, None)?;
+            }
         }
         if !rows.phi.iter().chain(rows.jacobian.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
