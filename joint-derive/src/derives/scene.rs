@@ -5,6 +5,7 @@
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
+use super::tree::Loops;
 use crate::engine::emit::ScalarTy;
 use crate::front::attr::Number;
 use crate::front::resolve::Source;
@@ -12,9 +13,6 @@ use crate::front::scene::{self, BodyName, Quantity, SIZE_CONSTANTS, SceneDecl, S
 use crate::generate::{self, Printed, Signature, krate, lints};
 use crate::lower::{self, Block, Derived};
 use crate::second_order::{self, Terms};
-
-/// A tree's closures derived in its coordinates, and their row blocks.
-type Loops = (Derived, Vec<Block>);
 
 /// The derive's entry point.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {

@@ -17,9 +17,12 @@ pub fn sizes(edges: &[TreeEdge]) -> (usize, usize) {
     edges.iter().map(|e| e.kind.sizes()).fold((0, 0), |(q, v), (a, b)| (q + a, v + b))
 }
 
+/// A tree's closures derived in its coordinates, and their row blocks.
+pub type Loops = (Derived, Vec<Block>);
+
 /// The closures of a scene with a tree (joints outside it) derived in the
 /// tree's coordinates; `None` without a tree or without closures.
-pub fn closures(s: &SceneDecl) -> syn::Result<Option<(Derived, Vec<Block>)>> {
+pub fn closures(s: &SceneDecl) -> syn::Result<Option<Loops>> {
     match &s.tree {
         Some(edges) => crate::closure::derive(s, edges, sizes(edges)),
         None => Ok(None),
@@ -32,7 +35,7 @@ pub fn print(
     s: &SceneDecl,
     edges: &[TreeEdge],
     generics: &syn::Generics,
-    loops: Option<&(Derived, Vec<Block>)>,
+    loops: Option<&Loops>,
 ) -> TokenStream {
     let k = krate();
     let nb = Literal::usize_unsuffixed(s.bodies.len());

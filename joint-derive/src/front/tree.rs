@@ -1,7 +1,6 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
 //! ground through its tree joints (`revolute`, `spherical`, `translational`,
-//! `universal`, `fixed`), every
-//! body reached; the other joints close loops.
+//! `universal`, `fixed`), every body reached; the other joints close loops.
 
 use super::context::Errors;
 use super::scene::{Body, JointDecl};
@@ -58,9 +57,10 @@ pub struct TreeEdge {
 }
 
 /// The joints in tree order, parents first: the first declared tree joint
-/// (`revolute`, `spherical`, `translational`, `universal`, `fixed`) that reaches a new body from the reached ones,
-/// again and again (a breadth-first spanning tree that keeps the
-/// declaration's order among equals). Every other joint (one that closes a
+/// (`revolute`, `spherical`, `translational`, `universal`, `fixed`) that
+/// reaches a new body from the reached ones, again and again (a
+/// breadth-first spanning tree that keeps the declaration's order among
+/// equals). Every other joint (one that closes a
 /// loop, or of a kind without a tree parametrisation) is a closure: its rows
 /// stay constraints, composed with the tree's kinematics ([`closures`]).
 pub fn spanning_tree(bodies: &[Body], joints: &[JointDecl], errors: &mut Errors) -> Vec<TreeEdge> {
