@@ -323,26 +323,21 @@ pub(crate) fn parent_edges(s: &SceneDecl, edges: &[TreeEdge]) -> Vec<Option<usiz
     let mut moved_by = vec![None; s.bodies.len()];
     let mut out = Vec::new();
     for (k, e) in edges.iter().enumerate() {
-        let [parent, child] = ends(s, e);
+        let (parent, child) = e.ends;
         out.push(parent.and_then(|p| moved_by[p]));
-        if let Some(c) = child {
-            moved_by[c] = Some(k);
-        }
+        moved_by[child] = Some(k);
     }
     out
-}
-
-/// `[parent, child]` bodies of an edge.
-pub(crate) fn ends(s: &SceneDecl, e: &TreeEdge) -> [Option<usize>; 2] {
-    let j = &s.joints[e.joint];
-    if e.reversed { [j.bodies[1], j.bodies[0]] } else { [j.bodies[0], j.bodies[1]] }
 }
 
 /// One edge's joint with its geometry as numbers (`parent`: its parent
 /// edge), or `None` when a point or an axis is not a number.
 pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Option<Joint> {
-    let j = &s.joints[e.joint];
-    let child = ends(s, e)[1]?;
+    let child = e.ends.1;
+    let Some(j) = e.joint.map(|i| &s.joints[i]) else {
+        // A floating body: its centre from the ground's origin.
+        return Some(Joint { kind: TreeKind::Free, parent, child, ..Joint::spherical() });
+    };
     let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
     let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
     let mut slide = [0.0; 3];
@@ -359,6 +354,9 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         let (a, h) = if e.reversed { (second, first) } else { (first, second) };
         axis = h;
         rest = rest_rotation(h, a);
+        if e.kind == TreeKind::Cylindrical {
+            slide = a;
+        }
         if matches!(e.kind, TreeKind::Prismatic | TreeKind::Fixed) {
             // The second axes `g` (body 1) and `k` (body 2) lock the turn.
             let (g, k) = (known(j, "g")?, known(j, "k")?);
@@ -407,11 +405,17 @@ impl Builder {
     /// `r + d a`: a prismatic joint's offset moved by its slide `d` along its
     /// parent-frame axis `a`; `r` otherwise.
     pub(crate) fn slid(&mut self, j: &Joint, r: V3, q: &[Id]) -> V3 {
-        if j.kind != TreeKind::Prismatic {
-            return r;
+        if j.kind == TreeKind::Free {
+            // A floating body's own offset, parent components.
+            return [0, 1, 2].map(|i| self.g.add(r[i], q[i]));
         }
+        let d = match j.kind {
+            TreeKind::Prismatic => q[0],
+            TreeKind::Cylindrical => q[1],
+            _ => return r,
+        };
         [0, 1, 2].map(|i| {
-            let t = self.scale(j.slide[i], q[0]);
+            let t = self.scale(j.slide[i], d);
             self.g.add(r[i], t)
         })
     }
@@ -453,7 +457,7 @@ impl Builder {
     /// `R₀`, `rot(s, θ₁) R₀ rot(h, θ₂)` or the normalised quaternion's matrix.
     pub(crate) fn relative(&mut self, j: &Joint, q: &[Id]) -> M3 {
         match j.kind {
-            TreeKind::Revolute => {
+            TreeKind::Revolute | TreeKind::Cylindrical => {
                 let rot = self.turn(j.axis, q[0]);
                 let rest: M3 = j.rest.map(|row| row.map(|x| self.c(x)));
                 self.mm(&rest, &rot)
@@ -465,34 +469,39 @@ impl Builder {
                 self.mm(&turned, &second)
             }
             TreeKind::Prismatic | TreeKind::Fixed => j.rest.map(|row| row.map(|x| self.c(x))),
-            TreeKind::Spherical => {
-                let (e0, e) = (q[0], [q[1], q[2], q[3]]);
-                let n2 = self.dot(q, q);
-                let one = self.c(1.0);
-                let inv = self.g.div(one, n2);
-                let (ee, e00) = (self.dot(&e, &e), self.g.mul(e0, e0));
-                let diag = self.g.sub(e00, ee);
-                let two = self.c(2.0);
-                let mut m = [[diag; 3]; 3];
-                for (a, row) in m.iter_mut().enumerate() {
-                    for (b, x) in row.iter_mut().enumerate() {
-                        let outer = self.g.mul(e[a], e[b]);
-                        let mut v = self.g.mul(two, outer);
-                        if a == b {
-                            v = self.g.add(diag, v);
-                        } else {
-                            let k = 3 - a - b;
-                            let sign = if (a + 1) % 3 == b { -1.0 } else { 1.0 };
-                            let t = self.g.mul(e0, e[k]);
-                            let t = self.scale(2.0 * sign, t);
-                            v = self.g.add(v, t);
-                        }
-                        *x = self.g.mul(v, inv);
-                    }
+            TreeKind::Spherical => self.quaternion_matrix(q),
+            TreeKind::Free => self.quaternion_matrix(&q[3..]),
+        }
+    }
+
+    /// The rotation matrix of the quaternion `q` normalised (`/ |q|²`: an
+    /// RK4 stage's is off the unit sphere).
+    fn quaternion_matrix(&mut self, q: &[Id]) -> M3 {
+        let (e0, e) = (q[0], [q[1], q[2], q[3]]);
+        let n2 = self.dot(q, q);
+        let one = self.c(1.0);
+        let inv = self.g.div(one, n2);
+        let (ee, e00) = (self.dot(&e, &e), self.g.mul(e0, e0));
+        let diag = self.g.sub(e00, ee);
+        let two = self.c(2.0);
+        let mut m = [[diag; 3]; 3];
+        for (a, row) in m.iter_mut().enumerate() {
+            for (b, x) in row.iter_mut().enumerate() {
+                let outer = self.g.mul(e[a], e[b]);
+                let mut v = self.g.mul(two, outer);
+                if a == b {
+                    v = self.g.add(diag, v);
+                } else {
+                    let k = 3 - a - b;
+                    let sign = if (a + 1) % 3 == b { -1.0 } else { 1.0 };
+                    let t = self.g.mul(e0, e[k]);
+                    let t = self.scale(2.0 * sign, t);
+                    v = self.g.add(v, t);
                 }
-                m
+                *x = self.g.mul(v, inv);
             }
         }
+        m
     }
 }
 
@@ -505,7 +514,10 @@ fn subspace(j: &Joint) -> Vec<[f64; 6]> {
         TreeKind::Revolute => vec![turn(j.axis)],
         TreeKind::Spherical => vec![turn([1.0, 0.0, 0.0]), turn([0.0, 1.0, 0.0]), turn([0.0, 0.0, 1.0])],
         TreeKind::Prismatic => vec![[0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
+        TreeKind::Cylindrical => vec![turn(j.axis), [0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
         TreeKind::Fixed => Vec::new(),
+        // The point's velocity, then ω' (the runtime's order).
+        TreeKind::Free => (0..6).map(|i| std::array::from_fn(|r| if r == (i + 3) % 6 { 1.0 } else { 0.0 })).collect(),
         // At θ₂ = 0 only: `Builder::columns` turns the first with θ₂.
         TreeKind::Universal => {
             let b = [0, 1, 2].map(|i| (0..3).map(|r| j.rest[r][i] * j.slide[r]).sum());
@@ -566,11 +578,13 @@ struct Down {
 /// articulated inertia and bias it hands on.
 type UpPass = (Keep, Option<(M6, V6)>);
 
-/// What pass 2 keeps of one joint for pass 3: `U`, `D⁻¹`, `u`.
+/// What pass 2 keeps of one joint for pass 3: `U`, `D⁻¹`, `u`; for a free
+/// joint only its body's acceleration `Iᴬ⁻¹ (S τ − pᴬ)`.
 struct Keep {
     u_cols: Vec<V6>,
     dinv: Vec<Vec<Id>>,
     u: Vec<Id>,
+    free: Option<V6>,
 }
 
 impl Builder {
@@ -644,6 +658,19 @@ impl Builder {
     fn up(&mut self, j: &Joint, (s_k, x): (&[V6], &Transform), ia: &M6, pa: V6, c: V6, tau: &[Id]) -> UpPass {
         let zero = self.c(0.0);
         let dof = s_k.len();
+        if j.kind == TreeKind::Free {
+            // S is a permutation, so U D⁻¹ Uᵀ = Iᴬ: nothing of the inertia
+            // moves on, only the joint force (the reaction), and the body's
+            // acceleration does not depend on its parent's.
+            let f = [0, 1, 2, 3, 4, 5].map(|r| {
+                let col: Vec<Id> = s_k.iter().map(|c| c[r]).collect();
+                self.dot(&col, tau)
+            });
+            let rhs = [0, 1, 2, 3, 4, 5].map(|r| self.g.sub(f[r], pa[r]));
+            let acc = self.solve_spd(ia, rhs);
+            let keep = Keep { u_cols: Vec::new(), dinv: Vec::new(), u: Vec::new(), free: Some(acc) };
+            return (keep, j.parent.map(|_| ([[zero; 6]; 6], self.force_back(x, f))));
+        }
         let u_cols: Vec<V6> = s_k.iter().map(|col| self.m6v(ia, *col)).collect();
         let d: Vec<Vec<Id>> = (0..dof).map(|r| (0..dof).map(|c| self.dot(&s_k[r], &u_cols[c])).collect()).collect();
         let dinv = self.inverse(&d);
@@ -653,11 +680,11 @@ impl Builder {
                 self.g.sub(tau[i], sp)
             })
             .collect();
-        let keep = Keep { u_cols, dinv, u };
+        let keep = Keep { u_cols, dinv, u, free: None };
         if j.parent.is_none() {
             return (keep, None);
         }
-        let Keep { u_cols, dinv, u } = &keep;
+        let Keep { u_cols, dinv, u, .. } = &keep;
         // U D⁻¹ (its columns), then Iᴬ − (U D⁻¹) Uᵀ and pᴬ + Iᵃ c + U D⁻¹ u.
         let ud: Vec<V6> = (0..dof)
             .map(|c| {
@@ -706,6 +733,10 @@ impl Builder {
     fn out(&mut self, s_k: &[V6], x: &Transform, from: V6, c: V6, keep: &Keep) -> (V6, Vec<Id>) {
         let moved = self.motion(x, from);
         let mut a = [0, 1, 2, 3, 4, 5].map(|r| self.g.add(moved[r], c[r]));
+        if let Some(acc) = keep.free {
+            let rel = [0, 1, 2, 3, 4, 5].map(|r| self.g.sub(acc[r], a[r]));
+            return (acc, s_k.iter().map(|col| self.dot(col, &rel)).collect());
+        }
         let rhs: Vec<Id> = (0..s_k.len())
             .map(|i| {
                 let ua = self.dot(&keep.u_cols[i], &a);
@@ -997,7 +1028,7 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     // A kernel is shared by joints of one text, its subspace constant: a
     // universal joint's turns with θ₂ (the runtime's recursion runs such a
     // tree past the limit).
-    if joints.iter().any(|j| j.kind == TreeKind::Universal) {
+    if joints.iter().any(|j| matches!(j.kind, TreeKind::Universal | TreeKind::Free)) {
         return None;
     }
     let (qa, va) = offsets(joints);
@@ -1085,6 +1116,7 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
             u_cols: (0..nvk).map(|i| Kernel::v6(&keep_in[6 * i..6 * i + 6])).collect(),
             dinv: (0..nvk).map(|r| keep_in[6 * nvk + nvk * r..6 * nvk + nvk * r + nvk].to_vec()).collect(),
             u: keep_in[6 * nvk + nvk * nvk..].to_vec(),
+            free: None,
         };
         let columns = ko.b.columns(j, &[]);
         let (a, qdd_ids) = ko.b.out(&columns, &x, from, c_in, &kept);
@@ -1129,6 +1161,40 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
 }
 
 impl Builder {
+    /// `M⁻¹ b` for a symmetric positive definite 6 × 6 `M` (a free joint's
+    /// articulated inertia) by `M = L D Lᵀ`, `L` unit lower triangular: no
+    /// square root, six divisions.
+    fn solve_spd(&mut self, m: &M6, b: V6) -> V6 {
+        let zero = self.c(0.0);
+        let (mut l, mut ld, mut d) = ([[zero; 6]; 6], [[zero; 6]; 6], [zero; 6]);
+        for j in 0..6 {
+            let lj: Vec<Id> = l[j][..j].to_vec();
+            let ldj: Vec<Id> = ld[j][..j].to_vec();
+            let s = self.dot(&lj, &ldj);
+            d[j] = self.g.sub(m[j][j], s);
+            for i in j + 1..6 {
+                let li: Vec<Id> = l[i][..j].to_vec();
+                let s = self.dot(&li, &ldj);
+                ld[i][j] = self.g.sub(m[i][j], s);
+                l[i][j] = self.g.div(ld[i][j], d[j]);
+            }
+        }
+        let mut y = [zero; 6];
+        for i in 0..6 {
+            let li: Vec<Id> = l[i][..i].to_vec();
+            let s = self.dot(&li, &y[..i]);
+            y[i] = self.g.sub(b[i], s);
+        }
+        let mut x = [zero; 6];
+        for i in (0..6).rev() {
+            let z = self.g.div(y[i], d[i]);
+            let below: Vec<Id> = (i + 1..6).map(|k| l[k][i]).collect();
+            let s = self.dot(&below, &x[i + 1..]);
+            x[i] = self.g.sub(z, s);
+        }
+        x
+    }
+
     /// The inverse of a 1 × 1, 2 × 2 or symmetric 3 × 3 matrix (adjugate
     /// over the determinant: one division).
     fn inverse(&mut self, d: &[Vec<Id>]) -> Vec<Vec<Id>> {

@@ -18,7 +18,7 @@
 use proc_macro2::{Span, TokenStream};
 use quote::quote;
 
-use crate::aba::{Builder, ends, joint, kind_offsets, parent_edges};
+use crate::aba::{Builder, joint, kind_offsets, parent_edges};
 use crate::engine::graph::Id;
 use crate::front::scene::SceneDecl;
 use crate::front::tree::{TreeEdge, TreeKind, closures};
@@ -97,7 +97,7 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
     let identity = [[one, zero, zero], [zero, one, zero], [zero, zero, one]];
     let mut poses: Vec<([[Id; 3]; 3], [Id; 3])> = Vec::with_capacity(edges.len());
     let mut by_body = vec![(identity, [zero; 3]); s.bodies.len()];
-    let mut spins = Vec::new();
+    let (mut spins, mut offsets) = (Vec::new(), Vec::new());
     for (n, (e, parent)) in edges.iter().zip(parent_edges(s, edges)).enumerate() {
         let (nq, nv) = e.kind.sizes();
         let (qj, vj) = (&q[qa[n]..qa[n] + nq], &v[va[n]..va[n] + nv]);
@@ -117,16 +117,24 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
             b.g.sub(t, back[i])
         });
         poses.push((a, r));
-        if let Some(child) = ends(s, e)[1] {
-            by_body[child] = (a, r);
+        by_body[e.ends.1] = (a, r);
+        if e.kind == TreeKind::Free {
+            // ḋ = R u: the offset's rate from the point's velocity in the
+            // child's components.
+            let moved: [Id; 3] = [0, 1, 2].map(|i| b.dot(&rel[i], &vj[..3]));
+            offsets.push((qj[..3].to_vec(), moved));
         }
         spins.push((qj.to_vec(), vj.to_vec()));
     }
     k.g = b.g;
     k.inputs.extend(reads);
+    for (d, rates) in offsets {
+        d.iter().zip(rates).for_each(|(&d, rate)| k.rate(d, rate));
+    }
     for (qj, vj) in spins {
         match (qj.as_slice(), vj.as_slice()) {
             (&[p0, p1, p2, p3], &[w0, w1, w2]) => k.spin([p0, p1, p2, p3], [w0, w1, w2]),
+            (&[_, _, _, p0, p1, p2, p3], &[_, _, _, w0, w1, w2]) => k.spin([p0, p1, p2, p3], [w0, w1, w2]),
             // An angle or a slide per velocity (revolute, universal, prismatic).
             (angles, rates) => angles.iter().zip(rates).for_each(|(&q, &v)| k.rate(q, v)),
         }
@@ -154,14 +162,17 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
     if kind == TreeKind::Fixed {
         return (rest, rho_p, rho_c);
     }
-    if kind == TreeKind::Prismatic {
-        // `a = R₀ h`, the axis in the parent's frame.
+    // `a = R₀ h`, the axis in the parent's frame, along which a prismatic
+    // joint slides by its coordinate, a cylindrical one by its second.
+    let slid = |b: &mut Builder, d: Id| {
         let a = b.mv(&rest, h);
-        let slid = [0, 1, 2].map(|i| {
-            let t = b.g.mul(a[i], q[0]);
+        [0, 1, 2].map(|i| {
+            let t = b.g.mul(a[i], d);
             b.g.add(rho_p[i], t)
-        });
-        return (rest, slid, rho_c);
+        })
+    };
+    if kind == TreeKind::Prismatic {
+        return (rest, slid(b, q[0]), rho_c);
     }
     let turn = |b: &mut Builder, axis: V3, angle: Id| {
         let (c, s) = (b.g.cos(angle), b.g.sin(angle));
@@ -170,6 +181,7 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
     let times = |b: &mut Builder, x: &[[Id; 3]; 3], y: &[[Id; 3]; 3]| -> [[Id; 3]; 3] {
         [0, 1, 2].map(|r| [0, 1, 2].map(|j| b.dot(&x[r], &[y[0][j], y[1][j], y[2][j]])))
     };
+    let rho_p = if kind == TreeKind::Cylindrical { slid(b, q[1]) } else { rho_p };
     let rel = if kind == TreeKind::Universal {
         // rot(s, θ₁) R₀ rot(h, θ₂), `s` the parent's axis.
         let s = read(b, reads, &["axis_parent", &at]);

@@ -39,7 +39,10 @@ pub fn print(
 ) -> TokenStream {
     let k = krate();
     let nb = Literal::usize_unsuffixed(s.bodies.len());
-    let joints = edges.iter().map(|e| joint(&s.joints[e.joint], e));
+    let joints = edges.iter().map(|e| match e.joint {
+        Some(i) => joint(&s.joints[i], e),
+        None => free(s, e),
+    });
     let inertias = s.bodies.iter().map(|b| inertia(&b.mass, &b.inertia));
     let gravity = vector(&s.gravity);
     let (nq, nv) = sizes(edges);
@@ -103,9 +106,11 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     let child = Literal::usize_unsuffixed(child.unwrap_or(0));
     let (rho1, rho2) = (param(j, "rho1"), param(j, "rho2"));
     let (axis1, axis2) = match e.kind {
-        TreeKind::Revolute | TreeKind::Prismatic | TreeKind::Fixed => (first_axis(j), param(j, "h")),
+        TreeKind::Revolute | TreeKind::Prismatic | TreeKind::Cylindrical | TreeKind::Fixed => {
+            (first_axis(j), param(j, "h"))
+        }
         TreeKind::Universal => (param(j, "s"), param(j, "h")),
-        TreeKind::Spherical => (zero(), zero()),
+        TreeKind::Spherical | TreeKind::Free => (zero(), zero()),
     };
     // The second axes that lock a prismatic joint's turn: `g` and `k`.
     let (lock1, lock2) = match e.kind {
@@ -121,6 +126,8 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
         TreeKind::Prismatic => quote!(Prismatic),
         TreeKind::Universal => quote!(Universal),
         TreeKind::Fixed => quote!(Fixed),
+        TreeKind::Cylindrical => quote!(Cylindrical),
+        TreeKind::Free => quote!(Free),
     };
     quote! {
         #k::tree::TreeJoint {
@@ -134,6 +141,29 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
             axis_child: #axis_c,
             lock_parent: #lock_p,
             lock_child: #lock_c,
+        }
+    }
+}
+
+/// The free joint of a floating body, named `free(BODY)`: from the ground's
+/// origin to its centre of mass.
+fn free(s: &SceneDecl, e: &TreeEdge) -> TokenStream {
+    let k = krate();
+    let name = format!("free({})", s.bodies[e.ends.1].label());
+    let child = Literal::usize_unsuffixed(e.ends.1);
+    let z = zero();
+    quote! {
+        #k::tree::TreeJoint {
+            name: #name,
+            kind: #k::tree::TreeJointKind::Free,
+            parent: ::core::option::Option::None,
+            child: #child,
+            rho_parent: #z,
+            rho_child: #z,
+            axis_parent: #z,
+            axis_child: #z,
+            lock_parent: #z,
+            lock_child: #z,
         }
     }
 }

@@ -300,7 +300,7 @@ pub struct SceneShape {
 /// when every body and joint attribute parses and names a known joint: enough
 /// for a stub impl beside a compile error.
 pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
-    let (mut bodies, mut rows, mut tree) = (Vec::new(), 0, (0, 0));
+    let (mut bodies, mut rows, mut tree, mut tree_joints) = (Vec::new(), 0, (0, 0), 0);
     for attr in &input.attrs {
         if attr.path().is_ident("body") {
             let b = attr.parse_args::<BodyAttr>().ok()?;
@@ -317,12 +317,17 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
             for joint in attr::entries::<JointAttr>(attr).ok()? {
                 let copies = joint.repeat.map_or(1, |r| r.values.count());
                 rows += copies * joints::lookup(&joint.kind.to_string())?.row_count();
-                let (q, v) = super::tree::TreeKind::of(&joint.kind.to_string()).map_or((0, 0), |k| k.sizes());
-                tree = (tree.0 + copies * q, tree.1 + copies * v);
+                if let Some(kind) = super::tree::TreeKind::of(&joint.kind.to_string()) {
+                    let (q, v) = kind.sizes();
+                    tree = (tree.0 + copies * q, tree.1 + copies * v);
+                    tree_joints += copies;
+                }
             }
         }
     }
-    let tree = relative(input).then_some(tree);
+    // Bodies beyond the tree joints float (exact unless a tree joint closes a loop).
+    let floating = bodies.len().saturating_sub(tree_joints);
+    let tree = relative(input).then_some((tree.0 + 7 * floating, tree.1 + 6 * floating));
     (!bodies.is_empty()).then_some(SceneShape { bodies, rows, tree })
 }
 
@@ -428,7 +433,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // The tree only of joints that parsed: a mistaken joint is one message,
     // not also an unreached body.
     if relative.is_some() && errors.is_empty() {
-        scene.tree = Some(super::tree::spanning_tree(&scene.bodies, &scene.joints, &mut errors));
+        scene.tree = Some(super::tree::spanning_tree(&scene.bodies, &scene.joints));
     }
     errors.finish()?;
     Ok(scene)

@@ -31,12 +31,17 @@ impl TreeEnergy {
 }
 
 /// `Sᵀ f`, padded with zeros past the joint's freedoms.
-fn project(s: &Subspace, f: &Vector6<f64>) -> Vector3<f64> {
-    Vector3::from_fn(|i, _| if i < s.n { s.cols[i].dot(f) } else { 0.0 })
+fn project(s: &Subspace, f: &Vector6<f64>) -> Vector6<f64> {
+    Vector6::from_fn(|i, _| if i < s.n { s.cols[i].dot(f) } else { 0.0 })
+}
+
+/// The first three of a joint's padded numbers (a joint other than a free one).
+fn three(x: &Vector6<f64>) -> Vector3<f64> {
+    x.fixed_rows::<3>(0).into_owned()
 }
 
 /// `S x` for the joint's freedoms.
-fn expand(s: &Subspace, x: &Vector3<f64>) -> Vector6<f64> {
+fn expand(s: &Subspace, x: &Vector6<f64>) -> Vector6<f64> {
     (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * x[i])
 }
 
@@ -78,7 +83,7 @@ impl Articulated {
             });
             spd_inverse(&d)?
         };
-        Some(Articulated { u_cols, d_inv, u: tau - project(s, pa) })
+        Some(Articulated { u_cols, d_inv, u: tau - three(&project(s, pa)) })
     }
 
     /// `U x`.
@@ -133,10 +138,25 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         let blank = Articulated { u_cols: [Vector6::zeros(); 3], d_inv: Matrix3::zeros(), u: Vector3::zeros() };
         let mut art = [blank; NB];
+        // A free joint's body acceleration (it does not depend on the parent's).
+        let mut free = [Vector6::zeros(); NB];
         for k in (0..NB).rev() {
             let s = &kin.s[k];
             let t = self.joint_forces(k, tau);
-            let a = Articulated::new(s, &ia[k], &pa[k], t).ok_or(TreeError::Singular { joint: self.joints[k].name })?;
+            let singular = TreeError::Singular { joint: self.joints[k].name };
+            if self.joints[k].kind == TreeJointKind::Free {
+                // S is a permutation, so U D⁻¹ Uᵀ = Iᴬ: nothing of the
+                // inertia moves on, only the joint force (the reaction), and
+                // the body's acceleration is Iᴬ⁻¹ (S τ − pᴬ) whatever the
+                // parent's.
+                let f = expand(s, &t);
+                free[k] = ia[k].cholesky().ok_or(singular)?.solve(&(f - pa[k]));
+                if let Some(p) = self.parent[k] {
+                    pa[p] += kin.x[k].force_back(&f);
+                }
+                continue;
+            }
+            let a = Articulated::new(s, &ia[k], &pa[k], three(&t)).ok_or(singular)?;
             if let Some(p) = self.parent[k] {
                 let handed = a.u_times(s.n, &(a.d_inv * a.u));
                 if self.joints[k].kind == TreeJointKind::Spherical {
@@ -161,8 +181,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for k in 0..NB {
             let s = &kin.s[k];
             let a = self.parent_acceleration(&kin, k, &acc) + c[k];
-            let u_t_a = Vector3::from_fn(|i, _| if i < s.n { art[k].u_cols[i].dot(&a) } else { 0.0 });
-            let qdd = art[k].d_inv * (art[k].u - u_t_a);
+            let qdd = if self.joints[k].kind == TreeJointKind::Free {
+                project(s, &(free[k] - a))
+            } else {
+                let u_t_a = Vector3::from_fn(|i, _| if i < s.n { art[k].u_cols[i].dot(&a) } else { 0.0 });
+                let qdd = art[k].d_inv * (art[k].u - u_t_a);
+                Vector6::new(qdd.x, qdd.y, qdd.z, 0.0, 0.0, 0.0)
+            };
             acc[k] = a + expand(s, &qdd);
             self.put(k, &qdd, &mut vdot);
         }
@@ -245,13 +270,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     }
 
     /// Joint `k`'s entries of `tau`, padded.
-    fn joint_forces(&self, k: usize, tau: &SVector<f64, NV>) -> Vector3<f64> {
+    fn joint_forces(&self, k: usize, tau: &SVector<f64, NV>) -> Vector6<f64> {
         let (at, n) = (self.v_at[k], self.joints[k].kind.freedoms());
-        Vector3::from_fn(|i, _| if i < n { tau[at + i] } else { 0.0 })
+        Vector6::from_fn(|i, _| if i < n { tau[at + i] } else { 0.0 })
     }
 
     /// Writes joint `k`'s entries of `x` into `out`.
-    fn put(&self, k: usize, x: &Vector3<f64>, out: &mut SVector<f64, NV>) {
+    fn put(&self, k: usize, x: &Vector6<f64>, out: &mut SVector<f64, NV>) {
         let (at, n) = (self.v_at[k], self.joints[k].kind.freedoms());
         for i in 0..n {
             out[at + i] = x[i];

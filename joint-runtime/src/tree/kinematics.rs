@@ -8,17 +8,32 @@ use super::spatial::{Transform, join};
 use super::topology::Tree;
 
 /// A joint's columns of `S` in the child's link frame (its axes, origin at
-/// the joint point), constant there: at most three, each `[a; 0]`.
+/// the joint point), constant there but for a universal joint's: at most
+/// six (a free joint's), padded with zeros.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Subspace {
-    pub cols: [Vector6<f64>; 3],
+    pub cols: [Vector6<f64>; 6],
     pub n: usize,
+}
+
+impl Subspace {
+    /// The columns given, padded.
+    pub fn of(given: &[Vector6<f64>]) -> Self {
+        let mut cols = [Vector6::zeros(); 6];
+        cols[..given.len()].copy_from_slice(given);
+        Subspace { cols, n: given.len() }
+    }
 }
 
 /// `[a; 0]`: the child's spatial motion, at its link frame's origin (the
 /// joint point), when it turns about `a`.
 fn turning(a: &Vector3<f64>) -> Vector6<f64> {
     join(a, &Vector3::zeros())
+}
+
+/// `[0; a]`: the child's spatial motion when it slides along `a`.
+fn sliding(a: &Vector3<f64>) -> Vector6<f64> {
+    join(&Vector3::zeros(), a)
 }
 
 /// Unit Euler parameters from four coordinates (normalised: an RK4 stage's
@@ -30,21 +45,22 @@ pub(crate) fn unit(p: &Vector4<f64>) -> UnitQuaternion<f64> {
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The motion subspace of joint `k` (kept by [`Tree::new`]).
     pub(crate) fn make_subspace(&self, k: usize) -> Subspace {
+        let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
         match self.joints[k].kind {
-            TreeJointKind::Revolute => {
-                Subspace { cols: [turning(&self.axis[k]), Vector6::zeros(), Vector6::zeros()], n: 1 }
-            }
-            TreeJointKind::Spherical => {
-                Subspace { cols: [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| turning(&e)), n: 3 }
-            }
-            TreeJointKind::Prismatic => {
-                Subspace { cols: [join(&Vector3::zeros(), &self.axis[k]), Vector6::zeros(), Vector6::zeros()], n: 1 }
-            }
-            TreeJointKind::Fixed => Subspace { cols: [Vector6::zeros(); 3], n: 0 },
+            TreeJointKind::Revolute => Subspace::of(&[turning(&self.axis[k])]),
+            TreeJointKind::Spherical => Subspace::of(&axes.map(|e| turning(&e))),
+            TreeJointKind::Prismatic => Subspace::of(&[sliding(&self.axis[k])]),
+            TreeJointKind::Cylindrical => Subspace::of(&[turning(&self.axis[k]), sliding(&self.axis[k])]),
+            TreeJointKind::Fixed => Subspace::of(&[]),
             // At θ₂ = 0; `subspace_at` turns the first column with θ₂.
             TreeJointKind::Universal => {
                 let b = self.rest[k].inverse() * self.slide[k];
-                Subspace { cols: [turning(&b), turning(&self.axis[k]), Vector6::zeros()], n: 2 }
+                Subspace::of(&[turning(&b), turning(&self.axis[k])])
+            }
+            // The point's velocity, then ω': `S` is a constant permutation.
+            TreeJointKind::Free => {
+                let [x, y, z] = axes;
+                Subspace::of(&[sliding(&x), sliding(&y), sliding(&z), turning(&x), turning(&y), turning(&z)])
             }
         }
     }
@@ -77,11 +93,12 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     pub(crate) fn relative_rotation(&self, k: usize, q: &SVector<f64, NQ>) -> UnitQuaternion<f64> {
         let at = self.q_at[k];
         match self.joints[k].kind {
-            TreeJointKind::Revolute => {
+            TreeJointKind::Revolute | TreeJointKind::Cylindrical => {
                 let axis = nalgebra::Unit::new_unchecked(self.axis[k]);
                 self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at])
             }
             TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
+            TreeJointKind::Free => unit(&q.fixed_rows::<4>(at + 3).into_owned()),
             TreeJointKind::Prismatic | TreeJointKind::Fixed => self.rest[k],
             TreeJointKind::Universal => {
                 let a = nalgebra::Unit::new_unchecked(self.slide[k]);
@@ -95,11 +112,15 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
 
     /// Joint `k`'s transform from its parent's link frame to its child's:
     /// the offset between the two joint points is a constant of the parent
-    /// (plus the slide along the parent's axis, prismatic).
+    /// (plus the slide along the parent's axis, prismatic; plus the free
+    /// joint's own offset).
     pub(crate) fn transform(&self, k: usize, q: &SVector<f64, NQ>) -> Transform {
         let rel: Matrix3<f64> = self.relative_rotation(k, q).to_rotation_matrix().into_inner();
+        let at = self.q_at[k];
         let r = match self.joints[k].kind {
-            TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * q[self.q_at[k]],
+            TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * q[at],
+            TreeJointKind::Cylindrical => self.offset[k] + self.slide[k] * q[at + 1],
+            TreeJointKind::Free => self.offset[k] + q.fixed_rows::<3>(at),
             _ => self.offset[k],
         };
         Transform { e: rel.transpose(), r }

@@ -20,8 +20,10 @@
 //! | `revolute` | the angle θ | θ̇ | `R₀ · rot(h, θ)` |
 //! | `spherical` | unit quaternion `[e0, e1, e2, e3]` | ω' of the child relative to the parent, child components | `q` |
 //! | `translational` (prismatic) | the slide `d` along the axis | `ḋ` | `R₀` |
+//! | `cylindrical` | the angle θ, then the slide `d` along the axis | θ̇, ḋ | `R₀ · rot(h, θ)` |
 //! | `universal` | the angles θ₁ about `s` (parent), θ₂ about `h` (child) | θ̇₁, θ̇₂ | `rot(s, θ₁) · R₀ · rot(h, θ₂)` |
 //! | `fixed` | none | none | `R₀`, as `translational`'s |
+//! | free (a floating body) | the child's joint point from the parent's, parent components, then a unit quaternion | that point's velocity relative to the parent in the child's components, then ω' | the quaternion |
 //!
 //! `R₀` is the shortest rotation that takes the child's axis `h` (`axis2`) onto
 //! the parent's (`axis1`): θ = 0 where the two bodies' frames differ by that
@@ -47,9 +49,10 @@
 //! step back onto `Φ = 0`, `J v + Φ_t = 0`. Spring-dampers act through
 //! [`TreeSimulation::with_springs`] (their forces as joint forces `Jₚᵀ f`). A tree joint's points and axes
 //! given as numbers are folded into the closure rows; given as fields they
-//! are read from the tree's [`TreeGeometry`]. A body that only a joint
-//! without a tree parametrisation reaches (`universal`, `cylindrical`, …) is
-//! refused by the derive: such scenes run in absolute coordinates.
+//! are read from the tree's [`TreeGeometry`]. A body that no path of tree
+//! joints joins to the ground floats, as it does in absolute coordinates: the
+//! derive gives it a free joint from the ground (its centre of mass from the
+//! origin, then its rotation), and the joints that reach it are closures.
 //!
 //! ```
 //! use joint_runtime::Scene;
@@ -103,6 +106,9 @@ pub enum TreeJointKind {
     /// A slide along the joint's axis, rotation locked (the catalogue's
     /// `translational`; 1 coordinate, 1 velocity).
     Prismatic,
+    /// An angle about the joint's axis, then a slide along it (the
+    /// catalogue's `cylindrical`; 2 coordinates, 2 velocities).
+    Cylindrical,
     /// Two angles: about the parent's axis, then about the child's (the
     /// catalogue's `universal`, the notes' two-angle joint; 2 coordinates,
     /// 2 velocities).
@@ -110,6 +116,13 @@ pub enum TreeJointKind {
     /// Welded: no freedom, the relative rotation locked as a prismatic
     /// joint's (the catalogue's `fixed`; URDF's fixed links).
     Fixed,
+    /// A floating body (a free joint; 7 coordinates, 6 velocities): the
+    /// child's joint point from the parent's in the parent's components,
+    /// then a unit quaternion; velocities that point's velocity relative to
+    /// the parent in the child's components, then ω' (Pinocchio's
+    /// free-flyer order). The derive gives one to every body that no path
+    /// of tree joints joins to the ground.
+    Free,
 }
 
 impl TreeJointKind {
@@ -118,8 +131,9 @@ impl TreeJointKind {
         match self {
             TreeJointKind::Fixed => 0,
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
-            TreeJointKind::Universal => 2,
+            TreeJointKind::Universal | TreeJointKind::Cylindrical => 2,
             TreeJointKind::Spherical => 4,
+            TreeJointKind::Free => 7,
         }
     }
 
@@ -128,8 +142,19 @@ impl TreeJointKind {
         match self {
             TreeJointKind::Fixed => 0,
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
-            TreeJointKind::Universal => 2,
+            TreeJointKind::Universal | TreeJointKind::Cylindrical => 2,
             TreeJointKind::Spherical => 3,
+            TreeJointKind::Free => 6,
+        }
+    }
+
+    /// Where its unit quaternion starts among its coordinates (spherical,
+    /// free), `None` for a joint without one.
+    pub const fn quaternion(self) -> Option<usize> {
+        match self {
+            TreeJointKind::Spherical => Some(0),
+            TreeJointKind::Free => Some(3),
+            _ => None,
         }
     }
 }
@@ -150,10 +175,10 @@ pub struct TreeJoint {
     pub rho_parent: Vector3<f64>,
     /// The joint point in the child's frame.
     pub rho_child: Vector3<f64>,
-    /// The joint's axis in the parent's frame (`revolute`, `prismatic`; `s`
+    /// The joint's axis in the parent's frame (`revolute`, `prismatic`, `cylindrical`; `s`
     /// of a `universal` joint; unused otherwise).
     pub axis_parent: Vector3<f64>,
-    /// The joint's axis in the child's frame (`revolute`, `prismatic`; `h`
+    /// The joint's axis in the child's frame (`revolute`, `prismatic`, `cylindrical`; `h`
     /// of a `universal` joint; unused otherwise).
     pub axis_child: Vector3<f64>,
     /// `prismatic`, `fixed`: a second axis of the parent, across the first (the

@@ -319,7 +319,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
 
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// `q̇(q, v)`: `θ̇ = v` at a revolute joint, `ṗ = ½ p ⊗ (0, ω')` at a
-    /// spherical one.
+    /// spherical one; a free joint's offset moves at `R(p) u`.
     pub fn coordinate_rates(&self, q: &SVector<f64, NQ>, v: &SVector<f64, NV>) -> SVector<f64, NQ> {
         let mut out = SVector::<f64, NQ>::zeros();
         for (k, j) in self.joints.iter().enumerate() {
@@ -327,15 +327,15 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             match j.kind {
                 TreeJointKind::Fixed => {}
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => out[qa] = v[va],
-                TreeJointKind::Universal => {
+                TreeJointKind::Universal | TreeJointKind::Cylindrical => {
                     out[qa] = v[va];
                     out[qa + 1] = v[va + 1];
                 }
-                TreeJointKind::Spherical => {
-                    let p = Quaternion::new(q[qa], q[qa + 1], q[qa + 2], q[qa + 3]);
-                    let w = Quaternion::new(0.0, v[va], v[va + 1], v[va + 2]);
-                    let d = p * w * 0.5;
-                    out.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+                TreeJointKind::Spherical => spin(q, v, (qa, va), &mut out),
+                TreeJointKind::Free => {
+                    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa + 3).into_owned());
+                    out.fixed_rows_mut::<3>(qa).copy_from(&(p * v.fixed_rows::<3>(va)));
+                    spin(q, v, (qa + 3, va + 3), &mut out);
                 }
             }
         }
@@ -351,15 +351,17 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             match j.kind {
                 TreeJointKind::Fixed => {}
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => q[qa] += delta[va],
-                TreeJointKind::Universal => {
+                TreeJointKind::Universal | TreeJointKind::Cylindrical => {
                     q[qa] += delta[va];
                     q[qa + 1] += delta[va + 1];
                 }
-                TreeJointKind::Spherical => {
-                    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa).into_owned());
-                    let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());
-                    let d = (p * turn).into_inner();
-                    q.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+                TreeJointKind::Spherical => turn(q, delta, (qa, va)),
+                TreeJointKind::Free => {
+                    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa + 3).into_owned());
+                    let moved = p * delta.fixed_rows::<3>(va);
+                    let mut at = q.fixed_rows_mut::<3>(qa);
+                    at += moved;
+                    turn(q, delta, (qa + 3, va + 3));
                 }
             }
         }
@@ -372,11 +374,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         out
     }
 
-    /// Every spherical joint's quaternion back to unit length.
+    /// Every quaternion (spherical and free joints') back to unit length.
     pub fn normalise(&self, q: &mut SVector<f64, NQ>) {
         for (k, j) in self.joints.iter().enumerate() {
-            if j.kind == TreeJointKind::Spherical {
-                let mut p = q.fixed_rows_mut::<4>(self.q_at[k]);
+            if let Some(at) = j.kind.quaternion() {
+                let mut p = q.fixed_rows_mut::<4>(self.q_at[k] + at);
                 let n = p.norm();
                 if n > 0.0 {
                     p /= n;
@@ -384,4 +386,29 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             }
         }
     }
+}
+
+/// `ṗ = ½ p ⊗ (0, ω')` of the quaternion at `q[qa..]` turned by `v[va..]`, into `out`.
+fn spin<const NQ: usize, const NV: usize>(
+    q: &SVector<f64, NQ>,
+    v: &SVector<f64, NV>,
+    (qa, va): (usize, usize),
+    out: &mut SVector<f64, NQ>,
+) {
+    let p = Quaternion::new(q[qa], q[qa + 1], q[qa + 2], q[qa + 3]);
+    let w = Quaternion::new(0.0, v[va], v[va + 1], v[va + 2]);
+    let d = p * w * 0.5;
+    out.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+}
+
+/// The quaternion at `q[qa..]` turned by `δ[va..]` in its own frame: `p ⊗ exp(δθ / 2)`.
+fn turn<const NQ: usize, const NV: usize>(
+    q: &mut SVector<f64, NQ>,
+    delta: &SVector<f64, NV>,
+    (qa, va): (usize, usize),
+) {
+    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa).into_owned());
+    let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());
+    let d = (p * turn).into_inner();
+    q.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
 }

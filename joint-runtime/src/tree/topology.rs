@@ -3,7 +3,7 @@
 
 use core::fmt;
 
-use nalgebra::{Matrix3, Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4, Vector6};
+use nalgebra::{Matrix3, Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4};
 
 use super::kinematics::Subspace;
 use super::spatial::{link_inertia, split};
@@ -152,7 +152,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             inertia: [Matrix6::zeros(); NB],
             offset: [Vector3::zeros(); NB],
             mass: inertias,
-            subspace: [Subspace { cols: [Vector6::zeros(); 3], n: 0 }; NB],
+            subspace: [Subspace::of(&[]); NB],
             q_at: [0; NB],
             v_at: [0; NB],
             gravity,
@@ -184,7 +184,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 return Err(TreeError::Inertia { body: j.child });
             }
             tree.inertia[k] = link_inertia(b.mass, &b.inertia, &(-j.rho_child));
-            if j.kind != TreeJointKind::Spherical {
+            if !matches!(j.kind, TreeJointKind::Spherical | TreeJointKind::Free) {
                 let axis_error = TreeError::Axis { joint: j.name };
                 let h = Unit::try_new(j.axis_child, 1e-300).ok_or(axis_error)?;
                 let a = Unit::try_new(j.axis_parent, 1e-300).ok_or(axis_error)?;
@@ -240,8 +240,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     pub fn zero_state(&self) -> TreeState<NQ, NV> {
         let mut q = SVector::<f64, NQ>::zeros();
         for (k, j) in self.joints.iter().enumerate() {
-            if j.kind == TreeJointKind::Spherical {
-                q[self.q_at[k]] = 1.0;
+            if let Some(at) = j.kind.quaternion() {
+                q[self.q_at[k] + at] = 1.0;
             }
         }
         TreeState { q, v: SVector::zeros(), t: 0.0 }
@@ -287,8 +287,14 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 - (child.rdot + (a_c * child.omega).cross(&(a_c * j.rho_child)));
             let w_rel = child.omega - rel.inverse() * w_p;
             let (qa, va) = (self.q_at[k], self.v_at[k]);
+            // A prismatic joint's slide is its first coordinate, a cylindrical one's its second.
+            let slid = match j.kind {
+                TreeJointKind::Prismatic => Some((qa, va)),
+                TreeJointKind::Cylindrical => Some((qa + 1, va + 1)),
+                _ => None,
+            };
             let turn_misfit = match j.kind {
-                TreeJointKind::Revolute => {
+                TreeJointKind::Revolute | TreeJointKind::Cylindrical => {
                     let local = self.rest[k].inverse() * rel;
                     let h = self.axis[k];
                     let angle = 2.0 * nalgebra::RealField::atan2(local.imag().dot(&h), local.w);
@@ -301,6 +307,17 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     let p = Vector4::new(rel.w, rel.i, rel.j, rel.k);
                     state.q.fixed_rows_mut::<4>(qa).copy_from(&p);
                     state.v.fixed_rows_mut::<3>(va).copy_from(&w_rel);
+                    0.0
+                }
+                TreeJointKind::Free => {
+                    // The child's point from the parent's, and its rate, in
+                    // the parent's components (d/dt Aᵀx = Aᵀ(ẋ − ω × x)).
+                    let x = -gap;
+                    let rate = a_p.inverse() * (-slip - w_p_inertial.cross(&x));
+                    state.q.fixed_rows_mut::<3>(qa).copy_from(&(a_p.inverse() * x));
+                    state.q.fixed_rows_mut::<4>(qa + 3).copy_from(&Vector4::new(rel.w, rel.i, rel.j, rel.k));
+                    state.v.fixed_rows_mut::<3>(va).copy_from(&(rel.inverse() * rate));
+                    state.v.fixed_rows_mut::<3>(va + 3).copy_from(&w_rel);
                     0.0
                 }
                 TreeJointKind::Universal => {
@@ -318,21 +335,21 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     rel.angle_to(&back) + (w_rel - s1 * state.v[va] - h * state.v[va + 1]).norm()
                 }
                 TreeJointKind::Fixed => rel.angle_to(&self.rest[k]) + w_rel.norm(),
-                TreeJointKind::Prismatic => {
-                    // The child's point slides along the parent's axis: the
-                    // gap and slip along it are the coordinate and its rate.
-                    let axis = a_p * self.slide[k];
-                    state.q[qa] = -gap.dot(&axis);
-                    state.v[va] = -slip.dot(&axis);
-                    rel.angle_to(&self.rest[k]) + w_rel.norm()
-                }
+                TreeJointKind::Prismatic => rel.angle_to(&self.rest[k]) + w_rel.norm(),
             };
-            let (gap, slip) = match j.kind {
-                TreeJointKind::Prismatic => {
+            let (gap, slip) = match (j.kind, slid) {
+                // Any pose and motion: nothing to misfit.
+                (TreeJointKind::Free, _) => (Vector3::zeros(), Vector3::zeros()),
+                (_, Some((qs, vs))) => {
+                    // The child's point slides along the parent's axis: the
+                    // gap and slip along it are the coordinate and its rate,
+                    // and the parent's material point under the child's
+                    // turns with the parent.
                     let axis = a_p * self.slide[k];
-                    // The parent's material point under the child's turns with it.
-                    let carried = w_p_inertial.cross(&(axis * state.q[qa]));
-                    (gap + axis * state.q[qa], slip + axis * state.v[va] + carried)
+                    state.q[qs] = -gap.dot(&axis);
+                    state.v[vs] = -slip.dot(&axis);
+                    let carried = w_p_inertial.cross(&(axis * state.q[qs]));
+                    (gap + axis * state.q[qs], slip + axis * state.v[vs] + carried)
                 }
                 _ => (gap, slip),
             };

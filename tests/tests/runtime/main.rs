@@ -14,6 +14,7 @@
 mod analysis;
 mod batch;
 mod dynamics;
+mod floating;
 mod linear;
 mod loops;
 mod record;

@@ -191,7 +191,14 @@ fn pinned_bar_against_its_closed_form() {
 
 /// `M(q)` from the composite-rigid-body algorithm against second differences
 /// of the kinetic energy of the bodies (exact: it is quadratic in `v`).
-fn mass_matrix_against_energy<S, const NB: usize, const NV6: usize, const M: usize, const NQ: usize, const NV: usize>(
+pub(crate) fn mass_matrix_against_energy<
+    S,
+    const NB: usize,
+    const NV6: usize,
+    const M: usize,
+    const NQ: usize,
+    const NV: usize,
+>(
     scene: &S,
     state: &TreeState<NQ, NV>,
 ) where
@@ -382,7 +389,7 @@ fn states_off_their_joints_are_refused_by_name() {
 
 /// The derive's written-out articulated-body algorithm against the
 /// runtime's recursion, joint forces included.
-fn generated_against_recursion<S, const NB: usize, const NQ: usize, const NV: usize>(
+pub(crate) fn generated_against_recursion<S, const NB: usize, const NQ: usize, const NV: usize>(
     scene: &S,
     state: &TreeState<NQ, NV>,
     written: bool,

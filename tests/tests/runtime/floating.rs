@@ -1,0 +1,207 @@
+//! Floating bodies in relative coordinates: a body that no path of tree
+//! joints joins to the ground gets a free joint from the ground (7
+//! coordinates, 6 velocities), as a body without joints is free in absolute
+//! coordinates. Checked against the closed forms of free flight (the centre
+//! of mass on its parabola, the angular momentum about it kept), against the
+//! same declaration in absolute coordinates, and the recursions against the
+//! kinetic energy, against each other and against the written-out code.
+
+use joint_runtime::Scene;
+use joint_runtime::SystemState;
+use joint_runtime::nalgebra::{SVector, Vector3};
+use joint_runtime::tree::TreeScene;
+use joint_runtime::tree::{Tree, TreeJointKind, TreeSimulation, TreeState};
+
+use crate::tree::{generated_against_recursion, mass_matrix_against_energy, same_motion};
+
+/// A drone carrying a gripper on a ball joint and a finger pinned to the
+/// gripper: the drone floats (the derive's free joint), the rest hangs from it.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
+#[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
+#[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
+#[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15])]
+#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05])]
+struct Drone;
+
+/// A bead whose centre is held on the vertical line through the origin
+/// (`point_on_line`, no tree parametrisation): the bead floats and the
+/// joint's two rows close it to the ground.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(bead, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
+#[joint(wire = point_on_line(ground, bead), axis1 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, 0, 0])]
+struct Bead;
+
+/// A shaft in a tilted bush (`cylindrical`: an angle and a slide), a
+/// flywheel pinned across it off its axis.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
+#[body(wheel, mass = 0.4, inertia = [0.008, 0.005, 0.005, 0.001, 0.0, 0.0])]
+#[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
+#[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
+struct Bush;
+
+fn bush_state() -> BushTreeState {
+    TreeState { q: SVector::from([0.4, -0.2, 1.1]), v: SVector::from([2.0, 0.5, -3.0]), t: 0.0 }
+}
+
+fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
+    let n = (w * w + x * x + y * y + z * z).sqrt();
+    [w / n, x / n, y / n, z / n]
+}
+
+/// The drone turned, moving and spinning, the gripper swinging, the finger turning.
+fn drone_state() -> DroneTreeState {
+    let [a, b, c, d] = quaternion(0.9, 0.2, -0.1, 0.3);
+    let [e, f, g, h] = quaternion(0.8, -0.3, 0.2, 0.1);
+    TreeState {
+        q: SVector::from_column_slice(&[0.3, -0.2, 1.5, a, b, c, d, e, f, g, h, 0.4]),
+        v: SVector::from_column_slice(&[1.0, -0.5, 2.0, 0.7, -1.2, 3.0, 1.5, -0.8, 0.6, -2.0]),
+        t: 0.0,
+    }
+}
+
+/// The system's centre of mass, its velocity, and the angular momentum about it.
+fn momenta<const NB: usize>(
+    masses: &[(f64, joint_runtime::nalgebra::Matrix3<f64>)],
+    s: &SystemState<NB>,
+) -> [Vector3<f64>; 3] {
+    let total: f64 = masses.iter().map(|m| m.0).sum();
+    let c = s.bodies.iter().zip(masses).map(|(b, m)| b.r * m.0).sum::<Vector3<f64>>() / total;
+    let cdot = s.bodies.iter().zip(masses).map(|(b, m)| b.rdot * m.0).sum::<Vector3<f64>>() / total;
+    let l = s
+        .bodies
+        .iter()
+        .zip(masses)
+        .map(|(b, (m, j))| (b.r - c).cross(&(b.rdot - cdot)) * *m + b.rotation() * (j * b.omega))
+        .sum();
+    [c, cdot, l]
+}
+
+#[test]
+fn a_body_without_a_path_to_the_ground_floats() {
+    let tree = Tree::of(&Drone).unwrap();
+    let kinds: Vec<_> = tree.joints().iter().map(|j| (j.name, j.kind)).collect();
+    assert_eq!(
+        kinds,
+        [
+            ("free(drone)", TreeJointKind::Free),
+            ("claw", TreeJointKind::Spherical),
+            ("knuckle", TreeJointKind::Revolute)
+        ]
+    );
+    // The free joint's coordinates are the drone's centre and rotation.
+    let state = drone_state();
+    let drone = tree.system_state(&state).bodies[0];
+    assert!((drone.r - Vector3::new(0.3, -0.2, 1.5)).norm() < 1e-15);
+    let p = state.q.fixed_rows::<4>(3);
+    assert!((drone.p - SVector::<f64, 4>::from_column_slice(p.as_slice())).norm() < 1e-15);
+    // Its velocities: the centre's in the drone's components, then ω'.
+    assert!((drone.rotation().inverse() * drone.rdot - Vector3::new(1.0, -0.5, 2.0)).norm() < 1e-14);
+    assert!((drone.omega - Vector3::new(0.7, -1.2, 3.0)).norm() < 1e-15);
+}
+
+/// Free flight: whatever the bodies do among themselves, their centre of
+/// mass falls on its parabola `c₀ + ċ₀ t + ½ g t²` and the angular momentum
+/// about it stays (gravity has no moment about the centre of mass).
+#[test]
+fn a_floating_tree_keeps_its_momenta() {
+    let masses: Vec<_> = Drone.tree_inertias().iter().map(|b| (b.mass, b.inertia)).collect();
+    let mut sim = TreeSimulation::new(&Drone).unwrap();
+    let mut state = drone_state();
+    let [c0, cdot0, l0] = momenta(&masses, &sim.tree().system_state(&state));
+    let energy = sim.tree().energy(&state).total();
+    let (h, steps) = (1e-3, 1000);
+    for _ in 0..steps {
+        sim.step(&mut state, h).unwrap();
+    }
+    let t = h * steps as f64;
+    let g = Vector3::new(0.0, 0.0, -9.81);
+    let [c, cdot, l] = momenta(&masses, &sim.tree().system_state(&state));
+    let parabola = c0 + cdot0 * t + g * (0.5 * t * t);
+    assert!((c - parabola).norm() < 1e-10, "centre {c} against {parabola}");
+    assert!((cdot - (cdot0 + g * t)).norm() < 1e-10, "its velocity {cdot}");
+    assert!((l - l0).norm() < 1e-10 * l0.norm(), "angular momentum {l} against {l0}");
+    assert!((sim.tree().energy(&state).total() - energy).abs() < 1e-9 * energy.abs());
+    // Something happened: the finger turned and the drone tumbled.
+    assert!((state.q[11] - 0.4).abs() > 0.1 && (state.q[3] - drone_state().q[3]).abs() > 0.1);
+}
+
+/// A bead free along its wire falls as a stone along it, spinning at its
+/// start rate about the wire, and the closure keeps it on the wire.
+#[test]
+fn a_floating_body_held_by_a_closure_slides_on_it() {
+    let mut sim = TreeSimulation::new(&Bead).unwrap();
+    assert_eq!(sim.tree().joints()[0].kind, TreeJointKind::Free);
+    let [a, b, c, d] = quaternion(0.8, 0.0, 0.0, 0.6);
+    let mut state = TreeState {
+        q: SVector::from_column_slice(&[0.0, 0.0, 1.0, a, b, c, d]),
+        v: SVector::from_column_slice(&[0.0, 0.0, 0.5, 0.0, 0.0, 4.0]),
+        t: 0.0,
+    };
+    for _ in 0..500 {
+        sim.step(&mut state, 1e-3).unwrap();
+    }
+    let t = 0.5;
+    let shaft = sim.tree().system_state(&state).bodies[0];
+    let z = 1.0 + 0.5 * t - 0.5 * 9.81 * t * t;
+    assert!((shaft.r - Vector3::new(0.0, 0.0, z)).norm() < 1e-12, "{} against {z}", shaft.r);
+    assert!((shaft.omega - Vector3::new(0.0, 0.0, 4.0)).norm() < 1e-12);
+    let turned = 2.0 * 0.6f64.atan2(0.8) + 4.0 * t;
+    let angle = 2.0 * state.q[6].atan2(state.q[3]);
+    assert!(
+        (angle - turned).rem_euclid(std::f64::consts::TAU).min((turned - angle).rem_euclid(std::f64::consts::TAU))
+            < 1e-12
+    );
+}
+
+#[test]
+fn floating_bodies_move_alike_in_both_coordinate_choices() {
+    let moved = same_motion(&Drone, drone_state(), 3000, (1e-10, 1e-9));
+    assert!(moved > 0.1, "{moved}");
+    assert!(same_motion(&Bush, bush_state(), 3000, (1e-10, 1e-9)) > 0.1);
+    let [a, b, c, d] = quaternion(0.8, 0.0, 0.0, 0.6);
+    let start = TreeState {
+        q: SVector::from_column_slice(&[0.0, 0.0, 1.0, a, b, c, d]),
+        v: SVector::from_column_slice(&[0.0, 0.0, 0.5, 0.0, 0.0, 4.0]),
+        t: 0.0,
+    };
+    assert!(same_motion(&Bead, start, 3000, (1e-10, 1e-9)) > 0.01);
+}
+
+#[test]
+fn floating_recursions_agree() {
+    let state = drone_state();
+    mass_matrix_against_energy(&Drone, &state);
+    generated_against_recursion(&Drone, &state, true);
+    let tree = Tree::of(&Drone).unwrap();
+    let tau = SVector::<f64, 10>::from_fn(|i, _| 0.4 * i as f64 - 1.3);
+    let vdot = tree.forward_dynamics(&state, &tau).unwrap();
+    let back = tree.inverse_dynamics(&state, &vdot);
+    assert!((back - tau).norm() < 1e-12 * tau.norm(), "{back} against {tau}");
+    mass_matrix_against_energy(&Bush, &bush_state());
+    generated_against_recursion(&Bush, &bush_state(), true);
+}
+
+/// The bush carries no force along its axis `a` (its slide is free), so,
+/// whatever the wheel does, the two bodies' momentum along `a` grows at
+/// `(m₁ + m₂) g·a`.
+#[test]
+fn a_cylindrical_joint_slides_as_gravity_pulls_along_it() {
+    let mut sim = TreeSimulation::new(&Bush).unwrap();
+    assert_eq!(sim.tree().joints()[0].kind, TreeJointKind::Cylindrical);
+    let a = Vector3::new(0.3, 0.0, 1.0).normalize();
+    let masses: Vec<_> = Bush.tree_inertias().iter().map(|b| (b.mass, b.inertia)).collect();
+    let mut state = bush_state();
+    let along = |s: &SystemState<2>| momenta(&masses, s)[1].dot(&a) * 1.4;
+    let p0 = along(&sim.tree().system_state(&state));
+    for _ in 0..500 {
+        sim.step(&mut state, 1e-3).unwrap();
+    }
+    let expected = p0 + 1.4 * 9.81 * -a.z * 0.5;
+    let p = along(&sim.tree().system_state(&state));
+    assert!((p - expected).abs() < 1e-10, "{p} against {expected}");
+}
