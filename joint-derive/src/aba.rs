@@ -218,6 +218,8 @@ pub(crate) struct Joint {
     rest: [[f64; 3]; 3],
     /// Prismatic: the unit axis in the parent's frame, `R₀ h`.
     slide: [f64; 3],
+    /// Planar: the parent's unit in-plane axes `f`, `g` (`f × g = a`).
+    plane: [[f64; 3]; 2],
 }
 
 fn known(j: &JointDecl, name: &str) -> Option<[f64; 3]> {
@@ -307,6 +309,7 @@ impl Joint {
             axis: [0.0; 3],
             rest: identity,
             slide: [0.0; 3],
+            plane: [[0.0; 3]; 2],
         }
     }
 }
@@ -346,16 +349,32 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         let (a, h) = if e.reversed { (second, first) } else { (first, second) };
         let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
         let rest = rest_rotation(h, across(h, a));
-        return Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis: h, rest, slide: a });
+        return Some(Joint {
+            kind: e.kind,
+            parent,
+            child,
+            rho_p,
+            rho_c,
+            axis: h,
+            rest,
+            slide: a,
+            plane: [[0.0; 3]; 2],
+        });
     }
+    let mut plane = [[0.0; 3]; 2];
     if e.kind != TreeKind::Spherical {
         let first = unit(cross3(known(j, "f")?, known(j, "g")?))?;
         let second = unit(known(j, "h")?)?;
         let (a, h) = if e.reversed { (second, first) } else { (first, second) };
         axis = h;
         rest = rest_rotation(h, a);
-        if e.kind == TreeKind::Cylindrical {
+        if matches!(e.kind, TreeKind::Cylindrical | TreeKind::Planar) {
             slide = a;
+        }
+        if e.kind == TreeKind::Planar {
+            // The parent's in-plane axes: its `f` (body 1), else as the runtime picks them.
+            let f = if e.reversed { [0.0; 3] } else { known(j, "f")? };
+            plane = in_plane(a, f);
         }
         if matches!(e.kind, TreeKind::Prismatic | TreeKind::Fixed) {
             // The second axes `g` (body 1) and `k` (body 2) lock the turn.
@@ -366,7 +385,17 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         }
     }
     let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide })
+    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide, plane })
+}
+
+/// A planar joint's in-plane unit axes `(f, g)` of the parent, `f × g = a`,
+/// as the runtime makes them: `f` made perpendicular to `a`, the first of
+/// `perpendicular_pair(a)` when it is zero or along `a`.
+fn in_plane(a: [f64; 3], f: [f64; 3]) -> [[f64; 3]; 2] {
+    let along = dot3(&a, &f);
+    let f = [0, 1, 2].map(|i| f[i] - a[i] * along);
+    let f = if norm3(&f) < 1e-12 { perpendicular_pair(&a).0 } else { unit(f).unwrap_or([1.0, 0.0, 0.0]) };
+    [f, cross3(a, f)]
 }
 
 impl Builder {
@@ -412,6 +441,13 @@ impl Builder {
         let d = match j.kind {
             TreeKind::Prismatic => q[0],
             TreeKind::Cylindrical => q[1],
+            TreeKind::Planar => {
+                return [0, 1, 2].map(|i| {
+                    let (x, y) = (self.scale(j.plane[0][i], q[0]), self.scale(j.plane[1][i], q[1]));
+                    let t = self.g.add(r[i], x);
+                    self.g.add(t, y)
+                });
+            }
             _ => return r,
         };
         [0, 1, 2].map(|i| {
@@ -457,8 +493,8 @@ impl Builder {
     /// `R₀`, `rot(s, θ₁) R₀ rot(h, θ₂)` or the normalised quaternion's matrix.
     pub(crate) fn relative(&mut self, j: &Joint, q: &[Id]) -> M3 {
         match j.kind {
-            TreeKind::Revolute | TreeKind::Cylindrical => {
-                let rot = self.turn(j.axis, q[0]);
+            TreeKind::Revolute | TreeKind::Cylindrical | TreeKind::Planar => {
+                let rot = self.turn(j.axis, q[if j.kind == TreeKind::Planar { 2 } else { 0 }]);
                 let rest: M3 = j.rest.map(|row| row.map(|x| self.c(x)));
                 self.mm(&rest, &rot)
             }
@@ -515,6 +551,12 @@ fn subspace(j: &Joint) -> Vec<[f64; 6]> {
         TreeKind::Spherical => vec![turn([1.0, 0.0, 0.0]), turn([0.0, 1.0, 0.0]), turn([0.0, 0.0, 1.0])],
         TreeKind::Prismatic => vec![[0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
         TreeKind::Cylindrical => vec![turn(j.axis), [0.0, 0.0, 0.0, j.axis[0], j.axis[1], j.axis[2]]],
+        // At θ = 0 only: `Builder::columns` turns the slides with θ.
+        TreeKind::Planar => {
+            let back = |x: [f64; 3]| [0, 1, 2].map(|i| (0..3).map(|r| j.rest[r][i] * x[r]).sum::<f64>());
+            let [f, g] = j.plane.map(back);
+            vec![[0.0, 0.0, 0.0, f[0], f[1], f[2]], [0.0, 0.0, 0.0, g[0], g[1], g[2]], turn(j.axis)]
+        }
         TreeKind::Fixed => Vec::new(),
         // The point's velocity, then ω' (the runtime's order).
         TreeKind::Free => (0..6).map(|i| std::array::from_fn(|r| if r == (i + 3) % 6 { 1.0 } else { 0.0 })).collect(),
@@ -592,6 +634,17 @@ impl Builder {
     /// universal joint's first is `rot(h, θ₂)ᵀ R₀ᵀ s`, the rest numbers (`q`
     /// unread: empty will do).
     fn columns(&mut self, j: &Joint, q: &[Id]) -> Vec<V6> {
+        if j.kind == TreeKind::Planar {
+            // rot(h, θ)ᵀ R₀ᵀ f and the same of g, then the turn about h.
+            let turn = self.turn(j.axis, q[2]);
+            let zero = self.c(0.0);
+            let mut cols: Vec<V6> = subspace(j).into_iter().map(|col| col.map(|x| self.c(x))).collect();
+            for col in cols.iter_mut().take(2) {
+                let slide = self.mtv(&turn, [col[3], col[4], col[5]]);
+                *col = join([zero; 3], slide);
+            }
+            return cols;
+        }
         if j.kind == TreeKind::Universal {
             let b = [0, 1, 2].map(|i| (0..3).map(|r| j.rest[r][i] * j.slide[r]).sum::<f64>());
             let turn = self.turn(j.axis, q[1]);
@@ -639,6 +692,19 @@ impl Builder {
         let iv = self.m6v(&inertia, vel);
         let pa = self.cross_force(vel, iv);
         let mut c = self.cross_motion(vel, vj);
+        if j.kind == TreeKind::Planar {
+            // Ṡ q̇ = θ̇ [0; (ẋ S₁ + ẏ S₂) × h]: the slides turn with θ.
+            let slide: V3 = [3, 4, 5].map(|r| {
+                let (x, y) = (self.g.mul(s_k[0][r], v[0]), self.g.mul(s_k[1][r], v[1]));
+                self.g.add(x, y)
+            });
+            let h = self.consts3(j.axis);
+            let turn = self.cross(slide, h);
+            for (i, t) in turn.iter().enumerate() {
+                let bias = self.g.mul(v[2], *t);
+                c[3 + i] = self.g.add(c[3 + i], bias);
+            }
+        }
         if j.kind == TreeKind::Universal {
             // Ṡ q̇ = θ̇₁ θ̇₂ [S₁ × h; 0]: the first column turns with θ₂.
             let first = [s_k[0][0], s_k[0][1], s_k[0][2]];
@@ -708,7 +774,7 @@ impl Builder {
         let mut reduced = self.sub6(ia, &outer);
         // Exact zeros the graph cannot see (A − A A⁻¹ A): the reduced
         // inertia moves nothing along the joint's own freedoms.
-        let constant = j.kind != TreeKind::Universal;
+        let constant = !matches!(j.kind, TreeKind::Universal | TreeKind::Planar);
         for &i in selected(&subspace(j)).filter(|_| constant).iter().flatten() {
             reduced[i] = [zero; 6];
             for row in reduced.iter_mut() {
@@ -1028,7 +1094,7 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     // A kernel is shared by joints of one text, its subspace constant: a
     // universal joint's turns with θ₂ (the runtime's recursion runs such a
     // tree past the limit).
-    if joints.iter().any(|j| matches!(j.kind, TreeKind::Universal | TreeKind::Free)) {
+    if joints.iter().any(|j| matches!(j.kind, TreeKind::Universal | TreeKind::Planar | TreeKind::Free)) {
         return None;
     }
     let (qa, va) = offsets(joints);

@@ -145,7 +145,7 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
 }
 
 /// Edge `n`'s rotation relative to its parent and its two joint points (the
-/// parent's slid along the axis, prismatic), read from `geometry`:
+/// parent's moved by the joint's slides), read from `geometry`:
 /// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic or fixed one,
 /// `rot(s, θ₁) R₀ rot(h, θ₂)` for a universal one, the normalised
 /// quaternion's matrix for a spherical one.
@@ -181,7 +181,20 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
     let times = |b: &mut Builder, x: &[[Id; 3]; 3], y: &[[Id; 3]; 3]| -> [[Id; 3]; 3] {
         [0, 1, 2].map(|r| [0, 1, 2].map(|j| b.dot(&x[r], &[y[0][j], y[1][j], y[2][j]])))
     };
-    let rho_p = if kind == TreeKind::Cylindrical { slid(b, q[1]) } else { rho_p };
+    let (rho_p, angle) = match kind {
+        TreeKind::Cylindrical => (slid(b, q[1]), q[0]),
+        TreeKind::Planar => {
+            // The point moved along the parent's in-plane axes.
+            let plane: [V3; 2] = [0, 1].map(|i| read(b, reads, &["plane", &at, &i.to_string()]));
+            let moved = [0, 1, 2].map(|r| {
+                let (x, y) = (b.g.mul(plane[0][r], q[0]), b.g.mul(plane[1][r], q[1]));
+                let t = b.g.add(rho_p[r], x);
+                b.g.add(t, y)
+            });
+            (moved, q[2])
+        }
+        _ => (rho_p, q[0]),
+    };
     let rel = if kind == TreeKind::Universal {
         // rot(s, θ₁) R₀ rot(h, θ₂), `s` the parent's axis.
         let s = read(b, reads, &["axis_parent", &at]);
@@ -189,7 +202,7 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
         let turned = times(b, &first, &rest);
         times(b, &turned, &second)
     } else {
-        let second = turn(b, h, q[0]);
+        let second = turn(b, h, angle);
         times(b, &rest, &second)
     };
     (rel, rho_p, rho_c)

@@ -106,7 +106,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     let child = Literal::usize_unsuffixed(child.unwrap_or(0));
     let (rho1, rho2) = (param(j, "rho1"), param(j, "rho2"));
     let (axis1, axis2) = match e.kind {
-        TreeKind::Revolute | TreeKind::Prismatic | TreeKind::Cylindrical | TreeKind::Fixed => {
+        TreeKind::Revolute | TreeKind::Prismatic | TreeKind::Cylindrical | TreeKind::Planar | TreeKind::Fixed => {
             (first_axis(j), param(j, "h"))
         }
         TreeKind::Universal => (param(j, "s"), param(j, "h")),
@@ -115,6 +115,8 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     // The second axes that lock a prismatic joint's turn: `g` and `k`.
     let (lock1, lock2) = match e.kind {
         TreeKind::Prismatic | TreeKind::Fixed => (param(j, "g"), param(j, "k")),
+        // The parent's first in-plane axis: body 1's `f`; the runtime picks one for body 2.
+        TreeKind::Planar => (param(j, "f"), zero()),
         _ => (zero(), zero()),
     };
     let (rho_p, rho_c, axis_p, axis_c) =
@@ -127,6 +129,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
         TreeKind::Universal => quote!(Universal),
         TreeKind::Fixed => quote!(Fixed),
         TreeKind::Cylindrical => quote!(Cylindrical),
+        TreeKind::Planar => quote!(Planar),
         TreeKind::Free => quote!(Free),
     };
     quote! {

@@ -1,6 +1,6 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
 //! ground through its tree joints (`revolute`, `spherical`, `translational`,
-//! `universal`, `fixed`); a body no path of them reaches floats (a free joint
+//! `cylindrical`, `planar`, `universal`, `fixed`); a body no path of them reaches floats (a free joint
 //! from the ground, as a body without joints is free in absolute
 //! coordinates); the other joints close loops.
 
@@ -17,6 +17,8 @@ pub enum TreeKind {
     Prismatic,
     /// An angle and a slide along one axis (`cylindrical`).
     Cylindrical,
+    /// Two slides in a plane and the turn about its normal (`planar`).
+    Planar,
     /// Two angles (`universal`): about the parent's axis, then the child's.
     Universal,
     /// Welded (`fixed`): no freedom.
@@ -35,6 +37,7 @@ impl TreeKind {
             "translational" => Some(TreeKind::Prismatic),
             "universal" => Some(TreeKind::Universal),
             "cylindrical" => Some(TreeKind::Cylindrical),
+            "planar" => Some(TreeKind::Planar),
             "fixed" => Some(TreeKind::Fixed),
             _ => None,
         }
@@ -47,6 +50,7 @@ impl TreeKind {
             TreeKind::Universal | TreeKind::Cylindrical => (2, 2),
             TreeKind::Fixed => (0, 0),
             TreeKind::Spherical => (4, 3),
+            TreeKind::Planar => (3, 3),
             TreeKind::Free => (7, 6),
         }
     }
@@ -68,7 +72,8 @@ pub struct TreeEdge {
 }
 
 /// The joints in tree order, parents first: the first declared tree joint
-/// (`revolute`, `spherical`, `translational`, `universal`, `fixed`) that
+/// (`revolute`, `spherical`, `translational`, `cylindrical`, `planar`,
+/// `universal`, `fixed`) that
 /// reaches a new body from the reached ones, again and again (a
 /// breadth-first spanning tree that keeps the declaration's order among
 /// equals). Every other joint (one that closes a

@@ -51,6 +51,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             TreeJointKind::Spherical => Subspace::of(&axes.map(|e| turning(&e))),
             TreeJointKind::Prismatic => Subspace::of(&[sliding(&self.axis[k])]),
             TreeJointKind::Cylindrical => Subspace::of(&[turning(&self.axis[k]), sliding(&self.axis[k])]),
+            // At θ = 0; `subspace_at` turns the two slides with θ.
+            TreeJointKind::Planar => {
+                let [f, g] = self.plane[k].map(|x| self.rest[k].inverse() * x);
+                Subspace::of(&[sliding(&f), sliding(&g), turning(&self.axis[k])])
+            }
             TreeJointKind::Fixed => Subspace::of(&[]),
             // At θ₂ = 0; `subspace_at` turns the first column with θ₂.
             TreeJointKind::Universal => {
@@ -66,9 +71,17 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     }
 
     /// Joint `k`'s subspace at `q`: constant but for a universal joint, whose
-    /// first column `rot(h, θ₂)ᵀ R₀ᵀ s` turns with θ₂.
+    /// first column `rot(h, θ₂)ᵀ R₀ᵀ s` turns with θ₂, and a planar one, whose
+    /// slides `rot(h, θ)ᵀ R₀ᵀ (f, g)` turn with θ.
     pub(crate) fn subspace_at(&self, k: usize, q: &SVector<f64, NQ>) -> Subspace {
         let mut s = self.subspace[k];
+        if self.joints[k].kind == TreeJointKind::Planar {
+            let h = nalgebra::Unit::new_unchecked(self.axis[k]);
+            let turn = UnitQuaternion::from_axis_angle(&h, -q[self.q_at[k] + 2]);
+            for (col, x) in s.cols.iter_mut().zip(self.plane[k]) {
+                *col = sliding(&(turn * (self.rest[k].inverse() * x)));
+            }
+        }
         if self.joints[k].kind == TreeJointKind::Universal {
             let h = nalgebra::Unit::new_unchecked(self.axis[k]);
             let turn = UnitQuaternion::from_axis_angle(&h, -q[self.q_at[k] + 1]);
@@ -78,13 +91,18 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         s
     }
 
-    /// `Ṡ q̇` of joint `k` (a universal joint's: `θ̇₁ θ̇₂ (S₁ × h)`; zero
-    /// for the others, whose subspace is constant).
+    /// `Ṡ q̇` of joint `k` (a universal joint's: `θ̇₁ θ̇₂ (S₁ × h)`; a planar
+    /// one's: `θ̇ [0; (ẋ S₁ + ẏ S₂) × h]`; zero for the others, whose
+    /// subspace is constant).
     fn joint_bias(&self, s: &Subspace, k: usize, v: &SVector<f64, NV>) -> Vector6<f64> {
+        let at = self.v_at[k];
+        if self.joints[k].kind == TreeJointKind::Planar {
+            let slide = s.cols[0].fixed_rows::<3>(3) * v[at] + s.cols[1].fixed_rows::<3>(3) * v[at + 1];
+            return sliding(&(slide.cross(&self.axis[k]) * v[at + 2]));
+        }
         if self.joints[k].kind != TreeJointKind::Universal {
             return Vector6::zeros();
         }
-        let at = self.v_at[k];
         let s1 = s.cols[0].fixed_rows::<3>(0).into_owned();
         turning(&(s1.cross(&self.axis[k]) * (v[at] * v[at + 1])))
     }
@@ -96,6 +114,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             TreeJointKind::Revolute | TreeJointKind::Cylindrical => {
                 let axis = nalgebra::Unit::new_unchecked(self.axis[k]);
                 self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at])
+            }
+            TreeJointKind::Planar => {
+                let axis = nalgebra::Unit::new_unchecked(self.axis[k]);
+                self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at + 2])
             }
             TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
             TreeJointKind::Free => unit(&q.fixed_rows::<4>(at + 3).into_owned()),
@@ -120,6 +142,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let r = match self.joints[k].kind {
             TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * q[at],
             TreeJointKind::Cylindrical => self.offset[k] + self.slide[k] * q[at + 1],
+            TreeJointKind::Planar => self.offset[k] + self.plane[k][0] * q[at] + self.plane[k][1] * q[at + 1],
             TreeJointKind::Free => self.offset[k] + q.fixed_rows::<3>(at),
             _ => self.offset[k],
         };

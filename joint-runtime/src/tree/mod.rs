@@ -21,6 +21,7 @@
 //! | `spherical` | unit quaternion `[e0, e1, e2, e3]` | ω' of the child relative to the parent, child components | `q` |
 //! | `translational` (prismatic) | the slide `d` along the axis | `ḋ` | `R₀` |
 //! | `cylindrical` | the angle θ, then the slide `d` along the axis | θ̇, ḋ | `R₀ · rot(h, θ)` |
+//! | `planar` | the point's `x`, `y` along the parent's in-plane axes `f`, `g`, then the angle θ | ẋ, ẏ, θ̇ | `R₀ · rot(h, θ)` |
 //! | `universal` | the angles θ₁ about `s` (parent), θ₂ about `h` (child) | θ̇₁, θ̇₂ | `rot(s, θ₁) · R₀ · rot(h, θ₂)` |
 //! | `fixed` | none | none | `R₀`, as `translational`'s |
 //! | free (a floating body) | the child's joint point from the parent's, parent components, then a unit quaternion | that point's velocity relative to the parent in the child's components, then ω' | the quaternion |
@@ -109,6 +110,10 @@ pub enum TreeJointKind {
     /// An angle about the joint's axis, then a slide along it (the
     /// catalogue's `cylindrical`; 2 coordinates, 2 velocities).
     Cylindrical,
+    /// The child's joint point moving in the parent's plane and the child
+    /// turning about its normal (the catalogue's `planar`; 3 coordinates:
+    /// `x`, `y` along the parent's in-plane axes, then the angle).
+    Planar,
     /// Two angles: about the parent's axis, then about the child's (the
     /// catalogue's `universal`, the notes' two-angle joint; 2 coordinates,
     /// 2 velocities).
@@ -132,6 +137,7 @@ impl TreeJointKind {
             TreeJointKind::Fixed => 0,
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
             TreeJointKind::Universal | TreeJointKind::Cylindrical => 2,
+            TreeJointKind::Planar => 3,
             TreeJointKind::Spherical => 4,
             TreeJointKind::Free => 7,
         }
@@ -143,7 +149,7 @@ impl TreeJointKind {
             TreeJointKind::Fixed => 0,
             TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
             TreeJointKind::Universal | TreeJointKind::Cylindrical => 2,
-            TreeJointKind::Spherical => 3,
+            TreeJointKind::Spherical | TreeJointKind::Planar => 3,
             TreeJointKind::Free => 6,
         }
     }
@@ -183,8 +189,10 @@ pub struct TreeJoint {
     pub axis_child: Vector3<f64>,
     /// `prismatic`, `fixed`: a second axis of the parent, across the first (the
     /// catalogue's `g`), that the child's [`lock_child`](Self::lock_child)
-    /// stays on: with the axes, it fixes the relative rotation. Unused
-    /// otherwise.
+    /// stays on: with the axes, it fixes the relative rotation. `planar`: the
+    /// parent's first in-plane axis (the catalogue's `f`; zero: the first of
+    /// [`perpendicular_pair`](crate::perpendicular_pair) of the normal).
+    /// Unused otherwise.
     pub lock_parent: Vector3<f64>,
     /// `prismatic`, `fixed`: the child's second axis (the catalogue's `k`).
     pub lock_child: Vector3<f64>,
@@ -259,6 +267,8 @@ pub struct TreeGeometry<const NB: usize> {
     pub rho_parent: [Vector3<f64>; NB],
     /// The joint point in the child's frame.
     pub rho_child: [Vector3<f64>; NB],
+    /// Planar: the parent's unit in-plane axes `f`, `g` (zero otherwise).
+    pub plane: [[Vector3<f64>; 2]; NB],
 }
 
 /// The closure rows of a relative-coordinate scene at one state: `Φ(q, t)`,

@@ -327,9 +327,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             match j.kind {
                 TreeJointKind::Fixed => {}
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => out[qa] = v[va],
-                TreeJointKind::Universal | TreeJointKind::Cylindrical => {
-                    out[qa] = v[va];
-                    out[qa + 1] = v[va + 1];
+                TreeJointKind::Universal | TreeJointKind::Cylindrical | TreeJointKind::Planar => {
+                    let n = j.kind.freedoms();
+                    out.rows_mut(qa, n).copy_from(&v.rows(va, n));
                 }
                 TreeJointKind::Spherical => spin(q, v, (qa, va), &mut out),
                 TreeJointKind::Free => {
@@ -351,9 +351,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             match j.kind {
                 TreeJointKind::Fixed => {}
                 TreeJointKind::Revolute | TreeJointKind::Prismatic => q[qa] += delta[va],
-                TreeJointKind::Universal | TreeJointKind::Cylindrical => {
-                    q[qa] += delta[va];
-                    q[qa + 1] += delta[va + 1];
+                TreeJointKind::Universal | TreeJointKind::Cylindrical | TreeJointKind::Planar => {
+                    let n = j.kind.freedoms();
+                    let mut at = q.rows_mut(qa, n);
+                    at += delta.rows(va, n);
                 }
                 TreeJointKind::Spherical => turn(q, delta, (qa, va)),
                 TreeJointKind::Free => {

@@ -118,6 +118,8 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     /// Revolute, prismatic, universal: the parent's unit axis `a` (`R₀ h`
     /// for the first two; the universal's `s`).
     pub(crate) slide: [Vector3<f64>; NB],
+    /// Planar: the parent's unit in-plane axes `f`, `g` (`f × g = a`).
+    pub(crate) plane: [[Vector3<f64>; 2]; NB],
     /// The spatial inertia of joint `k`'s child about its joint point
     /// (its link frame's origin).
     pub(crate) inertia: [Matrix6<f64>; NB],
@@ -149,6 +151,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             axis: [Vector3::zeros(); NB],
             rest: [UnitQuaternion::identity(); NB],
             slide: [Vector3::zeros(); NB],
+            plane: [[Vector3::zeros(); 2]; NB],
             inertia: [Matrix6::zeros(); NB],
             offset: [Vector3::zeros(); NB],
             mass: inertias,
@@ -162,6 +165,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 axis_parent: [Vector3::zeros(); NB],
                 rho_parent: [Vector3::zeros(); NB],
                 rho_child: [Vector3::zeros(); NB],
+                plane: [[Vector3::zeros(); 2]; NB],
             },
         };
         let mut moved_by: [Option<usize>; NB] = [None; NB];
@@ -200,6 +204,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     _ => rest_rotation(&h, &a),
                 };
                 tree.slide[k] = a.into_inner();
+                if j.kind == TreeJointKind::Planar {
+                    tree.plane[k] = in_plane(&a, &j.lock_parent);
+                }
             }
             tree.subspace[k] = tree.make_subspace(k);
             let rest = tree.rest[k].to_rotation_matrix().into_inner();
@@ -208,6 +215,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             tree.geometry.axis_parent[k] = tree.slide[k];
             tree.geometry.rho_parent[k] = j.rho_parent;
             tree.geometry.rho_child[k] = j.rho_child;
+            tree.geometry.plane[k] = tree.plane[k];
             tree.q_at[k] = nq;
             tree.v_at[k] = nv;
             nq += j.kind.coordinates();
@@ -293,15 +301,23 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 TreeJointKind::Cylindrical => Some((qa + 1, va + 1)),
                 _ => None,
             };
+            // The child's point from the parent's and its rate, parent
+            // components (d/dt Aᵀx = Aᵀ(ẋ − ω × x)): a free or planar joint's
+            // coordinates.
+            let (x, x_rate) = (a_p.inverse() * -gap, a_p.inverse() * (-slip + w_p_inertial.cross(&gap)));
             let turn_misfit = match j.kind {
                 TreeJointKind::Revolute | TreeJointKind::Cylindrical => {
-                    let local = self.rest[k].inverse() * rel;
-                    let h = self.axis[k];
-                    let angle = 2.0 * nalgebra::RealField::atan2(local.imag().dot(&h), local.w);
-                    state.q[qa] = angle;
-                    state.v[va] = h.dot(&w_rel);
-                    let off = local.angle_to(&UnitQuaternion::from_axis_angle(&Unit::new_unchecked(h), angle));
-                    off + (w_rel - h * state.v[va]).norm()
+                    self.angle(k, &rel, &w_rel, (qa, va), &mut state)
+                }
+                TreeJointKind::Planar => {
+                    let [f, g] = self.plane[k];
+                    state.q[qa] = f.dot(&x);
+                    state.q[qa + 1] = g.dot(&x);
+                    state.v[va] = f.dot(&x_rate);
+                    state.v[va + 1] = g.dot(&x_rate);
+                    // Off the plane: the point's normal offset and rate.
+                    let off = self.slide[k].dot(&x).abs() + self.slide[k].dot(&x_rate).abs();
+                    off + self.angle(k, &rel, &w_rel, (qa + 2, va + 2), &mut state)
                 }
                 TreeJointKind::Spherical => {
                     let p = Vector4::new(rel.w, rel.i, rel.j, rel.k);
@@ -310,13 +326,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     0.0
                 }
                 TreeJointKind::Free => {
-                    // The child's point from the parent's, and its rate, in
-                    // the parent's components (d/dt Aᵀx = Aᵀ(ẋ − ω × x)).
-                    let x = -gap;
-                    let rate = a_p.inverse() * (-slip - w_p_inertial.cross(&x));
-                    state.q.fixed_rows_mut::<3>(qa).copy_from(&(a_p.inverse() * x));
+                    state.q.fixed_rows_mut::<3>(qa).copy_from(&x);
                     state.q.fixed_rows_mut::<4>(qa + 3).copy_from(&Vector4::new(rel.w, rel.i, rel.j, rel.k));
-                    state.v.fixed_rows_mut::<3>(va).copy_from(&(rel.inverse() * rate));
+                    state.v.fixed_rows_mut::<3>(va).copy_from(&(rel.inverse() * x_rate));
                     state.v.fixed_rows_mut::<3>(va + 3).copy_from(&w_rel);
                     0.0
                 }
@@ -338,8 +350,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 TreeJointKind::Prismatic => rel.angle_to(&self.rest[k]) + w_rel.norm(),
             };
             let (gap, slip) = match (j.kind, slid) {
-                // Any pose and motion: nothing to misfit.
-                (TreeJointKind::Free, _) => (Vector3::zeros(), Vector3::zeros()),
+                // Any pose and motion (a planar joint's off-plane part is
+                // its turn misfit): nothing more to misfit.
+                (TreeJointKind::Free | TreeJointKind::Planar, _) => (Vector3::zeros(), Vector3::zeros()),
                 (_, Some((qs, vs))) => {
                     // The child's point slides along the parent's axis: the
                     // gap and slip along it are the coordinate and its rate,
@@ -360,6 +373,35 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         Ok(state)
     }
+
+    /// A revolute-like joint's angle about its axis (at `q[qi]`, its rate at
+    /// `v[vi]`) from the relative rotation and angular velocity: the misfit
+    /// of the turn about any other axis.
+    fn angle(
+        &self,
+        k: usize,
+        rel: &UnitQuaternion<f64>,
+        w_rel: &Vector3<f64>,
+        (qi, vi): (usize, usize),
+        state: &mut TreeState<NQ, NV>,
+    ) -> f64 {
+        let local = self.rest[k].inverse() * rel;
+        let h = self.axis[k];
+        let angle = 2.0 * nalgebra::RealField::atan2(local.imag().dot(&h), local.w);
+        state.q[qi] = angle;
+        state.v[vi] = h.dot(w_rel);
+        let off = local.angle_to(&UnitQuaternion::from_axis_angle(&Unit::new_unchecked(h), angle));
+        off + (w_rel - h * state.v[vi]).norm()
+    }
+}
+
+/// A planar joint's in-plane unit axes `(f, g)` of the parent, `f × g = a`:
+/// `f` made perpendicular to `a` (the first of `perpendicular_pair(a)` when
+/// it is zero or along `a`).
+fn in_plane(a: &Unit<Vector3<f64>>, f: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let f = Unit::try_new(f - a.as_ref() * a.dot(f), 1e-12)
+        .map_or_else(|| crate::perpendicular_pair(a).map_or(Vector3::x(), |(b, _)| b), |f| f.into_inner());
+    [f, a.cross(&f)]
 }
 
 /// The rotation taking the child's axes `(h, k)` onto the parent's `(a, g)`

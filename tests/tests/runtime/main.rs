@@ -21,3 +21,4 @@ mod record;
 mod second_order;
 mod serde_io;
 mod tree;
+mod tree_joints;
