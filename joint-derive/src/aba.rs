@@ -2,13 +2,15 @@
 //! scene's fixed tree (`TreeScene::forward_dynamics_into`), on the engine's
 //! graph: the same three passes as the runtime's recursion
 //! (`joint_runtime::tree`), but every axis, joint point, motion subspace and
-//! rest rotation is a number here, so the structural zeros of the spatial
+//! rest rotation given as a number is one here, so the structural zeros of the spatial
 //! algebra fold away (a revolute joint about `z` moves three of six
 //! components; a diagonal inertia has three of nine entries) and equal
 //! subexpressions are one node. Masses, inertias and gravity may be fields
-//! (read into `let`s); the joints' points and axes must be numbers, or the
-//! method is not written and the runtime's recursion runs. Not written above
-//! [`LIMIT`] operations either (build time).
+//! (read into `let`s); a joint whose points or axes are fields reads all of
+//! its geometry from the runtime's `TreeGeometry` (`geometry`, made once by
+//! `Tree::new`: unit axes, rest rotation), so only its own terms stay
+//! unfolded. Not written above [`LIMIT`] operations (build time): the
+//! runtime's recursion runs there.
 
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
@@ -41,6 +43,10 @@ pub(crate) struct Builder {
 }
 
 impl Builder {
+    pub(crate) fn new(g: Graph) -> Self {
+        Builder { g, bindings: Vec::new() }
+    }
+
     fn c(&mut self, x: f64) -> Id {
         self.g.constant(x)
     }
@@ -59,7 +65,13 @@ impl Builder {
         }
     }
 
+    /// An input bound to `expr`, once per expression.
     fn input(&mut self, expr: TokenStream) -> Id {
+        let text = expr.to_string();
+        if let Some((name, _)) = self.bindings.iter().find(|(_, e)| e.to_string() == text) {
+            let name = name.clone();
+            return self.g.param(name);
+        }
         let name = format!("p_{}", self.bindings.len());
         self.bindings.push((name.clone(), expr));
         self.g.param(name)
@@ -81,6 +93,19 @@ impl Builder {
             *o = self.g.sub(x, y);
         }
         out
+    }
+
+    /// A vector of the runtime's `TreeGeometry` at `path` (`["rest", "3",
+    /// "0"]`: `geometry.rest[3][0]`), for a joint whose points or axes are
+    /// fields.
+    pub(crate) fn geometry(&mut self, path: &[&str]) -> V3 {
+        let field = format_ident!("{}", path[0]);
+        let index = path[1..].iter().map(|i| {
+            let i = proc_macro2::Literal::usize_unsuffixed(i.parse().unwrap_or(0));
+            quote!([#i])
+        });
+        let at = quote!(geometry.#field #(#index)*);
+        [quote!(x), quote!(y), quote!(z)].map(|c| self.input(quote!(#at.#c)))
     }
 
     pub(crate) fn dot(&mut self, a: &[Id], b: &[Id]) -> Id {
@@ -220,6 +245,9 @@ pub(crate) struct Joint {
     slide: [f64; 3],
     /// Planar: the parent's unit in-plane axes `f`, `g` (`f × g = a`).
     plane: [[f64; 3]; 2],
+    /// `Some(k)`: its points or axes are fields, so all of its geometry is
+    /// read from the runtime's `TreeGeometry` at `k` (the numbers above unused).
+    pub(crate) read: Option<usize>,
 }
 
 fn known(j: &JointDecl, name: &str) -> Option<[f64; 3]> {
@@ -310,15 +338,9 @@ impl Joint {
             rest: identity,
             slide: [0.0; 3],
             plane: [[0.0; 3]; 2],
+            read: None,
         }
     }
-}
-
-/// The joints with their geometry as numbers, or `None` when a point or an
-/// axis is a field or a named constant.
-pub(crate) fn joints(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
-    let parents = parent_edges(s, edges);
-    edges.iter().zip(parents).map(|(e, parent)| joint(s, e, parent)).collect()
 }
 
 /// Each edge's parent edge (the one that moves its parent body).
@@ -359,6 +381,7 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
             rest,
             slide: a,
             plane: [[0.0; 3]; 2],
+            read: None,
         });
     }
     let mut plane = [[0.0; 3]; 2];
@@ -385,7 +408,7 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         }
     }
     let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide, plane })
+    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide, plane, read: None })
 }
 
 /// A planar joint's in-plane unit axes `(f, g)` of the parent, `f × g = a`,
@@ -659,17 +682,36 @@ impl Builder {
 
     /// Pass 1 (root to leaves) of joint `j`: `e` is `E` when given as inputs
     /// (a kernel), else made from `q`.
-    fn down(&mut self, s: &SceneDecl, j: &Joint, inbound: [f64; 3], q: &[Id], v: &[Id], parent: Option<V6>) -> Down {
+    fn down(&mut self, s: &SceneDecl, j: &Joint, inbound: V3, q: &[Id], v: &[Id], parent: Option<V6>) -> Down {
         let zero = self.c(0.0);
-        let rel = self.relative(j, q);
-        let e: M3 = [0, 1, 2].map(|r| [0, 1, 2].map(|c| rel[c][r]));
         // Link frames: each body's axes, origin at its inbound joint point, so
         // that the joint's subspace is constant coordinate axes and the
         // offset between two joint points a constant of the parent.
-        let r = self.consts3([0, 1, 2].map(|i| j.rho_p[i] - inbound[i]));
-        let r = self.slid(j, r, q);
+        let (rel, r, rho_c, s_k, h) = match j.read {
+            None => {
+                // The offset between the joint points folded first (a number
+                // when the parent's joint is one too), then slid.
+                let r = match inbound.map(|i| self.g.as_const(i)) {
+                    [Some(x), Some(y), Some(z)] => self.consts3([j.rho_p[0] - x, j.rho_p[1] - y, j.rho_p[2] - z]),
+                    _ => {
+                        let rho_p = self.consts3(j.rho_p);
+                        self.sub3(rho_p, inbound)
+                    }
+                };
+                let r = self.slid(j, r, q);
+                let (rel, cols) = (self.relative(j, q), self.columns(j, q));
+                (rel, r, self.consts3(j.rho_c), cols, self.consts3(j.axis))
+            }
+            Some(k) => {
+                let at = k.to_string();
+                let (rel, r, rho_c) = crate::closure::read_joint(self, j.kind, k, q, &mut |b, p| b.geometry(p));
+                let h = self.geometry(&["axis", &at]);
+                let r = self.sub3(r, inbound);
+                (rel, r, rho_c, self.read_columns(j.kind, &at, q), h)
+            }
+        };
+        let e: M3 = [0, 1, 2].map(|r| [0, 1, 2].map(|c| rel[c][r]));
         let x = Transform { e, r };
-        let s_k = self.columns(j, q);
         let mut vj = [zero; 6];
         for (i, col) in s_k.iter().enumerate() {
             for r in 0..6 {
@@ -688,7 +730,13 @@ impl Builder {
             let body = &s.bodies[j.child];
             self.body(&body.mass, &body.inertia)
         };
-        let inertia = self.link_inertia(m, &ic, j.rho_c.map(|x| -x));
+        let inertia = match j.read {
+            None => self.link_inertia(m, &ic, j.rho_c.map(|x| -x)),
+            Some(_) => {
+                let c = rho_c.map(|x| self.g.neg(x));
+                self.link_inertia_at(m, &ic, c)
+            }
+        };
         let iv = self.m6v(&inertia, vel);
         let pa = self.cross_force(vel, iv);
         let mut c = self.cross_motion(vel, vj);
@@ -698,7 +746,6 @@ impl Builder {
                 let (x, y) = (self.g.mul(s_k[0][r], v[0]), self.g.mul(s_k[1][r], v[1]));
                 self.g.add(x, y)
             });
-            let h = self.consts3(j.axis);
             let turn = self.cross(slide, h);
             for (i, t) in turn.iter().enumerate() {
                 let bias = self.g.mul(v[2], *t);
@@ -708,7 +755,6 @@ impl Builder {
         if j.kind == TreeKind::Universal {
             // Ṡ q̇ = θ̇₁ θ̇₂ [S₁ × h; 0]: the first column turns with θ₂.
             let first = [s_k[0][0], s_k[0][1], s_k[0][2]];
-            let h = self.consts3(j.axis);
             let turn = self.cross(first, h);
             let rates = self.g.mul(v[0], v[1]);
             for (i, t) in turn.iter().enumerate() {
@@ -774,7 +820,8 @@ impl Builder {
         let mut reduced = self.sub6(ia, &outer);
         // Exact zeros the graph cannot see (A − A A⁻¹ A): the reduced
         // inertia moves nothing along the joint's own freedoms.
-        let constant = !matches!(j.kind, TreeKind::Universal | TreeKind::Planar);
+        // (Known only for numbers: a read joint's subspace is not.)
+        let constant = !matches!(j.kind, TreeKind::Universal | TreeKind::Planar) && j.read.is_none();
         for &i in selected(&subspace(j)).filter(|_| constant).iter().flatten() {
             reduced[i] = [zero; 6];
             for row in reduced.iter_mut() {
@@ -846,28 +893,109 @@ pub(crate) fn kind_offsets(kinds: impl Iterator<Item = TreeKind>) -> (Vec<usize>
     (qa, va)
 }
 
-/// The joint point its parent's link frame starts from.
-fn inbound(joints: &[Joint], j: &Joint) -> [f64; 3] {
-    j.parent.map_or([0.0; 3], |p| joints[p].rho_c)
+impl Builder {
+    /// The joint point its parent's link frame starts from: a number, or
+    /// read when the parent's joint is.
+    fn inbound(&mut self, joints: &[Joint], j: &Joint) -> V3 {
+        match j.parent.map(|p| &joints[p]) {
+            None => self.consts3([0.0; 3]),
+            Some(Joint { read: Some(k), .. }) => self.geometry(&["rho_child", &k.to_string()]),
+            Some(p) => self.consts3(p.rho_c),
+        }
+    }
+
+    /// A read joint's subspace columns at `q` (`at`: its index in the
+    /// tree), from its axes in `geometry`: as [`Builder::columns`] makes
+    /// them from numbers.
+    fn read_columns(&mut self, kind: TreeKind, at: &str, q: &[Id]) -> Vec<V6> {
+        let zero = self.c(0.0);
+        let h = self.geometry(&["axis", at]);
+        let (turning, sliding) = (join(h, [zero; 3]), join([zero; 3], h));
+        let rest_cols: [V3; 3] = [0, 1, 2].map(|c| self.geometry(&["rest", at, &c.to_string()]));
+        let back = |b: &mut Builder, x: V3| -> V3 { [0, 1, 2].map(|c| b.dot(&rest_cols[c], &x)) };
+        // `rot(h, θ)ᵀ x`: a column turned back by the joint's angle.
+        let turned = |b: &mut Builder, x: V3, angle: Id| -> V3 {
+            let (c, s) = (b.g.cos(angle), b.g.sin(angle));
+            let rot = crate::closure::rotation_about(b, h, c, s);
+            b.mtv(&rot, x)
+        };
+        match kind {
+            TreeKind::Revolute => vec![turning],
+            TreeKind::Prismatic => vec![sliding],
+            TreeKind::Cylindrical => vec![turning, sliding],
+            TreeKind::Universal => {
+                let s = self.geometry(&["axis_parent", at]);
+                let b = back(self, s);
+                let first = turned(self, b, q[1]);
+                vec![join(first, [zero; 3]), turning]
+            }
+            TreeKind::Planar => {
+                let mut cols: Vec<V6> = [0, 1]
+                    .map(|i| {
+                        let axis = self.geometry(&["plane", at, &i.to_string()]);
+                        let b = back(self, axis);
+                        join([zero; 3], turned(self, b, q[2]))
+                    })
+                    .to_vec();
+                cols.push(turning);
+                cols
+            }
+            // No geometry: numbers.
+            TreeKind::Spherical | TreeKind::Free | TreeKind::Fixed => {
+                subspace(&Joint { kind, ..Joint::spherical() }).into_iter().map(|col| col.map(|x| self.c(x))).collect()
+            }
+        }
+    }
+
+    /// [`Builder::link_inertia`] with `c` as nodes (a read joint's).
+    fn link_inertia_at(&mut self, m: Id, ic: &M3, c: V3) -> M6 {
+        let zero = self.c(0.0);
+        let mut out = [[zero; 6]; 6];
+        let cx = [[zero, self.g.neg(c[2]), c[1]], [c[2], zero, self.g.neg(c[0])], [self.g.neg(c[1]), c[0], zero]];
+        for r in 0..3 {
+            for s in 0..3 {
+                let ccx = self.dot(&cx[r], &cx[s]);
+                let shift = self.g.mul(ccx, m);
+                out[r][s] = self.g.add(ic[r][s], shift);
+                let mc = self.g.mul(cx[r][s], m);
+                out[r][3 + s] = mc;
+                out[3 + s][r] = mc;
+            }
+            out[3 + r][3 + r] = m;
+        }
+        out
+    }
 }
 
 /// `fn forward_dynamics_into`: the whole tree in one straight line up to
-/// [`LIMIT`] operations, one kernel per distinct joint and pass above it;
-/// nothing when a joint's points or axes are not numbers.
+/// [`LIMIT`] operations (a joint's points and axes folded where they are
+/// numbers, read from `geometry` where they are fields), one kernel per
+/// distinct joint and pass above it (numbers only).
 pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
     let joints = written(s, edges)?;
     inline(s, &joints, nq, nv).or_else(|| kernels(s, &joints, nq, nv))
 }
 
-/// The joints of a tree whose algorithms the derive writes: every point and
-/// axis a number.
+/// The joints of a tree whose algorithms the derive writes: each with its
+/// points and axes as numbers (folded), or read from the runtime's
+/// `TreeGeometry` where they are fields.
 fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
-    joints(s, edges)
+    let parents = parent_edges(s, edges);
+    let read = |(k, (e, parent)): (usize, (&TreeEdge, Option<usize>))| {
+        joint(s, e, parent).unwrap_or(Joint {
+            kind: e.kind,
+            parent,
+            child: e.ends.1,
+            read: Some(k),
+            ..Joint::spherical()
+        })
+    };
+    Some(edges.iter().zip(parents).enumerate().map(read).collect())
 }
 
 /// The whole tree in one function.
 fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(TokenStream, usize)> {
-    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
+    let mut b = Builder::new(Graph::new());
     let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
     let v: Vec<Id> = (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect();
     let tau: Vec<Id> = (0..nv).map(|i| b.g.param(format!("tau_{i}"))).collect();
@@ -878,7 +1006,8 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
     for (k, j) in joints.iter().enumerate() {
         let parent = j.parent.map(|p| downs[p].vel);
         let (nqk, nvk) = j.kind.sizes();
-        let d = b.down(s, j, inbound(joints, j), &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
+        let inbound = b.inbound(joints, j);
+        let d = b.down(s, j, inbound, &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
         downs.push(d);
     }
     let mut ia: Vec<M6> = downs.iter().map(|d| d.inertia).collect();
@@ -906,7 +1035,7 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
         }
         acc.push(a);
     }
-    vector_method(&b, &out, ("forward_dynamics_into", "tau", "tau"), nq, nv)
+    vector_method(&b, &out, ("forward_dynamics_into", "tau", "tau"), (s.bodies.len(), nq, nv))
 }
 
 /// `fn NAME(&self, q, v, THIRD: &[f64; NV], out: &mut [f64; NV]) -> bool`
@@ -916,9 +1045,9 @@ fn vector_method(
     b: &Builder,
     outputs: &[Id],
     (name, third, prefix): (&str, &str, &str),
-    nq: usize,
-    nv: usize,
+    (nb, nq, nv): (usize, usize, usize),
 ) -> Option<(TokenStream, usize)> {
+    let k = krate();
     let emitted = emit(&b.g, outputs, &scalar());
     if emitted.ops > LIMIT {
         return None;
@@ -929,7 +1058,14 @@ fn vector_method(
     let (name, third) = (format_ident!("{name}"), format_ident!("{third}"));
     let (body, outputs, ops) = (emitted.body, emitted.outputs, emitted.ops);
     let method = quote! {
-        fn #name(&self, q: &[f64; #nq], v: &[f64; #nv], #third: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
+        fn #name(
+            &self,
+            geometry: &#k::tree::TreeGeometry<#nb>,
+            q: &[f64; #nq],
+            v: &[f64; #nv],
+            #third: &[f64; #nv],
+            out: &mut [f64; #nv],
+        ) -> bool {
             let #qp = *q;
             let #vp = *v;
             let #tp = *#third;
@@ -991,7 +1127,7 @@ struct Kernel {
 
 impl Kernel {
     fn new() -> Self {
-        Kernel { b: Builder { g: Graph::new(), bindings: Vec::new() }, inputs: Vec::new(), outputs: Vec::new() }
+        Kernel { b: Builder::new(Graph::new()), inputs: Vec::new(), outputs: Vec::new() }
     }
 
     /// An input port of `n` numbers (`__name: &[f64; n]`).
@@ -1094,7 +1230,8 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     // A kernel is shared by joints of one text, its subspace constant: a
     // universal joint's turns with θ₂ (the runtime's recursion runs such a
     // tree past the limit).
-    if joints.iter().any(|j| matches!(j.kind, TreeKind::Universal | TreeKind::Planar | TreeKind::Free)) {
+    let varying = |j: &Joint| matches!(j.kind, TreeKind::Universal | TreeKind::Planar | TreeKind::Free);
+    if joints.iter().any(|j| varying(j) || j.read.is_some()) {
         return None;
     }
     let (qa, va) = offsets(joints);
@@ -1126,7 +1263,8 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         let mut kd = Kernel::new();
         let (q_in, v_in) = (kd.input("q", nqk), kd.input("v", nvk));
         let parent = j.parent.map(|_| Kernel::v6(&kd.input("parent", 6)));
-        let d = kd.b.down(s, j, inbound(joints, j), &q_in, &v_in, parent);
+        let inbound = kd.b.inbound(joints, j);
+        let d = kd.b.down(s, j, inbound, &q_in, &v_in, parent);
         kd.output("e", d.x.e.iter().flatten().copied().collect());
         kd.output("vel", d.vel.to_vec());
         kd.output("c", d.c.to_vec());
@@ -1147,7 +1285,8 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         let c_in = Kernel::v6(&ku.input("c", 6));
         let e_in = Kernel::m3(&ku.input("e", 9));
         let tau_in = ku.input("tau", nvk);
-        let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound(joints, j)[i]);
+        let inbound = j.parent.map_or([0.0; 3], |p| joints[p].rho_c);
+        let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound[i]);
         let x = Transform { e: e_in, r: ku.b.consts3(r) };
         let parent_io = j.parent.map(|_| (Kernel::m6(&ku.input("ia_p", 21)), Kernel::v6(&ku.input("pa_p", 6))));
         let columns = ku.b.columns(j, &[]);
@@ -1209,8 +1348,16 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         quote!([#(#ids),*])
     };
     let (qp, vp, tp) = (all("q", nq), all("v", nv), all("tau", nv));
+    let (k, nb) = (krate(), s.bodies.len());
     let method = quote! {
-        fn forward_dynamics_into(&self, q: &[f64; #nq], v: &[f64; #nv], tau: &[f64; #nv], out: &mut [f64; #nv]) -> bool {
+        fn forward_dynamics_into(
+            &self,
+            geometry: &#k::tree::TreeGeometry<#nb>,
+            q: &[f64; #nq],
+            v: &[f64; #nv],
+            tau: &[f64; #nv],
+            out: &mut [f64; #nv],
+        ) -> bool {
             #(#items)*
             let #qp = *q;
             let #vp = *v;
@@ -1318,7 +1465,8 @@ fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize,
     for (k, j) in joints.iter().enumerate() {
         let parent = j.parent.map(|p| out[p].vel);
         let (nqk, nvk) = j.kind.sizes();
-        let d = b.down(s, j, inbound(joints, j), &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
+        let inbound = b.inbound(joints, j);
+        let d = b.down(s, j, inbound, &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
         out.push(d);
     }
     out
@@ -1327,7 +1475,7 @@ fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize,
 /// `fn inverse_dynamics_into`: `τ = Sᵀ f` with `f = I a + v ×* I v` summed
 /// from the leaves.
 fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
-    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
+    let mut b = Builder::new(Graph::new());
     let d = downs(&mut b, s, joints, nq, nv, true);
     let vdot: Vec<Id> = (0..nv).map(|i| b.g.param(format!("a_{i}"))).collect();
     let (_, va) = offsets(joints);
@@ -1359,7 +1507,7 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
             force[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(force[p][r], back[r]));
         }
     }
-    let (method, ops) = vector_method(&b, &tau, ("inverse_dynamics_into", "vdot", "a"), nq, nv)?;
+    let (method, ops) = vector_method(&b, &tau, ("inverse_dynamics_into", "vdot", "a"), (s.bodies.len(), nq, nv))?;
     let doc = format!(" The recursive Newton–Euler algorithm written out: {ops} operations.");
     Some(quote!(#[doc = #doc] #[inline] #method))
 }
@@ -1367,7 +1515,7 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
 /// `fn mass_matrix_into`: composite inertias from the leaves, then each
 /// freedom's force carried to the root.
 fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
-    let mut b = Builder { g: Graph::new(), bindings: Vec::new() };
+    let mut b = Builder::new(Graph::new());
     let d = downs(&mut b, s, joints, nq, nv, false);
     let (_, va) = offsets(joints);
     let mut ic: Vec<M6> = d.iter().map(|x| x.inertia).collect();
@@ -1414,10 +1562,11 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
         })
         .collect();
     let doc = format!(" The composite-rigid-body algorithm written out: {ops} operations.");
+    let (k, nb) = (krate(), s.bodies.len());
     Some(quote! {
         #[doc = #doc]
         #[inline]
-        fn mass_matrix_into(&self, q: &[f64; #nq], out: &mut [[f64; #nv]; #nv]) -> bool {
+        fn mass_matrix_into(&self, geometry: &#k::tree::TreeGeometry<#nb>, q: &[f64; #nq], out: &mut [[f64; #nv]; #nv]) -> bool {
             let #qp = *q;
             #(#binds)*
             #body

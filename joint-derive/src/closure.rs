@@ -91,7 +91,7 @@ pub fn derive(
 fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
     let (qa, va) = kind_offsets(edges.iter().map(|e| e.kind));
     let (q, v) = (k.coords.clone(), k.velocities.clone());
-    let mut b = Builder { g: std::mem::take(&mut k.g), bindings: Vec::new() };
+    let mut b = Builder::new(std::mem::take(&mut k.g));
     let mut reads = Vec::new();
     let (zero, one) = (b.g.zero(), b.g.constant(1.0));
     let identity = [[one, zero, zero], [zero, one, zero], [zero, zero, one]];
@@ -108,7 +108,7 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
                 let rho_p = j.rho_p.map(|x| b.g.constant(x));
                 (rel, b.slid(&j, rho_p, qj), j.rho_c.map(|x| b.g.constant(x)))
             }
-            None => read_joint(&mut b, &mut reads, e.kind, n, qj),
+            None => read_joint(&mut b, e.kind, n, qj, &mut |b, p| read(b, &mut reads, p)),
         };
         let a: [[Id; 3]; 3] = [0, 1, 2].map(|r| [0, 1, 2].map(|c| b.dot(&a_p[r], &[rel[0][c], rel[1][c], rel[2][c]])));
         let (out, back) = (b.mv(&a_p, rho_p), b.mv(&a, rho_c));
@@ -148,16 +148,24 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
 /// parent's moved by the joint's slides), read from `geometry`:
 /// `R₀ rot(h, θ)` for a revolute joint, `R₀` for a prismatic or fixed one,
 /// `rot(s, θ₁) R₀ rot(h, θ₂)` for a universal one, the normalised
-/// quaternion's matrix for a spherical one.
-fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize, q: &[Id]) -> ([[Id; 3]; 3], V3, V3) {
+/// quaternion's matrix for a spherical one. `read` gives a vector of the
+/// geometry at a path (`["rest", "3", "0"]`): the closures read it through
+/// their inputs, the written-out dynamics through their bindings.
+pub(crate) fn read_joint(
+    b: &mut Builder,
+    kind: TreeKind,
+    n: usize,
+    q: &[Id],
+    read: &mut dyn FnMut(&mut Builder, &[&str]) -> V3,
+) -> ([[Id; 3]; 3], V3, V3) {
     let at = n.to_string();
-    let rho_p = read(b, reads, &["rho_parent", &at]);
-    let rho_c = read(b, reads, &["rho_child", &at]);
+    let rho_p = read(b, &["rho_parent", &at]);
+    let rho_c = read(b, &["rho_child", &at]);
     if kind == TreeKind::Spherical {
         return (b.relative(&crate::aba::Joint::spherical(), q), rho_p, rho_c);
     }
-    let h = read(b, reads, &["axis", &at]);
-    let columns: [V3; 3] = [0, 1, 2].map(|c| read(b, reads, &["rest", &at, &c.to_string()]));
+    let h = read(b, &["axis", &at]);
+    let columns: [V3; 3] = [0, 1, 2].map(|c| read(b, &["rest", &at, &c.to_string()]));
     let rest: [[Id; 3]; 3] = [0, 1, 2].map(|r| [0, 1, 2].map(|c| columns[c][r]));
     if kind == TreeKind::Fixed {
         return (rest, rho_p, rho_c);
@@ -185,7 +193,7 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
         TreeKind::Cylindrical => (slid(b, q[1]), q[0]),
         TreeKind::Planar => {
             // The point moved along the parent's in-plane axes.
-            let plane: [V3; 2] = [0, 1].map(|i| read(b, reads, &["plane", &at, &i.to_string()]));
+            let plane: [V3; 2] = [0, 1].map(|i| read(b, &["plane", &at, &i.to_string()]));
             let moved = [0, 1, 2].map(|r| {
                 let (x, y) = (b.g.mul(plane[0][r], q[0]), b.g.mul(plane[1][r], q[1]));
                 let t = b.g.add(rho_p[r], x);
@@ -197,7 +205,7 @@ fn read_joint(b: &mut Builder, reads: &mut Vec<Input>, kind: TreeKind, n: usize,
     };
     let rel = if kind == TreeKind::Universal {
         // rot(s, θ₁) R₀ rot(h, θ₂), `s` the parent's axis.
-        let s = read(b, reads, &["axis_parent", &at]);
+        let s = read(b, &["axis_parent", &at]);
         let (first, second) = (turn(b, s, q[0]), turn(b, h, q[1]));
         let turned = times(b, &first, &rest);
         times(b, &turned, &second)
@@ -217,7 +225,7 @@ fn read(b: &mut Builder, reads: &mut Vec<Input>, path: &[&str]) -> V3 {
 }
 
 /// `rot(h, θ) = c I + s [h]× + (1 − c) h hᵀ` for a unit `h` of nodes.
-fn rotation_about(b: &mut Builder, h: V3, c: Id, s: Id) -> [[Id; 3]; 3] {
+pub(crate) fn rotation_about(b: &mut Builder, h: V3, c: Id, s: Id) -> [[Id; 3]; 3] {
     let one = b.g.constant(1.0);
     let omc = b.g.sub(one, c);
     [0, 1, 2].map(|i| {

@@ -214,29 +214,44 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     /// Gravity, inertial components.
     fn tree_gravity(&self) -> Vector3<f64>;
     /// The articulated-body algorithm written out for this tree by the
-    /// derive (every axis and point a number, the structural zeros folded):
-    /// `v̇` into `out` and `true`, or `false` when not written (the tree's
-    /// points or axes are fields, or it is too large), and the runtime's
-    /// recursion [`Tree::forward_dynamics`] runs.
+    /// derive (every axis and point that is a number folded with the
+    /// structural zeros; the others read from `geometry`, the tree's
+    /// [`Tree::geometry`]): `v̇` into `out` and `true`, or `false` when not
+    /// written (a tree too large, or a field-valued one past the straight
+    /// line), and the runtime's recursion [`Tree::forward_dynamics`] runs.
     #[inline]
-    fn forward_dynamics_into(&self, q: &[f64; NQ], v: &[f64; NV], tau: &[f64; NV], out: &mut [f64; NV]) -> bool {
-        let _ = (q, v, tau, out);
+    fn forward_dynamics_into(
+        &self,
+        geometry: &TreeGeometry<NB>,
+        q: &[f64; NQ],
+        v: &[f64; NV],
+        tau: &[f64; NV],
+        out: &mut [f64; NV],
+    ) -> bool {
+        let _ = (geometry, q, v, tau, out);
         false
     }
     /// The recursive Newton–Euler algorithm written out by the derive (for
     /// trees it writes the forward dynamics of in one straight line):
     /// `τ(q, v, v̇)` into `out` and `true`, or `false` ([`Tree::inverse_dynamics`]).
     #[inline]
-    fn inverse_dynamics_into(&self, q: &[f64; NQ], v: &[f64; NV], vdot: &[f64; NV], out: &mut [f64; NV]) -> bool {
-        let _ = (q, v, vdot, out);
+    fn inverse_dynamics_into(
+        &self,
+        geometry: &TreeGeometry<NB>,
+        q: &[f64; NQ],
+        v: &[f64; NV],
+        vdot: &[f64; NV],
+        out: &mut [f64; NV],
+    ) -> bool {
+        let _ = (geometry, q, v, vdot, out);
         false
     }
     /// The composite-rigid-body algorithm written out by the derive: `M(q)`
     /// into `out` (symmetric, so rows or columns alike) and `true`, or
     /// `false` ([`Tree::mass_matrix_into`]).
     #[inline]
-    fn mass_matrix_into(&self, q: &[f64; NQ], out: &mut [[f64; NV]; NV]) -> bool {
-        let _ = (q, out);
+    fn mass_matrix_into(&self, geometry: &TreeGeometry<NB>, q: &[f64; NQ], out: &mut [[f64; NV]; NV]) -> bool {
+        let _ = (geometry, q, out);
         false
     }
     /// The closure rows at `state`, derived by the engine from the closing

@@ -237,7 +237,9 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     ) -> Result<SVector<f64, NV>, TreeError> {
         let mut out = SVector::<f64, NV>::zeros();
         let (q, v, t) = (&state.q.data.0[0], &state.v.data.0[0], &tau.data.0[0]);
-        if self.scene.forward_dynamics_into(q, v, t, &mut out.data.0[0]) && out.iter().all(|x| x.is_finite()) {
+        if self.scene.forward_dynamics_into(self.tree.geometry(), q, v, t, &mut out.data.0[0])
+            && out.iter().all(|x| x.is_finite())
+        {
             Ok(out)
         } else {
             self.tree.forward_dynamics(state, tau)
@@ -255,7 +257,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     pub fn inverse_dynamics(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> SVector<f64, NV> {
         let mut out = SVector::<f64, NV>::zeros();
         let (q, v, a) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0]);
-        if self.scene.inverse_dynamics_into(q, v, a, &mut out.data.0[0]) {
+        if self.scene.inverse_dynamics_into(self.tree.geometry(), q, v, a, &mut out.data.0[0]) {
             out
         } else {
             self.tree.inverse_dynamics(state, vdot)
@@ -266,7 +268,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// composite-rigid-body algorithm where the derive wrote one, the tree's
     /// recursion otherwise.
     pub fn mass_matrix_into(&self, q: &SVector<f64, NQ>, out: &mut SMatrix<f64, NV, NV>) {
-        if !self.scene.mass_matrix_into(&q.data.0[0], &mut out.data.0) {
+        if !self.scene.mass_matrix_into(self.tree.geometry(), &q.data.0[0], &mut out.data.0) {
             self.tree.mass_matrix_into(q, out);
         }
     }
