@@ -48,7 +48,9 @@
 //! `J v̇ = γ` (redundant closure rows dropped by a pivoted factorisation, as
 //! the absolute `Simulation` drops redundant joint rows) and projects each
 //! step back onto `Φ = 0`, `J v + Φ_t = 0`. Spring-dampers act through
-//! [`TreeSimulation::with_springs`] (their forces as joint forces `Jₚᵀ f`). A tree joint's points and axes
+//! [`TreeSimulation::with_springs`] and the absolute path's user loads
+//! through [`TreeSimulation::with_loads`] (the same closure drives both
+//! coordinate choices), as joint forces `Jᵀ f`. A tree joint's points and axes
 //! given as numbers are folded into the closure rows; given as fields they
 //! are read from the tree's [`TreeGeometry`]. A body that no path of tree
 //! joints joins to the ground floats, as it does in absolute coordinates: the

@@ -9,7 +9,7 @@ use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion};
 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
-use crate::dynamics::{Attachment, SpringDamper};
+use crate::dynamics::{AppliedLoads, Attachment, Loads, NoLoads, SpringDamper};
 use crate::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 
 /// The position projection's tolerance on the largest closure row, its
@@ -19,13 +19,17 @@ const PROJECTION: (f64, usize, f64) = (1e-12, 5, 1e-9);
 
 /// The simulation of a relative-coordinate scene: the scene (its generated
 /// articulated-body algorithm and closure rows, where the derive wrote them)
-/// and its tree, checked once.
+/// and its tree, checked once; user loads `L` (the absolute
+/// [`Simulation`](crate::dynamics::Simulation)'s [`AppliedLoads`]: forces
+/// and torques on the bodies, from the bodies' state) and springs.
 #[derive(Clone, Debug)]
-pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0> {
+pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0, L = NoLoads> {
     scene: &'a S,
     tree: Tree<NB, NQ, NV>,
     /// Spring-dampers between body points (their forces as joint forces).
     springs: &'a [SpringDamper],
+    /// The user's loads, called with the bodies' state at every evaluation.
+    loads: L,
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -48,7 +52,49 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// The simulation of `scene`; refused when its tree is not valid
     /// ([`TreeError`]: inertias, axes, order).
     pub fn new(scene: &'a S) -> Result<Self, TreeError> {
-        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[] })
+        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[], loads: NoLoads })
+    }
+}
+
+impl<
+    'a,
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'a, S, NB, NQ, NV, NC, L>
+{
+    /// The same simulation with the user's `loads` acting: the absolute
+    /// `Simulation`'s [`AppliedLoads`] (a closure `FnMut(&SystemState,
+    /// &mut Loads)` will do), called with the bodies' state at every
+    /// evaluation; each body's force and torque enter as the joint forces
+    /// `Jᵀ [A τ'; f]` of its centre of mass ([`Tree::point_jacobian`]). The
+    /// same closure drives both coordinate choices of a scene.
+    pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
+        let TreeSimulation { scene, tree, springs, .. } = self;
+        TreeSimulation { scene, tree, springs, loads }
+    }
+
+    /// The loads' joint forces at `state`.
+    fn load_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
+        let mut out = SVector::<f64, NV>::zeros();
+        if L::NONE {
+            return out;
+        }
+        let system = self.tree.system_state(state);
+        let mut loads = Loads::default();
+        self.loads.apply(&system, &mut loads);
+        let poses = self.tree.link_poses(&state.q);
+        for (body, b) in system.bodies.iter().enumerate() {
+            let centre = nalgebra::Vector3::zeros();
+            if let Some(j) = self.tree.point_jacobian_at(&poses, &state.q, body, &centre) {
+                let torque = b.rotation() * loads.torque[body];
+                out += j.fixed_rows::<3>(0).transpose() * torque + j.fixed_rows::<3>(3).transpose() * loads.force[body];
+            }
+        }
+        out
     }
 
     /// The same simulation with `springs` acting (the absolute
@@ -109,7 +155,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// `M⁻¹ Jᵀ λ` with `J M⁻¹ Jᵀ λ = γ − J v̇_tree` (redundant closure rows
     /// dropped by the pivoted factor).
     pub fn forward_dynamics(
-        &self,
+        &mut self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
     ) -> Result<SVector<f64, NV>, TreeError> {
@@ -119,12 +165,13 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// The constrained `v̇` and the pivot order of its factor; `order` fixes
     /// which rows are dropped (the later stages of a step keep the first's).
     fn constrained(
-        &self,
+        &mut self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
         order: Option<&PivotedCholesky<NC>>,
     ) -> Result<(SVector<f64, NV>, Option<PivotedCholesky<NC>>), TreeError> {
-        let free = self.tree_dynamics(state, &(tau + self.spring_forces(state)))?;
+        let applied = tau + self.spring_forces(state) + self.load_forces(state);
+        let free = self.tree_dynamics(state, &applied)?;
         if NC == 0 {
             return Ok((free, None));
         }
@@ -292,7 +339,8 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
         // Every stage drops the closure rows the first dropped: a redundant
         // row switching between stages would break the method's order.
         let (v1, first) = self.constrained(state, tau, None)?;
-        let rate = |s: &TreeState<NQ, NV>| -> Result<(SVector<f64, NQ>, SVector<f64, NV>), TreeError> {
+        let q1 = self.tree.coordinate_rates(&state.q, &state.v);
+        let mut rate = |s: &TreeState<NQ, NV>| -> Result<(SVector<f64, NQ>, SVector<f64, NV>), TreeError> {
             Ok((self.tree.coordinate_rates(&s.q, &s.v), self.constrained(s, tau, first.as_ref())?.0))
         };
         let at = |dq: &SVector<f64, NQ>, dv: &SVector<f64, NV>, c: f64| TreeState {
@@ -300,7 +348,6 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
             v: state.v + dv * c,
             t: state.t + c,
         };
-        let q1 = self.tree.coordinate_rates(&state.q, &state.v);
         let (q2, v2) = rate(&at(&q1, &v1, 0.5 * h))?;
         let (q3, v3) = rate(&at(&q2, &v2, 0.5 * h))?;
         let (q4, v4) = rate(&at(&q3, &v3, h))?;

@@ -8,6 +8,7 @@
 
 use joint_runtime::Scene;
 use joint_runtime::SystemState;
+use joint_runtime::dynamics::{Loads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{SVector, Vector3};
 use joint_runtime::tree::TreeScene;
 use joint_runtime::tree::{Tree, TreeJointKind, TreeSimulation, TreeState};
@@ -167,4 +168,54 @@ fn floating_recursions_agree() {
     let vdot = tree.forward_dynamics(&state, &tau).unwrap();
     let back = tree.inverse_dynamics(&state, &vdot);
     assert!((back - tau).norm() < 1e-12 * tau.norm(), "{back} against {tau}");
+}
+
+/// The user's loads of the absolute `Simulation` drive the tree too: a
+/// thrust along the drone's own z through its centre, a yaw torque, a drag
+/// on the gripper and a push at a point of the finger, one closure for both
+/// coordinate choices: the same motion.
+#[test]
+fn user_loads_act_alike_in_both_coordinate_choices() {
+    let loads = |s: &SystemState<3>, l: &mut Loads<3>| {
+        l.force[0] += s.bodies[0].rotation() * Vector3::new(0.0, 0.0, 30.0);
+        l.torque[0] += Vector3::new(0.0, 0.0, 0.05);
+        l.force[1] -= s.bodies[1].rdot * 0.3;
+        l.add_force_at(s, 2, &Vector3::new(0.5, 0.0, 0.2), &Vector3::new(0.0, 0.01, -0.05));
+    };
+    let mut relative = TreeSimulation::new(&Drone).unwrap().with_loads(loads);
+    let mut absolute = Simulation::new(&Drone, loads, &[], SimulationOptions::default()).unwrap();
+    let mut state = drone_state();
+    let mut system = relative.tree().system_state(&state);
+    for _ in 0..3000 {
+        relative.step(&mut state, 1e-4).unwrap();
+        absolute.step(&mut system, 1e-4).unwrap();
+    }
+    let mine = relative.tree().system_state(&state);
+    let mut worst = 0.0_f64;
+    for (a, b) in mine.bodies.iter().zip(&system.bodies) {
+        worst = worst.max((a.r - b.r).norm()).max(a.rotation().angle_to(&b.rotation()));
+        worst = worst.max((a.rdot - b.rdot).norm()).max((a.omega - b.omega).norm());
+    }
+    assert!(worst < 1e-10, "the two coordinate choices differ by {worst:e}");
+    // The thrust lifted the drone against gravity (2.6 kg, 30 N).
+    assert!(mine.bodies[0].r.z > drone_state().q[2] + 0.1, "{}", mine.bodies[0].r);
+}
+
+/// Equal and opposite torques about the knuckle's axis on the finger and
+/// the gripper are the knuckle's joint torque.
+#[test]
+fn a_couple_about_a_hinge_is_its_joint_torque() {
+    let torque = 0.3;
+    let couple = move |s: &SystemState<3>, l: &mut Loads<3>| {
+        let (gripper, finger) = (s.bodies[1].rotation(), s.bodies[2].rotation());
+        l.torque[2] += Vector3::new(torque, 0.0, 0.0);
+        l.torque[1] -= gripper.inverse() * (finger * Vector3::new(torque, 0.0, 0.0));
+    };
+    let state = drone_state();
+    let loaded = TreeSimulation::new(&Drone).unwrap().with_loads(couple).forward_dynamics(&state, &SVector::zeros());
+    let mut tau = SVector::<f64, 10>::zeros();
+    tau[9] = torque;
+    let joint = TreeSimulation::new(&Drone).unwrap().forward_dynamics(&state, &tau);
+    let (loaded, joint) = (loaded.unwrap(), joint.unwrap());
+    assert!((loaded - joint).norm() < 1e-13 * joint.norm(), "{loaded} against {joint}");
 }

@@ -344,7 +344,7 @@ fn both_coordinate_choices_give_the_same_motion() {
 /// pose carried along the rail with the block's frame turned onto it.
 #[test]
 fn prismatic_joint_against_its_closed_form() {
-    let sim = TreeSimulation::new(&Slider).unwrap();
+    let mut sim = TreeSimulation::new(&Slider).unwrap();
     let state = TreeState { q: SVector::from([0.3]), v: SVector::from([0.4]), t: 0.0 };
     let a = Vector3::new(1.0, 0.0, 0.5).normalize();
     let vdot = sim.forward_dynamics(&state, &SVector::zeros()).unwrap();
@@ -396,7 +396,7 @@ pub(crate) fn generated_against_recursion<S, const NB: usize, const NQ: usize, c
 ) where
     S: TreeScene<NB, NQ, NV>,
 {
-    let sim = TreeSimulation::new(scene).unwrap();
+    let mut sim = TreeSimulation::new(scene).unwrap();
     let tau = SVector::<f64, NV>::from_fn(|i, _| 0.3 * i as f64 - 0.5);
     let mut out = [0.0; NV];
     let (q, v, t) = (state.q.into(), state.v.into(), tau.into());
@@ -509,7 +509,7 @@ fn point_jacobians_move_points_as_the_bodies_do() {
 /// written-out algorithm and from the recursion.
 #[test]
 fn a_welded_body_moves_with_its_parent() {
-    let sim = TreeSimulation::new(&Welded).unwrap();
+    let mut sim = TreeSimulation::new(&Welded).unwrap();
     let theta: f64 = 0.7;
     let state = TreeState { q: SVector::from([theta]), v: SVector::from([1.5]), t: 0.0 };
     let expected = (1.0 * 0.5 + 0.5 * 1.0) * 9.81 * theta.cos() / (0.08 + 0.25 + 0.002 + 0.5);
