@@ -92,7 +92,7 @@ pub struct IntegrationReport {
 const MAX_STEPS: usize = 10_000_000;
 
 /// Dormand–Prince's stage coefficients `a_ij` (row `i` for stage `i + 1`).
-const A: [&[f64]; 6] = [
+pub(crate) const A: [&[f64]; 6] = [
     &[1.0 / 5.0],
     &[3.0 / 40.0, 9.0 / 40.0],
     &[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
@@ -101,63 +101,119 @@ const A: [&[f64]; 6] = [
     &[35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
 ];
 /// The stages' times `c_i` (stage 1 at 0).
-const C: [f64; 6] = [1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+pub(crate) const C: [f64; 6] = [1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
 /// Fifth-order weights less the embedded fourth-order ones.
-const E: [f64; 7] =
+pub(crate) const E: [f64; 7] =
     [71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0];
 
-/// What the error-controlled driver needs of a simulation, dense or sparse
-/// ([`integrate`] is written once over it).
-pub(crate) trait AdaptiveSteps<const NB: usize, const NV: usize> {
+/// A state the driver advances: its time.
+pub(crate) trait Timed: Copy {
+    /// The time.
+    fn time(&self) -> f64;
+    /// Sets the time (the last step lands exactly on `t_end`).
+    fn set_time(&mut self, t: f64);
+}
+
+impl<const NB: usize> Timed for SystemState<NB> {
+    fn time(&self) -> f64 {
+        self.t
+    }
+    fn set_time(&mut self, t: f64) {
+        self.t = t;
+    }
+}
+
+/// What the driver says and decides in a simulation's own error type.
+pub(crate) trait StepError: Sized {
+    /// An option out of range (`tolerance`, `t_end`).
+    fn bad_option(name: &'static str) -> Self;
+    /// The step fell below round-off, or too many were taken.
+    fn step_too_small(t: f64, step: f64) -> Self;
+    /// The error estimate is not finite.
+    fn non_finite_estimate() -> Self;
+    /// A failure a smaller step may not meet (a stage, Newton iteration or
+    /// projection that failed; a non-finite estimate).
+    fn retried(&self) -> bool;
+}
+
+impl StepError for AnalysisError {
+    fn bad_option(name: &'static str) -> Self {
+        AnalysisError::BadOption { name }
+    }
+    fn step_too_small(t: f64, step: f64) -> Self {
+        AnalysisError::StepTooSmall { t, step }
+    }
+    fn non_finite_estimate() -> Self {
+        AnalysisError::NonFiniteOutput { quantity: "error estimate", row: None }
+    }
+    fn retried(&self) -> bool {
+        matches!(
+            self,
+            AnalysisError::ImplicitNotConverged { .. }
+                | AnalysisError::Linalg(_)
+                | AnalysisError::NonFiniteOutput { .. }
+                | AnalysisError::NotConverged { .. }
+                | AnalysisError::NoProgress { .. }
+        )
+    }
+}
+
+/// What the error-controlled driver needs of a simulation, dense, sparse or
+/// a tree's ([`integrate`] is written once over it).
+pub(crate) trait AdaptiveSteps {
+    /// The state it steps.
+    type State: Timed;
+    /// Its error.
+    type Error: StepError;
     /// The state is one the scene can be evaluated at.
-    fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError>;
+    fn check_start(&self, state: &Self::State) -> Result<(), Self::Error>;
     /// One trial step of `method` from `y0`: the state reached and its error
     /// norm. A step whose error exceeds 1 leaves the integrator's history as
     /// it was.
     fn trial(
         &mut self,
-        y0: &SystemState<NB>,
+        y0: &Self::State,
         h: f64,
         method: Adaptive,
         tolerance: Tolerance,
         report: &mut IntegrationReport,
-    ) -> Result<(SystemState<NB>, f64), AnalysisError>;
+    ) -> Result<(Self::State, f64), Self::Error>;
     /// An accepted step's state, projected if the options say so, with
     /// generalised-α's history following it (dropped by Dormand–Prince).
-    fn accept(&mut self, next: SystemState<NB>, method: Adaptive) -> Result<SystemState<NB>, AnalysisError>;
+    fn accept(&mut self, next: Self::State, method: Adaptive) -> Result<Self::State, Self::Error>;
 }
 
 /// [`Simulation::integrate`](super::Simulation::integrate) on any simulation: the checks, the first step
 /// size and the loop of trial steps.
-pub(crate) fn integrate<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
+pub(crate) fn integrate<T: AdaptiveSteps>(
     sim: &mut T,
-    state: &mut SystemState<NB>,
+    state: &mut T::State,
     t_end: f64,
     method: Adaptive,
     tolerance: Tolerance,
-) -> Result<IntegrationReport, AnalysisError> {
+) -> Result<IntegrationReport, T::Error> {
     let ok = |x: f64| x > 0.0 && x.is_finite();
     if !(ok(tolerance.rtol) && ok(tolerance.atol)) {
-        return Err(AnalysisError::BadOption { name: "tolerance" });
+        return Err(T::Error::bad_option("tolerance"));
     }
-    if !(t_end.is_finite() && t_end >= state.t) {
-        return Err(AnalysisError::BadOption { name: "t_end" });
+    if !(t_end.is_finite() && t_end >= state.time()) {
+        return Err(T::Error::bad_option("t_end"));
     }
     sim.check_start(state)?;
     let mut report = IntegrationReport::default();
-    let h = (1e-3 * (t_end - state.t).max(1e-3)).min(t_end - state.t);
+    let h = (1e-3 * (t_end - state.time()).max(1e-3)).min(t_end - state.time());
     adaptive_loop(sim, state, t_end, method, tolerance, h, &mut report).map(|()| report)
 }
 
-fn adaptive_loop<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
+fn adaptive_loop<T: AdaptiveSteps>(
     sim: &mut T,
-    state: &mut SystemState<NB>,
+    state: &mut T::State,
     t_end: f64,
     method: Adaptive,
     tolerance: Tolerance,
     mut h: f64,
     report: &mut IntegrationReport,
-) -> Result<(), AnalysisError> {
+) -> Result<(), T::Error> {
     // The estimate's order in h: Dormand–Prince's 4, generalised-α's
     // velocity part O(h²) (see the module docs), Radau IIA's embedded 3.
     let order = match method {
@@ -165,13 +221,14 @@ fn adaptive_loop<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
         Adaptive::GeneralisedAlpha => 1.0,
         Adaptive::RadauIIA => 3.0,
     };
-    while state.t < t_end {
-        if report.accepted + report.rejected >= MAX_STEPS || h < 1e-14 * (1.0 + libm::fabs(state.t)) {
-            return Err(AnalysisError::StepTooSmall { t: state.t, step: h });
+    while state.time() < t_end {
+        let t = state.time();
+        if report.accepted + report.rejected >= MAX_STEPS || h < 1e-14 * (1.0 + libm::fabs(t)) {
+            return Err(T::Error::step_too_small(t, h));
         }
         // The last step lands on t_end (and a step within 1 % of it is stretched to it).
-        let last = state.t + 1.01 * h >= t_end;
-        let step = if last { t_end - state.t } else { h };
+        let last = t + 1.01 * h >= t_end;
+        let step = if last { t_end - t } else { h };
         let accepted = match sim.trial(state, step, method, tolerance, report) {
             Ok((next, err)) if err <= 1.0 => sim.accept(next, method).map(|next| (next, err)),
             Ok((_, err)) if err.is_finite() => {
@@ -180,13 +237,13 @@ fn adaptive_loop<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
                 h = step * factor;
                 continue;
             }
-            other => other.and(Err(AnalysisError::NonFiniteOutput { quantity: "error estimate", row: None })),
+            other => other.and(Err(T::Error::non_finite_estimate())),
         };
         match accepted {
             Ok((next, err)) => {
                 *state = next;
                 if last {
-                    state.t = t_end;
+                    state.set_time(t_end);
                 }
                 report.accepted += 1;
                 report.last_step = step;
@@ -194,13 +251,7 @@ fn adaptive_loop<T: AdaptiveSteps<NB, NV>, const NB: usize, const NV: usize>(
             }
             // A failed Newton iteration, stage or projection, or a
             // non-finite estimate: a smaller step.
-            Err(
-                AnalysisError::ImplicitNotConverged { .. }
-                | AnalysisError::Linalg(_)
-                | AnalysisError::NonFiniteOutput { .. }
-                | AnalysisError::NotConverged { .. }
-                | AnalysisError::NoProgress { .. },
-            ) => {
+            Err(e) if e.retried() => {
                 report.rejected += 1;
                 h = 0.25 * step;
             }

@@ -73,12 +73,15 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AdaptiveSteps<NB, NV>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AdaptiveSteps
     for Simulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
+    type State = SystemState<NB>;
+    type Error = AnalysisError;
+
     fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)
     }

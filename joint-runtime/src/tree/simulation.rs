@@ -9,7 +9,8 @@ use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion};
 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
-use crate::dynamics::{AppliedLoads, Attachment, Loads, NoLoads, SpringDamper};
+use crate::dynamics::adaptive::{A, AdaptiveSteps, C, E, StepError, Timed, integrate};
+use crate::dynamics::{Adaptive, AppliedLoads, Attachment, IntegrationReport, Loads, NoLoads, SpringDamper, Tolerance};
 use crate::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 
 /// The position projection's tolerance on the largest closure row, its
@@ -363,6 +364,147 @@ impl<
         }
         *state = next;
         Ok(())
+    }
+}
+
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
+{
+    /// Advances `state` to `t_end` with error-controlled steps, as the
+    /// absolute `Simulation::integrate` does (the same driver: step-size
+    /// rule, error norm, [`IntegrationReport`]) on `(q, v)`, each accepted
+    /// step's quaternions renormalised and its loops closed as
+    /// [`TreeSimulation::step`] does. `method` is
+    /// [`Adaptive::DormandPrince`] (the implicit ones are the absolute
+    /// path's so far: [`TreeError::BadOption`] names `method`). No joint
+    /// forces: a controller's act through
+    /// [`with_loads`](TreeSimulation::with_loads) or
+    /// [`step_with`](TreeSimulation::step_with). The state is left at the
+    /// last accepted step on error.
+    ///
+    /// ```
+    /// use joint_runtime::Scene;
+    /// use joint_runtime::dynamics::{Adaptive, Tolerance};
+    /// use joint_runtime::tree::TreeSimulation;
+    ///
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[body(bar, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+    /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    /// struct Pendulum;
+    ///
+    /// let mut sim = TreeSimulation::new(&Pendulum)?;
+    /// let mut state: PendulumTreeState = sim.tree().zero_state();
+    /// let report = sim.integrate(&mut state, 2.0, Adaptive::DormandPrince, Tolerance { rtol: 1e-9, atol: 1e-9 })?;
+    /// assert!(state.t == 2.0 && report.accepted > 10);
+    /// # Ok::<(), joint_runtime::tree::TreeError>(())
+    /// ```
+    pub fn integrate(
+        &mut self,
+        state: &mut TreeState<NQ, NV>,
+        t_end: f64,
+        method: Adaptive,
+        tolerance: Tolerance,
+    ) -> Result<IntegrationReport, TreeError> {
+        if method != Adaptive::DormandPrince {
+            return Err(TreeError::BadOption { name: "method" });
+        }
+        integrate(self, state, t_end, method, tolerance)
+    }
+}
+
+impl<const NQ: usize, const NV: usize> Timed for TreeState<NQ, NV> {
+    fn time(&self) -> f64 {
+        self.t
+    }
+    fn set_time(&mut self, t: f64) {
+        self.t = t;
+    }
+}
+
+impl StepError for TreeError {
+    fn bad_option(name: &'static str) -> Self {
+        TreeError::BadOption { name }
+    }
+    fn step_too_small(t: f64, step: f64) -> Self {
+        TreeError::StepTooSmall { t, step }
+    }
+    fn non_finite_estimate() -> Self {
+        TreeError::NonFinite
+    }
+    fn retried(&self) -> bool {
+        matches!(self, TreeError::NonFinite | TreeError::Closure { .. } | TreeError::Singular { .. })
+    }
+}
+
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> AdaptiveSteps for TreeSimulation<'_, S, NB, NQ, NV, NC, L>
+{
+    type State = TreeState<NQ, NV>;
+    type Error = TreeError;
+
+    fn check_start(&self, state: &TreeState<NQ, NV>) -> Result<(), TreeError> {
+        let finite = state.q.iter().chain(state.v.iter()).all(|x| x.is_finite()) && state.t.is_finite();
+        if finite { Ok(()) } else { Err(TreeError::NonFinite) }
+    }
+
+    /// Dormand–Prince on `(q, v)`: seven stages (the later six dropping the
+    /// closure rows the first dropped), the fifth-order state, and the root
+    /// mean square of the embedded error over `q` and `v`.
+    fn trial(
+        &mut self,
+        y0: &TreeState<NQ, NV>,
+        h: f64,
+        _method: Adaptive,
+        tolerance: Tolerance,
+        report: &mut IntegrationReport,
+    ) -> Result<(TreeState<NQ, NV>, f64), TreeError> {
+        let tau = SVector::<f64, NV>::zeros();
+        let (v1, first) = self.constrained(y0, &tau, None)?;
+        let mut k = [(self.tree.coordinate_rates(&y0.q, &y0.v), v1); 7];
+        let mut y = *y0;
+        for (i, row) in A.iter().enumerate() {
+            y = TreeState { t: y0.t + C[i] * h, ..*y0 };
+            for (&(dq, dv), &a) in k.iter().zip(row.iter()) {
+                y.q += dq * (h * a);
+                y.v += dv * (h * a);
+            }
+            if let Some(slot) = k.get_mut(i + 1) {
+                *slot = (self.tree.coordinate_rates(&y.q, &y.v), self.constrained(&y, &tau, first.as_ref())?.0);
+            }
+        }
+        report.evaluations += 7;
+        let (mut eq, mut ev) = (SVector::<f64, NQ>::zeros(), SVector::<f64, NV>::zeros());
+        for (&(dq, dv), &w) in k.iter().zip(E.iter()) {
+            eq += dq * (h * w);
+            ev += dv * (h * w);
+        }
+        let squared = |e: f64, a: f64, b: f64| {
+            let x = e / (tolerance.atol + tolerance.rtol * libm::fabs(a).max(libm::fabs(b)));
+            x * x
+        };
+        let sum: f64 = (0..NQ).map(|i| squared(eq[i], y0.q[i], y.q[i])).sum::<f64>()
+            + (0..NV).map(|i| squared(ev[i], y0.v[i], y.v[i])).sum::<f64>();
+        Ok((y, libm::sqrt(sum / (NQ + NV).max(1) as f64)))
+    }
+
+    fn accept(&mut self, next: TreeState<NQ, NV>, _method: Adaptive) -> Result<TreeState<NQ, NV>, TreeError> {
+        let mut next = next;
+        self.tree.normalise(&mut next.q);
+        self.project(&mut next)?;
+        if next.q.iter().chain(next.v.iter()).all(|x| x.is_finite()) { Ok(next) } else { Err(TreeError::NonFinite) }
     }
 }
 

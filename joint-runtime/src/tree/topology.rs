@@ -66,6 +66,19 @@ pub enum TreeError {
         /// The spring's index.
         spring: usize,
     },
+    /// An option out of range (`tolerance`, `t_end` of
+    /// [`TreeSimulation::integrate`](super::TreeSimulation::integrate)).
+    BadOption {
+        /// The option's name.
+        name: &'static str,
+    },
+    /// The error-controlled step fell below round-off at `t`.
+    StepTooSmall {
+        /// The time reached.
+        t: f64,
+        /// The step that was too small.
+        step: f64,
+    },
 }
 
 impl fmt::Display for TreeError {
@@ -96,6 +109,10 @@ impl fmt::Display for TreeError {
             }
             TreeError::Closure { joint, misfit } => {
                 write!(f, "the projection did not close the loop of joint `{joint}` (misfit {misfit:e})")
+            }
+            TreeError::BadOption { name } => write!(f, "option `{name}` is out of range"),
+            TreeError::StepTooSmall { t, step } => {
+                write!(f, "the error-controlled step fell to {step:e} at t = {t}: the motion is too fast to follow")
             }
         }
     }

@@ -191,11 +191,7 @@ fn user_loads_act_alike_in_both_coordinate_choices() {
         absolute.step(&mut system, 1e-4).unwrap();
     }
     let mine = relative.tree().system_state(&state);
-    let mut worst = 0.0_f64;
-    for (a, b) in mine.bodies.iter().zip(&system.bodies) {
-        worst = worst.max((a.r - b.r).norm()).max(a.rotation().angle_to(&b.rotation()));
-        worst = worst.max((a.rdot - b.rdot).norm()).max((a.omega - b.omega).norm());
-    }
+    let worst = crate::tree::same_bodies(&mine, &system);
     assert!(worst < 1e-10, "the two coordinate choices differ by {worst:e}");
     // The thrust lifted the drone against gravity (2.6 kg, 30 N).
     assert!(mine.bodies[0].r.z > drone_state().q[2] + 0.1, "{}", mine.bodies[0].r);

@@ -21,4 +21,5 @@ mod record;
 mod second_order;
 mod serde_io;
 mod tree;
+mod tree_adaptive;
 mod tree_joints;

@@ -269,6 +269,17 @@ fn inverse_dynamics_inverts_forward_dynamics() {
     assert!((back - crba).norm() < 1e-12 * back.norm(), "{back} against {crba}");
 }
 
+/// The largest difference between two absolute states: any body's position,
+/// rotation (radians), velocity or angular velocity.
+pub(crate) fn same_bodies<const NB: usize>(a: &SystemState<NB>, b: &SystemState<NB>) -> f64 {
+    let mut worst = 0.0_f64;
+    for (a, b) in a.bodies.iter().zip(&b.bodies) {
+        worst = worst.max((a.r - b.r).norm()).max(a.rotation().angle_to(&b.rotation()));
+        worst = worst.max((a.rdot - b.rdot).norm()).max((a.omega - b.omega).norm());
+    }
+    worst
+}
+
 /// Both coordinate choices of one declaration (loops closed or not): the
 /// same start, RK4 at h = 1e-4 for `steps` steps, every body's pose and
 /// velocity equal to `tol`, energy kept to `drift`, the loops still closed,
@@ -303,11 +314,7 @@ where
         absolute.step(&mut system, h).unwrap();
     }
     let mine = relative.tree().system_state(&tree_state);
-    let mut worst = 0.0_f64;
-    for (a, b) in mine.bodies.iter().zip(&system.bodies) {
-        worst = worst.max((a.r - b.r).norm()).max(a.rotation().angle_to(&b.rotation()));
-        worst = worst.max((a.rdot - b.rdot).norm()).max((a.omega - b.omega).norm());
-    }
+    let worst = same_bodies(&mine, &system);
     assert!(worst < tol, "the two coordinate choices differ by {worst:e}");
     let kept = (relative.tree().energy(&tree_state).total() - energy).abs();
     assert!(kept < drift, "energy drift {kept:e}");

@@ -34,12 +34,14 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> AdaptiveSteps<NB, NV>
-    for DenseSimulation<'_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> AdaptiveSteps for DenseSimulation<'_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
 {
+    type State = SystemState<NB>;
+    type Error = AnalysisError;
+
     fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
         check_state::<S, NB, NV, M>(state, true)
     }
