@@ -197,6 +197,25 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The joint forces `τ(q, v, v̇)` that give the accelerations `vdot`
     /// (gravity included): the recursive Newton–Euler algorithm, O(bodies).
     pub fn inverse_dynamics(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> SVector<f64, NV> {
+        let (kin, f) = self.joint_wrenches(state, vdot, None);
+        let mut tau = SVector::<f64, NV>::zeros();
+        for (k, (s, f)) in kin.s.iter().zip(&f).enumerate() {
+            self.put(k, &project(s, f), &mut tau);
+        }
+        tau
+    }
+
+    /// Each joint's wrench `(n, f)` on its child, in the child's link frame
+    /// (moment about the joint point), for the motion `vdot` with the
+    /// wrenches `external` on the children (same frames; gravity included
+    /// as the ground's acceleration): the recursive Newton–Euler algorithm's
+    /// forces, before their projection onto the joints' freedoms.
+    pub(crate) fn joint_wrenches(
+        &self,
+        state: &TreeState<NQ, NV>,
+        vdot: &SVector<f64, NV>,
+        external: Option<&[Vector6<f64>; NB]>,
+    ) -> (Kinematics<NB>, [Vector6<f64>; NB]) {
         let kin = self.kinematics(&state.q, &state.v);
         let mut acc = [Vector6::zeros(); NB];
         let mut f = [Vector6::zeros(); NB];
@@ -208,16 +227,18 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 + cross_motion(&vel, &joint)
                 + kin.bias[k];
             f[k] = self.inertia[k] * acc[k] + cross_force(&vel, &(self.inertia[k] * vel));
+            if let Some(e) = external {
+                f[k] -= e[k];
+            }
         }
-        let mut tau = SVector::<f64, NV>::zeros();
+        // Children come after their parents: each is complete when it is handed on.
         for k in (0..NB).rev() {
-            self.put(k, &project(&kin.s[k], &f[k]), &mut tau);
             if let Some(p) = self.parent[k] {
                 let back = kin.x[k].force_back(&f[k]);
                 f[p] += back;
             }
         }
-        tau
+        (kin, f)
     }
 
     /// The bias forces `τ(q, v, 0)`: Coriolis, centrifugal and gravity.

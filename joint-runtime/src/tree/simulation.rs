@@ -5,10 +5,12 @@
 //! with the mass-metric projection of `q` onto `Φ = 0` and of `v` onto
 //! `J v + Φ_t = 0`, as the absolute `Simulation` does.
 
-use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion};
+use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
+use crate::SystemState;
+use crate::dynamics::Reaction;
 use crate::dynamics::adaptive::{A, AdaptiveSteps, C, E, StepError, Timed, integrate};
 use crate::dynamics::{Adaptive, AppliedLoads, Attachment, IntegrationReport, Loads, NoLoads, SpringDamper, Tolerance};
 use crate::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
@@ -78,15 +80,21 @@ impl<
         TreeSimulation { scene, tree, springs, loads }
     }
 
-    /// The loads' joint forces at `state`.
-    fn load_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
-        let mut out = SVector::<f64, NV>::zeros();
+    /// The user's loads at `state` (`None` without any).
+    fn applied(&mut self, state: &TreeState<NQ, NV>) -> Option<(Loads<NB>, SystemState<NB>)> {
         if L::NONE {
-            return out;
+            return None;
         }
         let system = self.tree.system_state(state);
         let mut loads = Loads::default();
         self.loads.apply(&system, &mut loads);
+        Some((loads, system))
+    }
+
+    /// The loads' joint forces at `state`.
+    fn load_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
+        let mut out = SVector::<f64, NV>::zeros();
+        let Some((loads, system)) = self.applied(state) else { return out };
         let poses = self.tree.link_poses(&state.q);
         for (body, b) in system.bodies.iter().enumerate() {
             let centre = nalgebra::Vector3::zeros();
@@ -122,8 +130,22 @@ impl<
         if self.springs.is_empty() {
             return out;
         }
-        let system = self.tree.system_state(state);
         let poses = self.tree.link_poses(&state.q);
+        self.spring_ends(state, |body, point, force| {
+            if let Some(j) = self.tree.point_jacobian_at(&poses, &state.q, body, &point) {
+                out += j.fixed_rows::<3>(3).transpose() * force;
+            }
+        });
+        out
+    }
+
+    /// Each spring end's force on its body at `state`: `(body, point in the
+    /// body from its centre, force in inertial components)`.
+    fn spring_ends(&self, state: &TreeState<NQ, NV>, mut each: impl FnMut(usize, Vector3<f64>, Vector3<f64>)) {
+        if self.springs.is_empty() {
+            return;
+        }
+        let system = self.tree.system_state(state);
         let end = |at: &Attachment| match *at {
             Attachment::Ground(p) => (p, nalgebra::Vector3::zeros(), None),
             Attachment::Body { body, point } => {
@@ -141,14 +163,11 @@ impl<
             let u = d / length;
             let tension = s.stiffness * (length - s.rest_length) + s.damping * u.dot(&(vb - va));
             for (at, sign) in [(ba, 1.0), (bb, -1.0)] {
-                if let Some(j) =
-                    at.and_then(|(body, point)| self.tree.point_jacobian_at(&poses, &state.q, body, &point))
-                {
-                    out += j.fixed_rows::<3>(3).transpose() * (u * (sign * tension));
+                if let Some((body, point)) = at {
+                    each(body, point, u * (sign * tension));
                 }
             }
         }
-        out
     }
 
     /// `v̇` under joint forces `tau`, the closures' forces included: the
@@ -416,6 +435,66 @@ impl<
             return Err(TreeError::BadOption { name: "method" });
         }
         integrate(self, state, t_end, method, tolerance)
+    }
+}
+
+impl<'a, S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
+    TreeSimulation<'a, S, NB, NQ, NV, 0, L>
+{
+    /// Each tree joint's reaction on its child at `state` under joint forces
+    /// `tau`, the springs and the user's loads acting: entry `k` is joint
+    /// `k`'s (tree order; its child is `tree().joints()[k].child`), the
+    /// whole wrench the parent exerts through it, the joint's own forces
+    /// included (their share along its freedoms is `tau`). As the absolute
+    /// [`Simulation::reactions`](crate::dynamics::Simulation::reactions)
+    /// gives them: force in inertial components through the child's centre
+    /// of mass, torque about it in the child's components; the parent
+    /// feels the opposite. From the recursive Newton–Euler algorithm on the
+    /// accelerations of [`forward_dynamics`](TreeSimulation::forward_dynamics).
+    /// Only for trees without loops (a closure's wrench on its bodies is not
+    /// derived).
+    pub fn reactions(
+        &mut self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+    ) -> Result<[Reaction; NB], TreeError> {
+        let vdot = self.forward_dynamics(state, tau)?;
+        let external = self.body_wrenches(state);
+        let (_, f) = self.tree.joint_wrenches(state, &vdot, Some(&external));
+        let poses = self.tree.link_poses(&state.q);
+        let mut out = [Reaction::default(); NB];
+        for (k, (wrench, (a, _))) in f.iter().zip(poses).enumerate() {
+            let (n, force) = (wrench.fixed_rows::<3>(0).into_owned(), wrench.fixed_rows::<3>(3).into_owned());
+            // The moment moved from the joint point to the centre of mass.
+            let torque = n + self.tree.joints[k].rho_child.cross(&force);
+            out[k] = Reaction { force: a * force, torque };
+        }
+        Ok(out)
+    }
+
+    /// The springs' and the user's loads on each joint's child, in its link
+    /// frame (moment about the joint point).
+    fn body_wrenches(&mut self, state: &TreeState<NQ, NV>) -> [Vector6<f64>; NB] {
+        let loads = self.applied(state).map(|(loads, _)| loads);
+        let poses = self.tree.link_poses(&state.q);
+        let joints = self.tree.joints;
+        let mut out = [Vector6::zeros(); NB];
+        let add = |out: &mut [Vector6<f64>; NB], body: usize, point: Vector3<f64>, force: Vector3<f64>, torque| {
+            if let Some(k) = joints.iter().position(|j| j.child == body) {
+                let f = poses[k].0.inverse() * force;
+                let arm = point - joints[k].rho_child;
+                out[k] += Vector6::new(0.0, 0.0, 0.0, f.x, f.y, f.z);
+                let n: Vector3<f64> = arm.cross(&f) + torque;
+                out[k] += Vector6::new(n.x, n.y, n.z, 0.0, 0.0, 0.0);
+            }
+        };
+        self.spring_ends(state, |body, point, force| add(&mut out, body, point, force, Vector3::zeros()));
+        if let Some(loads) = loads {
+            for body in 0..NB {
+                add(&mut out, body, Vector3::zeros(), loads.force[body], loads.torque[body]);
+            }
+        }
+        out
     }
 }
 

@@ -24,7 +24,7 @@ use crate::tree::{generated_against_recursion, mass_matrix_against_energy, same_
 #[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
 #[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15])]
 #[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05])]
-struct Drone;
+pub(crate) struct Drone;
 
 /// A bead whose centre is held on the vertical line through the origin
 /// (`point_on_line`, no tree parametrisation): the bead floats and the
@@ -41,7 +41,7 @@ pub(crate) fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
 }
 
 /// The drone turned, moving and spinning, the gripper swinging, the finger turning.
-fn drone_state() -> DroneTreeState {
+pub(crate) fn drone_state() -> DroneTreeState {
     let [a, b, c, d] = quaternion(0.9, 0.2, -0.1, 0.3);
     let [e, f, g, h] = quaternion(0.8, -0.3, 0.2, 0.1);
     TreeState {

@@ -23,3 +23,4 @@ mod serde_io;
 mod tree;
 mod tree_adaptive;
 mod tree_joints;
+mod tree_reactions;

@@ -28,7 +28,7 @@ struct Bar;
 #[joint(knee = revolute(shin, torso), axis1 = [1, 0, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0.2, 0, -0.3])]
 #[joint(elbow = revolute(torso, upper), axis1 = [1, 1, 0], axis2 = [0, 0, 1], rho1 = [0.3, 0, 0], rho2 = [0, 0, -0.25])]
 #[joint(wrist = spherical(upper, hand), rho1 = [0, 0, 0.25], rho2 = [0.1, 0, 0])]
-struct Walker;
+pub(crate) struct Walker;
 
 /// The arm of `peer_bench`, three bars: revolute about z, y, z.
 #[derive(Scene, Clone, Copy, Debug, Default)]
@@ -132,7 +132,7 @@ fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
 }
 
 /// The walker turned and moving: every joint away from zero.
-fn walker_state() -> WalkerTreeState {
+pub(crate) fn walker_state() -> WalkerTreeState {
     let [a, b, c, d] = quaternion(0.9, 0.1, -0.2, 0.3);
     let [e, f, g, h] = quaternion(0.8, -0.3, 0.2, 0.1);
     TreeState {
