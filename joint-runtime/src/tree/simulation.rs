@@ -376,25 +376,20 @@ impl<
             v: state.v + (v1 + (v2 + v3) * 2.0 + v4) * (h / 6.0),
             t: state.t + h,
         };
-        self.tree.normalise(&mut next.q);
-        self.project(&mut next)?;
-        if !(next.q.iter().chain(next.v.iter()).all(|x| x.is_finite())) {
-            return Err(TreeError::NonFinite);
-        }
+        self.finish(&mut next)?;
         *state = next;
         Ok(())
     }
-}
 
-impl<
-    S: TreeScene<NB, NQ, NV, NC>,
-    L: AppliedLoads<NB>,
-    const NB: usize,
-    const NQ: usize,
-    const NV: usize,
-    const NC: usize,
-> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
-{
+    /// A step's end: quaternions back to unit length, loops closed, every
+    /// number finite.
+    fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<(), TreeError> {
+        self.tree.normalise(&mut next.q);
+        self.project(next)?;
+        let finite = next.q.iter().chain(next.v.iter()).all(|x| x.is_finite());
+        if finite { Ok(()) } else { Err(TreeError::NonFinite) }
+    }
+
     /// Advances `state` to `t_end` with error-controlled steps, as the
     /// absolute `Simulation::integrate` does (the same driver: step-size
     /// rule, error norm, [`IntegrationReport`]) on `(q, v)`, each accepted
@@ -581,9 +576,8 @@ impl<
 
     fn accept(&mut self, next: TreeState<NQ, NV>, _method: Adaptive) -> Result<TreeState<NQ, NV>, TreeError> {
         let mut next = next;
-        self.tree.normalise(&mut next.q);
-        self.project(&mut next)?;
-        if next.q.iter().chain(next.v.iter()).all(|x| x.is_finite()) { Ok(next) } else { Err(TreeError::NonFinite) }
+        self.finish(&mut next)?;
+        Ok(next)
     }
 }
 

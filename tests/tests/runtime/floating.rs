@@ -13,7 +13,7 @@ use joint_runtime::nalgebra::{SVector, Vector3};
 use joint_runtime::tree::TreeScene;
 use joint_runtime::tree::{Tree, TreeJointKind, TreeSimulation, TreeState};
 
-use crate::tree::{generated_against_recursion, mass_matrix_against_energy, same_motion};
+use crate::tree::{generated_against_recursion, mass_matrix_against_energy, quaternion, same_motion};
 
 /// A drone carrying a gripper on a ball joint and a finger pinned to the
 /// gripper: the drone floats (the derive's free joint), the rest hangs from it.
@@ -34,11 +34,6 @@ pub(crate) struct Drone;
 #[body(bead, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
 #[joint(wire = point_on_line(ground, bead), axis1 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, 0, 0])]
 struct Bead;
-
-pub(crate) fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
-    let n = (w * w + x * x + y * y + z * z).sqrt();
-    [w / n, x / n, y / n, z / n]
-}
 
 /// The drone turned, moving and spinning, the gripper swinging, the finger turning.
 pub(crate) fn drone_state() -> DroneTreeState {

@@ -20,7 +20,7 @@ use joint_runtime::tree::{TreeError, TreeScene, TreeSimulation, TreeState};
 #[joint(b = revolute(crank, coupler), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [-0.5, 0, 0])]
 #[joint(c = revolute(coupler, rocker), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, 0.5, 0])]
 #[joint(d = revolute(rocker, ground), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, -0.5, 0], rho2 = [1, 0, 0])]
-struct FourBar;
+pub(crate) struct FourBar;
 
 /// A spatial loop: a spherical joint closes it (three rows, none folded).
 #[derive(Scene, Clone, Copy, Debug, Default)]

@@ -126,7 +126,8 @@ fn cart_pole_state() -> CartPoleTreeState {
     TreeState { q: SVector::from([0.2, 0.5]), v: SVector::from([1.0, -0.7]), t: 0.0 }
 }
 
-fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
+/// Unit Euler parameters from four numbers.
+pub(crate) fn quaternion(w: f64, x: f64, y: f64, z: f64) -> [f64; 4] {
     let n = (w * w + x * x + y * y + z * z).sqrt();
     [w / n, x / n, y / n, z / n]
 }

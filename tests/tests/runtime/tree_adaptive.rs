@@ -20,18 +20,6 @@ use crate::tree::same_bodies;
 #[joint(elbow = revolute(upper, lower), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.4])]
 struct Swing;
 
-/// A parallelogram four-bar (three angles in the tree, `d` closing it).
-#[derive(Scene, Clone, Copy, Debug, Default)]
-#[scene(gravity = [0, -9.81, 0], coordinates = relative)]
-#[body(crank, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
-#[body(coupler, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
-#[body(rocker, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
-#[joint(a = revolute(ground, crank), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, -0.5, 0])]
-#[joint(b = revolute(crank, coupler), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [-0.5, 0, 0])]
-#[joint(c = revolute(coupler, rocker), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, 0.5, 0])]
-#[joint(d = revolute(rocker, ground), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, -0.5, 0], rho2 = [1, 0, 0])]
-struct Parallelogram;
-
 fn swing_state() -> SwingTreeState {
     let n = (0.9f64 * 0.9 + 0.3 * 0.3 + 0.2 * 0.2).sqrt();
     TreeState {
@@ -93,7 +81,7 @@ fn adaptive_steps_agree_with_the_absolute_scene() {
 /// level and its crank and rocker turned alike.
 #[test]
 fn adaptive_steps_keep_loops_closed() {
-    let mut sim = TreeSimulation::new(&Parallelogram).unwrap();
+    let mut sim = TreeSimulation::new(&crate::loops::FourBar).unwrap();
     let mut state = TreeState { q: SVector::from([0.3, -0.3, 0.3]), v: SVector::from([1.0, -1.0, 1.0]), t: 0.0 };
     sim.integrate(&mut state, 1.0, Adaptive::DormandPrince, Tolerance { rtol: 1e-9, atol: 1e-9 }).unwrap();
     let rows = sim.closure_rows(&state);
