@@ -86,6 +86,8 @@
 
 mod dynamics;
 mod kinematics;
+#[cfg(feature = "alloc")]
+mod linear;
 mod simulation;
 mod spatial;
 mod topology;

@@ -23,4 +23,5 @@ mod serde_io;
 mod tree;
 mod tree_adaptive;
 mod tree_joints;
+mod tree_linear;
 mod tree_reactions;

@@ -1,0 +1,118 @@
+//! The linearised dynamics of a tree without loops about a state, for a
+//! controller's design (LQR, pole placement) or a stability check:
+//! `ẋ = A x + B u` in the tree's increments `x = (δq, δv)`, `δq` on the
+//! joints' own group (`q ⊕ δq`, [`Tree::displace`](super::Tree::displace):
+//! a quaternion turned in its own frame, a free joint's offset moved in its
+//! child's axes), `u` the joint forces.
+//!
+//! `A = [[Λ(v), I], [A_q, A_v]]`: `Λ(v)` is the increments' own rate, exact
+//! (zero for angles and slides; `−[ω']×` for a quaternion turned by ω' in
+//! its own frame; for a free joint also `−[ω']× δ − [u]× δθ` for its
+//! offset); `A_q`, `A_v` are central differences of the forward dynamics
+//! (the springs' and the user's loads included), not the derive's exact
+//! second derivatives, which the absolute path's `second_order` gives.
+//! `B = [0; M⁻¹]`, exact (`v̇` is affine in the joint forces).
+
+use nalgebra::{DMatrix, SMatrix, SVector};
+
+use super::{TreeError, TreeJointKind, TreeScene, TreeSimulation, TreeState};
+use crate::dynamics::{AppliedLoads, Linearisation};
+
+/// The central differences' step, scaled by `1 + |x|` of the coordinate or
+/// velocity it moves: near the cube root of ε, the best balance of their
+/// truncation and round-off.
+const STEP: f64 = 1e-5;
+
+impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
+    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
+{
+    /// The linearisation about `state` under joint forces `tau` (held): the
+    /// module's `A` and `B` (`2 NV × 2 NV`, `2 NV × NV`, the inputs the
+    /// joint forces); `basis` the identity and `freedoms` `NV`, as a tree
+    /// has no constraint to reduce by. [`Linearisation::eigenvalues`] gives
+    /// its poles.
+    ///
+    /// ```
+    /// use joint_runtime::Scene;
+    /// use joint_runtime::nalgebra::SVector;
+    /// use joint_runtime::tree::{TreeSimulation, TreeState};
+    ///
+    /// /// A bar of 1 m pinned at its end about y, hanging at θ = π/2.
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
+    /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    /// struct Bar;
+    ///
+    /// let mut sim = TreeSimulation::new(&Bar)?;
+    /// let hanging = TreeState { q: SVector::from([std::f64::consts::FRAC_PI_2]), v: SVector::zeros(), t: 0.0 };
+    /// let lin = sim.linearise(&hanging, &SVector::zeros())?;
+    /// // It swings at ω² = m g (l/2) / (I + m (l/2)²).
+    /// let omega = (9.81 * 0.5 / (0.08 + 0.25f64)).sqrt();
+    /// for e in lin.eigenvalues().unwrap() {
+    ///     assert!((e.im.abs() - omega).abs() < 1e-8 && e.re.abs() < 1e-8);
+    /// }
+    /// # Ok::<(), joint_runtime::tree::TreeError>(())
+    /// ```
+    pub fn linearise(&mut self, state: &TreeState<NQ, NV>, tau: &SVector<f64, NV>) -> Result<Linearisation, TreeError> {
+        let n = NV;
+        let mut a = DMatrix::<f64>::zeros(2 * n, 2 * n);
+        self.tree().increment_rates(&state.v, &mut a);
+        for i in 0..n {
+            a[(i, n + i)] = 1.0;
+        }
+        for i in 0..n {
+            let h = STEP * (1.0 + libm::fabs(state.v[i]));
+            let dv = SVector::<f64, NV>::from_fn(|r, _| if r == i { h } else { 0.0 });
+            let moved = |sign: f64| TreeState { v: state.v + dv * sign, ..*state };
+            let column =
+                (self.forward_dynamics(&moved(1.0), tau)? - self.forward_dynamics(&moved(-1.0), tau)?) / (2.0 * h);
+            a.view_mut((n, n + i), (n, 1)).copy_from(&column);
+            let h = STEP;
+            let dq = SVector::<f64, NV>::from_fn(|r, _| if r == i { h } else { 0.0 });
+            let turned = |sign: f64| TreeState { q: self.tree().displaced(&state.q, &(dq * sign)), ..*state };
+            let (plus, minus) = (turned(1.0), turned(-1.0));
+            let column = (self.forward_dynamics(&plus, tau)? - self.forward_dynamics(&minus, tau)?) / (2.0 * h);
+            a.view_mut((n, i), (n, 1)).copy_from(&column);
+        }
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        self.mass_matrix_into(&state.q, &mut m);
+        let joint = self.tree().joints.first().map_or("", |j| j.name);
+        let minv = nalgebra::Cholesky::new(m).ok_or(TreeError::Singular { joint })?.inverse();
+        let mut b = DMatrix::<f64>::zeros(2 * n, n);
+        b.view_mut((n, 0), (n, n)).copy_from(&minv);
+        if !a.iter().chain(b.iter()).all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        let basis = DMatrix::identity(2 * n, 2 * n);
+        Ok(Linearisation { a: a.clone(), b: b.clone(), basis, freedoms: n, full: a, full_b: b })
+    }
+}
+
+impl<const NB: usize, const NQ: usize, const NV: usize> super::Tree<NB, NQ, NV> {
+    /// `Λ(v)` into the top-left `NV × NV` block of `a`: how the increments
+    /// `δq` move by themselves at velocities `v` (see the module docs).
+    fn increment_rates(&self, v: &SVector<f64, NV>, a: &mut DMatrix<f64>) {
+        let skew =
+            |x: [f64; 3]| [(0, 1, -x[2]), (0, 2, x[1]), (1, 0, x[2]), (1, 2, -x[0]), (2, 0, -x[1]), (2, 1, x[0])];
+        let mut put = |at: (usize, usize), x: [f64; 3], sign: f64| {
+            for (r, c, value) in skew(x) {
+                a[(at.0 + r, at.1 + c)] += sign * value;
+            }
+        };
+        for (k, j) in self.joints.iter().enumerate() {
+            let va = self.v_at[k];
+            let three = |at: usize| [v[at], v[at + 1], v[at + 2]];
+            match j.kind {
+                TreeJointKind::Spherical => put((va, va), three(va), -1.0),
+                TreeJointKind::Free => {
+                    let (u, w) = (three(va), three(va + 3));
+                    put((va, va), w, -1.0);
+                    put((va, va + 3), u, -1.0);
+                    put((va + 3, va + 3), w, -1.0);
+                }
+                _ => {}
+            }
+        }
+    }
+}
