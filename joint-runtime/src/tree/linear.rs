@@ -89,6 +89,56 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
     }
 }
 
+impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
+    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
+{
+    /// One RK4 step of `state` under joint forces `tau` (as
+    /// [`step_with`](TreeSimulation::step_with)) and its state-transition
+    /// Jacobian `Φ` (`2 NV × 2 NV`): `(δq₁, δv₁) = Φ (δq₀, δv₀)` in the
+    /// increments of [`linearise`](TreeSimulation::linearise) at the start
+    /// and at the end ([`Tree::difference`](super::Tree::difference)), what
+    /// an extended Kalman filter or an MPC propagates. By central
+    /// differences of the step (`4 NV` more steps); the absolute path's
+    /// `Simulation::transition` is exact, of the implicit midpoint rule. On
+    /// error `state` is unchanged.
+    pub fn transition(
+        &mut self,
+        state: &mut TreeState<NQ, NV>,
+        h: f64,
+        tau: &SVector<f64, NV>,
+    ) -> Result<DMatrix<f64>, TreeError> {
+        let start = *state;
+        let mut end = start;
+        self.step_with(&mut end, h, tau)?;
+        let n = NV;
+        let mut phi = DMatrix::<f64>::zeros(2 * n, 2 * n);
+        for i in 0..2 * n {
+            let eps = if i < n { STEP } else { STEP * (1.0 + libm::fabs(start.v[i - n])) };
+            // The step from the start moved by ±eps along increment `i`,
+            // measured from the unmoved step's end.
+            let mut moved = |sign: f64| -> Result<(SVector<f64, NV>, SVector<f64, NV>), TreeError> {
+                let mut s = start;
+                let e = SVector::<f64, NV>::from_fn(|r, _| if r == i % n { sign * eps } else { 0.0 });
+                if i < n {
+                    s.q = self.tree().displaced(&start.q, &e);
+                } else {
+                    s.v += e;
+                }
+                self.step_with(&mut s, h, tau)?;
+                Ok((self.tree().difference(&end.q, &s.q), s.v - end.v))
+            };
+            let ((q1, v1), (q2, v2)) = (moved(1.0)?, moved(-1.0)?);
+            phi.view_mut((0, i), (n, 1)).copy_from(&((q1 - q2) / (2.0 * eps)));
+            phi.view_mut((n, i), (n, 1)).copy_from(&((v1 - v2) / (2.0 * eps)));
+        }
+        if !phi.iter().all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        *state = end;
+        Ok(phi)
+    }
+}
+
 impl<const NB: usize, const NQ: usize, const NV: usize> super::Tree<NB, NQ, NV> {
     /// `Λ(v)` into the top-left `NV × NV` block of `a`: how the increments
     /// `δq` move by themselves at velocities `v` (see the module docs).

@@ -639,6 +639,33 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         out
     }
 
+    /// `b ⊖ a`: the velocity-shaped increment `δ` with `b = a ⊕ δ`
+    /// ([`Tree::displace`] undone): coordinates subtracted, a quaternion's
+    /// turn `log(a⁻¹ b)` in its own frame (under half a turn), a free
+    /// joint's offset in its child's axes at `a`. What an estimator's or a
+    /// linearisation's increments are measured in.
+    pub fn difference(&self, a: &SVector<f64, NQ>, b: &SVector<f64, NQ>) -> SVector<f64, NV> {
+        let mut out = SVector::<f64, NV>::zeros();
+        let unit = |q: &SVector<f64, NQ>, at: usize| super::kinematics::unit(&q.fixed_rows::<4>(at).into_owned());
+        let turn = |at: usize| (unit(a, at).inverse() * unit(b, at)).scaled_axis();
+        for (k, j) in self.joints.iter().enumerate() {
+            let (qa, va) = (self.q_at[k], self.v_at[k]);
+            match j.kind {
+                TreeJointKind::Spherical => out.fixed_rows_mut::<3>(va).copy_from(&turn(qa)),
+                TreeJointKind::Free => {
+                    let offset = unit(a, qa + 3).inverse() * (b.fixed_rows::<3>(qa) - a.fixed_rows::<3>(qa));
+                    out.fixed_rows_mut::<3>(va).copy_from(&offset);
+                    out.fixed_rows_mut::<3>(va + 3).copy_from(&turn(qa + 3));
+                }
+                kind => {
+                    let n = kind.freedoms();
+                    out.rows_mut(va, n).copy_from(&(b.rows(qa, n) - a.rows(qa, n)));
+                }
+            }
+        }
+        out
+    }
+
     /// Every quaternion (spherical and free joints') back to unit length.
     pub fn normalise(&self, q: &mut SVector<f64, NQ>) {
         for (k, j) in self.joints.iter().enumerate() {

@@ -148,3 +148,58 @@ fn tree_linearisation_is_the_flows_rate() {
         assert!(apart < 1e-3 * scale, "column {i}: {rate} against {expected}");
     }
 }
+
+/// `Tree::difference` undoes `Tree::displace` and is the test's own
+/// increment on the drone's tree.
+#[test]
+fn tree_differences_undo_displacements() {
+    use crate::floating::{Drone, drone_state};
+    let sim = TreeSimulation::new(&Drone).unwrap();
+    let q = drone_state().q;
+    let delta = SVector::<f64, 10>::from_fn(|i, _| 0.05 * (i as f64 - 4.5));
+    let moved = sim.tree().displaced(&q, &delta);
+    assert!((sim.tree().difference(&q, &moved) - delta).amax() < 1e-15, "{}", sim.tree().difference(&q, &moved));
+    assert!((sim.tree().difference(&q, &moved) - drone_difference(&q, &moved)).amax() < 1e-15);
+}
+
+/// A bar of 1 m pinned at its end about y, hanging at θ = π/2.
+#[derive(Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
+#[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+struct Pendulum;
+
+/// The hanging bar's step: `Φ = [[cos ωh, sin ωh / ω], [−ω sin ωh, cos ωh]]`
+/// about the bottom at rest, `ω² = m g (l/2) / (I + m (l/2)²)`; and the
+/// drone's short step against `exp(A h)` of its linearisation.
+#[test]
+fn tree_transitions_are_the_linear_flow() {
+    let mut sim = TreeSimulation::new(&Pendulum).unwrap();
+    let mut state =
+        joint_runtime::tree::TreeState { q: SVector::from([std::f64::consts::FRAC_PI_2]), v: SVector::zeros(), t: 0.0 };
+    // (RK4's own error in Φ is (ωh)⁵/120 ≈ 7e-15 at this step.)
+    let h = 1e-3;
+    let phi = sim.transition(&mut state, h, &SVector::zeros()).unwrap();
+    let w = (9.81 * 0.5 / (0.08 + 0.25f64)).sqrt();
+    let (c, s) = ((w * h).cos(), (w * h).sin());
+    let expected = DMatrix::from_row_slice(2, 2, &[c, s / w, -w * s, c]);
+    assert!((&phi - &expected).amax() < 1e-9, "{phi} against {expected}");
+    assert!((state.t - h).abs() < 1e-15 && state.q[0] == std::f64::consts::FRAC_PI_2);
+
+    use crate::floating::{Drone, drone_state};
+    let mut sim = TreeSimulation::new(&Drone).unwrap();
+    let start = drone_state();
+    let a = sim.linearise(&start, &SVector::zeros()).unwrap().a;
+    // exp(A h) to third order; A itself moves along the step by O(h²).
+    let h = 2e-5;
+    let mut state = start;
+    let phi = sim.transition(&mut state, h, &SVector::zeros()).unwrap();
+    let ah = &a * h;
+    let taylor = DMatrix::<f64>::identity(20, 20) + &ah + &ah * &ah * 0.5 + &ah * &ah * &ah * (1.0 / 6.0);
+    let apart = (&phi - &taylor).amax();
+    assert!(apart < 1e-7, "{apart:e}");
+    // And the step moved the state as `step` does.
+    let mut stepped = start;
+    sim.step(&mut stepped, h).unwrap();
+    assert_eq!(stepped, state);
+}
