@@ -658,8 +658,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     out.fixed_rows_mut::<3>(va + 3).copy_from(&turn(qa + 3));
                 }
                 kind => {
-                    let n = kind.freedoms();
-                    out.rows_mut(va, n).copy_from(&(b.rows(qa, n) - a.rows(qa, n)));
+                    for i in 0..kind.freedoms() {
+                        out[va + i] = b[qa + i] - a[qa + i];
+                    }
                 }
             }
         }
