@@ -205,6 +205,23 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         tau
     }
 
+    /// The joint forces of the wrenches `external` on the joints' children
+    /// (link frames, moment about the joint point): each carried towards the
+    /// root and projected onto every joint it passes, `Sᵀ Σ Xᵀ f`, what the
+    /// bodies' point Jacobians' `Jᵀ f` sum to, in O(bodies).
+    pub(crate) fn wrench_forces(&self, q: &SVector<f64, NQ>, external: &[Vector6<f64>; NB]) -> SVector<f64, NV> {
+        let mut f = *external;
+        let mut tau = SVector::<f64, NV>::zeros();
+        for k in (0..NB).rev() {
+            self.put(k, &project(&self.subspace_at(k, q), &f[k]), &mut tau);
+            if let Some(p) = self.parent[k] {
+                let back = self.transform(k, q).force_back(&f[k]);
+                f[p] += back;
+            }
+        }
+        tau
+    }
+
     /// Each joint's wrench `(n, f)` on its child, in the child's link frame
     /// (moment about the joint point), for the motion `vdot` with the
     /// wrenches `external` on the children (same frames; gravity included

@@ -188,19 +188,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         body: usize,
         point: &Vector3<f64>,
     ) -> Option<SMatrix<f64, 6, NV>> {
-        self.point_jacobian_at(&self.link_poses(q), q, body, point)
-    }
-
-    /// [`Tree::point_jacobian`] with the link poses at `q` given (several
-    /// points at one state share them).
-    pub(crate) fn point_jacobian_at(
-        &self,
-        poses: &[(UnitQuaternion<f64>, Vector3<f64>); NB],
-        q: &SVector<f64, NQ>,
-        body: usize,
-        point: &Vector3<f64>,
-    ) -> Option<SMatrix<f64, 6, NV>> {
         let target = self.joints.iter().position(|j| j.child == body)?;
+        let poses = self.link_poses(q);
         let (a, o) = poses[target];
         let p = o + a * (point - self.joints[target].rho_child);
         let mut out = SMatrix::<f64, 6, NV>::zeros();

@@ -73,43 +73,17 @@ impl<
     /// `Simulation`'s [`AppliedLoads`] (a closure `FnMut(&SystemState,
     /// &mut Loads)` will do), called with the bodies' state at every
     /// evaluation; each body's force and torque enter as the joint forces
-    /// `Jᵀ [A τ'; f]` of its centre of mass ([`Tree::point_jacobian`]). The
+    /// `Jᵀ [A τ'; f]` of its centre of mass (its wrench carried to the root). The
     /// same closure drives both coordinate choices of a scene.
     pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
         let TreeSimulation { scene, tree, springs, .. } = self;
         TreeSimulation { scene, tree, springs, loads }
     }
 
-    /// The user's loads at `state` (`None` without any).
-    fn applied(&mut self, state: &TreeState<NQ, NV>) -> Option<(Loads<NB>, SystemState<NB>)> {
-        if L::NONE {
-            return None;
-        }
-        let system = self.tree.system_state(state);
-        let mut loads = Loads::default();
-        self.loads.apply(&system, &mut loads);
-        Some((loads, system))
-    }
-
-    /// The loads' joint forces at `state`.
-    fn load_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
-        let mut out = SVector::<f64, NV>::zeros();
-        let Some((loads, system)) = self.applied(state) else { return out };
-        let poses = self.tree.link_poses(&state.q);
-        for (body, b) in system.bodies.iter().enumerate() {
-            let centre = nalgebra::Vector3::zeros();
-            if let Some(j) = self.tree.point_jacobian_at(&poses, &state.q, body, &centre) {
-                let torque = b.rotation() * loads.torque[body];
-                out += j.fixed_rows::<3>(0).transpose() * torque + j.fixed_rows::<3>(3).transpose() * loads.force[body];
-            }
-        }
-        out
-    }
-
     /// The same simulation with `springs` acting (the absolute
     /// `Simulation`'s [`SpringDamper`]s: tension `k (L − L₀) + c L̇` along the
     /// line between two points), each entering the dynamics as the joint
-    /// forces `Jₚᵀ f` of its two ends ([`Tree::point_jacobian`]). Refused when
+    /// forces `Jₚᵀ f` of its two ends (their wrenches carried to the root). Refused when
     /// an end names a body the scene does not have.
     pub fn with_springs(mut self, springs: &'a [SpringDamper]) -> Result<Self, TreeError> {
         for (spring, s) in springs.iter().enumerate() {
@@ -123,51 +97,48 @@ impl<
         Ok(self)
     }
 
-    /// The springs' joint forces at `state`: each end's force `±T u` (`u`
-    /// from `a` to `b`) through its point's Jacobian.
-    fn spring_forces(&self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
-        let mut out = SVector::<f64, NV>::zeros();
-        if self.springs.is_empty() {
-            return out;
+    /// The springs' and the user's loads as joint forces (zero without
+    /// either): their wrenches on the bodies carried to the root.
+    fn applied_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
+        if self.springs.is_empty() && L::NONE {
+            return SVector::zeros();
         }
-        let poses = self.tree.link_poses(&state.q);
-        self.spring_ends(state, |body, point, force| {
-            if let Some(j) = self.tree.point_jacobian_at(&poses, &state.q, body, &point) {
-                out += j.fixed_rows::<3>(3).transpose() * force;
-            }
-        });
-        out
+        let external = self.body_wrenches(state);
+        self.tree.wrench_forces(&state.q, &external)
     }
 
-    /// Each spring end's force on its body at `state`: `(body, point in the
-    /// body from its centre, force in inertial components)`.
-    fn spring_ends(&self, state: &TreeState<NQ, NV>, mut each: impl FnMut(usize, Vector3<f64>, Vector3<f64>)) {
-        if self.springs.is_empty() {
-            return;
+    /// The springs' and the user's loads on each joint's child, in its link
+    /// frame (moment about the joint point); zero without either.
+    fn body_wrenches(&mut self, state: &TreeState<NQ, NV>) -> [Vector6<f64>; NB] {
+        let mut out = [Vector6::zeros(); NB];
+        if self.springs.is_empty() && L::NONE {
+            return out;
         }
         let system = self.tree.system_state(state);
-        let end = |at: &Attachment| match *at {
-            Attachment::Ground(p) => (p, nalgebra::Vector3::zeros(), None),
-            Attachment::Body { body, point } => {
-                let b = &system.bodies[body];
-                let arm = b.rotation() * point;
-                (b.r + arm, b.rdot + (b.rotation() * b.omega).cross(&arm), Some((body, point)))
-            }
-        };
-        for s in self.springs {
-            let ((pa, va, ba), (pb, vb, bb)) = (end(&s.a), end(&s.b));
-            let (d, length) = (pb - pa, (pb - pa).norm());
-            if length < 1e-12 {
-                continue;
-            }
-            let u = d / length;
-            let tension = s.stiffness * (length - s.rest_length) + s.damping * u.dot(&(vb - va));
-            for (at, sign) in [(ba, 1.0), (bb, -1.0)] {
-                if let Some((body, point)) = at {
-                    each(body, point, u * (sign * tension));
-                }
+        let poses = self.tree.link_poses(&state.q);
+        let mut joint_of = [None; NB];
+        for (k, j) in self.tree.joints.iter().enumerate() {
+            if let Some(slot) = joint_of.get_mut(j.child) {
+                *slot = Some(k);
             }
         }
+        let joints = &self.tree.joints;
+        let mut add = |body: usize, point: Vector3<f64>, force: Vector3<f64>, torque: Vector3<f64>| {
+            if let Some(k) = joint_of.get(body).copied().flatten() {
+                let f = poses[k].0.inverse() * force;
+                let n = (point - joints[k].rho_child).cross(&f) + torque;
+                out[k] += Vector6::new(n.x, n.y, n.z, f.x, f.y, f.z);
+            }
+        };
+        spring_ends(self.springs, &system, |body, point, force| add(body, point, force, Vector3::zeros()));
+        if !L::NONE {
+            let mut loads = Loads::default();
+            self.loads.apply(&system, &mut loads);
+            for body in 0..NB {
+                add(body, Vector3::zeros(), loads.force[body], loads.torque[body]);
+            }
+        }
+        out
     }
 
     /// `v̇` under joint forces `tau`, the closures' forces included: the
@@ -190,7 +161,7 @@ impl<
         tau: &SVector<f64, NV>,
         order: Option<&PivotedCholesky<NC>>,
     ) -> Result<(SVector<f64, NV>, Option<PivotedCholesky<NC>>), TreeError> {
-        let applied = tau + self.spring_forces(state) + self.load_forces(state);
+        let applied = tau + self.applied_forces(state);
         let free = self.tree_dynamics(state, &applied)?;
         if NC == 0 {
             return Ok((free, None));
@@ -466,31 +437,6 @@ impl<'a, S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const N
         }
         Ok(out)
     }
-
-    /// The springs' and the user's loads on each joint's child, in its link
-    /// frame (moment about the joint point).
-    fn body_wrenches(&mut self, state: &TreeState<NQ, NV>) -> [Vector6<f64>; NB] {
-        let loads = self.applied(state).map(|(loads, _)| loads);
-        let poses = self.tree.link_poses(&state.q);
-        let joints = self.tree.joints;
-        let mut out = [Vector6::zeros(); NB];
-        let add = |out: &mut [Vector6<f64>; NB], body: usize, point: Vector3<f64>, force: Vector3<f64>, torque| {
-            if let Some(k) = joints.iter().position(|j| j.child == body) {
-                let f = poses[k].0.inverse() * force;
-                let arm = point - joints[k].rho_child;
-                out[k] += Vector6::new(0.0, 0.0, 0.0, f.x, f.y, f.z);
-                let n: Vector3<f64> = arm.cross(&f) + torque;
-                out[k] += Vector6::new(n.x, n.y, n.z, 0.0, 0.0, 0.0);
-            }
-        };
-        self.spring_ends(state, |body, point, force| add(&mut out, body, point, force, Vector3::zeros()));
-        if let Some(loads) = loads {
-            for body in 0..NB {
-                add(&mut out, body, Vector3::zeros(), loads.force[body], loads.torque[body]);
-            }
-        }
-        out
-    }
 }
 
 impl<const NQ: usize, const NV: usize> Timed for TreeState<NQ, NV> {
@@ -704,4 +650,36 @@ fn turn<const NQ: usize, const NV: usize>(
     let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());
     let d = (p * turn).into_inner();
     q.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+}
+
+/// Each spring end's force on its body in the bodies' state `system`:
+/// `(body, point in the body from its centre, force in inertial
+/// components)`.
+fn spring_ends<const NB: usize>(
+    springs: &[SpringDamper],
+    system: &SystemState<NB>,
+    mut each: impl FnMut(usize, Vector3<f64>, Vector3<f64>),
+) {
+    let end = |at: &Attachment| match *at {
+        Attachment::Ground(p) => (p, nalgebra::Vector3::zeros(), None),
+        Attachment::Body { body, point } => {
+            let b = &system.bodies[body];
+            let arm = b.rotation() * point;
+            (b.r + arm, b.rdot + (b.rotation() * b.omega).cross(&arm), Some((body, point)))
+        }
+    };
+    for s in springs {
+        let ((pa, va, ba), (pb, vb, bb)) = (end(&s.a), end(&s.b));
+        let (d, length) = (pb - pa, (pb - pa).norm());
+        if length < 1e-12 {
+            continue;
+        }
+        let u = d / length;
+        let tension = s.stiffness * (length - s.rest_length) + s.damping * u.dot(&(vb - va));
+        for (at, sign) in [(ba, 1.0), (bb, -1.0)] {
+            if let Some((body, point)) = at {
+                each(body, point, u * (sign * tension));
+            }
+        }
+    }
 }
