@@ -53,7 +53,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             TreeJointKind::Cylindrical => Subspace::of(&[turning(&self.axis[k]), sliding(&self.axis[k])]),
             // At θ = 0; `subspace_at` turns the two slides with θ.
             TreeJointKind::Planar => {
-                let [f, g] = self.plane[k].map(|x| self.rest[k].inverse() * x);
+                let [f, g] = self.geometry.plane[k].map(|x| self.rest[k].inverse() * x);
                 Subspace::of(&[sliding(&f), sliding(&g), turning(&self.axis[k])])
             }
             TreeJointKind::Fixed => Subspace::of(&[]),
@@ -78,7 +78,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         if self.joints[k].kind == TreeJointKind::Planar {
             let h = nalgebra::Unit::new_unchecked(self.axis[k]);
             let turn = UnitQuaternion::from_axis_angle(&h, -q[self.q_at[k] + 2]);
-            for (col, x) in s.cols.iter_mut().zip(self.plane[k]) {
+            for (col, x) in s.cols.iter_mut().zip(self.geometry.plane[k]) {
                 *col = sliding(&(turn * (self.rest[k].inverse() * x)));
             }
         }
@@ -142,7 +142,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let r = match self.joints[k].kind {
             TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * q[at],
             TreeJointKind::Cylindrical => self.offset[k] + self.slide[k] * q[at + 1],
-            TreeJointKind::Planar => self.offset[k] + self.plane[k][0] * q[at] + self.plane[k][1] * q[at + 1],
+            TreeJointKind::Planar => {
+                self.offset[k] + self.geometry.plane[k][0] * q[at] + self.geometry.plane[k][1] * q[at + 1]
+            }
             TreeJointKind::Free => self.offset[k] + q.fixed_rows::<3>(at),
             _ => self.offset[k],
         };

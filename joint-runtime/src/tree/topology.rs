@@ -135,8 +135,6 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     /// Revolute, prismatic, universal: the parent's unit axis `a` (`R₀ h`
     /// for the first two; the universal's `s`).
     pub(crate) slide: [Vector3<f64>; NB],
-    /// Planar: the parent's unit in-plane axes `f`, `g` (`f × g = a`).
-    pub(crate) plane: [[Vector3<f64>; 2]; NB],
     /// The spatial inertia of joint `k`'s child about its joint point
     /// (its link frame's origin).
     pub(crate) inertia: [Matrix6<f64>; NB],
@@ -168,7 +166,6 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             axis: [Vector3::zeros(); NB],
             rest: [UnitQuaternion::identity(); NB],
             slide: [Vector3::zeros(); NB],
-            plane: [[Vector3::zeros(); 2]; NB],
             inertia: [Matrix6::zeros(); NB],
             offset: [Vector3::zeros(); NB],
             mass: inertias,
@@ -222,7 +219,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 };
                 tree.slide[k] = a.into_inner();
                 if j.kind == TreeJointKind::Planar {
-                    tree.plane[k] = in_plane(&a, &j.lock_parent);
+                    tree.geometry.plane[k] = in_plane(&a, &j.lock_parent);
                 }
             }
             tree.subspace[k] = tree.make_subspace(k);
@@ -232,7 +229,6 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             tree.geometry.axis_parent[k] = tree.slide[k];
             tree.geometry.rho_parent[k] = j.rho_parent;
             tree.geometry.rho_child[k] = j.rho_child;
-            tree.geometry.plane[k] = tree.plane[k];
             tree.q_at[k] = nq;
             tree.v_at[k] = nv;
             nq += j.kind.coordinates();
@@ -327,7 +323,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     self.angle(k, &rel, &w_rel, (qa, va), &mut state)
                 }
                 TreeJointKind::Planar => {
-                    let [f, g] = self.plane[k];
+                    let [f, g] = self.geometry.plane[k];
                     state.q[qa] = f.dot(&x);
                     state.q[qa + 1] = g.dot(&x);
                     state.v[va] = f.dot(&x_rate);
