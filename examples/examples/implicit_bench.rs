@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::{bricard, four_bar};
-use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions, StepReport};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NewtonMatrix, NoLoads, SimulationOptions, StepReport};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 const STEPS: usize = 500;
@@ -68,7 +68,7 @@ where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint).with_newton_matrix(matrix);
-    let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
+    let mut sim = AbsoluteSimulation::new(scene, NoLoads, &[], options)?;
     timed(start, |state| sim.step(state, H))
 }
 

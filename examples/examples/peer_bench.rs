@@ -38,7 +38,7 @@ use std::time::Instant;
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::scaling::chain_start;
 use joint_examples::{bricard, four_bar};
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::tree::{TreeScene, TreeSimulation};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
@@ -120,7 +120,7 @@ where
     };
     let mut options = SimulationOptions::default();
     options.integrator = integrator;
-    let mut sim = Box::new(Simulation::new(scene, NoLoads, &[], options)?);
+    let mut sim = Box::new(AbsoluteSimulation::new(scene, NoLoads, &[], options)?);
     let (start, mut end) = (Box::new(start), Box::new(start));
     let mut us = Vec::with_capacity(rounds);
     let mut time = || -> Result<(), String> {

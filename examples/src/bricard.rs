@@ -23,7 +23,7 @@
 // worst rows; the runtime has no allocator to box it).
 
 use joint_runtime::analysis::{AnalysisError, Assembly, AssemblyOptions, RowList, assemble};
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, SimulationOptions};
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
@@ -222,7 +222,7 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS> + SparseJacobian<BODIES, NNZ>, c
     let options = SimulationOptions::default()
         .with_integrator(integrator)
         .with_projection(Some(AssemblyOptions::default().with_tolerance(1e-13).with_max_iterations(8)));
-    let mut sim = Simulation::new(scene, NoLoads, &[], options).map_err(at(0.0))?;
+    let mut sim = AbsoluteSimulation::new(scene, NoLoads, &[], options).map_err(at(0.0))?;
     let mut state = initial_state();
     let redundant = sim.dynamics(&state).map_err(at(0.0))?.redundant;
     let e0 = sim.energy(&state).total();

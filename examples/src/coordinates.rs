@@ -1,8 +1,8 @@
 //! One declaration in both coordinate choices (`#[scene(coordinates =
-//! both)]`): the same start stepped by the absolute [`Simulation`] and by the
+//! both)]`): the same start stepped by the absolute [`AbsoluteSimulation`] and by the
 //! relative [`TreeSimulation`], RK4 at one step size, compared body by body.
 
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions, SpringDamper};
+use joint_runtime::dynamics::{AbsoluteSimulation, NoLoads, SimulationOptions, SpringDamper};
 use joint_runtime::tree::{TreeScene, TreeSimulation};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
@@ -49,7 +49,7 @@ where
     let mut relative = TreeSimulation::new(scene).and_then(|s| s.with_springs(springs)).map_err(|e| e.to_string())?;
     let mut tree_state = relative.tree().tree_state(start, 1e-12).map_err(|e| e.to_string())?;
     let mut absolute =
-        Simulation::new(scene, NoLoads, springs, SimulationOptions::default()).map_err(|e| e.to_string())?;
+        AbsoluteSimulation::new(scene, NoLoads, springs, SimulationOptions::default()).map_err(|e| e.to_string())?;
     let mut state = *start;
     for _ in 0..steps {
         relative.step(&mut tree_state, h).map_err(|e| e.to_string())?;

@@ -23,7 +23,7 @@
 // worst rows; the runtime has no allocator to box it).
 
 use joint_runtime::analysis::AnalysisError;
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, SimulationOptions};
 use joint_runtime::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
 use joint_runtime::nalgebra::{DMatrix, UnitQuaternion, Vector3};
 use joint_runtime::record::Trajectory;
@@ -230,7 +230,7 @@ pub fn simulate<S: Scene<BODIES, COLUMNS, ROWS> + SparseJacobian<BODIES, NNZ>, c
 ) -> Result<Run, AnalysisError> {
     let plain = self::scene();
     let options = SimulationOptions::default().with_integrator(integrator);
-    let mut sim = Simulation::new(scene, NoLoads, &[], options)?;
+    let mut sim = AbsoluteSimulation::new(scene, NoLoads, &[], options)?;
     let mut state = *start;
     let e0 = sim.energy(&state).total();
     let steps = (t_end / h).round() as usize;

@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use joint_runtime::analysis::AnalysisError;
-use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
@@ -163,7 +163,7 @@ pub fn sparse_step_us<S, const NB: usize, const NV: usize, const M: usize, const
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let mut sim = Simulation::new(scene, NoLoads, &[], options(integrator))?;
+    let mut sim = AbsoluteSimulation::new(scene, NoLoads, &[], options(integrator))?;
     let us = median_us(start, steps, 3, |s| sim.step(s, 1e-3).map(|_| ()))?;
     Ok((us, sim.iteration_blocks()))
 }

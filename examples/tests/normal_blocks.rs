@@ -13,7 +13,7 @@
 
 use joint_examples::{bricard, double_cardan, four_bar, scaling};
 use joint_runtime::analysis::InverseMass;
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
 use joint_runtime::{BodyInertia, Evaluation, Ops, RowBlock, Scene, SparseJacobian, SystemState};
 
@@ -111,8 +111,8 @@ fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
 {
     let options = SimulationOptions::default();
     let unformed: Unformed<S> = Wrapped(scene);
-    let mut generated = Simulation::new(scene, NoLoads, &[], options).expect("generated");
-    let mut formed = Simulation::new(&unformed, NoLoads, &[], options).expect("formed");
+    let mut generated = AbsoluteSimulation::new(scene, NoLoads, &[], options).expect("generated");
+    let mut formed = AbsoluteSimulation::new(&unformed, NoLoads, &[], options).expect("formed");
     let (a, b) = (generated.dynamics(&state).expect("generated"), formed.dynamics(&state).expect("formed"));
     assert_eq!(a.redundant, b.redundant);
     if let Some(n) = redundant {
@@ -122,7 +122,7 @@ fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     close("λ", a.lambda.as_slice(), b.lambda.as_slice(), 1e-11);
     // Without only the program: the interpreter's kernels in its order.
     let interpreted = Wrapped::<S, true, false>(scene);
-    let mut schedule = Simulation::new(&interpreted, NoLoads, &[], options).expect("interpreted");
+    let mut schedule = AbsoluteSimulation::new(&interpreted, NoLoads, &[], options).expect("interpreted");
     let c = schedule.dynamics(&state).expect("interpreted");
     assert_eq!((c.vdot, c.lambda, &c.redundant), (a.vdot, a.lambda, &a.redundant));
     let (mut other, mut third) = (state, state);

@@ -7,7 +7,7 @@
 
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::{bricard, four_bar};
-use joint_runtime::dynamics::{Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 use joint_tests::second_order::worst_error;
 
@@ -20,7 +20,7 @@ fn check<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
 ) where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let mut sim = Simulation::new(scene, NoLoads, &[], SimulationOptions::default()).expect("simulation");
+    let mut sim = AbsoluteSimulation::new(scene, NoLoads, &[], SimulationOptions::default()).expect("simulation");
     let mut state = start;
     let mut worst = (0.0f64, "");
     let mut largest = 0.0f64;

@@ -5,8 +5,8 @@
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
 use joint_runtime::analysis::{Analyses, AssemblyOptions, assemble, velocities};
 use joint_runtime::dynamics::{
-    Adaptive, DenseSimulation, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
-    Tolerance,
+    AbsoluteSimulation, Adaptive, DenseSimulation, Integrator, Loads, NoLoads, Simulation, SimulationOptions,
+    SpringDamper, Stabilisation, Tolerance,
 };
 use joint_runtime::nalgebra::{DMatrix, SVector};
 use joint_runtime::sparse::{RowTerm, SecondOrderLayout};
@@ -57,7 +57,7 @@ fn same<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>(
     on_dense_stack(|| {
         let options = SimulationOptions::default();
         let mut dense = DenseSimulation::new(scene, NoLoads, &[], options).expect("dense");
-        let mut sparse = Simulation::new(scene, NoLoads, &[], options).expect("sparse");
+        let mut sparse = AbsoluteSimulation::new(scene, NoLoads, &[], options).expect("sparse");
         let (d, s) =
             (dense.dynamics(&state).expect("dense dynamics"), sparse.dynamics(&state).expect("sparse dynamics"));
         close("v̇", s.vdot.as_slice(), d.vdot.as_slice(), 1e-9);
@@ -237,7 +237,7 @@ fn crank_angle<const NB: usize>(state: &SystemState<NB>, i: usize) -> f64 {
 /// far any crank strays from the first (one degree of freedom) and the worst
 /// relative energy change.
 fn through_singular_positions<const NV: usize, const M: usize, const NNZ: usize>(
-    sim: &mut Simulation<'_, Ladder40, NoLoads, 81, NV, M, NNZ>,
+    sim: &mut AbsoluteSimulation<'_, Ladder40, NoLoads, 81, NV, M, NNZ>,
     mut state: SystemState<81>,
 ) -> (usize, f64, f64)
 where
@@ -346,7 +346,7 @@ fn same_implicit<S, const NB: usize, const NV: usize, const M: usize, const NNZ:
         let mut options = SimulationOptions::default();
         options.integrator = integrator;
         let mut dense = DenseSimulation::new(scene, NoLoads, springs, options).expect("dense");
-        let mut sparse = Simulation::new(scene, NoLoads, springs, options).expect("sparse");
+        let mut sparse = AbsoluteSimulation::new(scene, NoLoads, springs, options).expect("sparse");
         let (mut a, mut b) = (state, state);
         let (mut dense_iterations, mut sparse_iterations) = (0, 0);
         for _ in 0..steps {
@@ -536,7 +536,7 @@ fn same_integrate<S, const NB: usize, const NV: usize, const M: usize, const NNZ
         let options = SimulationOptions::default();
         let tolerance = Tolerance { rtol: 1e-6, atol: 1e-6 };
         let mut dense = DenseSimulation::new(scene, NoLoads, springs, options).expect("dense");
-        let mut sparse = Simulation::new(scene, NoLoads, springs, options).expect("sparse");
+        let mut sparse = AbsoluteSimulation::new(scene, NoLoads, springs, options).expect("sparse");
         // Made for RK4: an implicit method's workspace is made here, not by
         // `integrate` (which never allocates).
         sparse.prepare(Integrator::RadauIIA).expect("prepared");

@@ -7,8 +7,8 @@
 use joint_examples::{bricard, press};
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{
-    Adaptive, DenseSimulation, IntegrationReport, Integrator, NewtonMatrix, NoLoads, Simulation, SimulationOptions,
-    SpringDamper, StepReport, Tolerance,
+    AbsoluteSimulation, Adaptive, DenseSimulation, IntegrationReport, Integrator, NewtonMatrix, NoLoads, Simulation,
+    SimulationOptions, SpringDamper, StepReport, Tolerance,
 };
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
@@ -52,12 +52,12 @@ impl<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize> Step
 }
 
 impl<S, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Steps<NB>
-    for Simulation<'_, S, NoLoads, NB, NV, M, NNZ>
+    for AbsoluteSimulation<'_, S, NoLoads, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
     fn step(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<StepReport, AnalysisError> {
-        Simulation::step(self, state, h)
+        AbsoluteSimulation::step(self, state, h)
     }
     fn integrate(
         &mut self,
@@ -66,7 +66,7 @@ where
         method: Adaptive,
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, AnalysisError> {
-        Simulation::integrate(self, state, t_end, method, tolerance)
+        AbsoluteSimulation::integrate(self, state, t_end, method, tolerance)
     }
 }
 
@@ -120,7 +120,7 @@ fn run_sparse<S, const NB: usize, const NV: usize, const M: usize, const NNZ: us
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
 {
-    let mut sim = Simulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
+    let mut sim = AbsoluteSimulation::new(scene, NoLoads, springs, options_for(how)).expect("simulation");
     // An error-controlled run names its method apart from the options'
     // integrator: its workspace is made here (`integrate` never allocates).
     sim.prepare(Integrator::RadauIIA).expect("prepared");

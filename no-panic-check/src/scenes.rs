@@ -27,8 +27,8 @@
 use joint_runtime::analysis::{
     AccelerationAnalysis, Analyses, AnalysisError, Assembly, AssemblyOptions, VelocityAnalysis,
 };
+use joint_runtime::dynamics::{AbsoluteSimulation, AppliedLoads, Dynamics, Energy, Integrator, Loads, Reaction};
 use joint_runtime::dynamics::{Adaptive, IntegrationReport, StepReport, Tolerance};
-use joint_runtime::dynamics::{AppliedLoads, Dynamics, Energy, Integrator, Loads, Reaction, Simulation};
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
 use joint_runtime::{Evaluation, RowBlock, Scene, SecondOrder, SparseJacobian, SystemState};
 
@@ -48,7 +48,7 @@ pub mod driven {
     use super::*;
     use joint_examples::double_cardan::DoubleCardan;
 
-    type Sim<'a> = Simulation<'a, DoubleCardan, Push, 3, 18, 19, 62>;
+    type Sim<'a> = AbsoluteSimulation<'a, DoubleCardan, Push, 3, 18, 19, 62>;
     type Kinematics<'a> = Analyses<'a, DoubleCardan, 3, 18, 19, 62>;
 
     checked! {
@@ -150,7 +150,7 @@ pub mod free {
     }
 }
 
-/// The free shaft on the one [`Simulation`]
+/// The free shaft on [`AbsoluteSimulation`], the one `Simulation`'s absolute engine
 /// (the block factor of `J M⁻¹ Jᵀ`, the implicit integrators' saddle-point
 /// matrices): the integrator and the adaptive method are arguments, so every
 /// one of their branches is part of the checked code.
@@ -158,7 +158,7 @@ pub mod block {
     use super::*;
     use joint_examples::double_cardan::FreeDoubleCardan;
 
-    type Sim<'a> = Simulation<'a, FreeDoubleCardan, Push, 3, 18, 18, 60>;
+    type Sim<'a> = AbsoluteSimulation<'a, FreeDoubleCardan, Push, 3, 18, 18, 60>;
 
     checked! {
         fn step(

@@ -7,7 +7,7 @@
 //!
 //! - **`cardan`**: the Cardan shaft of [`crate::cardan`], bent by 30°, its input
 //!   driven at 10 rad/s, simulated by *forward dynamics with the driver*
-//!   ([`Simulation::step`] on [`CardanShaft`], motor included) from the
+//!   ([`AbsoluteSimulation::step`](joint_runtime::dynamics::AbsoluteSimulation::step) on [`CardanShaft`], motor included) from the
 //!   reference configuration with the velocities of the driven motion. With the
 //!   motor the mechanism has no freedom left, so the constrained accelerations
 //!   are those of the kinematics (the masses only set λ and the metric of the

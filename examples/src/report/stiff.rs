@@ -21,7 +21,9 @@
 
 use std::time::Instant;
 
-use joint_runtime::dynamics::{Adaptive, Integrator, NoLoads, Simulation, SimulationOptions, SpringDamper, Tolerance};
+use joint_runtime::dynamics::{
+    AbsoluteSimulation, Adaptive, Integrator, NoLoads, SimulationOptions, SpringDamper, Tolerance,
+};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 use super::simulation::Series;
@@ -69,14 +71,14 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         let mut state = self.start;
         match run {
             Run::Fixed(_, steps) => {
-                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let mut sim = AbsoluteSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 let h = self.t_end / steps as f64;
                 for _ in 0..steps {
                     sim.step(&mut state, h).map_err(text)?;
                 }
             }
             Run::Adaptive(method, tol) => {
-                let mut sim = Simulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
+                let mut sim = AbsoluteSimulation::new(self.scene, NoLoads, self.springs, options).map_err(text)?;
                 sim.integrate(&mut state, self.t_end, method, Tolerance { rtol: tol, atol: tol }).map_err(text)?;
             }
         }

@@ -216,9 +216,12 @@ fn print(
     let (nb, nv, m, lints) = (&z.nb, &z.nv, &z.m, lints());
     let (ops, methods) = (generate::ops_const(Some(&printed)), z.signature.methods(Some(&printed)));
     let alias = state_alias(input, nb);
+    let engine = Engine::Absolute([s.bodies.len(), 6 * s.bodies.len(), d.phi.len(), csr.columns.len()]);
+    let simulate = simulate(input, &generics, engine);
     quote! {
         #alias
         #tree
+        #simulate
 
         #[doc = #doc]
         #lints
@@ -240,6 +243,64 @@ fn print(
 
         #lints
         impl #ig #k::SparseJacobian<#nb, #nnz> for #ident #tg #wc { #sparse }
+    }
+}
+
+/// The engine the one `Simulation` runs for a scene: absolute coordinates
+/// (`NB, NV, M, NNZ`) or the tree (`NB, NQ, NV, NC`).
+enum Engine {
+    Absolute([usize; 4]),
+    Tree([usize; 4]),
+}
+
+/// `Simulate` for the scene: the engine its coordinates call for, so that
+/// `Simulation::new(&scene, ..)` makes it whichever the scene declares.
+fn simulate(input: &syn::DeriveInput, generics: &syn::Generics, engine: Engine) -> TokenStream {
+    let (k, lints, ident) = (krate(), lints(), &input.ident);
+    let (_, tg, _) = generics.split_for_impl();
+    let mut with = generics.clone();
+    with.params.insert(0, syn::parse_quote!('__a));
+    with.params.push(syn::parse_quote!(__L));
+    let lit = |n: [usize; 4]| n.map(Literal::usize_unsuffixed);
+    let nb = Literal::usize_unsuffixed(match engine {
+        Engine::Absolute([nb, ..]) | Engine::Tree([nb, ..]) => nb,
+    });
+    let wc = with.make_where_clause();
+    wc.predicates.push(syn::parse_quote!(#ident #tg: '__a));
+    wc.predicates.push(syn::parse_quote!(__L: #k::dynamics::AppliedLoads<#nb>));
+    let (ig, _, wc) = with.split_for_impl();
+    let (ty, error, make) = match engine {
+        Engine::Absolute(n) => {
+            let [nb, nv, m, nnz] = lit(n);
+            (
+                quote!(#k::dynamics::AbsoluteSimulation<'__a, Self, __L, #nb, #nv, #m, #nnz>),
+                quote!(#k::analysis::AnalysisError),
+                quote!(#k::dynamics::AbsoluteSimulation::new(self, loads, springs, options)),
+            )
+        }
+        Engine::Tree(n) => {
+            let [nb, nq, nv, nc] = lit(n);
+            (
+                quote!(#k::tree::TreeSimulation<'__a, Self, #nb, #nq, #nv, #nc, __L>),
+                quote!(#k::tree::TreeError),
+                quote!(#k::tree::TreeSimulation::new(self)?.with_springs(springs)?.with_loads(loads).with_options(options)),
+            )
+        }
+    };
+    quote! {
+        #lints
+        impl #ig #k::dynamics::Simulate<'__a, __L> for #ident #tg #wc {
+            type Engine = #ty;
+            type Error = #error;
+            fn engine(
+                &'__a self,
+                loads: __L,
+                springs: &'__a [#k::dynamics::SpringDamper],
+                options: #k::dynamics::SimulationOptions,
+            ) -> ::core::result::Result<Self::Engine, Self::Error> {
+                #make
+            }
+        }
     }
 }
 
@@ -269,9 +330,13 @@ fn tree_only(
     let indices = body_indices(&s.body_names());
     let alias = state_alias(input, &nb);
     let tree = super::tree::print(input, s, edges, &generics, loops);
+    let (nq, nv) = super::tree::sizes(edges);
+    let nc = loops.map_or(0, |(d, _)| d.phi.len());
+    let simulate = simulate(input, &generics, Engine::Tree([s.bodies.len(), nq, nv, nc]));
     quote! {
         #alias
         #tree
+        #simulate
 
         /// The scene's bodies by name and their number.
         #lints
@@ -564,7 +629,7 @@ fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
 /// mistake gives one message.
 fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) -> TokenStream {
     let errors = error.to_compile_error();
-    let Some(SceneShape { bodies, rows, tree }) = shape else { return errors };
+    let Some(SceneShape { bodies, rows, tree, absolute }) = shape else { return errors };
     let (k, z, lints) = (krate(), sizes(bodies.len(), rows), lints());
     let ident = &input.ident;
     let (ig, tg, wc) = input.generics.split_for_impl();
@@ -573,6 +638,11 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
     let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
     let (ops, methods) = (generate::ops_const(None), z.signature.methods(None));
     let alias = state_alias(input, nb);
+    let engine = match tree {
+        Some((nq, nv)) if !absolute => Engine::Tree([bodies.len(), nq, nv, 0]),
+        _ => Engine::Absolute([bodies.len(), 6 * bodies.len(), rows, 0]),
+    };
+    let simulate = simulate(input, &input.generics, engine);
     let tree = tree.map(|sizes| {
         let body = quote! {
             fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { loop {} }
@@ -585,6 +655,7 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
         #errors
         #alias
         #tree
+        #simulate
         #lints
         impl #ig #ident #tg #wc { #inherent }
         #lints

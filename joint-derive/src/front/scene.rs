@@ -294,6 +294,9 @@ pub struct SceneShape {
     /// attributes alone, a joint of a tree kind that closes a loop counts
     /// too: the derive puts the spanning tree's sizes here when it has them).
     pub tree: Option<(usize, usize)>,
+    /// Whether the absolute impls are derived (not `coordinates = relative`):
+    /// the one `Simulation` then runs the absolute engine.
+    pub absolute: bool,
 }
 
 /// The bodies' names and the number of rows, read from the attributes alone
@@ -327,22 +330,26 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
     }
     // Bodies beyond the tree joints float (exact unless a tree joint closes a loop).
     let floating = bodies.len().saturating_sub(tree_joints);
-    let tree = relative(input).then_some((tree.0 + 7 * floating, tree.1 + 6 * floating));
-    (!bodies.is_empty()).then_some(SceneShape { bodies, rows, tree })
+    let coordinates = coordinates(input);
+    let relative = matches!(coordinates.as_deref(), Some("relative" | "both"));
+    let tree = relative.then_some((tree.0 + 7 * floating, tree.1 + 6 * floating));
+    let absolute = coordinates.as_deref() != Some("relative");
+    (!bodies.is_empty()).then_some(SceneShape { bodies, rows, tree, absolute })
 }
 
-/// Whether `#[scene(.., coordinates = relative, ..)]` (or `both`) is written
-/// (read leniently, for the stub).
-fn relative(input: &syn::DeriveInput) -> bool {
+/// The word of `#[scene(.., coordinates = WORD, ..)]`, if written (read
+/// leniently, for the stub).
+fn coordinates(input: &syn::DeriveInput) -> Option<String> {
     let parser = syn::punctuated::Punctuated::<syn::Meta, syn::Token![,]>::parse_terminated;
-    input.attrs.iter().filter(|a| a.path().is_ident("scene")).filter_map(|a| a.parse_args_with(parser).ok()).any(
-        |metas| {
-            metas.iter().any(|m| {
-                matches!(m, syn::Meta::NameValue(nv) if nv.path.is_ident("coordinates")
-                && matches!(&nv.value, syn::Expr::Path(p) if p.path.is_ident("relative") || p.path.is_ident("both")))
-            })
+    let metas =
+        input.attrs.iter().filter(|a| a.path().is_ident("scene")).filter_map(|a| a.parse_args_with(parser).ok());
+    metas.flatten().find_map(|m| match m {
+        syn::Meta::NameValue(nv) if nv.path.is_ident("coordinates") => match &nv.value {
+            syn::Expr::Path(p) => p.path.get_ident().map(ToString::to_string),
+            _ => None,
         },
-    )
+        _ => None,
+    })
 }
 
 impl SceneDecl {

@@ -81,8 +81,8 @@ pub enum AnalysisError {
         name: &'static str,
     },
     /// A step or `integrate` asked for an integrator whose workspace the
-    /// simulation has not made: `Simulation::new` makes the configured
-    /// integrator's, `Simulation::prepare` another's (a step never builds
+    /// simulation has not made: `AbsoluteSimulation::new` makes the configured
+    /// integrator's, `AbsoluteSimulation::prepare` another's (a step never builds
     /// one, so it never allocates).
     NotPrepared {
         /// The integrator.
@@ -166,7 +166,7 @@ impl fmt::Display for AnalysisError {
             }
             AnalysisError::BadOption { name } => write!(f, "option `{name}` is out of range"),
             AnalysisError::NotPrepared { integrator } => {
-                write!(f, "no workspace for {integrator}: call `Simulation::prepare` first (a step never allocates)")
+                write!(f, "no workspace for {integrator}: call `prepare` first (a step never allocates)")
             }
             AnalysisError::ImplicitNotConverged { iterations, correction } => write!(
                 f,

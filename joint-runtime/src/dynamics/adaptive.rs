@@ -1,4 +1,4 @@
-//! Error-controlled variable steps: [`Simulation::integrate`](super::Simulation::integrate) advances a state
+//! Error-controlled variable steps: [`AbsoluteSimulation::integrate`](super::AbsoluteSimulation::integrate) advances a state
 //! to a given time with steps chosen so that each step's local error estimate
 //! meets `rtol`, `atol` (Hairer, Nørsett & Wanner, *Solving ODEs I*, II.4).
 //!
@@ -32,7 +32,7 @@ use super::{Integrator, Rate, advance};
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::scene::SystemState;
 
-/// The error-controlled integrators of [`Simulation::integrate`](super::Simulation::integrate).
+/// The error-controlled integrators of [`AbsoluteSimulation::integrate`](super::AbsoluteSimulation::integrate).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
@@ -69,7 +69,7 @@ pub struct Tolerance {
     pub atol: f64,
 }
 
-/// What one [`Simulation::integrate`](super::Simulation::integrate) did.
+/// What one [`AbsoluteSimulation::integrate`](super::AbsoluteSimulation::integrate) did.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
@@ -88,7 +88,7 @@ pub struct IntegrationReport {
     pub last_step: f64,
 }
 
-/// Steps allowed to one [`Simulation::integrate`](super::Simulation::integrate).
+/// Steps allowed to one [`AbsoluteSimulation::integrate`](super::AbsoluteSimulation::integrate).
 const MAX_STEPS: usize = 10_000_000;
 
 /// Dormand–Prince's stage coefficients `a_ij` (row `i` for stage `i + 1`).
@@ -183,7 +183,7 @@ pub(crate) trait AdaptiveSteps {
     fn accept(&mut self, next: Self::State, method: Adaptive) -> Result<Self::State, Self::Error>;
 }
 
-/// [`Simulation::integrate`](super::Simulation::integrate) on any simulation: the checks, the first step
+/// [`AbsoluteSimulation::integrate`](super::AbsoluteSimulation::integrate) on any simulation: the checks, the first step
 /// size and the loop of trial steps.
 pub(crate) fn integrate<T: AdaptiveSteps>(
     sim: &mut T,

@@ -39,7 +39,7 @@ const NULL_TOLERANCE: f64 = 1e-9;
 const DECOMPOSITION_ITERATIONS: usize = 0;
 
 /// The linearised dynamics `ẋ = A x + B u` of a scene about a state, in the
-/// minimal coordinates `x = (z, w)` of [`Simulation::linearise`](super::Simulation::linearise).
+/// minimal coordinates `x = (z, w)` of [`AbsoluteSimulation::linearise`](super::AbsoluteSimulation::linearise).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Linearisation {
     /// The state matrix, `2n × 2n` (`n` freedoms).
@@ -166,7 +166,7 @@ fn null_space(j: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>), Analysis
 /// The state-transition Jacobian of a midpoint step of velocity `w` and size
 /// `h` from the Newton matrix `r_w = ∂R/∂w` and the accelerations'
 /// derivative `a_q` at the midpoint (both `NV × NV`; see
-/// [`Simulation::transition`](super::Simulation::transition)).
+/// [`AbsoluteSimulation::transition`](super::AbsoluteSimulation::transition)).
 pub(crate) fn transition_matrix<const NB: usize, const NV: usize>(
     w: &SVector<f64, NV>,
     h: f64,

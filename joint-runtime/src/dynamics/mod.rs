@@ -30,7 +30,7 @@
 //! `J v̇ = J M⁻¹ Q − (J M⁻¹ Q − γ) = γ`. The generalised constraint force acting on
 //! the bodies is therefore `−Jᵀ λ`; a joint's reaction on each body is its rows'
 //! share, `−J_kᵀ λ_k`, split into the body's `[force (inertial), torque (body)]`
-//! ([`Simulation::reactions`]). `J M⁻¹ Jᵀ` is factorised on its block pattern
+//! ([`AbsoluteSimulation::reactions`]). `J M⁻¹ Jᵀ` is factorised on its block pattern
 //! ([`BlockFactor`](crate::sparse::BlockFactor)), each diagonal block by a
 //! rank-revealing pivoted Cholesky: for redundant
 //! constraints λ is not unique (the dropped rows get λ = 0), but every λ gives
@@ -94,14 +94,14 @@
 //!   and one complex `NV × NV` system. Fifth order where the stiff motion is
 //!   not followed; on the index-1 equations the iteration converges only for
 //!   steps over which stiff springs turn little (see `radau.rs`).
-//! - [`Simulation::integrate`]: error-controlled variable steps to a given
+//! - [`AbsoluteSimulation::integrate`]: error-controlled variable steps to a given
 //!   time, with the explicit Dormand–Prince 5(4) pair, generalised-α and its
 //!   local error estimate, or Radau IIA and RADAU5's estimate ([`Adaptive`],
 //!   [`Tolerance`], `adaptive.rs`).
 //!
-//! [`Simulation::linearise`] (feature `alloc`) gives the linearised dynamics
+//! [`AbsoluteSimulation::linearise`] (feature `alloc`) gives the linearised dynamics
 //! about a state, in minimal coordinates and in full, and
-//! [`Simulation::transition`] a midpoint step with its state-transition
+//! [`AbsoluteSimulation::transition`] a midpoint step with its state-transition
 //! Jacobian (`linear.rs`).
 
 // `AnalysisError` is returned by value (no allocator to box it).
@@ -115,8 +115,9 @@ mod generalised_alpha;
 pub(crate) mod linear;
 mod newton_matrix;
 pub(crate) mod radau;
+mod simulation;
 
-pub use crate::sparse::Simulation;
+pub use crate::sparse::AbsoluteSimulation;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 #[cfg(feature = "__dense_reference")]
 #[doc(hidden)]
@@ -132,6 +133,7 @@ pub use linear::Linearisation;
 #[cfg(feature = "alloc")]
 pub(crate) use newton_matrix::update_blocks;
 pub(crate) use newton_matrix::update_blocks_into;
+pub use simulation::{Simulate, Simulation};
 
 use nalgebra::{Matrix3, SVector, Vector3, Vector4};
 
@@ -293,7 +295,7 @@ impl Stabilisation {
     }
 }
 
-/// The time integrator of [`Simulation::step`] (see the module documentation).
+/// The time integrator of [`AbsoluteSimulation::step`] (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
@@ -340,7 +342,7 @@ pub enum NewtonMatrix {
 
 /// How far (relative to the scale of `J v̇` and γ) a redundant row's
 /// acceleration equation may disagree with the rows that determine the motion
-/// before [`Simulation::dynamics`] calls the constraints contradictory: loose
+/// before [`AbsoluteSimulation::dynamics`] calls the constraints contradictory: loose
 /// enough for the `O(h²)` disagreement at an integrator's stage states, tight
 /// enough for constraints that truly contradict each other (`O(1)`).
 pub const REDUNDANT_TOLERANCE: f64 = 1e-4;
@@ -478,7 +480,7 @@ impl Energy {
     }
 }
 
-/// What one [`Simulation::step`] did.
+/// What one [`AbsoluteSimulation::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
@@ -767,7 +769,7 @@ impl<const NB: usize> Mechanics<NB> {
     /// The mechanics of `scene` with `springs`.
     ///
     /// # Errors
-    /// As [`Simulation::new`].
+    /// As [`AbsoluteSimulation::new`].
     pub(crate) fn new<S: Scene<NB, NV, M>, const NV: usize, const M: usize>(
         scene: &S,
         springs: &[SpringDamper],

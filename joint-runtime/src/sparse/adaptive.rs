@@ -1,8 +1,8 @@
-//! [`Simulation::integrate`]: the error-controlled driver of
+//! [`AbsoluteSimulation::integrate`]: the error-controlled driver of
 //! `dynamics/adaptive.rs` (written once for both paths) over the block path's
 //! stages, generalised-α and Radau steps and projection.
 
-use super::Simulation;
+use super::AbsoluteSimulation;
 use super::simulation::with_taken;
 use crate::analysis::{AnalysisError, check_state};
 use crate::dynamics::adaptive::{AdaptiveSteps, alpha_estimate, dormand_prince, integrate};
@@ -10,7 +10,8 @@ use crate::dynamics::radau::step_radau;
 use crate::dynamics::{Adaptive, AppliedLoads, IntegrationReport, Rate, Tolerance};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
@@ -18,8 +19,8 @@ where
     /// Advances `state` to time `t_end` with error-controlled steps of
     /// `method`, projecting after every accepted step if the options say so,
     /// in time and memory proportional to the scene. An implicit method
-    /// steps in the workspace [`Simulation::new`] made for it (that integrator
-    /// in the options) or [`Simulation::prepare`]: `integrate` never builds
+    /// steps in the workspace [`AbsoluteSimulation::new`] made for it (that integrator
+    /// in the options) or [`AbsoluteSimulation::prepare`]: `integrate` never builds
     /// one, so it never allocates.
     ///
     /// # Errors
@@ -74,7 +75,7 @@ where
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AdaptiveSteps
-    for Simulation<'_, S, L, NB, NV, M, NNZ>
+    for AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

@@ -21,7 +21,7 @@ use alloc::vec::Vec;
 
 use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::Simulation;
+use super::AbsoluteSimulation;
 use super::buf::{Boxed, boxed};
 use super::differences::{DifferenceTerms, DifferenceWork};
 use super::kkt::{Block, Kkt, KktStorage, NodeVector};
@@ -218,7 +218,8 @@ fn add3(block: &mut Block, r: usize, c: usize, x: &Matrix3<f64>, s: f64) {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

@@ -1,4 +1,4 @@
-//! [`Simulation::linearise`] and [`Simulation::transition`]: the
+//! [`AbsoluteSimulation::linearise`] and [`AbsoluteSimulation::transition`]: the
 //! dense path's linearisation and state-transition Jacobian
 //! (`dynamics/linear.rs`, whose module docs give the equations) from the
 //! block factor and the scene's sparse second-order terms.
@@ -18,7 +18,7 @@ use alloc::vec;
 
 use nalgebra::{DMatrix, SVector};
 
-use super::Simulation;
+use super::AbsoluteSimulation;
 use super::second_order::{RowTerm, SecondOrderLayout};
 use super::simulation::Accelerations;
 use super::solver::{j_mul, jt_mul};
@@ -28,7 +28,7 @@ use crate::dynamics::{AppliedLoads, Linearisation, force_column, midpoint_state,
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
 /// The linearised equations of motion at one state, dense: `δa` along any
-/// `(δq, δv)` is [`Simulation::accelerations`] of
+/// `(δq, δv)` is [`AbsoluteSimulation::accelerations`] of
 /// `R1 = R1q δq + R1v δv` and `R2 = R2q δq + R2v δv` (as the dense path's
 /// `Tangent`).
 struct DenseTangent {
@@ -42,7 +42,8 @@ struct DenseTangent {
     r2v: DMatrix<f64>,
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
@@ -117,7 +118,7 @@ where
     ///
     /// # Errors
     /// [`AnalysisError::NoSecondOrder`] for a scene derived without
-    /// `second_order`; as [`Simulation::step`] otherwise. On error `state` is
+    /// `second_order`; as [`AbsoluteSimulation::step`] otherwise. On error `state` is
     /// unchanged.
     pub fn transition(&mut self, state: &mut SystemState<NB>, h: f64) -> Result<DMatrix<f64>, AnalysisError> {
         if !(h > 0.0 && h.is_finite()) {

@@ -26,7 +26,7 @@
 
 use nalgebra::{Matrix3, SVector};
 
-use super::Simulation;
+use super::AbsoluteSimulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, missing, spring_blocks, times_update};
 use super::buf::{Boxed, boxed};
 use super::kkt::{Kkt, KktStorage};
@@ -95,7 +95,8 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Midpoin
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

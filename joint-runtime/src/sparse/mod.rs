@@ -24,8 +24,8 @@
 //! largest diagonal of `J M⁻¹ Jᵀ` marks its row redundant (dropped, λ = 0). The
 //! elimination order is the derive's, not the order the rows were written in.
 //!
-//! [`Simulation`], the one simulation, runs on
-//! this factor (RK4 with the mass-metric projection), and so do the kinematic
+//! [`AbsoluteSimulation`], the one simulation's engine for absolute
+//! coordinates, runs on this factor (RK4 with the mass-metric projection), and so do the kinematic
 //! analyses ([`Analyses`](crate::analysis::Analyses)), reading only Φ, Φ_t,
 //! γ and the Jacobian's nonzero entries: no `M × NV` matrix is ever formed.
 //! With [`Integrator::GeneralisedAlpha`](crate::dynamics::Integrator) the
@@ -36,13 +36,13 @@
 //! for a scene derived without them, by central differences of its `J`, `γ`
 //! and `Φ_t` ([`DifferenceTerms`]: bodies coloured so that a chain of any
 //! length costs 24 evaluations per colour, two colours).
-//! [`Simulation::integrate`] runs the dense path's error-controlled
+//! [`AbsoluteSimulation::integrate`] runs the dense path's error-controlled
 //! driver (Dormand–Prince 5(4), generalised-α with its estimate) on these.
 //! The implicit midpoint rule runs there too, its Newton matrix in the same
 //! saddle-point form (`midpoint.rs`; the dense `I − (h/2) ∂a/∂w` is full).
 //! Radau IIA runs there as well (`radau.rs`): its real and complex stage
 //! systems on the same pattern, the real and complex block LU of `kkt.rs`.
-//! [`Simulation::linearise`] and [`Simulation::transition`] give
+//! [`AbsoluteSimulation::linearise`] and [`AbsoluteSimulation::transition`] give
 //! the dense path's linearisation and state-transition Jacobian (`linear.rs`):
 //! dense outputs, built column by column on the block factor.
 
@@ -67,4 +67,4 @@ pub use kkt::{KktArrays, KktEntry, KktStorage};
 pub use second_order::{JointBodies, RowTerm, SecondOrderLayout, TermArray, TermStorage};
 // The one simulation's public path is `dynamics::Simulation`.
 #[doc(hidden)]
-pub use simulation::Simulation;
+pub use simulation::AbsoluteSimulation;

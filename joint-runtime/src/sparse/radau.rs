@@ -26,7 +26,7 @@
 
 use nalgebra::{Complex, Matrix3, SVector};
 
-use super::Simulation;
+use super::AbsoluteSimulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
 use super::buf::{Boxed, boxed};
 use super::kkt::{Kkt, KktEntry, KktStorage, NodeVector};
@@ -132,7 +132,7 @@ impl<const NB: usize, const NV: usize, const M: usize> RadauScratch<NB, NV, M> {
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> RadauHost<NB, NV>
-    for Simulation<'_, S, L, NB, NV, M, NNZ>
+    for AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
@@ -316,7 +316,8 @@ where
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'_, S, L, NB, NV, M, NNZ>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,

@@ -40,13 +40,13 @@ pub(crate) struct Accelerations<const NV: usize, const M: usize> {
 /// factor of `J M⁻¹ Jᵀ` (see [`sparse`](super)) and, for the implicit
 /// integrators, their exact Newton matrices in saddle-point form over bodies
 /// and joints. The workspaces of the configured integrator are made in
-/// [`Simulation::new`]; a step allocates nothing. Every array has a size
+/// [`AbsoluteSimulation::new`]; a step allocates nothing. Every array has a size
 /// the derive computed for the scene (`SparseJacobian::Factor`, `Kkt`,
 /// `Terms`); with feature `alloc` the workspaces are boxed, without it they
 /// live inline and every integrator still runs (springs between bodies no
 /// joint joins excepted under an implicit integrator: their pattern is found
 /// at run time, with `alloc`).
-pub struct Simulation<
+pub struct AbsoluteSimulation<
     'a,
     S: SparseJacobian<NB, NNZ>,
     L,
@@ -87,7 +87,7 @@ pub struct Simulation<
     work: Boxed<SolveWork<NB, NV, M, NNZ>>,
     rk4: Option<Boxed<Rk4Work<NB, NV>>>,
     /// The options (may be changed between steps; an implicit integrator
-    /// steps in the workspace [`Simulation::new`] or [`Simulation::prepare`]
+    /// steps in the workspace [`AbsoluteSimulation::new`] or [`AbsoluteSimulation::prepare`]
     /// built for it: a step never builds one).
     pub options: SimulationOptions,
 }
@@ -106,7 +106,7 @@ type SceneRadau<S, const NB: usize, const NV: usize, const M: usize, const NNZ: 
 >;
 
 /// Runs `f` on the workspace in `slot` (made by `new` or
-/// [`Simulation::prepare`]), taken out while `f` borrows the simulation and
+/// [`AbsoluteSimulation::prepare`]), taken out while `f` borrows the simulation and
 /// always put back. Held without drop glue: a box dropped on unwinding, or
 /// the `None` the slot holds meanwhile dropped on putting back, would keep a
 /// call to `free` or a cleanup path that `no-panic-check` counts as a panic,
@@ -197,10 +197,10 @@ where
 }
 
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> core::fmt::Debug
-    for Simulation<'_, S, L, NB, NV, M, NNZ>
+    for AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("Simulation")
+        f.debug_struct("AbsoluteSimulation")
             .field("scene", &core::any::type_name::<S>())
             .field("factor_blocks", &self.solver.factor.factor_blocks())
             .field("options", &self.options)
@@ -208,7 +208,8 @@ impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: u
     }
 }
 
-impl<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Simulation<'a, S, L, NB, NV, M, NNZ>
+impl<'a, S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
+    AbsoluteSimulation<'a, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
@@ -216,7 +217,7 @@ where
     /// A simulation of `scene` with user `loads` and `springs`; the block
     /// factor's schedule and the workspaces of `options.integrator` are
     /// built here, once (for another integrator later, call
-    /// [`Simulation::prepare`]: a step never builds, so it never allocates).
+    /// [`AbsoluteSimulation::prepare`]: a step never builds, so it never allocates).
     ///
     /// # Errors
     /// [`AnalysisError::BadInertia`] for a non-positive or non-finite mass or a
@@ -235,7 +236,7 @@ where
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
         let projected = boxed((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
-        let sim = Simulation {
+        let sim = AbsoluteSimulation {
             scene,
             loads,
             springs,
@@ -263,6 +264,27 @@ where
             sim
         };
         Ok(sim)
+    }
+
+    /// The state this simulation steps for the bodies' `system` state: the
+    /// same, absolute coordinates being the bodies' own (the relative
+    /// engine's [`TreeSimulation::state_of`](crate::tree::TreeSimulation::state_of)
+    /// converts). A state off its joints is not refused here: the first
+    /// step's projection closes it, as [`assemble`](crate::analysis::assemble) would.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NonFinite`] or [`AnalysisError::ZeroQuaternion`]
+    /// naming the body.
+    pub fn state_of(&self, system: &SystemState<NB>) -> Result<SystemState<NB>, AnalysisError> {
+        check_state::<S, NB, NV, M>(system, true)?;
+        Ok(*system)
+    }
+
+    /// The bodies' state of a state this simulation steps: the same (the
+    /// relative engine's [`TreeSimulation::system_state`](crate::tree::TreeSimulation::system_state)
+    /// runs the forward kinematics).
+    pub fn system_state(&self, state: &SystemState<NB>) -> SystemState<NB> {
+        *state
     }
 
     /// The scene.
@@ -315,7 +337,7 @@ where
         Ok(Accelerations { vdot: self.work.vdot, lambda: self.work.lambda })
     }
 
-    /// [`Simulation::solve`] into the workspace (`v̇`, `λ` in
+    /// [`AbsoluteSimulation::solve`] into the workspace (`v̇`, `λ` in
     /// `self.work`): no vector of the scene's size in this frame but the
     /// stabilisation's.
     pub(super) fn solve_in_work(
@@ -377,7 +399,7 @@ where
     }
 
     /// The reaction of the joint `block` (one of [`Scene::BLOCKS`]) on every
-    /// body, from the multipliers of [`Simulation::dynamics`] at `state`:
+    /// body, from the multipliers of [`AbsoluteSimulation::dynamics`] at `state`:
     /// `−J_kᵀ λ_k` split by body, from the Jacobian's nonzero entries. Rows
     /// outside `0..M` are ignored.
     pub fn reactions(&self, state: &SystemState<NB>, lambda: &SVector<f64, M>, block: &RowBlock) -> [Reaction; NB] {
@@ -415,7 +437,7 @@ where
     /// # Errors
     /// [`AnalysisError::BadOption`] for a step that is not positive and finite;
     /// [`AnalysisError::NotPrepared`] for an integrator whose workspace
-    /// neither `new` nor [`Simulation::prepare`] made; non-finite inputs; failures of the dynamics, of the implicit iteration
+    /// neither `new` nor [`AbsoluteSimulation::prepare`] made; non-finite inputs; failures of the dynamics, of the implicit iteration
     /// (or a midpoint solution its energy balance refuses,
     /// [`AnalysisError::SpuriousSolution`]) or of the projection. The
     /// implicit integrators' Newton matrices take the scene's generated
@@ -593,7 +615,7 @@ where
     }
 
     /// Generalised-α's workspace, built at its first use if
-    /// [`Simulation::new`] did not (another integrator, then
+    /// [`AbsoluteSimulation::new`] did not (another integrator, then
     /// [`integrate`](Self::integrate) with it): allocated once.
     pub(super) fn alpha_workspace(&mut self) -> Result<(), AnalysisError> {
         if self.alpha.is_none() {
@@ -615,7 +637,7 @@ where
 
     /// Builds the workspaces `integrator` steps in, unless they exist: the
     /// saddle-point matrix and its scratch for the implicit integrators (and
-    /// Radau IIA's real and complex matrices). [`Simulation::new`] does it
+    /// Radau IIA's real and complex matrices). [`AbsoluteSimulation::new`] does it
     /// for the integrator of its options; call this before stepping with
     /// another one (a step never builds, so it never allocates):
     ///
@@ -661,7 +683,7 @@ where
     ///
     /// # Errors
     /// [`AnalysisError::NotPrepared`] when they do not
-    /// ([`Simulation::prepare`] builds them).
+    /// ([`AbsoluteSimulation::prepare`] builds them).
     pub(super) fn ready(&self, integrator: Integrator) -> Result<(), AnalysisError> {
         let implicit = self.alpha.is_some() && self.alpha_work.is_some() && self.midpoint.is_some();
         let radau = self.radau.is_some() && self.radau_scratch.is_some() && self.radau_work.is_some();
@@ -773,7 +795,7 @@ where
         Ok((iterations, residual, velocity_residual))
     }
 
-    /// The velocity half of [`Simulation::project`] (`factored`: Newton
+    /// The velocity half of [`AbsoluteSimulation::project`] (`factored`: Newton
     /// converged, so the factor and the values buffer hold `J` at `state`);
     /// returns ‖J v + Φ_t‖. In a frame of its own, apart from Newton's.
     #[inline(never)]
@@ -814,7 +836,7 @@ where
 }
 
 impl<S: SparseJacobian<NB, NNZ>, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize>
-    Simulation<'_, S, L, NB, NV, M, NNZ>
+    AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 {
     /// The histories after a step of `integrator` was accepted at `state`:
     /// its own follows the state, the others' are dropped (as on the dense

@@ -99,7 +99,7 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
     /// and at the end ([`Tree::difference`](super::Tree::difference)), what
     /// an extended Kalman filter or an MPC propagates. By central
     /// differences of the step (`4 NV` more steps); the absolute path's
-    /// `Simulation::transition` is exact, of the implicit midpoint rule. On
+    /// `AbsoluteSimulation::transition` is exact, of the implicit midpoint rule. On
     /// error `state` is unchanged.
     pub fn transition(
         &mut self,

@@ -2,7 +2,7 @@
 //!
 //! The lecture notes give every joint twice: in absolute coordinates (six per
 //! body, the joint's rows as constraints: what [`Scene`](crate::Scene) and
-//! [`Simulation`](crate::dynamics::Simulation) run on) and in relative
+//! [`AbsoluteSimulation`](crate::dynamics::AbsoluteSimulation) run on) and in relative
 //! coordinates (body 2 relative to body 1). A scene declared with
 //! `#[scene(coordinates = relative)]` gets a [`TreeScene`] impl instead of the
 //! absolute ones (`coordinates = both`: both, from one declaration): its
@@ -44,7 +44,9 @@
 //! differentiated by the derive in the tree's coordinates
 //! ([`TreeScene::closure_rows`]: `Φ(q, t)`, `J`, `γ`, `Φ_t`); rows the tree
 //! keeps by construction (a planar loop's out-of-plane rows) are left out at
-//! compile time. [`TreeSimulation`] then solves `M v̇ + b = τ + Jᵀλ`,
+//! compile time. [`TreeSimulation`], the engine the one
+//! [`Simulation`](crate::dynamics::Simulation) makes for a relative scene,
+//! then solves `M v̇ + b = τ + Jᵀλ`,
 //! `J v̇ = γ` (redundant closure rows dropped by a pivoted factorisation, as
 //! the absolute `Simulation` drops redundant joint rows) and projects each
 //! step back onto `Φ = 0`, `J v + Φ_t = 0`. Spring-dampers act through

@@ -12,13 +12,23 @@ use super::{TreeJointKind, TreeScene, TreeState};
 use crate::SystemState;
 use crate::dynamics::Reaction;
 use crate::dynamics::adaptive::{A, AdaptiveSteps, C, E, StepError, Timed, integrate};
-use crate::dynamics::{Adaptive, AppliedLoads, Attachment, IntegrationReport, Loads, NoLoads, SpringDamper, Tolerance};
-use crate::linalg::{DEFAULT_RANK_TOLERANCE, PivotedCholesky};
+use crate::dynamics::{
+    Adaptive, AppliedLoads, Attachment, Energy, IntegrationReport, Integrator, Loads, NoLoads, SimulationOptions,
+    SpringDamper, Stabilisation, StepReport, Tolerance,
+};
+use crate::linalg::PivotedCholesky;
 
-/// The position projection's tolerance on the largest closure row, its
-/// Newton iterations, and the round-off floor it accepts (the absolute
-/// `Simulation`'s defaults).
-const PROJECTION: (f64, usize, f64) = (1e-12, 5, 1e-9);
+/// Newton iterations of [`TreeSimulation::assemble`].
+const ASSEMBLY_ITERATIONS: usize = 50;
+
+/// The tolerance on the largest closure row a projection ends below, its
+/// Newton iterations, and the round-off floor it accepts (`1e3 ×` the
+/// tolerance, as the absolute `Simulation`'s).
+type Projection = (f64, usize, f64);
+
+/// What closing the loops did: Newton iterations, `‖Φ‖₂` and
+/// `‖J v + Φ_t‖₂` at the end.
+type Closed = (usize, f64, f64);
 
 /// The simulation of a relative-coordinate scene: the scene (its generated
 /// articulated-body algorithm and closure rows, where the derive wrote them)
@@ -33,6 +43,8 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
     springs: &'a [SpringDamper],
     /// The user's loads, called with the bodies' state at every evaluation.
     loads: L,
+    /// The integrator (RK4), stabilisation, projection and rank tolerance.
+    options: SimulationOptions,
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -55,7 +67,8 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// The simulation of `scene`; refused when its tree is not valid
     /// ([`TreeError`]: inertias, axes, order).
     pub fn new(scene: &'a S) -> Result<Self, TreeError> {
-        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[], loads: NoLoads })
+        let options = SimulationOptions::default();
+        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[], loads: NoLoads, options })
     }
 }
 
@@ -76,8 +89,88 @@ impl<
     /// `Jᵀ [A τ'; f]` of its centre of mass (its wrench carried to the root). The
     /// same closure drives both coordinate choices of a scene.
     pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
-        let TreeSimulation { scene, tree, springs, .. } = self;
-        TreeSimulation { scene, tree, springs, loads }
+        let TreeSimulation { scene, tree, springs, options, .. } = self;
+        TreeSimulation { scene, tree, springs, loads, options }
+    }
+
+    /// The same simulation with `options` (the absolute `Simulation`'s):
+    /// the integrator must be [`Integrator::Rk4`] (the implicit integrators
+    /// are the absolute path's so far), `stabilisation` (Baumgarte on the
+    /// closure rows), `projection` (`None`: the loops are not projected
+    /// after a step; the tolerance bounds the largest closure row) and
+    /// `rank_tolerance` (the redundant closure rows) are honoured; the
+    /// implicit integrators' Newton options are not used.
+    ///
+    /// # Errors
+    /// [`TreeError::BadOption`] naming the option: another integrator, a
+    /// non-finite or negative Baumgarte coefficient, a projection
+    /// tolerance or rank tolerance that is not positive and finite.
+    pub fn with_options(mut self, options: SimulationOptions) -> Result<Self, TreeError> {
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if options.integrator != Integrator::Rk4 {
+            return Err(TreeError::BadOption { name: "integrator" });
+        }
+        if let Stabilisation::Baumgarte { alpha, beta } = options.stabilisation
+            && !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0)
+        {
+            return Err(TreeError::BadOption { name: "stabilisation" });
+        }
+        if options.projection.is_some_and(|p| !positive(p.tolerance)) {
+            return Err(TreeError::BadOption { name: "projection" });
+        }
+        if !positive(options.rank_tolerance) {
+            return Err(TreeError::BadOption { name: "rank_tolerance" });
+        }
+        self.options = options;
+        Ok(self)
+    }
+
+    /// The options in force.
+    pub fn options(&self) -> &SimulationOptions {
+        &self.options
+    }
+
+    /// The joint coordinates and velocities of the bodies' `system` state
+    /// (each joint's inverse kinematics, [`Tree::tree_state`]), refused when
+    /// a joint's bodies are apart or turned in a way it does not allow, or a
+    /// loop is open, by more than the projection's round-off floor (`1e3 ×`
+    /// its tolerance; 1e-9 without projection): a start off its joints is
+    /// reported by the joint's name, never moved silently
+    /// ([`TreeSimulation::assemble`] closes loops on request).
+    pub fn state_of(&self, system: &SystemState<NB>) -> Result<TreeState<NQ, NV>, TreeError> {
+        let (_, _, floor) = self.projection();
+        let state = self.tree.tree_state(system, floor)?;
+        if NC > 0 {
+            let phi = self.scene.closure_rows(&state, &self.tree.geometry).phi;
+            let misfit = phi.amax();
+            if misfit.is_nan() || misfit > floor {
+                return Err(TreeError::Closure { joint: closing_joint::<S, NB, NQ, NV, NC>(phi.iamax()), misfit });
+            }
+        }
+        Ok(state)
+    }
+
+    /// Each body's pose and velocity at `state` (the forward kinematics,
+    /// [`Tree::system_state`]): what recording, drawing and comparing with
+    /// the absolute path take.
+    pub fn system_state(&self, state: &TreeState<NQ, NV>) -> SystemState<NB> {
+        self.tree.system_state(state)
+    }
+
+    /// Kinetic, gravitational and elastic energy at `state` (the absolute
+    /// `Simulation`'s [`Energy`], the springs' included).
+    pub fn energy(&self, state: &TreeState<NQ, NV>) -> Energy {
+        let system = self.tree.system_state(state);
+        crate::dynamics::energy(&self.tree.mass, &self.tree.gravity, self.springs, &system)
+    }
+
+    /// The step's projection: the options' tolerance and iterations, or
+    /// none (no iterations, the default floor).
+    fn projection(&self) -> Projection {
+        match self.options.projection {
+            Some(p) => (p.tolerance, p.max_iterations, 1e3 * p.tolerance),
+            None => (1e-12, 0, 1e-9),
+        }
     }
 
     /// The same simulation with `springs` acting (the absolute
@@ -168,7 +261,14 @@ impl<
         }
         let rows = self.scene.closure_rows(state, &self.tree.geometry);
         let saddle = self.saddle(&state.q, &rows.jacobian, order)?;
-        let vdot = free + saddle.correction(&(rows.gamma - rows.jacobian * free));
+        let gamma = match self.options.stabilisation {
+            Stabilisation::None => rows.gamma,
+            Stabilisation::Baumgarte { alpha, beta } => {
+                let phi_dot = rows.jacobian * state.v + rows.phi_t;
+                rows.gamma - phi_dot * (2.0 * alpha) - rows.phi * (beta * beta)
+            }
+        };
+        let vdot = free + saddle.correction(&(gamma - rows.jacobian * free));
         Ok((vdot, Some(saddle.factor)))
     }
 
@@ -193,8 +293,8 @@ impl<
         let minv_jt = mass.solve(&jacobian.transpose());
         let s = jacobian * minv_jt;
         let factor = match order {
-            Some(f) => PivotedCholesky::with_order(&s, f.permutation(), f.rank(), DEFAULT_RANK_TOLERANCE),
-            None => PivotedCholesky::new(&s, DEFAULT_RANK_TOLERANCE),
+            Some(f) => PivotedCholesky::with_order(&s, f.permutation(), f.rank(), self.options.rank_tolerance),
+            None => PivotedCholesky::new(&s, self.options.rank_tolerance),
         }
         .map_err(|_| TreeError::NonFinite)?;
         Ok(Saddle { minv_jt, factor })
@@ -209,8 +309,11 @@ impl<
     /// Closes the loops after a step: `q` onto `Φ(q, t) = 0` by simplified
     /// Newton in the mass metric (one factor), then `v` onto
     /// `J v + Φ_t = 0` with that factor.
-    fn project(&self, state: &mut TreeState<NQ, NV>) -> Result<(), TreeError> {
-        self.close(state, PROJECTION, false)
+    fn project(&self, state: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
+        match self.options.projection {
+            Some(_) => self.close(state, self.projection(), false),
+            None => Ok((0, 0.0, 0.0)),
+        }
     }
 
     /// A state on its loops near `guess`: Newton in the mass metric from the
@@ -221,7 +324,8 @@ impl<
     pub fn assemble(&self, guess: &TreeState<NQ, NV>) -> Result<TreeState<NQ, NV>, TreeError> {
         let mut state = *guess;
         self.tree.normalise(&mut state.q);
-        self.close(&mut state, (PROJECTION.0, 50, PROJECTION.2), true)?;
+        let (tolerance, _, floor) = self.projection();
+        self.close(&mut state, (tolerance, ASSEMBLY_ITERATIONS, floor), true)?;
         Ok(state)
     }
 
@@ -230,18 +334,20 @@ impl<
     fn close(
         &self,
         state: &mut TreeState<NQ, NV>,
-        (tolerance, iterations, floor): (f64, usize, f64),
+        (tolerance, iterations, floor): Projection,
         refactor: bool,
-    ) -> Result<(), TreeError> {
+    ) -> Result<Closed, TreeError> {
         if NC == 0 {
-            return Ok(());
+            return Ok((0, 0.0, 0.0));
         }
         let mut rows = self.scene.closure_rows(state, &self.tree.geometry);
         let mut saddle = self.saddle(&state.q, &rows.jacobian, None)?;
+        let mut done = 0;
         for _ in 0..iterations {
             if rows.phi.amax() <= tolerance {
                 break;
             }
+            done += 1;
             let dq = -saddle.correction(&rows.phi);
             self.tree.displace(&mut state.q, &dq);
             rows = self.scene.closure_rows(state, &self.tree.geometry);
@@ -254,14 +360,18 @@ impl<
         }
         let misfit = rows.phi.amax();
         if misfit > floor {
-            let worst = rows.phi.iamax();
-            let joint =
-                S::CLOSURES.iter().find(|b| (b.start..b.start + b.rows).contains(&worst)).map_or("", |b| b.name);
-            return Err(TreeError::Closure { joint, misfit });
+            return Err(TreeError::Closure { joint: closing_joint::<S, NB, NQ, NV, NC>(rows.phi.iamax()), misfit });
         }
-        let drift = rows.jacobian * state.v + rows.phi_t;
-        state.v -= saddle.correction(&drift);
-        Ok(())
+        // The factor is the first iterate's when Newton moved `q` without
+        // refactoring: one more solve on the residual it leaves takes
+        // `J v + Φ_t` from O(|δq| |drift|) to round-off.
+        let mut drift = rows.jacobian * state.v + rows.phi_t;
+        for _ in 0..if done > 0 && !refactor { 2 } else { 1 } {
+            let correction = saddle.correction(&drift);
+            state.v -= correction;
+            drift -= rows.jacobian * correction;
+        }
+        Ok((done, rows.phi.norm(), drift.norm()))
     }
 
     /// The tree's own `v̇` under joint forces `tau`, closures left out: the
@@ -311,8 +421,9 @@ impl<
         }
     }
 
-    /// One RK4 step of length `h` with no joint forces.
-    pub fn step(&mut self, state: &mut TreeState<NQ, NV>, h: f64) -> Result<(), TreeError> {
+    /// One RK4 step of length `h` with no joint forces: what the projection
+    /// did in the [`StepReport`] (no Newton iterations: RK4 is explicit).
+    pub fn step(&mut self, state: &mut TreeState<NQ, NV>, h: f64) -> Result<StepReport, TreeError> {
         self.step_with(state, h, &SVector::zeros())
     }
 
@@ -323,7 +434,7 @@ impl<
         state: &mut TreeState<NQ, NV>,
         h: f64,
         tau: &SVector<f64, NV>,
-    ) -> Result<(), TreeError> {
+    ) -> Result<StepReport, TreeError> {
         if !(h.is_finite() && tau.iter().all(|x| x.is_finite())) {
             return Err(TreeError::NonFinite);
         }
@@ -347,22 +458,22 @@ impl<
             v: state.v + (v1 + (v2 + v3) * 2.0 + v4) * (h / 6.0),
             t: state.t + h,
         };
-        self.finish(&mut next)?;
+        let (projection_iterations, constraint_residual, velocity_residual) = self.finish(&mut next)?;
         *state = next;
-        Ok(())
+        Ok(StepReport { projection_iterations, constraint_residual, velocity_residual, ..StepReport::default() })
     }
 
     /// A step's end: quaternions back to unit length, loops closed, every
     /// number finite.
-    fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<(), TreeError> {
+    fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
         self.tree.normalise(&mut next.q);
-        self.project(next)?;
+        let closed = self.project(next)?;
         let finite = next.q.iter().chain(next.v.iter()).all(|x| x.is_finite());
-        if finite { Ok(()) } else { Err(TreeError::NonFinite) }
+        if finite { Ok(closed) } else { Err(TreeError::NonFinite) }
     }
 
     /// Advances `state` to `t_end` with error-controlled steps, as the
-    /// absolute `Simulation::integrate` does (the same driver: step-size
+    /// absolute `AbsoluteSimulation::integrate` does (the same driver: step-size
     /// rule, error norm, [`IntegrationReport`]) on `(q, v)`, each accepted
     /// step's quaternions renormalised and its loops closed as
     /// [`TreeSimulation::step`] does. `method` is
@@ -412,7 +523,7 @@ impl<'a, S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const N
     /// `k`'s (tree order; its child is `tree().joints()[k].child`), the
     /// whole wrench the parent exerts through it, the joint's own forces
     /// included (their share along its freedoms is `tau`). As the absolute
-    /// [`Simulation::reactions`](crate::dynamics::Simulation::reactions)
+    /// [`AbsoluteSimulation::reactions`](crate::dynamics::AbsoluteSimulation::reactions)
     /// gives them: force in inertial components through the child's centre
     /// of mass, torque about it in the child's components; the parent
     /// feels the opposite. From the recursive Newton–Euler algorithm on the
@@ -650,6 +761,13 @@ fn turn<const NQ: usize, const NV: usize>(
     let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());
     let d = (p * turn).into_inner();
     q.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+}
+
+/// The closing joint whose rows hold closure row `row`.
+fn closing_joint<S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+    row: usize,
+) -> &'static str {
+    S::CLOSURES.iter().find(|b| (b.start..b.start + b.rows).contains(&row)).map_or("", |b| b.name)
 }
 
 /// Each spring end's force on its body in the bodies' state `system`:

@@ -41,21 +41,19 @@ mod scenes {
     #[joint(ball[i in 1..4] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
     pub struct PlainChain;
 
-    type Sim<'a, S> = Simulation<'a, S, NoLoads, 4, 24, 12, 66>;
-
     checked! {
         fn simulation_new<'a>(
             scene: &'a Chain,
             springs: &'a [SpringDamper],
             options: SimulationOptions,
-        ) -> Result<Sim<'a, Chain>, AnalysisError> {
+        ) -> Result<Simulation<'a, Chain>, AnalysisError> {
             Simulation::new(scene, NoLoads, springs, options)
         }
         fn plain_simulation_new<'a>(
             scene: &'a PlainChain,
             springs: &'a [SpringDamper],
             options: SimulationOptions,
-        ) -> Result<Sim<'a, PlainChain>, AnalysisError> {
+        ) -> Result<Simulation<'a, PlainChain>, AnalysisError> {
             Simulation::new(scene, NoLoads, springs, options)
         }
         fn analyses_new<'a>(scene: &'a Chain) -> Result<Analyses<'a, Chain, 4, 24, 12, 66>, AnalysisError> {

@@ -3,7 +3,7 @@
 //! kinetic energy computed from the bodies, against each other, and the motion
 //! against the same declaration in absolute coordinates (`coordinates = both`).
 
-use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 use joint_runtime::tree::{Tree, TreeError, TreeScene, TreeSimulation, TreeState};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
@@ -305,7 +305,7 @@ where
     S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + TreeScene<NB, NQ, NV, NC>,
 {
     let mut relative = TreeSimulation::new(scene).unwrap();
-    let mut absolute = Simulation::new(scene, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut absolute = AbsoluteSimulation::new(scene, NoLoads, &[], SimulationOptions::default()).unwrap();
     let mut tree_state = start;
     let mut system = relative.tree().system_state(&start);
     let energy = relative.tree().energy(&start).total();

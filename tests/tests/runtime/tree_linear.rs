@@ -3,7 +3,7 @@
 //! the same declaration: at an equilibrium the poles are the same whatever
 //! the coordinates. And its input matrix against the mass matrix.
 
-use joint_runtime::dynamics::{Loads, NoLoads, Simulation, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Loads, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{Complex, DMatrix, SVector, Vector3};
 use joint_runtime::tree::{TreeScene, TreeSimulation};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
@@ -57,7 +57,7 @@ where
     let state = tree.tree().zero_state();
     let lin = tree.linearise(&state, &SVector::zeros()).unwrap();
     let system: SystemState<NB> = tree.tree().system_state(&state);
-    let mut absolute = Simulation::new(scene, loads, &[], SimulationOptions::default()).unwrap();
+    let mut absolute = AbsoluteSimulation::new(scene, loads, &[], SimulationOptions::default()).unwrap();
     let exact = absolute.linearise(&system, &DMatrix::zeros(NV6, 0)).unwrap();
     assert_eq!((lin.freedoms, exact.freedoms), (NV, NV));
     let (mine, theirs) = (lin.eigenvalues().unwrap(), exact.eigenvalues().unwrap());

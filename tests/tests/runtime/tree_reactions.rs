@@ -4,7 +4,9 @@
 //! loads and springs acting; a floating body's free joint carries nothing;
 //! the share along a joint's freedom is its joint force.
 
-use joint_runtime::dynamics::{AppliedLoads, Attachment, Loads, Reaction, Simulation, SimulationOptions, SpringDamper};
+use joint_runtime::dynamics::{
+    AbsoluteSimulation, AppliedLoads, Attachment, Loads, Reaction, SimulationOptions, SpringDamper,
+};
 use joint_runtime::nalgebra::{SVector, Vector3};
 use joint_runtime::tree::{TreeScene, TreeSimulation, TreeState};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
@@ -36,7 +38,7 @@ where
     let mut relative = TreeSimulation::new(scene).unwrap().with_springs(springs).unwrap().with_loads(loads);
     let mine = relative.reactions(tree_state, &SVector::zeros()).unwrap();
     let system: SystemState<NB> = relative.tree().system_state(tree_state);
-    let mut absolute = Simulation::new(scene, loads, springs, SimulationOptions::default()).unwrap();
+    let mut absolute = AbsoluteSimulation::new(scene, loads, springs, SimulationOptions::default()).unwrap();
     let lambda = absolute.dynamics(&system).unwrap().lambda;
     let mut largest = 0.0_f64;
     for (k, joint) in relative.tree().joints().iter().enumerate() {

@@ -16,7 +16,7 @@ where
     /// `method`, projecting after every accepted step if the options say so.
     ///
     /// # Errors
-    /// As [`Simulation::integrate`](super::Simulation::integrate).
+    /// As [`AbsoluteSimulation::integrate`](super::AbsoluteSimulation::integrate).
     pub fn integrate(
         &mut self,
         state: &mut SystemState<NB>,
