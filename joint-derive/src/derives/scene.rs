@@ -17,6 +17,20 @@ use crate::second_order::{self, Terms};
 /// The derive's entry point.
 pub fn derive(input: &syn::DeriveInput) -> TokenStream {
     let parsed = scene::parse(input);
+    // A file the scene was read from is included, so that cargo rebuilds
+    // the crate when the file changes.
+    let files = parsed.as_ref().map_or_else(|_| Vec::new(), |s| s.files.clone());
+    let mut out = expand(input, parsed);
+    out.extend(files.iter().map(|path| {
+        quote!(
+            const _: &[u8] = ::core::include_bytes!(#path);
+        )
+    }));
+    out
+}
+
+/// The impls of a parsed declaration, or the stub.
+fn expand(input: &syn::DeriveInput, parsed: syn::Result<SceneDecl>) -> TokenStream {
     // A tree's closures (joints outside it), derived in its coordinates.
     let loops = match parsed.as_ref().map(super::tree::closures) {
         Ok(Err(e)) => {

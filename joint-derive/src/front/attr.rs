@@ -85,6 +85,8 @@ pub enum Value {
     Rows(Vec<syn::Expr>, Span),
     /// `body1(s = [..], ...)`: constants tagged with a body.
     Group(Vec<Arg>, Span),
+    /// `"robot.urdf"`: a file's path.
+    Text(syn::LitStr),
 }
 
 impl Value {
@@ -92,6 +94,7 @@ impl Value {
     pub fn span(&self) -> Span {
         match self {
             Value::Ident(i) => i.span(),
+            Value::Text(t) => t.span(),
             Value::Number(_, s) | Value::List(_, s) | Value::Rows(_, s) | Value::Group(_, s) => *s,
         }
     }
@@ -106,7 +109,7 @@ impl Value {
                 let span = i.span();
                 Some((vec![Number::Named(syn::parse_quote_spanned!(span=> #i))], span))
             }
-            Value::Rows(..) | Value::Group(..) => None,
+            Value::Rows(..) | Value::Group(..) | Value::Text(_) => None,
         }
     }
 }
@@ -202,6 +205,9 @@ impl Parse for Arg {
         }
         if input.peek(syn::token::Bracket) {
             return Ok(Arg { key, value: Some(list(input)?) });
+        }
+        if input.peek(syn::LitStr) {
+            return Ok(Arg { key, value: Some(Value::Text(input.parse()?)) });
         }
         let expr: syn::Expr = input.parse().map_err(|e| syn::Error::new(e.span(), EXPECTED_NUMBER))?;
         let value = match &expr {

@@ -21,6 +21,8 @@ pub mod resolve;
 pub mod rows;
 pub mod scene;
 pub mod tree;
+#[cfg(feature = "urdf")]
+pub mod urdf;
 
 #[cfg(test)]
 mod tests;

@@ -260,6 +260,9 @@ pub struct SceneDecl {
     pub tree: Option<Vec<super::tree::TreeEdge>>,
     /// Whether the absolute impls are wanted (`absolute`, the default, and `both`).
     pub absolute: bool,
+    /// Files read (`urdf = ".."`), absolute: the output includes them so that
+    /// cargo rebuilds when they change.
+    pub files: Vec<String>,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -417,17 +420,35 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let Options { gravity, second_order, relative, absolute } = scene_options(input, &fields, &mut errors);
-    let bodies = bodies(input, &fields, &mut errors);
-    if bodies.is_empty() && !written("body") {
+    let Options { gravity, second_order, relative, absolute, urdf, floating_base } =
+        scene_options(input, &fields, &mut errors);
+    if let (Some(at), None) = (floating_base, &urdf) {
+        errors.at(at, "`floating_base` is for a robot's file (`urdf = \"..\"`): a body without joints floats already");
+    }
+    let (mut bodies, file_joints, files) =
+        urdf.as_ref().and_then(|lit| robot(lit, floating_base.is_some(), &mut errors)).unwrap_or_default();
+    bodies.extend(self::bodies(input, &fields, &mut errors));
+    let from_file = urdf.is_some();
+    if bodies.is_empty() && !written("body") && !from_file {
         let message = "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`";
         errors.at(input.ident.span(), message);
     }
-    if !bodies.is_empty() && !written("joint") {
+    if !bodies.is_empty() && !written("joint") && !from_file {
         errors.at(input.ident.span(), "a scene needs joints; add `#[joint(NAME = KIND(BODY, BODY), ..)]`");
     }
-    let mut scene =
-        SceneDecl { bodies, joints: Vec::new(), gravity, time_types: Vec::new(), second_order, tree: None, absolute };
+    let mut scene = SceneDecl {
+        bodies,
+        joints: Vec::new(),
+        gravity,
+        time_types: Vec::new(),
+        second_order,
+        tree: None,
+        absolute,
+        files,
+    };
+    for j in file_joints {
+        scene.joint(j, &fields, &mut errors);
+    }
     // With no bodies every joint would be ground to ground: say the one thing that is wrong.
     if !scene.bodies.is_empty() {
         for attr in input.attrs.iter().filter(|a| a.path().is_ident("joint")) {
@@ -453,6 +474,72 @@ struct Options {
     /// Where `relative` or `both` was asked for.
     relative: Option<Span>,
     absolute: bool,
+    /// `urdf = "path"`: a robot's file.
+    urdf: Option<syn::LitStr>,
+    /// `floating_base`: the file's root link floats.
+    floating_base: Option<Span>,
+}
+
+/// A robot file's bodies and joints as attributes would give them (at the
+/// path's span), and the file; `None` after an error.
+#[cfg(feature = "urdf")]
+fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<(Vec<Body>, Vec<JointAttr>, Vec<String>)> {
+    let robot = super::urdf::read(lit, floating).map_err(|e| errors.push(e)).ok()?;
+    let span = lit.span();
+    let mut names = Vec::new();
+    let mut ident = |name: &str, errors: &mut Errors| -> syn::Ident {
+        let mut text: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+        if text.starts_with(|c: char| c.is_ascii_digit())
+            || text == "ground"
+            || syn::parse_str::<syn::Ident>(&text).is_err()
+        {
+            text.insert(0, '_');
+        }
+        if names.contains(&text) {
+            errors.at(span, format!("`{name}` and another name of the file are both `{text}` as Rust names"));
+        }
+        names.push(text.clone());
+        syn::Ident::new(&text, span)
+    };
+    let known = |v: &[f64]| v.iter().map(|&x| Number::Known(x)).collect::<Vec<_>>();
+    let bodies: Vec<Body> = robot
+        .bodies
+        .iter()
+        .map(|b| Body {
+            name: ident(&b.name, errors),
+            element: None,
+            mass: Quantity::Const(known(&[b.mass])),
+            inertia: Quantity::Const(known(&b.inertia)),
+        })
+        .collect();
+    let body_ref = |b: Option<usize>| BodyRef {
+        name: b.map_or_else(|| syn::Ident::new("ground", span), |b| bodies[b].name.clone()),
+        index: None,
+    };
+    let list = |v: &[f64; 3]| Some(Value::List(known(v), span));
+    let arg = |key: &str, v: &[f64; 3]| Arg { key: syn::Ident::new(key, span), value: list(v) };
+    let joints = robot
+        .joints
+        .iter()
+        .map(|j| JointAttr {
+            name: ident(&j.name, errors),
+            repeat: None,
+            kind: syn::Ident::new(j.kind, span),
+            bodies: vec![body_ref(j.parent), body_ref(Some(j.child))],
+            args: vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+        })
+        .collect();
+    Some((bodies, joints, vec![robot.path]))
+}
+
+/// Without the `urdf` feature, a file cannot be read.
+#[cfg(not(feature = "urdf"))]
+fn robot(lit: &syn::LitStr, _: bool, errors: &mut Errors) -> Option<(Vec<Body>, Vec<JointAttr>, Vec<String>)> {
+    errors.at(
+        lit.span(),
+        "reading a URDF file needs the `urdf` feature: `joint-runtime = { version = \"..\", features = [\"urdf\"] }`",
+    );
+    None
 }
 
 /// `#[scene(gravity = .., formulation = omega_body, second_order, coordinates
@@ -462,8 +549,19 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     let mut gravity = Slot::new("`gravity`", "it once");
     let mut second_order = Slot::new("`second_order`", "it once");
     let mut coordinates = Slot::new("`coordinates`", "it once");
+    let mut urdf = Slot::new("`urdf`", "it once");
+    let mut floating_base = Slot::new("`floating_base`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
+            "floating_base" => match a.value {
+                None => floating_base.set(a.key.span(), (), errors),
+                Some(v) => errors.at(v.span(), "`floating_base` takes no value; expected `floating_base` alone"),
+            },
+            "urdf" => match a.value {
+                Some(Value::Text(path)) => urdf.set(a.key.span(), path, errors),
+                _ => errors
+                    .at(a.key.span(), "expected `urdf = \"path/to/robot.urdf\"` (relative to the crate's directory)"),
+            },
             "gravity" => {
                 if let Some(q) = quantity(a.value, &a.key, fields, errors) {
                     gravity.set(a.key.span(), q, errors);
@@ -492,23 +590,38 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 ),
             },
             other => {
-                let hint = did_you_mean(other, ["gravity", "second_order", "coordinates"]);
+                let hint = did_you_mean(other, ["gravity", "second_order", "coordinates", "urdf", "floating_base"]);
                 errors.at(
                     a.key.span(),
                     format!(
-                        "unknown scene option `{other}`{hint}; expected `gravity`, `second_order` or `coordinates`"
+                        "unknown scene option `{other}`{hint}; expected `gravity`, `second_order`, `coordinates`, \
+                         `urdf` or `floating_base`"
                     ),
                 )
             }
         }
     }
     let gravity = gravity.take().map_or(Quantity::Const(vec![Number::Known(0.0); 3]), |(q, _)| q);
+    let urdf = urdf.take().map(|(path, _)| path);
+    // A robot's file is a tree: relative coordinates unless asked otherwise.
     let (relative, absolute) = match coordinates.take() {
         Some((c, span)) if c == "relative" => (Some(span), false),
         Some((c, span)) if c == "both" => (Some(span), true),
-        _ => (None, true),
+        Some(_) => (None, true),
+        None => match &urdf {
+            Some(path) => (Some(path.span()), false),
+            None => (None, true),
+        },
     };
-    Options { gravity, second_order: second_order.take().map(|(_, span)| span), relative, absolute }
+    let floating_base = floating_base.take().map(|(_, span)| span);
+    Options {
+        gravity,
+        second_order: second_order.take().map(|(_, span)| span),
+        relative,
+        absolute,
+        urdf,
+        floating_base,
+    }
 }
 
 /// The `#[body(..)]` attributes, checked: names unique and distinct from the

@@ -26,3 +26,4 @@ mod tree_adaptive;
 mod tree_joints;
 mod tree_linear;
 mod tree_reactions;
+mod urdf;

@@ -1,0 +1,201 @@
+//! Robots read from their URDF files (`#[scene(urdf = "..")]`) against
+//! Pinocchio: the mass matrix, inverse and forward dynamics at 100 random
+//! states per robot (`tests/data/robots/reference.py` wrote the values, with
+//! Pinocchio's fixed-base model of each file), equal to 1e-12 of each
+//! quantity's largest entry; and 1 s of motion under gravity against
+//! Pinocchio's RK4.
+
+use joint_runtime::Scene;
+use joint_runtime::nalgebra::{SMatrix, SVector};
+use joint_runtime::tree::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
+use serde_json::Value;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/double_pendulum.urdf")]
+struct DoublePendulum;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
+struct Ur5;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf")]
+struct Panda;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf")]
+struct Solo12;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base)]
+struct Solo12Floating;
+
+/// Pinocchio's values for `robot`.
+fn reference(robot: &str) -> Value {
+    let path = format!("{}/data/robots/{robot}.json", env!("CARGO_MANIFEST_DIR"));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+}
+
+/// The largest difference over the largest entry of the reference.
+fn relative(ours: impl Iterator<Item = f64>, theirs: impl Iterator<Item = f64>) -> f64 {
+    let (mut diff, mut scale) = (0.0_f64, 0.0_f64);
+    for (a, b) in ours.zip(theirs) {
+        diff = diff.max((a - b).abs());
+        scale = scale.max(b.abs());
+    }
+    diff / scale.max(f64::MIN_POSITIVE)
+}
+
+/// Where each of our joints' coordinates and velocities are in Pinocchio's
+/// vectors (the file's joints found by name; a floating root is Pinocchio's
+/// `root_joint`), and how many.
+fn joint_map<S, const NB: usize, const NQ: usize, const NV: usize>(
+    sim: &TreeSimulation<'_, S, NB, NQ, NV>,
+    data: &Value,
+) -> Vec<(TreeJointKind, usize, usize)>
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let (mut q_at, mut v_at) = (0, 0);
+    let mut theirs = std::collections::HashMap::new();
+    for j in data["joints"].as_array().unwrap() {
+        let name = if j["type"] == "floating" { "free" } else { j["name"].as_str().unwrap() };
+        theirs.insert(name.to_string(), (q_at, v_at));
+        q_at += j["nq"].as_u64().unwrap() as usize;
+        v_at += j["nv"].as_u64().unwrap() as usize;
+    }
+    assert_eq!((q_at, v_at), (NQ, NV), "the same coordinates and freedoms");
+    let key = |name: &str| if name.starts_with("free(") { "free".to_string() } else { name.to_string() };
+    sim.tree().joints().iter().map(|j| (j.kind, theirs[&key(j.name)].0, theirs[&key(j.name)].1)).collect()
+}
+
+/// Pinocchio's `q` in ours: a free joint's quaternion `[x, y, z, w]` first
+/// `w`; its position is the base's origin, here its centre of mass (the
+/// robots' bases have theirs at the origin of their frames).
+fn our_q<const NQ: usize>(map: &[(TreeJointKind, usize, usize)], q: &[f64]) -> SVector<f64, NQ> {
+    let mut out = SVector::<f64, NQ>::zeros();
+    let mut at = 0;
+    for &(kind, theirs, _) in map {
+        let n = kind.coordinates();
+        for i in 0..n {
+            out[at + i] = q[theirs + i];
+        }
+        if kind == TreeJointKind::Free {
+            let (x, y, z, w) = (q[theirs + 3], q[theirs + 4], q[theirs + 5], q[theirs + 6]);
+            out.fixed_rows_mut::<4>(at + 3).copy_from(&joint_runtime::nalgebra::Vector4::new(w, x, y, z));
+        }
+        at += n;
+    }
+    out
+}
+
+/// Pinocchio's velocity-like vector in ours (a free joint's velocities are
+/// the same: its base frame's, local components).
+fn our_v<const NV: usize>(map: &[(TreeJointKind, usize, usize)], v: &[f64]) -> SVector<f64, NV> {
+    let mut out = SVector::<f64, NV>::zeros();
+    let mut at = 0;
+    for &(kind, _, theirs) in map {
+        for i in 0..kind.freedoms() {
+            out[at + i] = v[theirs + i];
+        }
+        at += kind.freedoms();
+    }
+    out
+}
+
+/// Every sample of `robot`: `M`, `τ = RNEA(q, v, a)` and `q̈ = ABA(q, v,
+/// τ)`; returns the largest relative differences.
+fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str) -> [f64; 3]
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let data = reference(robot);
+    let mut sim = TreeSimulation::new(scene).unwrap();
+    let map = joint_map(&sim, &data);
+    let mut index = vec![0; NV];
+    let mut at = 0;
+    for &(kind, _, theirs) in &map {
+        for i in 0..kind.freedoms() {
+            index[at + i] = theirs + i;
+        }
+        at += kind.freedoms();
+    }
+    let mut worst = [0.0_f64; 3];
+    for s in data["samples"].as_array().unwrap() {
+        let v = |key: &str| our_v::<NV>(&map, &numbers(&s[key]));
+        let state = TreeState::<NQ, NV> { q: our_q(&map, &numbers(&s["q"])), v: v("v"), t: 0.0 };
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        sim.mass_matrix_into(&state.q, &mut m);
+        let rows: Vec<Vec<f64>> = s["mass_matrix"].as_array().unwrap().iter().map(numbers).collect();
+        let theirs = (0..NV * NV).map(|i| rows[index[i % NV]][index[i / NV]]);
+        worst[0] = worst[0].max(relative(m.iter().copied(), theirs));
+        let tau = sim.inverse_dynamics(&state, &v("a"));
+        worst[1] = worst[1].max(relative(tau.iter().copied(), v("rnea").iter().copied()));
+        let qdd = sim.forward_dynamics(&state, &v("tau")).unwrap();
+        worst[2] = worst[2].max(relative(qdd.iter().copied(), v("aba").iter().copied()));
+    }
+    eprintln!("{robot}: M {:.1e}, RNEA {:.1e}, ABA {:.1e} of the largest entry", worst[0], worst[1], worst[2]);
+    for (what, w) in ["M", "RNEA", "ABA"].iter().zip(worst) {
+        assert!(w < 1e-12, "{robot}: {what} off by {w:e} of its largest entry");
+    }
+    worst
+}
+
+/// 1 s under gravity from the first sample at rest, RK4 at h = 1e-4 on both
+/// sides: the same coordinates and rates to `bound`.
+fn motion_against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str, bound: f64)
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let data = reference(robot);
+    let mut sim = TreeSimulation::new(scene).unwrap();
+    let map = joint_map(&sim, &data);
+    let motion = &data["motion"];
+    let h = motion["h"].as_f64().unwrap();
+    let steps = (motion["t"].as_f64().unwrap() / h).round() as usize;
+    let mut state = TreeState::<NQ, NV> { q: our_q(&map, &numbers(&motion["q0"])), v: SVector::zeros(), t: 0.0 };
+    for _ in 0..steps {
+        sim.step(&mut state, h).unwrap();
+    }
+    let (q1, v1) = (our_q::<NQ>(&map, &numbers(&motion["q1"])), our_v::<NV>(&map, &numbers(&motion["v1"])));
+    let (dq, dv) = ((state.q - q1).amax(), (state.v - v1).amax());
+    eprintln!("{robot}: after 1 s, q to {dq:.1e}, v to {dv:.1e} (|v| up to {:.2})", v1.amax());
+    assert!(dq < bound && dv < bound, "{robot}: q off by {dq:e}, v by {dv:e}");
+}
+
+#[test]
+fn double_pendulum_against_pinocchio() {
+    against_pinocchio(&DoublePendulum, "double_pendulum");
+}
+
+#[test]
+fn ur5_against_pinocchio() {
+    against_pinocchio(&Ur5, "ur5");
+}
+
+#[test]
+fn panda_against_pinocchio() {
+    against_pinocchio(&Panda, "panda");
+}
+
+#[test]
+fn solo12_fixed_base_against_pinocchio() {
+    against_pinocchio(&Solo12, "solo12");
+}
+
+#[test]
+fn solo12_floating_base_against_pinocchio() {
+    against_pinocchio(&Solo12Floating, "solo12_floating");
+}
+
+#[test]
+fn motion_against_pinocchio_rk4() {
+    motion_against_pinocchio(&DoublePendulum, "double_pendulum", 1e-11);
+    motion_against_pinocchio(&Ur5, "ur5", 1e-11);
+    motion_against_pinocchio(&Panda, "panda", 1e-11);
+    motion_against_pinocchio(&Solo12Floating, "solo12_floating", 1e-11);
+}
