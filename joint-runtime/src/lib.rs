@@ -22,6 +22,7 @@ mod joint;
 pub mod linalg;
 #[cfg(feature = "record")]
 pub mod record;
+pub mod robot;
 pub mod scene;
 #[cfg(feature = "serde")]
 mod serde_array;

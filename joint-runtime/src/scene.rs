@@ -36,6 +36,55 @@ impl BodyInertia {
     pub fn principal(mass: f64, moments: Vector3<f64>) -> Self {
         BodyInertia { mass, inertia: Matrix3::from_diagonal(&moments) }
     }
+
+    /// The tensor's eigenvalues (the principal moments), ascending, of its
+    /// symmetric part (the trigonometric closed form: no iteration).
+    pub fn principal_moments(&self) -> [f64; 3] {
+        let a = (self.inertia + self.inertia.transpose()) * 0.5;
+        let off = a[(0, 1)] * a[(0, 1)] + a[(0, 2)] * a[(0, 2)] + a[(1, 2)] * a[(1, 2)];
+        let q = a.trace() / 3.0;
+        let (dx, dy, dz) = (a[(0, 0)] - q, a[(1, 1)] - q, a[(2, 2)] - q);
+        let p2 = dx * dx + dy * dy + dz * dz + 2.0 * off;
+        if off == 0.0 || p2 == 0.0 {
+            let mut d = [a[(0, 0)], a[(1, 1)], a[(2, 2)]];
+            sort3(&mut d);
+            return d;
+        }
+        let p = libm::sqrt(p2 / 6.0);
+        let b = (a - Matrix3::identity() * q) / p;
+        let phi = libm::acos((b.determinant() / 2.0).clamp(-1.0, 1.0)) / 3.0;
+        let high = q + 2.0 * p * libm::cos(phi);
+        let low = q + 2.0 * p * libm::cos(phi + 2.0 * core::f64::consts::PI / 3.0);
+        let mut d = [low, 3.0 * q - high - low, high];
+        sort3(&mut d);
+        d
+    }
+
+    /// Whether a rigid body has these mass properties: a positive finite
+    /// mass and a symmetric tensor whose principal moments are positive and
+    /// each at most the sum of the other two (as MuJoCo checks; to 1e-12 of
+    /// their sum, so that a thin rod or a flat plate passes).
+    pub fn is_physical(&self) -> bool {
+        let i = self.inertia;
+        if !(self.mass > 0.0 && self.mass.is_finite() && i.iter().all(|x| x.is_finite())) {
+            return false;
+        }
+        if (i - i.transpose()).abs().max() > 1e-12 * i.abs().max() {
+            return false;
+        }
+        let [a, b, c] = self.principal_moments();
+        let slack = 1e-12 * (a + b + c);
+        a > 0.0 && a + b + slack >= c
+    }
+}
+
+/// Three numbers in ascending order.
+fn sort3(d: &mut [f64; 3]) {
+    for (i, j) in [(0, 1), (1, 2), (0, 1)] {
+        if d[j] < d[i] {
+            d.swap(i, j);
+        }
+    }
 }
 
 /// A joint point of a scene (`rho1` or `rho2` of one of its joints), from

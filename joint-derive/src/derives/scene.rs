@@ -232,10 +232,12 @@ fn print(
     let alias = state_alias(input, nb);
     let engine = Engine::Absolute([s.bodies.len(), 6 * s.bodies.len(), d.phi.len(), csr.columns.len()]);
     let simulate = simulate(input, &generics, engine);
+    let file = file_constants(input, &generics, s);
     quote! {
         #alias
         #tree
         #simulate
+        #file
 
         #[doc = #doc]
         #lints
@@ -318,6 +320,49 @@ fn simulate(input: &syn::DeriveInput, generics: &syn::Generics, engine: Engine) 
     }
 }
 
+/// A robot file's links and limits as the scene's inherent constants
+/// `LINKS` and `LIMITS`, by the file's names.
+fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneDecl) -> TokenStream {
+    let Some(data) = &s.file else { return TokenStream::new() };
+    let (k, lints, ident) = (krate(), lints(), &input.ident);
+    let (ig, tg, wc) = generics.split_for_impl();
+    let some = |x: Option<TokenStream>| match x {
+        Some(x) => quote!(::core::option::Option::Some(#x)),
+        None => quote!(::core::option::Option::None),
+    };
+    let links = data.links.iter().map(|l| {
+        let (name, body) = (&l.name, some(l.body.map(|b| quote!(#b))));
+        let r = &l.rotation;
+        let columns = (0..3).map(|c| {
+            let (x, y, z) = (r[0][c], r[1][c], r[2][c]);
+            quote!([#x, #y, #z])
+        });
+        let [x, y, z] = l.origin;
+        quote!(#k::robot::LinkFrame { name: #name, body: #body, rotation: [#(#columns),*], origin: [#x, #y, #z] })
+    });
+    let limits = data.limits.iter().map(|(name, l)| {
+        let range = some(l.range.map(|(a, b)| quote!((#a, #b))));
+        let [effort, velocity, damping, friction] =
+            [l.effort, l.velocity, l.damping, l.friction].map(|x| some(x.map(|x| quote!(#x))));
+        quote! {
+            #k::robot::JointLimits {
+                name: #name, range: #range, effort: #effort, velocity: #velocity, damping: #damping, friction: #friction,
+            }
+        }
+    });
+    let (nl, nj) = (data.links.len(), data.limits.len());
+    quote! {
+        /// What the robot's file says beyond the dynamics, by its names.
+        #lints
+        impl #ig #ident #tg #wc {
+            /// Every link's frame on its body, in the file's order.
+            pub const LINKS: [#k::robot::LinkFrame; #nl] = [#(#links),*];
+            /// Each moving joint's limits and friction from the file, in the file's order.
+            pub const LIMITS: [#k::robot::JointLimits; #nj] = [#(#limits),*];
+        }
+    }
+}
+
 /// The struct's generics with a `TimeFunction` bound on each time-function field's type.
 fn generics_of(input: &syn::DeriveInput, s: &SceneDecl) -> syn::Generics {
     let k = krate();
@@ -347,10 +392,12 @@ fn tree_only(
     let (nq, nv) = super::tree::sizes(edges);
     let nc = loops.map_or(0, |(d, _)| d.phi.len());
     let simulate = simulate(input, &generics, Engine::Tree([s.bodies.len(), nq, nv, nc]));
+    let file = file_constants(input, &generics, s);
     quote! {
         #alias
         #tree
         #simulate
+        #file
 
         /// The scene's bodies by name and their number.
         #lints

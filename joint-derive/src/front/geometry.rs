@@ -42,3 +42,32 @@ pub fn perpendicular_pair(d: &[f64]) -> ([f64; 3], [f64; 3]) {
     let b = [b[0] / nb, b[1] / nb, b[2] / nb];
     (b, cross3(u, b))
 }
+
+/// The eigenvalues of a symmetric 3 × 3 matrix, ascending (the
+/// trigonometric closed form).
+pub fn eigenvalues(a: &[[f64; 3]; 3]) -> [f64; 3] {
+    let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    if off == 0.0 {
+        let mut d = [a[0][0], a[1][1], a[2][2]];
+        d.sort_by(f64::total_cmp);
+        return d;
+    }
+    let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    let p2 = (a[0][0] - q).powi(2) + (a[1][1] - q).powi(2) + (a[2][2] - q).powi(2) + 2.0 * off;
+    let p = (p2 / 6.0).sqrt();
+    let b: [[f64; 3]; 3] =
+        std::array::from_fn(|r| std::array::from_fn(|c| (a[r][c] - if r == c { q } else { 0.0 }) / p));
+    let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+        + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
+    let high = q + 2.0 * p * phi.cos();
+    let low = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+    [low, 3.0 * q - high - low, high]
+}
+
+/// Whether principal moments are a rigid body's: positive, each at most the
+/// sum of the other two (to 1e-12 of their sum: a thin rod passes).
+pub fn physical(moments: &[f64; 3]) -> bool {
+    let sum = moments.iter().sum::<f64>();
+    sum.is_finite() && moments.iter().all(|&m| m > 0.0 && m <= sum - m + 1e-12 * sum)
+}

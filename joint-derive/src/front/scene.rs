@@ -263,6 +263,46 @@ pub struct SceneDecl {
     /// Files read (`urdf = ".."`), absolute: the output includes them so that
     /// cargo rebuilds when they change.
     pub files: Vec<String>,
+    /// A robot file's links and limits (`None` without a file).
+    pub file: Option<FileData>,
+}
+
+/// A link's frame on its body (`None`: the ground), from a robot's file:
+/// the rotation from the link's frame to the body's (rows) and the link's
+/// origin from the body's centre, the body's components.
+pub struct FileLink {
+    /// The file's name.
+    pub name: String,
+    /// Its body.
+    pub body: Option<usize>,
+    /// The rotation from the link's frame to the body's, by rows.
+    pub rotation: [[f64; 3]; 3],
+    /// The link's origin from the body's centre (the world's origin for the ground).
+    pub origin: [f64; 3],
+}
+
+/// A joint's `<limit>` and `<dynamics>` numbers, where given.
+#[derive(Clone, Copy, Default)]
+pub struct FileLimits {
+    /// `lower`, `upper` (both given).
+    pub range: Option<(f64, f64)>,
+    /// `effort`.
+    pub effort: Option<f64>,
+    /// `velocity`.
+    pub velocity: Option<f64>,
+    /// `damping`.
+    pub damping: Option<f64>,
+    /// `friction`.
+    pub friction: Option<f64>,
+}
+
+/// What a robot's file says beyond its bodies and joints.
+#[derive(Default)]
+pub struct FileData {
+    /// Every link's frame, in the file's order.
+    pub links: Vec<FileLink>,
+    /// Each moving joint's limits, by the file's name, in the file's order.
+    pub limits: Vec<(String, FileLimits)>,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -425,8 +465,11 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     if let (Some(at), None) = (floating_base, &urdf) {
         errors.at(at, "`floating_base` is for a robot's file (`urdf = \"..\"`): a body without joints floats already");
     }
-    let (mut bodies, file_joints, files) =
-        urdf.as_ref().and_then(|lit| robot(lit, floating_base.is_some(), &mut errors)).unwrap_or_default();
+    let read = urdf.as_ref().and_then(|lit| robot(lit, floating_base.is_some(), &mut errors));
+    let (mut bodies, file_joints, files, file) = match read {
+        Some((bodies, joints, files, data)) => (bodies, joints, files, Some(data)),
+        None => Default::default(),
+    };
     bodies.extend(self::bodies(input, &fields, &mut errors));
     let from_file = urdf.is_some();
     if bodies.is_empty() && !written("body") && !from_file {
@@ -445,6 +488,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         tree: None,
         absolute,
         files,
+        file,
     };
     for j in file_joints {
         scene.joint(j, &fields, &mut errors);
@@ -481,9 +525,12 @@ struct Options {
 }
 
 /// A robot file's bodies and joints as attributes would give them (at the
-/// path's span), and the file; `None` after an error.
+/// path's span), the file, and its links and limits.
+type FromFile = (Vec<Body>, Vec<JointAttr>, Vec<String>, FileData);
+
+/// A robot file read; `None` after an error.
 #[cfg(feature = "urdf")]
-fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<(Vec<Body>, Vec<JointAttr>, Vec<String>)> {
+fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<FromFile> {
     let robot = super::urdf::read(lit, floating).map_err(|e| errors.push(e)).ok()?;
     let span = lit.span();
     let mut names = Vec::new();
@@ -529,12 +576,13 @@ fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<(Vec<
             args: vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
         })
         .collect();
-    Some((bodies, joints, vec![robot.path]))
+    let limits = robot.joints.iter().map(|j| (j.name.clone(), j.limits)).collect();
+    Some((bodies, joints, vec![robot.path], FileData { links: robot.links, limits }))
 }
 
 /// Without the `urdf` feature, a file cannot be read.
 #[cfg(not(feature = "urdf"))]
-fn robot(lit: &syn::LitStr, _: bool, errors: &mut Errors) -> Option<(Vec<Body>, Vec<JointAttr>, Vec<String>)> {
+fn robot(lit: &syn::LitStr, _: bool, errors: &mut Errors) -> Option<FromFile> {
     errors.at(
         lit.span(),
         "reading a URDF file needs the `urdf` feature: `joint-runtime = { version = \"..\", features = [\"urdf\"] }`",
@@ -624,6 +672,39 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     }
 }
 
+/// Mass properties given as numbers must be a rigid body's: a positive
+/// mass, principal moments positive and each at most the sum of the other
+/// two (the run time checks those that are fields or constants). Six
+/// entries are the tensor's, `[ixx, iyy, izz, ixy, ixz, iyz]` with
+/// `ixy = −∫ x y dm`.
+fn check_inertia(name: &syn::Ident, mass: &Quantity, inertia: &Quantity, errors: &mut Errors) {
+    let known = |q: &Quantity| match q {
+        Quantity::Const(v) => v.iter().map(|n| if let Number::Known(x) = n { Some(*x) } else { None }).collect(),
+        Quantity::Field(_) => None,
+    };
+    if let Some(m) = known(mass).and_then(|m: Vec<f64>| m.first().copied())
+        && (m.is_nan() || m <= 0.0 || m.is_infinite())
+    {
+        errors.at(name.span(), format!("body `{name}` has mass {m}; expected a positive mass"));
+    }
+    let tensor = match known(inertia).as_deref() {
+        Some(&[xx, yy, zz]) => [[xx, 0.0, 0.0], [0.0, yy, 0.0], [0.0, 0.0, zz]],
+        Some(&[xx, yy, zz, xy, xz, yz]) => [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
+        _ => return,
+    };
+    let moments = super::geometry::eigenvalues(&tensor);
+    if !super::geometry::physical(&moments) {
+        errors.at(
+            name.span(),
+            format!(
+                "body `{name}`'s inertia has principal moments {moments:?}, which no rigid body has; expected \
+                 each positive and at most the sum of the other two (`inertia = [ixx, iyy, izz]` are principal \
+                 moments, `[ixx, iyy, izz, ixy, ixz, iyz]` the tensor's entries, `ixy = −∫ x y dm`)"
+            ),
+        );
+    }
+}
+
 /// The `#[body(..)]` attributes, checked: names unique and distinct from the
 /// scene's constants, inertias of 3 or 6 entries.
 fn bodies(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Vec<Body> {
@@ -664,6 +745,7 @@ fn bodies(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors) -> Vec
                 "`inertia` takes 3 principal moments or 6 entries `[ixx, iyy, izz, ixy, ixz, iyz]`",
             );
         }
+        check_inertia(&head.name, &mass, &inertia, errors);
         let elements: Vec<Option<usize>> = match head.count {
             Some(n) => (0..n).map(Some).collect(),
             None => vec![None],

@@ -18,12 +18,18 @@
 
 use std::collections::HashMap;
 
+use super::geometry::{eigenvalues, physical};
+
+pub use super::scene::{FileLimits, FileLink};
+
 /// A robot in the scene's terms.
 pub struct Robot {
     /// The moving bodies, in the order of their first links in the file.
     pub bodies: Vec<RobotBody>,
     /// The moving joints, in the file's order.
     pub joints: Vec<RobotJoint>,
+    /// Every link's frame on its body, in the file's order.
+    pub links: Vec<FileLink>,
     /// The file, absolute: the derive includes it so that cargo rebuilds
     /// when it changes.
     pub path: String,
@@ -57,6 +63,8 @@ pub struct RobotJoint {
     pub rho1: [f64; 3],
     /// The joint point from the child's centre of mass.
     pub rho2: [f64; 3],
+    /// Its limits and friction.
+    pub limits: FileLimits,
 }
 
 type V3 = [f64; 3];
@@ -79,6 +87,7 @@ struct Joint {
     child: usize,
     origin: (M3, V3),
     axis: V3,
+    limits: FileLimits,
     at: roxmltree::TextPos,
 }
 
@@ -171,9 +180,35 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             Some(a) => triple(a, "xyz", pos(a), fail)?.unwrap_or([1.0, 0.0, 0.0]),
             None => [1.0, 0.0, 0.0],
         };
-        joints.push(Joint { name, kind, parent, child, origin, axis, at });
+        let limits = limits(node, &pos, fail)?;
+        joints.push(Joint { name, kind, parent, child, origin, axis, limits, at });
     }
     Ok((links, joints))
+}
+
+/// `<limit>` and `<dynamics>`: each number where given.
+fn limits(
+    node: roxmltree::Node,
+    pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
+    fail: &Fail,
+) -> syn::Result<FileLimits> {
+    let optional = |tag: &str, key: &str| -> syn::Result<Option<f64>> {
+        match node.children().find(|n| n.has_tag_name(tag)) {
+            Some(n) if n.attribute(key).is_some() => number(n, key, pos(n), fail).map(Some),
+            _ => Ok(None),
+        }
+    };
+    let range = match (optional("limit", "lower")?, optional("limit", "upper")?) {
+        (Some(lower), Some(upper)) => Some((lower, upper)),
+        _ => None,
+    };
+    Ok(FileLimits {
+        range,
+        effort: optional("limit", "effort")?,
+        velocity: optional("limit", "velocity")?,
+        damping: optional("dynamics", "damping")?,
+        friction: optional("dynamics", "friction")?,
+    })
 }
 
 /// `<inertial>`: mass, centre and inertia in the link's frame.
@@ -304,9 +339,19 @@ fn assemble(links: &[Link], joints: &[Joint], floating: bool, fail: &Fail) -> sy
             axis,
             rho1,
             rho2,
+            limits: j.limits,
         });
     }
-    Ok(Robot { bodies, joints: out, path: String::new() })
+    // Every link's frame: the body's axes are the world's at zero.
+    let frames = (0..links.len())
+        .map(|l| {
+            let (r, p) = pose[l].unwrap_or((IDENTITY, [0.0; 3]));
+            let body = body_of[l];
+            let origin = body.map_or(p, |b| sub(&p, &centres[b]));
+            FileLink { name: links[l].name.clone(), body, rotation: r, origin }
+        })
+        .collect();
+    Ok(Robot { bodies, joints: out, links: frames, path: String::new() })
 }
 
 /// Mass, centre and inertia about it (world axes at zero) of welded links.
@@ -349,9 +394,7 @@ fn check_inertia(head: &Link, mass: f64, i: &M3, fail: &Fail) -> syn::Result<()>
         return Err(fail(head.at, format!("link `{name}` moves but has mass {mass}; expected a positive `<mass>`")));
     }
     let moments = eigenvalues(i);
-    let trace = moments.iter().sum::<f64>();
-    let physical = moments.iter().all(|&m| m > 0.0 && m <= trace - m + 1e-9 * trace);
-    if !physical || !trace.is_finite() {
+    if !physical(&moments) {
         return Err(fail(
             head.at,
             format!(
@@ -361,27 +404,6 @@ fn check_inertia(head: &Link, mass: f64, i: &M3, fail: &Fail) -> syn::Result<()>
         ));
     }
     Ok(())
-}
-
-/// The eigenvalues of a symmetric 3 × 3 matrix, ascending (the
-/// trigonometric closed form).
-fn eigenvalues(a: &M3) -> [f64; 3] {
-    let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-    if off == 0.0 {
-        let mut d = [a[0][0], a[1][1], a[2][2]];
-        d.sort_by(f64::total_cmp);
-        return d;
-    }
-    let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
-    let p2 = (a[0][0] - q).powi(2) + (a[1][1] - q).powi(2) + (a[2][2] - q).powi(2) + 2.0 * off;
-    let p = (p2 / 6.0).sqrt();
-    let b: M3 = std::array::from_fn(|r| std::array::from_fn(|c| (a[r][c] - if r == c { q } else { 0.0 }) / p));
-    let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
-        + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
-    let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
-    let high = q + 2.0 * p * phi.cos();
-    let low = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
-    [low, 3.0 * q - high - low, high]
 }
 
 /// `<origin xyz=".." rpy=".."/>`: the rotation `Rz(y) Ry(p) Rx(r)` and the offset.

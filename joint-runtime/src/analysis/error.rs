@@ -52,6 +52,16 @@ pub enum AnalysisError {
         /// The rows whose residual is largest.
         worst: WorstRows,
     },
+    /// A step's start is off its joints by more than the projection's
+    /// round-off floor (`1e3 ×` its tolerance): the step would move it onto
+    /// them unasked. Assemble the start first
+    /// ([`assemble`](crate::analysis::assemble)).
+    NotAssembled {
+        /// ‖Φ‖₂ at the start.
+        residual: f64,
+        /// The rows whose residual is largest.
+        worst: WorstRows,
+    },
     /// A linear analysis (velocity, acceleration, λ) has no solution: redundant
     /// rows contradict the others.
     Inconsistent {
@@ -69,8 +79,11 @@ pub enum AnalysisError {
         /// Velocity columns.
         nv: usize,
     },
-    /// A body's mass is not positive and finite, or its inertia tensor is not
-    /// invertible.
+    /// A body's mass properties are not a rigid body's
+    /// ([`BodyInertia::is_physical`](crate::BodyInertia::is_physical): a mass
+    /// that is not positive and finite, a tensor that is not symmetric, or
+    /// principal moments that are not positive or break the triangle
+    /// inequality).
     BadInertia {
         /// The body.
         body: &'static str,
@@ -154,6 +167,11 @@ impl fmt::Display for AnalysisError {
                 "assembly made no progress (singular Jacobian or impossible configuration): |Φ| = {residual:.3e} \
                  after {iterations} iterations; largest residuals: {worst}"
             ),
+            AnalysisError::NotAssembled { residual, worst } => write!(
+                f,
+                "the step's start is off its joints (|Φ| = {residual:.3e}; largest residuals: {worst}): assemble it \
+                 first (`analysis::assemble`)"
+            ),
             AnalysisError::Inconsistent { analysis, residual, worst } => write!(
                 f,
                 "{analysis} analysis: redundant constraints are inconsistent, residual {residual:.3e}; largest: {worst}"
@@ -162,7 +180,11 @@ impl fmt::Display for AnalysisError {
                 write!(f, "a scene of {nb} bodies needs {} velocity columns, not {nv}", 6 * nb)
             }
             AnalysisError::BadInertia { body } => {
-                write!(f, "body `{body}` has a non-positive mass or a singular inertia tensor")
+                write!(
+                    f,
+                    "body `{body}` has mass properties no rigid body has: a mass that is not positive, or principal \
+                     moments that are not positive or of which one exceeds the sum of the other two"
+                )
             }
             AnalysisError::BadOption { name } => write!(f, "option `{name}` is out of range"),
             AnalysisError::NotPrepared { integrator } => {

@@ -840,16 +840,15 @@ fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M
     Ok(inverse)
 }
 
-/// One body's inverse mass: `None` for a mass that is not positive and
-/// finite or an inertia tensor (symmetrised) that is not finite or not
+/// One body's inverse mass: `None` for mass properties no rigid body has
+/// ([`BodyInertia::is_physical`]) or an inertia tensor that is not
 /// invertible. Not generic, so compiled once in this crate: nalgebra's
 /// `try_inverse` brings its 4 × 4 and general branches along wherever it is
 /// instantiated (7 000 lines of LLVM IR in every scene's crate).
 #[inline(never)]
 fn inverse_mass(b: &BodyInertia) -> Option<InverseMass> {
     let sym = (b.inertia + b.inertia.transpose()) * 0.5;
-    let ok_mass = b.mass.is_finite() && b.mass > 0.0;
-    let j = if ok_mass && sym.iter().all(|x| x.is_finite()) { sym.try_inverse()? } else { return None };
+    let j = if b.is_physical() { sym.try_inverse()? } else { return None };
     j.iter()
         .all(|x| x.is_finite())
         .then(|| InverseMass { inv_mass: 1.0 / b.mass, inv_inertia: (j + j.transpose()) * 0.5 })

@@ -84,7 +84,8 @@ where
     type Error = AnalysisError;
 
     fn check_start(&self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
-        check_state::<S, NB, NV, M>(state, true)
+        check_state::<S, NB, NV, M>(state, true)?;
+        self.check_assembled(state)
     }
 
     fn trial(

@@ -448,6 +448,7 @@ where
             return Err(AnalysisError::BadOption { name: "step size" });
         }
         self.ready(self.options.integrator)?;
+        self.check_assembled(state)?;
         let mut report = StepReport::default();
         // Each integrator in a frame of its own: a step's stack is the one
         // integrator's, not the sum of all four.
@@ -557,6 +558,29 @@ where
                 (report.constraint_residual, report.velocity_residual) = (c, v);
             }
             None => self.residuals(y, report),
+        }
+        Ok(())
+    }
+
+    /// A start the last projection did not make must be on its joints to
+    /// the projection's round-off floor (`1e3 ×` its tolerance): a step
+    /// projects its end, never its start (without projection, nothing is
+    /// checked: the drift is the user's choice).
+    #[inline(never)]
+    pub(super) fn check_assembled(&self, state: &SystemState<NB>) -> Result<(), AnalysisError> {
+        let Some(options) = self.options.projection else { return Ok(()) };
+        if self.projected.0 == *state {
+            return Ok(());
+        }
+        check_state::<S, NB, NV, M>(state, true)?;
+        // On unit quaternions, as the step takes them.
+        let mut start = *state;
+        normalise_orientations::<S, NB, NV, M>(&mut start)?;
+        let phi = self.scene.phi(&start);
+        let residual = phi.norm();
+        if residual > 1e3 * options.tolerance {
+            let worst = crate::analysis::WorstRows::of::<S, NB, NV, M>(&phi);
+            return Err(AnalysisError::NotAssembled { residual, worst });
         }
         Ok(())
     }

@@ -5,6 +5,8 @@
 //! with the mass-metric projection of `q` onto `Φ = 0` and of `v` onto
 //! `J v + Φ_t = 0`, as the absolute `Simulation` does.
 
+use core::cell::Cell;
+
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
 use super::topology::{Tree, TreeError};
@@ -45,6 +47,9 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
     loads: L,
     /// The integrator (RK4), stabilisation, projection and rank tolerance.
     options: SimulationOptions,
+    /// The state the last step ended at (projected): a start that is not
+    /// must have its loops closed.
+    last: Cell<Option<TreeState<NQ, NV>>>,
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -68,7 +73,8 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
     /// ([`TreeError`]: inertias, axes, order).
     pub fn new(scene: &'a S) -> Result<Self, TreeError> {
         let options = SimulationOptions::default();
-        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[], loads: NoLoads, options })
+        let last = Cell::new(None);
+        Ok(TreeSimulation { scene, tree: Tree::of(scene)?, springs: &[], loads: NoLoads, options, last })
     }
 }
 
@@ -89,8 +95,8 @@ impl<
     /// `Jᵀ [A τ'; f]` of its centre of mass (its wrench carried to the root). The
     /// same closure drives both coordinate choices of a scene.
     pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
-        let TreeSimulation { scene, tree, springs, options, .. } = self;
-        TreeSimulation { scene, tree, springs, loads, options }
+        let TreeSimulation { scene, tree, springs, options, last, .. } = self;
+        TreeSimulation { scene, tree, springs, loads, options, last }
     }
 
     /// The same simulation with `options` (the absolute `Simulation`'s):
@@ -438,6 +444,7 @@ impl<
         if !(h.is_finite() && tau.iter().all(|x| x.is_finite())) {
             return Err(TreeError::NonFinite);
         }
+        self.check_closed(state)?;
         // Every stage drops the closure rows the first dropped: a redundant
         // row switching between stages would break the method's order.
         let (v1, first) = self.constrained(state, tau, None)?;
@@ -469,7 +476,27 @@ impl<
         self.tree.normalise(&mut next.q);
         let closed = self.project(next)?;
         let finite = next.q.iter().chain(next.v.iter()).all(|x| x.is_finite());
-        if finite { Ok(closed) } else { Err(TreeError::NonFinite) }
+        if !finite {
+            return Err(TreeError::NonFinite);
+        }
+        self.last.set(Some(*next));
+        Ok(closed)
+    }
+
+    /// A start the last step did not end at must have its loops closed to
+    /// the projection's round-off floor: a step projects its end, never its
+    /// start (without projection, or without loops, nothing is checked).
+    fn check_closed(&self, state: &TreeState<NQ, NV>) -> Result<(), TreeError> {
+        if NC == 0 || self.options.projection.is_none() || self.last.get() == Some(*state) {
+            return Ok(());
+        }
+        let (_, _, floor) = self.projection();
+        let phi = self.scene.closure_rows(state, &self.tree.geometry).phi;
+        let misfit = phi.amax();
+        if misfit.is_nan() || misfit > floor {
+            return Err(TreeError::NotAssembled { joint: closing_joint::<S, NB, NQ, NV, NC>(phi.iamax()), misfit });
+        }
+        Ok(())
     }
 
     /// Advances `state` to `t_end` with error-controlled steps, as the
@@ -588,7 +615,10 @@ impl<
 
     fn check_start(&self, state: &TreeState<NQ, NV>) -> Result<(), TreeError> {
         let finite = state.q.iter().chain(state.v.iter()).all(|x| x.is_finite()) && state.t.is_finite();
-        if finite { Ok(()) } else { Err(TreeError::NonFinite) }
+        if !finite {
+            return Err(TreeError::NonFinite);
+        }
+        self.check_closed(state)
     }
 
     /// Dormand–Prince on `(q, v)`: seven stages (the later six dropping the

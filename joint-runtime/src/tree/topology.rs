@@ -61,6 +61,15 @@ pub enum TreeError {
         /// Its largest row's magnitude.
         misfit: f64,
     },
+    /// A step's start whose loop is open by more than the projection's
+    /// round-off floor: the step would close it unasked. Close it first
+    /// ([`TreeSimulation::assemble`](super::TreeSimulation::assemble)).
+    NotAssembled {
+        /// The name of the joint closing the loop.
+        joint: &'static str,
+        /// Its largest row's magnitude.
+        misfit: f64,
+    },
     /// A spring-damper whose end names a body the scene does not have.
     Attachment {
         /// The spring's index.
@@ -111,6 +120,11 @@ impl fmt::Display for TreeError {
                 write!(f, "the projection did not close the loop of joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::BadOption { name } => write!(f, "option `{name}` is out of range"),
+            TreeError::NotAssembled { joint, misfit } => write!(
+                f,
+                "the step's start has the loop of joint `{joint}` open by {misfit:e}: close it first \
+                 (`TreeSimulation::assemble`)"
+            ),
             TreeError::StepTooSmall { t, step } => {
                 write!(f, "the error-controlled step fell to {step:e} at t = {t}: the motion is too fast to follow")
             }
@@ -198,7 +212,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let inbound = tree.parent[k].map_or_else(Vector3::zeros, |p| joints[p].rho_child);
             tree.offset[k] = j.rho_parent - inbound;
             let b = inertias[j.child];
-            if !valid_inertia(&b) {
+            if !b.is_physical() {
                 return Err(TreeError::Inertia { body: j.child });
             }
             tree.inertia[k] = link_inertia(b.mass, &b.inertia, &(-j.rho_child));
@@ -452,20 +466,4 @@ fn rest_rotation(h: &Unit<Vector3<f64>>, a: &Unit<Vector3<f64>>) -> UnitQuaterni
         let perpendicular = crate::perpendicular_pair(h).map_or(Vector3::x(), |(b, _)| b);
         UnitQuaternion::from_axis_angle(&Unit::new_normalize(perpendicular), core::f64::consts::PI)
     })
-}
-
-/// A physical rigid body: positive mass, symmetric positive definite inertia
-/// whose eigenvalues obey the triangle inequality (as MuJoCo checks).
-fn valid_inertia(b: &BodyInertia) -> bool {
-    let i = b.inertia;
-    if !(b.mass > 0.0 && b.mass.is_finite() && i.iter().all(|x| x.is_finite())) {
-        return false;
-    }
-    if (i - i.transpose()).abs().max() > 1e-12 * i.abs().max() {
-        return false;
-    }
-    let moments = i.symmetric_eigenvalues();
-    let (a, b, c) = (moments[0], moments[1], moments[2]);
-    let slack = 1e-12 * (a + b + c).abs();
-    a > 0.0 && b > 0.0 && c > 0.0 && a + b + slack >= c && a + c + slack >= b && b + c + slack >= a
 }

@@ -76,14 +76,14 @@ fn a_joint_with_named_constants_reads_them_in_any_scalar() {
 /// A pendulum whose data are named constants.
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -consts::G])]
-#[body(rod, mass = 2.0 * RA, inertia = [RA, RA, consts::D / 10.0])]
+#[body(rod, mass = 2.0 * RA, inertia = [RA, RA, consts::D / 40.0])]
 #[joint(hinge = revolute(ground, rod), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0], rho2 = [0, 0, consts::D + 0.25])]
 struct NamedPendulum;
 
 /// The same pendulum with the numbers written out.
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81])]
-#[body(rod, mass = 0.014, inertia = [0.007, 0.007, 0.025])]
+#[body(rod, mass = 0.014, inertia = [0.007, 0.007, 0.00625])]
 #[joint(hinge = revolute(ground, rod), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 struct LiteralPendulum;
 
@@ -97,4 +97,26 @@ fn a_scene_with_named_constants_is_the_scene_with_their_values() {
     let mut points = Vec::new();
     NamedPendulum.joint_points(&mut |p| points.push(p.point));
     assert_eq!(points, [Vector3::zeros(), Vector3::new(0.0, 0.0, 0.5)]);
+}
+
+/// A box of principal moments (1, 3, 3.5) turned 45° about z: its tensor in
+/// the body's axes has `ixx = iyy = 2` and the entry `ixy = (1 − 3)/2 = −1`
+/// (`−∫ x y dm`: the box's long extent along (1, 1, 0)/√2 puts positive
+/// `x y` mass there). Six entries are the tensor's, in that order.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81])]
+#[body(turned, mass = 2.0, inertia = [2, 2, 3.5, -1, 0, 0])]
+#[joint(pin = spherical(ground, turned), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
+struct TurnedBox;
+
+#[test]
+fn six_inertia_entries_are_the_tensors_with_ixy_second_to_last_three() {
+    let body = TurnedBox.inertias()[0];
+    assert_eq!(body.principal_moments(), [1.0, 3.0, 3.5]);
+    // The smallest moment's axis: (1, 1, 0)/√2, where the box is long.
+    let long = Vector3::new(1.0, 1.0, 0.0) / 2f64.sqrt();
+    assert!((body.inertia * long - long).norm() < 1e-15);
+    let across = Vector3::new(1.0, -1.0, 0.0) / 2f64.sqrt();
+    assert!((body.inertia * across - across * 3.0).norm() < 1e-15);
+    assert!(body.is_physical());
 }

@@ -376,3 +376,27 @@ fn integrate_meets_the_tolerance() {
         assert!(steps.windows(2).all(|w| w[0] < w[1]), "{steps:?}");
     }
 }
+
+/// Mass properties given at run time that no rigid body has are refused by
+/// `new`, naming the body; numbers in the attribute are a compile error.
+#[test]
+fn unphysical_inertia_at_run_time_is_refused_by_body() {
+    #[derive(Scene)]
+    #[scene(gravity = [0, 0, -9.81])]
+    #[body(rod, mass = mass, inertia = moments)]
+    #[joint(pin = spherical(ground, rod), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
+    struct Rod {
+        mass: f64,
+        moments: Vector3<f64>,
+    }
+    let options = SimulationOptions::default();
+    let new = |mass: f64, moments: [f64; 3]| {
+        let rod = Rod { mass, moments: Vector3::from(moments) };
+        Simulation::new(&rod, NoLoads, &[], options).err()
+    };
+    let bad = Some(joint_runtime::analysis::AnalysisError::BadInertia { body: "rod" });
+    assert_eq!(new(1.0, [0.01, 0.01, 1.0]), bad);
+    assert_eq!(new(0.0, [0.1, 0.1, 0.1]), bad);
+    assert_eq!(new(1.0, [0.1, -0.1, 0.1]), bad);
+    assert_eq!(new(1.0, [0.5, 0.5, 1.0]), None);
+}

@@ -6,7 +6,8 @@
 //! Pinocchio's RK4.
 
 use joint_runtime::Scene;
-use joint_runtime::nalgebra::{SMatrix, SVector};
+use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
+use joint_runtime::robot::{JointLimits, LinkFrame};
 use joint_runtime::tree::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
 use serde_json::Value;
 
@@ -107,9 +108,14 @@ fn our_v<const NV: usize>(map: &[(TreeJointKind, usize, usize)], v: &[f64]) -> S
     out
 }
 
-/// Every sample of `robot`: `M`, `τ = RNEA(q, v, a)` and `q̈ = ABA(q, v,
-/// τ)`; returns the largest relative differences.
-fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str) -> [f64; 3]
+/// Every sample of `robot`: `M`, `τ = RNEA(q, v, a)`, `q̈ = ABA(q, v,
+/// τ)`, and the position and Jacobian of a point on one of its links
+/// (`links`: the scene's `LINKS`); returns the largest relative differences.
+fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    links: &[LinkFrame],
+    robot: &str,
+) -> [f64; 5]
 where
     S: TreeScene<NB, NQ, NV>,
 {
@@ -124,7 +130,10 @@ where
         }
         at += kind.freedoms();
     }
-    let mut worst = [0.0_f64; 3];
+    let link = LinkFrame::find(links, data["frame"]["link"].as_str().unwrap()).unwrap();
+    let point = Vector3::from_iterator(numbers(&data["frame"]["point"]));
+    let body = link.body.unwrap();
+    let mut worst = [0.0_f64; 5];
     for s in data["samples"].as_array().unwrap() {
         let v = |key: &str| our_v::<NV>(&map, &numbers(&s[key]));
         let state = TreeState::<NQ, NV> { q: our_q(&map, &numbers(&s["q"])), v: v("v"), t: 0.0 };
@@ -137,9 +146,19 @@ where
         worst[1] = worst[1].max(relative(tau.iter().copied(), v("rnea").iter().copied()));
         let qdd = sim.forward_dynamics(&state, &v("tau")).unwrap();
         worst[2] = worst[2].max(relative(qdd.iter().copied(), v("aba").iter().copied()));
+        let (turn, origin) = link.pose(&sim.system_state(&state));
+        let at = origin + turn * point;
+        worst[3] = worst[3].max(relative(at.iter().copied(), numbers(&s["point_position"]).into_iter()));
+        let jacobian = sim.tree().point_jacobian(&state.q, body, &link.point(&point)).unwrap();
+        let rows: Vec<Vec<f64>> = s["point_jacobian"].as_array().unwrap().iter().map(numbers).collect();
+        let theirs = (0..3 * NV).map(|i| rows[i % 3][index[i / 3]]);
+        worst[4] = worst[4].max(relative(jacobian.fixed_rows::<3>(3).iter().copied(), theirs));
     }
-    eprintln!("{robot}: M {:.1e}, RNEA {:.1e}, ABA {:.1e} of the largest entry", worst[0], worst[1], worst[2]);
-    for (what, w) in ["M", "RNEA", "ABA"].iter().zip(worst) {
+    eprintln!(
+        "{robot}: M {:.1e}, RNEA {:.1e}, ABA {:.1e}, point {:.1e}, its Jacobian {:.1e} of the largest entry",
+        worst[0], worst[1], worst[2], worst[3], worst[4]
+    );
+    for (what, w) in ["M", "RNEA", "ABA", "point", "point Jacobian"].iter().zip(worst) {
         assert!(w < 1e-12, "{robot}: {what} off by {w:e} of its largest entry");
     }
     worst
@@ -169,27 +188,27 @@ where
 
 #[test]
 fn double_pendulum_against_pinocchio() {
-    against_pinocchio(&DoublePendulum, "double_pendulum");
+    against_pinocchio(&DoublePendulum, &DoublePendulum::LINKS, "double_pendulum");
 }
 
 #[test]
 fn ur5_against_pinocchio() {
-    against_pinocchio(&Ur5, "ur5");
+    against_pinocchio(&Ur5, &Ur5::LINKS, "ur5");
 }
 
 #[test]
 fn panda_against_pinocchio() {
-    against_pinocchio(&Panda, "panda");
+    against_pinocchio(&Panda, &Panda::LINKS, "panda");
 }
 
 #[test]
 fn solo12_fixed_base_against_pinocchio() {
-    against_pinocchio(&Solo12, "solo12");
+    against_pinocchio(&Solo12, &Solo12::LINKS, "solo12");
 }
 
 #[test]
 fn solo12_floating_base_against_pinocchio() {
-    against_pinocchio(&Solo12Floating, "solo12_floating");
+    against_pinocchio(&Solo12Floating, &Solo12Floating::LINKS, "solo12_floating");
 }
 
 #[test]
@@ -198,4 +217,30 @@ fn motion_against_pinocchio_rk4() {
     motion_against_pinocchio(&Ur5, "ur5", 1e-11);
     motion_against_pinocchio(&Panda, "panda", 1e-11);
     motion_against_pinocchio(&Solo12Floating, "solo12_floating", 1e-11);
+}
+
+/// The file's limits and friction, as data by the joints' names.
+#[test]
+#[allow(clippy::approx_constant)] // the file's digits, not 2π
+fn limits_as_the_files_give_them() {
+    let pan = Ur5::LIMITS[0];
+    assert_eq!(
+        pan,
+        JointLimits {
+            name: "shoulder_pan_joint",
+            range: Some((-6.28318530718, 6.28318530718)),
+            effort: Some(150.0),
+            velocity: Some(3.15),
+            damping: Some(0.0),
+            friction: Some(0.0),
+        }
+    );
+    assert_eq!(Ur5::LIMITS.len(), 6);
+    let first = Panda::LIMITS[0];
+    assert_eq!((first.name, first.range, first.damping), ("panda_joint1", Some((-2.8973, 2.8973)), Some(0.003)));
+    // Every link is a frame: the ground's `world`, massless `tool0` on the last body.
+    let world = LinkFrame::find(&Ur5::LINKS, "world").unwrap();
+    assert_eq!((world.body, world.origin), (None, [0.0; 3]));
+    assert_eq!(LinkFrame::find(&Ur5::LINKS, "tool0").unwrap().body, Some(5));
+    assert_eq!(Ur5::LINKS.len(), 11);
 }

@@ -1,0 +1,82 @@
+//! What a robot's file says beyond its dynamics, as constants the derive
+//! writes for `#[scene(urdf = "..")]`: every link's frame on its body
+//! (`Scene::LINKS`: end effectors, tool flanges, the massless links a file
+//! uses as named frames) and every moving joint's limits (`Scene::LIMITS`),
+//! by the file's names.
+//!
+//! A link's frame is given in its body's frame (origin at the body's
+//! centre of mass): where it is and how it is turned. Its pose, velocity
+//! and Jacobian at a state are then the body's, moved to it:
+//! [`LinkFrame::pose`] from the bodies' [`SystemState`] (either coordinate
+//! choice converts to it), [`LinkFrame::point`] for the point to give a
+//! point Jacobian, such as
+//! [`Tree::point_jacobian`](crate::tree::Tree::point_jacobian).
+
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+use crate::SystemState;
+
+/// A link's frame on its body: `name` as in the file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinkFrame {
+    /// The link's name in the file.
+    pub name: &'static str,
+    /// The body it is part of (its index in the scene), `None` for the
+    /// ground (the root link and the links fixed to it).
+    pub body: Option<usize>,
+    /// The link's axes in the body's frame, by columns (in the ground's
+    /// frame for the ground).
+    pub rotation: [[f64; 3]; 3],
+    /// The link's origin from the body's centre of mass, in the body's
+    /// frame (from the world's origin for the ground).
+    pub origin: [f64; 3],
+}
+
+impl LinkFrame {
+    /// The frame named `name` among `links` (a scene's `LINKS`).
+    pub fn find<'l>(links: &'l [LinkFrame], name: &str) -> Option<&'l LinkFrame> {
+        links.iter().find(|l| l.name == name)
+    }
+
+    /// A point given in the link's frame, in its body's frame (from the
+    /// centre of mass): what a body point's Jacobian takes.
+    pub fn point(&self, in_link: &Vector3<f64>) -> Vector3<f64> {
+        self.turn() * in_link + Vector3::from(self.origin)
+    }
+
+    /// The link's orientation and origin in the world at the bodies' state.
+    pub fn pose<const NB: usize>(&self, system: &SystemState<NB>) -> (UnitQuaternion<f64>, Vector3<f64>) {
+        let turn = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&self.turn()));
+        match self.body.and_then(|b| system.bodies.get(b)) {
+            Some(b) => {
+                let a = b.rotation();
+                (a * turn, b.r + a * Vector3::from(self.origin))
+            }
+            None => (turn, Vector3::from(self.origin)),
+        }
+    }
+
+    fn turn(&self) -> Matrix3<f64> {
+        let [x, y, z] = self.rotation;
+        Matrix3::from_columns(&[Vector3::from(x), Vector3::from(y), Vector3::from(z)])
+    }
+}
+
+/// A moving joint's limits and friction as its file gives them (`None`
+/// where it says nothing): data for a controller; the dynamics do not use
+/// them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointLimits {
+    /// The joint's name in the file.
+    pub name: &'static str,
+    /// Lowest and highest coordinate (rad, or m for a slide).
+    pub range: Option<(f64, f64)>,
+    /// Largest force or torque magnitude.
+    pub effort: Option<f64>,
+    /// Largest rate magnitude.
+    pub velocity: Option<f64>,
+    /// Viscous damping coefficient (`<dynamics damping>`).
+    pub damping: Option<f64>,
+    /// Coulomb friction (`<dynamics friction>`).
+    pub friction: Option<f64>,
+}
