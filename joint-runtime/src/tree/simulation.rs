@@ -146,14 +146,22 @@ impl<
     pub fn state_of(&self, system: &SystemState<NB>) -> Result<TreeState<NQ, NV>, TreeError> {
         let (_, _, floor) = self.projection();
         let state = self.tree.tree_state(system, floor)?;
-        if NC > 0 {
-            let phi = self.scene.closure_rows(&state, &self.tree.geometry).phi;
-            let misfit = phi.amax();
-            if misfit.is_nan() || misfit > floor {
-                return Err(TreeError::Closure { joint: closing_joint::<S, NB, NQ, NV, NC>(phi.iamax()), misfit });
-            }
-        }
+        self.closed_to(&state, floor)?;
         Ok(state)
+    }
+
+    /// Every loop of `state` closed to `floor` (its largest row), or
+    /// [`TreeError::NotAssembled`] naming the joint of the largest.
+    fn closed_to(&self, state: &TreeState<NQ, NV>, floor: f64) -> Result<(), TreeError> {
+        if NC == 0 {
+            return Ok(());
+        }
+        let phi = self.scene.closure_rows(state, &self.tree.geometry).phi;
+        let misfit = phi.amax();
+        if misfit.is_nan() || misfit > floor {
+            return Err(TreeError::NotAssembled { joint: closing_joint::<S, NB, NQ, NV, NC>(phi.iamax()), misfit });
+        }
+        Ok(())
     }
 
     /// Each body's pose and velocity at `state` (the forward kinematics,
@@ -490,13 +498,7 @@ impl<
         if NC == 0 || self.options.projection.is_none() || self.last.get() == Some(*state) {
             return Ok(());
         }
-        let (_, _, floor) = self.projection();
-        let phi = self.scene.closure_rows(state, &self.tree.geometry).phi;
-        let misfit = phi.amax();
-        if misfit.is_nan() || misfit > floor {
-            return Err(TreeError::NotAssembled { joint: closing_joint::<S, NB, NQ, NV, NC>(phi.iamax()), misfit });
-        }
-        Ok(())
+        self.closed_to(state, self.projection().2)
     }
 
     /// Advances `state` to `t_end` with error-controlled steps, as the

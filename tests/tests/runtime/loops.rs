@@ -32,7 +32,7 @@ pub(crate) struct FourBar;
 #[joint(top = spherical(arm, link), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
 #[joint(pivot = revolute(ground, lever), axis1 = [1, 0, 0], axis2 = [0, 1, 0], rho1 = [1.5, 0, -0.6], rho2 = [0, 0, -0.3])]
 #[joint(tip = spherical(link, lever), rho1 = [0.5, 0, 0], rho2 = [0, 0, 0.3])]
-struct Spatial;
+pub(crate) struct Spatial;
 
 #[test]
 fn planar_rows_kept_by_the_tree_are_dropped() {

@@ -6,7 +6,9 @@ use joint_runtime::dynamics::{
     Attachment, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
 };
 use joint_runtime::nalgebra::{SVector, Vector3};
-use joint_runtime::tree::{TreeError, TreeState};
+use joint_runtime::tree::{TreeError, TreeSimulation, TreeState};
+
+use super::loops::Spatial;
 use joint_runtime::{Scene, SystemState};
 
 /// A four-bar whose coupler is pushed sideways and pulled by a spring to the
@@ -28,22 +30,10 @@ macro_rules! four_bar {
 four_bar!(Absolute,);
 four_bar!(Relative, , coordinates = relative);
 
-/// A spatial loop: a spherical joint closes it (three rows, none folded).
-#[derive(Scene, Clone, Copy, Debug, Default)]
-#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
-#[body(arm, mass = 1.0, inertia = [0.01, 0.08, 0.08])]
-#[body(link, mass = 0.5, inertia = [0.004, 0.05, 0.05])]
-#[body(lever, mass = 0.8, inertia = [0.006, 0.04, 0.04])]
-#[joint(base = revolute(ground, arm), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
-#[joint(top = spherical(arm, link), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
-#[joint(pivot = revolute(ground, lever), axis1 = [1, 0, 0], axis2 = [0, 1, 0], rho1 = [1.5, 0, -0.6], rho2 = [0, 0, -0.3])]
-#[joint(tip = spherical(link, lever), rho1 = [0.5, 0, 0], rho2 = [0, 0, 0.3])]
-struct Spatial;
-
 /// The spatial loop closed near a guess (the arm turned 0.5 rad, the link
 /// back 1.2 rad about z, the lever 0.3 rad), the arm turning at 2 rad/s.
 fn spatial_start() -> TreeState<6, 5> {
-    let r = Simulation::new(&Spatial, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let r = TreeSimulation::new(&Spatial).unwrap();
     let (c, s) = (0.6_f64.cos(), -(0.6_f64.sin()));
     let guess =
         TreeState { q: SVector::from([0.5, c, 0.0, 0.0, s, 0.3]), v: SVector::from([2.0, 0.0, 0.0, 0.0, 0.0]), t: 0.0 };
@@ -102,7 +92,7 @@ fn both_choices_through_one_constructor() {
 /// closure rows' at the state it returns.
 #[test]
 fn step_report_is_the_closure_rows_at_the_end() {
-    let mut r = Simulation::new(&Spatial, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let mut r = TreeSimulation::new(&Spatial).unwrap();
     let mut s = spatial_start();
     let mut iterations = 0;
     for _ in 0..50 {
@@ -123,7 +113,7 @@ fn projection_off_and_baumgarte() {
     let start = spatial_start();
     let drift = |stabilisation| {
         let options = SimulationOptions::default().with_projection(None).with_stabilisation(stabilisation);
-        let mut r = Simulation::new(&Spatial, NoLoads, &[], options).unwrap();
+        let mut r = TreeSimulation::new(&Spatial).unwrap().with_options(options).unwrap();
         let mut s = start;
         for _ in 0..100 {
             let report = r.step(&mut s, 2e-2).unwrap();
@@ -173,7 +163,7 @@ fn a_start_off_its_joints_is_refused() {
     let mut open = start(0.4, 0.0);
     open.q[2] += 0.1;
     match r.state_of(&r.system_state(&open)) {
-        Err(TreeError::Closure { joint, misfit }) => assert!(joint == "d" && misfit > 0.01, "{joint} {misfit}"),
+        Err(TreeError::NotAssembled { joint, misfit }) => assert!(joint == "d" && misfit > 0.01, "{joint} {misfit}"),
         other => panic!("{other:?}"),
     }
 }
