@@ -102,7 +102,7 @@ where
     });
     let mut steps = 0_usize;
     let rk4 = time(batches, ms, || {
-        if steps % 1000 == 0 {
+        if steps.is_multiple_of(1000) {
             state = start;
         }
         steps += 1;
