@@ -533,19 +533,14 @@ type FromFile = (Vec<Body>, Vec<JointAttr>, Vec<String>, FileData);
 fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<FromFile> {
     let robot = super::urdf::read(lit, floating).map_err(|e| errors.push(e)).ok()?;
     let span = lit.span();
-    let mut names = Vec::new();
-    let mut ident = |name: &str, errors: &mut Errors| -> syn::Ident {
-        let mut text: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
-        if text.starts_with(|c: char| c.is_ascii_digit())
-            || text == "ground"
-            || syn::parse_str::<syn::Ident>(&text).is_err()
-        {
-            text.insert(0, '_');
-        }
-        if names.contains(&text) {
+    // Links and joints are named apart, as in the file.
+    let (mut body_names, mut joint_names) = (Vec::new(), Vec::new());
+    let ident = |name: &str, taken: &mut Vec<String>, errors: &mut Errors| -> syn::Ident {
+        let text = super::urdf::rust_name(name, taken.len());
+        if taken.contains(&text) {
             errors.at(span, format!("`{name}` and another name of the file are both `{text}` as Rust names"));
         }
-        names.push(text.clone());
+        taken.push(text.clone());
         syn::Ident::new(&text, span)
     };
     let known = |v: &[f64]| v.iter().map(|&x| Number::Known(x)).collect::<Vec<_>>();
@@ -553,7 +548,7 @@ fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<FromF
         .bodies
         .iter()
         .map(|b| Body {
-            name: ident(&b.name, errors),
+            name: ident(&b.name, &mut body_names, errors),
             element: None,
             mass: Quantity::Const(known(&[b.mass])),
             inertia: Quantity::Const(known(&b.inertia)),
@@ -569,7 +564,7 @@ fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<FromF
         .joints
         .iter()
         .map(|j| JointAttr {
-            name: ident(&j.name, errors),
+            name: ident(&j.name, &mut joint_names, errors),
             repeat: None,
             kind: syn::Ident::new(j.kind, span),
             bodies: vec![body_ref(j.parent), body_ref(Some(j.child))],

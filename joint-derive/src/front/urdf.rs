@@ -123,6 +123,20 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, floating: bool) -
     assemble(&links, &joints, floating, &fail)
 }
 
+/// A file's name as a Rust identifier: other characters as `_`, a leading
+/// `_` where the name is not one (a digit first, a keyword, `ground`), and
+/// `_{index}` for a name with nothing left.
+pub fn rust_name(name: &str, index: usize) -> String {
+    let mut text: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+    if text == "ground" || syn::parse_str::<syn::Ident>(&text).is_err() {
+        text.insert(0, '_');
+    }
+    if syn::parse_str::<syn::Ident>(&text).is_err() {
+        text = format!("_{index}");
+    }
+    text
+}
+
 type Fail<'f> = dyn Fn(roxmltree::TextPos, String) -> syn::Error + 'f;
 
 /// The `<link>` and `<joint>` elements, checked one by one.
@@ -594,6 +608,25 @@ mod tests {
                 }
                 let _ = from_text(&String::from_utf8_lossy(&mutated), robot, span, next(2) == 0);
             }
+        }
+    }
+
+    #[test]
+    fn names_become_identifiers() {
+        let cases = [
+            ("shoulder_pan_joint", "shoulder_pan_joint"),
+            ("FL-HAA", "FL_HAA"),
+            ("7dof", "_7dof"),
+            ("type", "_type"),
+            ("ground", "_ground"),
+            ("", "_3"),
+            ("_", "__"),
+            ("ü", "__"),
+            ("a b", "a_b"),
+        ];
+        for (name, rust) in cases {
+            assert_eq!(rust_name(name, 3), rust, "{name:?}");
+            assert!(syn::parse_str::<syn::Ident>(rust).is_ok());
         }
     }
 
