@@ -3,7 +3,6 @@
 //! (`cargo run --release --example NAME`).
 
 pub mod bricard;
-pub mod cardan;
 pub mod coordinates;
 pub mod double_cardan;
 pub mod four_bar;
@@ -13,21 +12,6 @@ pub mod report;
 pub mod scaling;
 pub mod steering;
 
-use std::path::Path;
-
-use joint_runtime::record::{SvgOptions, Trajectory};
-
-/// Writes `trajectory` as an animated SVG at `path`, creating its directory.
-///
-/// # Errors
-/// The I/O error, as text.
-pub fn write_animation<const NB: usize>(
-    path: &Path,
-    trajectory: &Trajectory<NB>,
-    options: &SvgOptions,
-) -> Result<(), String> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
-    }
-    std::fs::write(path, trajectory.svg(options)).map_err(|e| format!("writing {}: {e}", path.display()))
-}
+// The Cardan shaft and the animation writer live in `joint-demo`, the main
+// example's package (a first run builds nothing else).
+pub use joint_demo::{cardan, write_animation};

@@ -9,8 +9,8 @@
 //! cargo run --release --example cardan
 //! ```
 
-use joint_examples::cardan::{self, Curve, Sweep, plot_speed_ratios};
-use joint_examples::write_animation;
+use joint_demo::cardan::{self, Curve, Sweep, plot_speed_ratios};
+use joint_demo::write_animation;
 use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;

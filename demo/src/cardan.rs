@@ -339,14 +339,12 @@ pub struct Curve {
 
 /// Writes an SVG plot of speed ratio against input angle (0–360°), on a
 /// logarithmic ratio axis, one curve per entry; creates the file's directory.
+/// Written by hand (a few lines of SVG), so that the main example builds on
+/// the runtime alone.
 ///
 /// # Errors
-/// Any I/O or drawing error, as text.
+/// Any I/O error, or nothing positive to plot, as text.
 pub fn plot_speed_ratios(path: &std::path::Path, caption: &str, curves: &[Curve]) -> Result<(), String> {
-    use plotters::prelude::*;
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
-    }
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for c in curves {
         for &(_, y) in &c.points {
@@ -357,55 +355,80 @@ pub fn plot_speed_ratios(path: &std::path::Path, caption: &str, curves: &[Curve]
     if !(lo.is_finite() && hi.is_finite() && lo > 0.0) {
         return Err("nothing positive to plot".into());
     }
-    let (lo, hi) = (lo / 1.15, hi * 1.15);
-    let root = SVGBackend::new(path, (960, 640)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| e.to_string();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 26))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..360.0, (lo..hi).log_scale())
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("input angle φ₁ (degrees)")
-        .y_desc("output speed / input speed")
-        .x_labels(13)
-        .y_labels(16)
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 16))
-        .y_label_formatter(&|y| format!("{y:.3}"))
-        .draw()
-        .map_err(|e| err(&e))?;
+    let (lo, hi) = ((lo / 1.15).ln(), (hi * 1.15).ln());
+    let (left, top, width, height) = (90.0, 60.0, 840.0, 520.0);
+    let x = |deg: f64| left + width * deg / 360.0;
+    let y = |ratio: f64| top + height * (hi - ratio.ln()) / (hi - lo);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"960\" height=\"660\" font-family=\"sans-serif\">\n\
+         <rect width=\"960\" height=\"660\" fill=\"white\"/>\n\
+         <text x=\"480\" y=\"32\" font-size=\"24\" text-anchor=\"middle\">{caption}</text>\n\
+         <rect x=\"{left}\" y=\"{top}\" width=\"{width}\" height=\"{height}\" fill=\"none\" stroke=\"black\"/>\n"
+    );
+    for deg in (0..=360).step_by(30) {
+        let px = x(f64::from(deg));
+        svg += &format!(
+            "<line x1=\"{px}\" y1=\"{top}\" x2=\"{px}\" y2=\"{}\" stroke=\"#ddd\"/>\
+             <text x=\"{px}\" y=\"{}\" font-size=\"14\" text-anchor=\"middle\">{deg}</text>\n",
+            top + height,
+            top + height + 20.0
+        );
+    }
+    // Sixteen ratio ticks, evenly spaced on the logarithmic axis.
+    for i in 0..=15 {
+        let ratio = (lo + (hi - lo) * f64::from(i) / 15.0).exp();
+        let py = y(ratio);
+        svg += &format!(
+            "<line x1=\"{left}\" y1=\"{py:.1}\" x2=\"{}\" y2=\"{py:.1}\" stroke=\"#ddd\"/>\
+             <text x=\"{}\" y=\"{:.1}\" font-size=\"14\" text-anchor=\"end\">{ratio:.3}</text>\n",
+            left + width,
+            left - 8.0,
+            py + 5.0
+        );
+    }
+    svg += &format!(
+        "<text x=\"480\" y=\"{}\" font-size=\"16\" text-anchor=\"middle\">input angle φ₁ (degrees)</text>\n\
+         <text x=\"22\" y=\"{}\" font-size=\"16\" text-anchor=\"middle\" transform=\"rotate(-90 22 {})\">\
+         output speed / input speed</text>\n",
+        top + height + 48.0,
+        top + height / 2.0,
+        top + height / 2.0
+    );
+    const COLOURS: [&str; 6] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf"];
     for (i, c) in curves.iter().enumerate() {
-        let color = Palette99::pick(i).to_rgba();
+        let colour = COLOURS[i % COLOURS.len()];
         if c.markers {
             let step = (c.points.len() / 36).max(1);
-            chart
-                .draw_series(c.points.iter().step_by(step).map(|&p| Circle::new(p, 3, color.stroke_width(1))))
-                .map_err(|e| err(&e))?
-                .label(c.label.clone())
-                .legend(move |(x, y)| Circle::new((x + 10, y), 3, color.stroke_width(1)));
+            for &(a, r) in c.points.iter().step_by(step) {
+                svg += &format!(
+                    "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3\" fill=\"none\" stroke=\"{colour}\"/>\n",
+                    x(a),
+                    y(r)
+                );
+            }
         } else {
-            chart
-                .draw_series(LineSeries::new(c.points.iter().copied(), color.stroke_width(2)))
-                .map_err(|e| err(&e))?
-                .label(c.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            let points: Vec<String> = c.points.iter().map(|&(a, r)| format!("{:.1},{:.1}", x(a), y(r))).collect();
+            svg += &format!(
+                "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\"/>\n",
+                points.join(" ")
+            );
         }
+        let ly = top + 20.0 + 22.0 * i as f64;
+        svg += &format!(
+            "<line x1=\"{}\" y1=\"{ly}\" x2=\"{}\" y2=\"{ly}\" stroke=\"{colour}\" stroke-width=\"2\"/>\
+             <text x=\"{}\" y=\"{}\" font-size=\"15\">{}</text>\n",
+            left + width - 250.0,
+            left + width - 225.0,
+            left + width - 218.0,
+            ly + 5.0,
+            c.label
+        );
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 15))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    svg += "</svg>\n";
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    }
+    std::fs::write(path, svg).map_err(|e| format!("writing {}: {e}", path.display()))
 }
 
 /// Draws the yokes of a shaft drawing: on body `input` across its fork at
