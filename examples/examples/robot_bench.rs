@@ -1,16 +1,17 @@
 //! Robots read from their URDF files (`tests/data/robots`), timed per call
 //! as Pinocchio and MuJoCo are timed in the project's peer notes: forward
 //! dynamics (`aba_ns`), the mass matrix (`crba_ns`), inverse dynamics
-//! (`rnea_ns`) and an RK4 step at h = 1 ms (`rk4_us`), medians over
-//! batches at one fixed state; one JSON line.
+//! (`rnea_ns`) and an RK4 step at h = 1 ms (`rk4_us`) at one fixed state,
+//! each the median of 15 calibrated batches (`report::variants::median_ns`);
+//! one JSON line.
 //!
 //! ```text
-//! cargo run --release --example robot_bench -- ur5 | panda | solo12 | solo12_floating [BATCHES] [BATCH_MS]
+//! cargo run --release --example robot_bench -- ur5 | panda | solo12 | solo12_floating
 //! ```
 
 use std::hint::black_box;
-use std::time::Instant;
 
+use joint_examples::report::variants::median_ns;
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
 use joint_runtime::tree::{TreeScene, TreeSimulation, TreeState};
@@ -31,35 +32,7 @@ struct Solo12;
 #[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base)]
 struct Solo12Floating;
 
-/// Median nanoseconds per call of `f` over `batches` batches of about
-/// `batch_ms` each.
-fn time(batches: usize, batch_ms: f64, mut f: impl FnMut()) -> f64 {
-    let mut calls = 1_usize;
-    loop {
-        let start = Instant::now();
-        for _ in 0..calls {
-            f();
-        }
-        if start.elapsed().as_secs_f64() * 1e3 > batch_ms / 4.0 {
-            break;
-        }
-        calls *= 2;
-    }
-    calls *= 4;
-    let mut each: Vec<f64> = (0..batches)
-        .map(|_| {
-            let start = Instant::now();
-            for _ in 0..calls {
-                f();
-            }
-            start.elapsed().as_secs_f64() * 1e9 / calls as f64
-        })
-        .collect();
-    each.sort_by(f64::total_cmp);
-    each[each.len() / 2]
-}
-
-fn bench<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str, batches: usize, ms: f64)
+fn bench<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str)
 where
     S: TreeScene<NB, NQ, NV>,
 {
@@ -89,19 +62,19 @@ where
     }
     let tau = SVector::<f64, NV>::from_fn(|k, _| (1.3 * k as f64).cos());
     let start = state;
-    let aba = time(batches, ms, || {
+    let aba = median_ns(1, || {
         black_box(sim.forward_dynamics(black_box(&start), black_box(&tau)).ok());
     });
     let mut m = SMatrix::<f64, NV, NV>::zeros();
-    let crba = time(batches, ms, || {
+    let crba = median_ns(1, || {
         sim.mass_matrix_into(black_box(&start.q), &mut m);
         black_box(&m);
     });
-    let rnea = time(batches, ms, || {
+    let rnea = median_ns(1, || {
         black_box(sim.inverse_dynamics(black_box(&start), black_box(&tau)));
     });
     let mut steps = 0_usize;
-    let rk4 = time(batches, ms, || {
+    let rk4 = median_ns(1, || {
         if steps.is_multiple_of(1000) {
             state = start;
         }
@@ -120,13 +93,11 @@ where
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let robot = args.get(1).map_or("ur5", String::as_str);
-    let batches = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(15);
-    let ms = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(10.0);
     match robot {
-        "ur5" => bench(&Ur5, robot, batches, ms),
-        "panda" => bench(&Panda, robot, batches, ms),
-        "solo12" => bench(&Solo12, robot, batches, ms),
-        "solo12_floating" => bench(&Solo12Floating, robot, batches, ms),
+        "ur5" => bench(&Ur5, robot),
+        "panda" => bench(&Panda, robot),
+        "solo12" => bench(&Solo12, robot),
+        "solo12_floating" => bench(&Solo12Floating, robot),
         other => eprintln!("unknown robot `{other}`; expected ur5, panda, solo12 or solo12_floating"),
     }
 }
