@@ -1,8 +1,9 @@
 //! What a robot's file says beyond its dynamics, as constants the derive
-//! writes for `#[scene(urdf = "..")]`: every link's frame on its body
-//! (`Scene::LINKS`: end effectors, tool flanges, the massless links a file
-//! uses as named frames) and every moving joint's limits (`Scene::LIMITS`),
-//! by the file's names.
+//! writes for `#[scene(urdf = "..")]` and `#[scene(mjcf = "..")]`: every
+//! link's frame on its body (`Scene::LINKS`: end effectors, tool flanges,
+//! the massless links a URDF uses as named frames, an MJCF's bodies and
+//! sites) and every moving joint's limits (`Scene::LIMITS`), by the file's
+//! names.
 //!
 //! A link's frame is given in its body's frame (origin at the body's
 //! centre of mass): where it is and how it is turned. Its pose, velocity
@@ -75,8 +76,12 @@ pub struct JointLimits {
     pub effort: Option<f64>,
     /// Largest rate magnitude.
     pub velocity: Option<f64>,
-    /// Viscous damping coefficient (`<dynamics damping>`).
+    /// Viscous damping coefficient (`<dynamics damping>`, MJCF `damping`;
+    /// data only: the dynamics do not include it yet).
     pub damping: Option<f64>,
-    /// Coulomb friction (`<dynamics friction>`).
+    /// Coulomb friction (URDF `<dynamics friction>`, MJCF `frictionloss`).
     pub friction: Option<f64>,
+    /// Inertia added to the joint's own freedom (MJCF `armature`; the
+    /// dynamics do not include it yet).
+    pub armature: Option<f64>,
 }

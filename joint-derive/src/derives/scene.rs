@@ -342,11 +342,12 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
     });
     let limits = data.limits.iter().map(|(name, l)| {
         let range = some(l.range.map(|(a, b)| quote!((#a, #b))));
-        let [effort, velocity, damping, friction] =
-            [l.effort, l.velocity, l.damping, l.friction].map(|x| some(x.map(|x| quote!(#x))));
+        let [effort, velocity, damping, friction, armature] =
+            [l.effort, l.velocity, l.damping, l.friction, l.armature].map(|x| some(x.map(|x| quote!(#x))));
         quote! {
             #k::robot::JointLimits {
-                name: #name, range: #range, effort: #effort, velocity: #velocity, damping: #damping, friction: #friction,
+                name: #name, range: #range, effort: #effort, velocity: #velocity, damping: #damping,
+                friction: #friction, armature: #armature,
             }
         }
     });

@@ -16,8 +16,12 @@ pub mod context;
 pub mod custom;
 pub mod geometry;
 pub mod joint;
+#[cfg(feature = "mjcf")]
+pub mod mjcf;
 pub mod names;
 pub mod resolve;
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+pub mod robot;
 pub mod rows;
 pub mod scene;
 pub mod tree;

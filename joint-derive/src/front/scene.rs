@@ -281,7 +281,7 @@ pub struct FileLink {
     pub origin: [f64; 3],
 }
 
-/// A joint's `<limit>` and `<dynamics>` numbers, where given.
+/// A joint's limits, damping and friction as its file gives them, where given.
 #[derive(Clone, Copy, Default)]
 pub struct FileLimits {
     /// `lower`, `upper` (both given).
@@ -292,8 +292,10 @@ pub struct FileLimits {
     pub velocity: Option<f64>,
     /// `damping`.
     pub damping: Option<f64>,
-    /// `friction`.
+    /// `friction` (MJCF: `frictionloss`).
     pub friction: Option<f64>,
+    /// MJCF's `armature`: inertia added to the joint's own freedom.
+    pub armature: Option<f64>,
 }
 
 /// What a robot's file says beyond its bodies and joints.
@@ -460,18 +462,25 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let Options { gravity, second_order, relative, absolute, urdf, floating_base } =
+    let Options { gravity, second_order, relative, absolute, file, floating_base } =
         scene_options(input, &fields, &mut errors);
-    if let (Some(at), None) = (floating_base, &urdf) {
-        errors.at(at, "`floating_base` is for a robot's file (`urdf = \"..\"`): a body without joints floats already");
+    match (floating_base, &file) {
+        (Some(_), Some((RobotFormat::Urdf, _))) | (None, _) => {}
+        (Some(at), _) => errors.at(
+            at,
+            "`floating_base` is for a URDF file (`urdf = \"..\"`): in MJCF a `<freejoint/>` floats a body, and a \
+             body without joints floats already",
+        ),
     }
-    let read = urdf.as_ref().and_then(|lit| robot(lit, floating_base.is_some(), &mut errors));
-    let (mut bodies, file_joints, files, file) = match read {
-        Some((bodies, joints, files, data)) => (bodies, joints, files, Some(data)),
+    let read = file.as_ref().and_then(|(format, lit)| robot(*format, lit, floating_base.is_some(), &mut errors));
+    let (mut bodies, file_joints, files, file_gravity, file_data) = match read {
+        Some(r) => (r.bodies, r.joints, r.files, r.gravity, Some(r.data)),
         None => Default::default(),
     };
+    let known = |g: [f64; 3]| Quantity::Const(g.iter().map(|&x| Number::Known(x)).collect());
+    let gravity = gravity.unwrap_or_else(|| known(file_gravity.unwrap_or([0.0; 3])));
     bodies.extend(self::bodies(input, &fields, &mut errors));
-    let from_file = urdf.is_some();
+    let from_file = file.is_some();
     if bodies.is_empty() && !written("body") && !from_file {
         let message = "a scene needs bodies; add `#[body(NAME, mass = 1.0, inertia = [ixx, iyy, izz])]`";
         errors.at(input.ident.span(), message);
@@ -488,7 +497,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         tree: None,
         absolute,
         files,
-        file,
+        file: file_data,
     };
     for j in file_joints {
         scene.joint(j, &fields, &mut errors);
@@ -513,30 +522,90 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
 
 /// What `#[scene(..)]` says.
 struct Options {
-    gravity: Quantity,
+    /// `None`: the file's, or zero.
+    gravity: Option<Quantity>,
     second_order: Option<Span>,
     /// Where `relative` or `both` was asked for.
     relative: Option<Span>,
     absolute: bool,
-    /// `urdf = "path"`: a robot's file.
-    urdf: Option<syn::LitStr>,
+    /// `urdf = "path"` or `mjcf = "path"`: a robot's file.
+    file: Option<(RobotFormat, syn::LitStr)>,
     /// `floating_base`: the file's root link floats.
     floating_base: Option<Span>,
 }
 
+/// The formats of robot files.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum RobotFormat {
+    Urdf,
+    Mjcf,
+}
+
+impl RobotFormat {
+    fn key(self) -> &'static str {
+        match self {
+            RobotFormat::Urdf => "urdf",
+            RobotFormat::Mjcf => "mjcf",
+        }
+    }
+}
+
 /// A robot file's bodies and joints as attributes would give them (at the
-/// path's span), the file, and its links and limits.
-type FromFile = (Vec<Body>, Vec<JointAttr>, Vec<String>, FileData);
+/// path's span), the file, its gravity, and its links and limits.
+#[derive(Default)]
+struct FromFile {
+    bodies: Vec<Body>,
+    joints: Vec<JointAttr>,
+    files: Vec<String>,
+    gravity: Option<[f64; 3]>,
+    data: FileData,
+}
 
 /// A robot file read; `None` after an error.
-#[cfg(feature = "urdf")]
-fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<FromFile> {
-    let robot = super::urdf::read(lit, floating).map_err(|e| errors.push(e)).ok()?;
-    let span = lit.span();
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+fn robot(
+    format: RobotFormat,
+    lit: &syn::LitStr,
+    #[cfg_attr(not(feature = "urdf"), allow(unused_variables))] floating: bool,
+    errors: &mut Errors,
+) -> Option<FromFile> {
+    let read = match format {
+        #[cfg(feature = "urdf")]
+        RobotFormat::Urdf => super::urdf::read(lit, floating),
+        #[cfg(feature = "mjcf")]
+        RobotFormat::Mjcf => super::mjcf::read(lit),
+        #[allow(unreachable_patterns)] // with both features on
+        _ => return missing_feature(format, lit, errors),
+    };
+    from_file(read.map_err(|e| errors.push(e)).ok()?, lit.span(), errors)
+}
+
+/// Without the format's feature, a file cannot be read.
+#[cfg(not(any(feature = "urdf", feature = "mjcf")))]
+fn robot(format: RobotFormat, lit: &syn::LitStr, _: bool, errors: &mut Errors) -> Option<FromFile> {
+    missing_feature(format, lit, errors)
+}
+
+/// The error for a file whose format's feature is off.
+fn missing_feature(format: RobotFormat, lit: &syn::LitStr, errors: &mut Errors) -> Option<FromFile> {
+    let key = format.key();
+    errors.at(
+        lit.span(),
+        format!(
+            "reading a robot's `{key}` file needs the `{key}` feature: `joint-runtime = {{ version = \"..\", features \
+             = [\"{key}\"] }}`"
+        ),
+    );
+    None
+}
+
+/// A robot read, as attributes would give it.
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+fn from_file(robot: super::robot::Robot, span: Span, errors: &mut Errors) -> Option<FromFile> {
     // Links and joints are named apart, as in the file.
     let (mut body_names, mut joint_names) = (Vec::new(), Vec::new());
     let ident = |name: &str, taken: &mut Vec<String>, errors: &mut Errors| -> syn::Ident {
-        let text = super::urdf::rust_name(name, taken.len());
+        let text = super::robot::rust_name(name, taken.len());
         if taken.contains(&text) {
             errors.at(span, format!("`{name}` and another name of the file are both `{text}` as Rust names"));
         }
@@ -560,29 +629,34 @@ fn robot(lit: &syn::LitStr, floating: bool, errors: &mut Errors) -> Option<FromF
     };
     let list = |v: &[f64; 3]| Some(Value::List(known(v), span));
     let arg = |key: &str, v: &[f64; 3]| Arg { key: syn::Ident::new(key, span), value: list(v) };
+    let z = [0.0, 0.0, 1.0];
     let joints = robot
         .joints
         .iter()
-        .map(|j| JointAttr {
-            name: ident(&j.name, &mut joint_names, errors),
-            repeat: None,
-            kind: syn::Ident::new(j.kind, span),
-            bodies: vec![body_ref(j.parent), body_ref(Some(j.child))],
-            args: vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+        .chain(&robot.closures)
+        .map(|j| {
+            let args = match j.kind {
+                "spherical" => vec![arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+                "fixed" => vec![arg("axis1", &z), arg("axis2", &z), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+                _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+            };
+            JointAttr {
+                name: ident(&j.name, &mut joint_names, errors),
+                repeat: None,
+                kind: syn::Ident::new(j.kind, span),
+                bodies: vec![body_ref(j.parent), body_ref(Some(j.child))],
+                args,
+            }
         })
         .collect();
     let limits = robot.joints.iter().map(|j| (j.name.clone(), j.limits)).collect();
-    Some((bodies, joints, vec![robot.path], FileData { links: robot.links, limits }))
-}
-
-/// Without the `urdf` feature, a file cannot be read.
-#[cfg(not(feature = "urdf"))]
-fn robot(lit: &syn::LitStr, _: bool, errors: &mut Errors) -> Option<FromFile> {
-    errors.at(
-        lit.span(),
-        "reading a URDF file needs the `urdf` feature: `joint-runtime = { version = \"..\", features = [\"urdf\"] }`",
-    );
-    None
+    Some(FromFile {
+        bodies,
+        joints,
+        files: vec![robot.path],
+        gravity: robot.gravity,
+        data: FileData { links: robot.links, limits },
+    })
 }
 
 /// `#[scene(gravity = .., formulation = omega_body, second_order, coordinates
@@ -592,7 +666,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     let mut gravity = Slot::new("`gravity`", "it once");
     let mut second_order = Slot::new("`second_order`", "it once");
     let mut coordinates = Slot::new("`coordinates`", "it once");
-    let mut urdf = Slot::new("`urdf`", "it once");
+    let mut file = Slot::new("a robot's file", "one `urdf` or `mjcf`");
     let mut floating_base = Slot::new("`floating_base`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
@@ -600,11 +674,16 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 None => floating_base.set(a.key.span(), (), errors),
                 Some(v) => errors.at(v.span(), "`floating_base` takes no value; expected `floating_base` alone"),
             },
-            "urdf" => match a.value {
-                Some(Value::Text(path)) => urdf.set(a.key.span(), path, errors),
-                _ => errors
-                    .at(a.key.span(), "expected `urdf = \"path/to/robot.urdf\"` (relative to the crate's directory)"),
-            },
+            key @ ("urdf" | "mjcf") => {
+                let format = if key == "urdf" { RobotFormat::Urdf } else { RobotFormat::Mjcf };
+                match a.value {
+                    Some(Value::Text(path)) => file.set(a.key.span(), (format, path), errors),
+                    _ => errors.at(
+                        a.key.span(),
+                        format!("expected `{key} = \"path/to/robot.{key}\"` (relative to the crate's directory)"),
+                    ),
+                }
+            }
             "gravity" => {
                 if let Some(q) = quantity(a.value, &a.key, fields, errors) {
                     gravity.set(a.key.span(), q, errors);
@@ -633,26 +712,27 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 ),
             },
             other => {
-                let hint = did_you_mean(other, ["gravity", "second_order", "coordinates", "urdf", "floating_base"]);
+                let hint =
+                    did_you_mean(other, ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base"]);
                 errors.at(
                     a.key.span(),
                     format!(
                         "unknown scene option `{other}`{hint}; expected `gravity`, `second_order`, `coordinates`, \
-                         `urdf` or `floating_base`"
+                         `urdf`, `mjcf` or `floating_base`"
                     ),
                 )
             }
         }
     }
-    let gravity = gravity.take().map_or(Quantity::Const(vec![Number::Known(0.0); 3]), |(q, _)| q);
-    let urdf = urdf.take().map(|(path, _)| path);
+    let gravity = gravity.take().map(|(q, _)| q);
+    let file = file.take().map(|(file, _)| file);
     // A robot's file is a tree: relative coordinates unless asked otherwise.
     let (relative, absolute) = match coordinates.take() {
         Some((c, span)) if c == "relative" => (Some(span), false),
         Some((c, span)) if c == "both" => (Some(span), true),
         Some(_) => (None, true),
-        None => match &urdf {
-            Some(path) => (Some(path.span()), false),
+        None => match &file {
+            Some((_, path)) => (Some(path.span()), false),
             None => (None, true),
         },
     };
@@ -662,7 +742,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
         second_order: second_order.take().map(|(_, span)| span),
         relative,
         absolute,
-        urdf,
+        file,
         floating_base,
     }
 }

@@ -1,110 +1,23 @@
 //! `#[scene(urdf = "robot.urdf")]`: a robot's links and joints read from its
-//! URDF file at compile time and put in the scene's terms, as if written as
-//! `#[body]` and `#[joint]` attributes.
+//! URDF file at compile time and put in the scene's terms by
+//! [`assemble`](super::robot::assemble) (frames at the centres, world axes
+//! at the zero configuration, fixed links welded into one body).
 //!
-//! Frames: every body's frame has its origin at the body's centre of mass
-//! and its axes parallel to the world's at the file's zero configuration
-//! (every joint value zero). Each joint's axis is then one vector on both of
-//! its bodies, its rest rotation the identity, and its coordinate the
-//! file's: an angle positive about the axis (a slide along it), zero where
-//! the file's is. Links joined by `fixed` joints are one body (masses,
-//! centres and inertias combined: the scene models only what moves); the
-//! root link and the links fixed to it are the ground. A `floating` joint
-//! is left out, so its child floats (the derive gives it a free joint).
 //! Visuals, collisions, transmissions and Gazebo tags are not read; a
 //! `<mimic>` joint is read as an independent joint, as Pinocchio's and
 //! MuJoCo's readers do by default (its coupling as a driver row is not
 //! derived yet).
 
-use std::collections::HashMap;
-
-use super::geometry::{eigenvalues, physical};
-
-pub use super::scene::{FileLimits, FileLink};
-
-/// A robot in the scene's terms.
-pub struct Robot {
-    /// The moving bodies, in the order of their first links in the file.
-    pub bodies: Vec<RobotBody>,
-    /// The moving joints, in the file's order.
-    pub joints: Vec<RobotJoint>,
-    /// Every link's frame on its body, in the file's order.
-    pub links: Vec<FileLink>,
-    /// The file, absolute: the derive includes it so that cargo rebuilds
-    /// when it changes.
-    pub path: String,
-}
-
-/// One body: the links a chain of `fixed` joints welds together.
-pub struct RobotBody {
-    /// The first link's name.
-    pub name: String,
-    /// Mass.
-    pub mass: f64,
-    /// Inertia about the centre of mass, world axes at the zero
-    /// configuration: `[ixx, iyy, izz, ixy, ixz, iyz]` (tensor entries).
-    pub inertia: [f64; 6],
-}
-
-/// One joint between two bodies (`None`: the ground).
-pub struct RobotJoint {
-    /// The file's name.
-    pub name: String,
-    /// The catalogue's kind: `revolute` or `translational`.
-    pub kind: &'static str,
-    /// The parent body.
-    pub parent: Option<usize>,
-    /// The child body.
-    pub child: usize,
-    /// The unit axis, both bodies' (and the world's) components at zero.
-    pub axis: [f64; 3],
-    /// The joint point from the parent's centre of mass (the world's origin
-    /// for the ground).
-    pub rho1: [f64; 3],
-    /// The joint point from the child's centre of mass.
-    pub rho2: [f64; 3],
-    /// Its limits and friction.
-    pub limits: FileLimits,
-}
-
-type V3 = [f64; 3];
-type M3 = [[f64; 3]; 3];
-
-/// A link as the file gives it.
-struct Link {
-    name: String,
-    /// Mass, centre and inertia in the link's frame (inertia's own frame
-    /// turned into the link's axes); `None` without `<inertial>`.
-    inertial: Option<(f64, V3, M3)>,
-    at: roxmltree::TextPos,
-}
-
-/// A joint as the file gives it.
-struct Joint {
-    name: String,
-    kind: String,
-    parent: usize,
-    child: usize,
-    origin: (M3, V3),
-    axis: V3,
-    limits: FileLimits,
-    at: roxmltree::TextPos,
-}
+use super::robot::{
+    Fail, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, assemble, mul, number, required, transpose, triple,
+};
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
 /// error at the attribute, naming the file, line and column. With
 /// `floating`, the root link (and the links fixed to it) is a body that
 /// floats, not the ground.
 pub fn read(path: &syn::LitStr, floating: bool) -> syn::Result<Robot> {
-    let dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default();
-    let full = std::path::Path::new(&dir).join(path.value());
-    let shown = full.display().to_string();
-    let text = std::fs::read_to_string(&full).map_err(|e| {
-        syn::Error::new(
-            path.span(),
-            format!("cannot read `{shown}`: {e}; expected a URDF file's path relative to the crate's directory"),
-        )
-    })?;
+    let (text, shown) = super::robot::read_text(path, "a URDF")?;
     let robot = from_text(&text, &shown, path.span(), floating)?;
     Ok(Robot { path: shown, ..robot })
 }
@@ -120,24 +33,8 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, floating: bool) -
         let at = doc.text_pos_at(doc.root_element().range().start);
         return Err(fail(at, "the robot has no `<link>`; expected its links and joints".into()));
     }
-    assemble(&links, &joints, floating, &fail)
+    assemble(&links, &joints, &[], floating, &fail)
 }
-
-/// A file's name as a Rust identifier: other characters as `_`, a leading
-/// `_` where the name is not one (a digit first, a keyword, `ground`), and
-/// `_{index}` for a name with nothing left.
-pub fn rust_name(name: &str, index: usize) -> String {
-    let mut text: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
-    if text == "ground" || syn::parse_str::<syn::Ident>(&text).is_err() {
-        text.insert(0, '_');
-    }
-    if syn::parse_str::<syn::Ident>(&text).is_err() {
-        text = format!("_{index}");
-    }
-    text
-}
-
-type Fail<'f> = dyn Fn(roxmltree::TextPos, String) -> syn::Error + 'f;
 
 /// The `<link>` and `<joint>` elements, checked one by one.
 fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, Vec<Joint>)> {
@@ -170,16 +67,21 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
         if joints.iter().any(|j| j.name == name) {
             return Err(fail(at, format!("joint `{name}` is declared twice; expected unique joint names")));
         }
-        let kind = required(node, "type", at, fail)?;
-        if !matches!(kind.as_str(), "revolute" | "continuous" | "prismatic" | "fixed" | "floating") {
-            return Err(fail(
-                at,
-                format!(
-                    "joint `{name}` has type `{kind}`; expected `revolute`, `continuous`, `prismatic`, `fixed` or \
+        let kind = match required(node, "type", at, fail)?.as_str() {
+            "revolute" | "continuous" => Kind::Revolute,
+            "prismatic" => Kind::Prismatic,
+            "fixed" => Kind::Fixed,
+            "floating" => Kind::Floating,
+            kind => {
+                return Err(fail(
+                    at,
+                    format!(
+                        "joint `{name}` has type `{kind}`; expected `revolute`, `continuous`, `prismatic`, `fixed` or \
                      `floating` (`planar` is not read yet)"
-                ),
-            ));
-        }
+                    ),
+                ));
+            }
+        };
         let link_of = |tag: &str| -> syn::Result<usize> {
             let n = node.children().find(|n| n.has_tag_name(tag));
             let n = n.ok_or_else(|| fail(at, format!("joint `{name}` has no `<{tag} link=\"..\"/>`")))?;
@@ -195,7 +97,7 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             None => [1.0, 0.0, 0.0],
         };
         let limits = limits(node, &pos, fail)?;
-        joints.push(Joint { name, kind, parent, child, origin, axis, limits, at });
+        joints.push(Joint { name, kind, parent, child, origin, point: [0.0; 3], axis, limits, at });
     }
     Ok((links, joints))
 }
@@ -222,6 +124,7 @@ fn limits(
         velocity: optional("limit", "velocity")?,
         damping: optional("dynamics", "damping")?,
         friction: optional("dynamics", "friction")?,
+        armature: None,
     })
 }
 
@@ -248,178 +151,6 @@ fn inertial(
     Ok((mass, centre, mul(&mul(&turn, &tensor), &transpose(&turn))))
 }
 
-/// The bodies (links welded by fixed joints) and the moving joints.
-fn assemble(links: &[Link], joints: &[Joint], floating: bool, fail: &Fail) -> syn::Result<Robot> {
-    // Each link's joint from its parent: one at most (a URDF is a tree).
-    let mut inbound: Vec<Option<usize>> = vec![None; links.len()];
-    for (k, j) in joints.iter().enumerate() {
-        if let Some(other) = inbound[j.child] {
-            let (a, c) = (&joints[other].name, &links[j.child].name);
-            return Err(fail(
-                j.at,
-                format!(
-                    "link `{c}` is the child of joints `{a}` and `{}`; a URDF is a tree (close a loop with a \
-                     `#[joint]` attribute)",
-                    j.name
-                ),
-            ));
-        }
-        inbound[j.child] = Some(k);
-    }
-    let roots: Vec<usize> = (0..links.len()).filter(|&l| inbound[l].is_none()).collect();
-    let root = match roots.as_slice() {
-        [root] => *root,
-        [] => return Err(fail(joints.first().map_or(links[0].at, |j| j.at), "the joints form a cycle".into())),
-        [_, second, ..] => {
-            let (a, b) = (&links[roots[0]].name, &links[*second].name);
-            return Err(fail(
-                links[*second].at,
-                format!("links `{a}` and `{b}` both have no parent joint; expected one root link"),
-            ));
-        }
-    };
-    // Poses at zero, root first: the child's frame is the joint's.
-    let mut pose: Vec<Option<(M3, V3)>> = vec![None; links.len()];
-    pose[root] = Some((IDENTITY, [0.0; 3]));
-    let mut order = vec![root];
-    let mut i = 0;
-    while let Some(&l) = order.get(i) {
-        i += 1;
-        for j in joints.iter().filter(|j| j.parent == l) {
-            let (r, p) = pose[l].unwrap_or((IDENTITY, [0.0; 3]));
-            let (ro, po) = j.origin;
-            pose[j.child] = Some((mul(&r, &ro), add(&p, &apply(&r, &po))));
-            order.push(j.child);
-        }
-    }
-    if let Some(l) = (0..links.len()).find(|&l| pose[l].is_none()) {
-        return Err(fail(links[l].at, format!("link `{}` is on a cycle of joints", links[l].name)));
-    }
-    // Bodies: each moving joint's child starts one; a fixed joint's child
-    // joins its parent's (the root's: the ground, or a floating base).
-    let mut body_of: Vec<Option<usize>> = vec![None; links.len()];
-    let mut heads: Vec<usize> = Vec::new();
-    if floating {
-        heads.push(root);
-        body_of[root] = Some(0);
-    }
-    for &l in &order[1..] {
-        let j = &joints[inbound[l].unwrap_or(0)];
-        body_of[l] = if j.kind == "fixed" {
-            body_of[j.parent]
-        } else {
-            heads.push(l);
-            Some(heads.len() - 1)
-        };
-    }
-    // The file's link order for the bodies.
-    let mut by_file: Vec<usize> = (0..heads.len()).collect();
-    by_file.sort_by_key(|&b| heads[b]);
-    let renumber: HashMap<usize, usize> = by_file.iter().enumerate().map(|(new, &old)| (old, new)).collect();
-    let body_of: Vec<Option<usize>> = body_of.iter().map(|b| b.map(|b| renumber[&b])).collect();
-    let heads: Vec<usize> = by_file.iter().map(|&b| heads[b]).collect();
-    let mut centres = Vec::new();
-    let mut bodies = Vec::new();
-    for (b, &head) in heads.iter().enumerate() {
-        let members: Vec<usize> = (0..links.len()).filter(|&l| body_of[l] == Some(b)).collect();
-        let (mass, centre, inertia) = combine(&members, links, &pose);
-        check_inertia(&links[head], mass, &inertia, fail)?;
-        centres.push(centre);
-        bodies.push(RobotBody {
-            name: links[head].name.clone(),
-            mass,
-            inertia: [inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2], inertia[1][2]],
-        });
-    }
-    let mut out = Vec::new();
-    for j in joints.iter().filter(|j| j.kind != "fixed" && j.kind != "floating") {
-        let (r, o) = pose[j.child].unwrap_or((IDENTITY, [0.0; 3]));
-        let length = norm(&j.axis);
-        if length.is_nan() || length <= 1e-12 {
-            return Err(fail(j.at, format!("joint `{}` has a zero axis; expected `<axis xyz=\"0 0 1\"/>`", j.name)));
-        }
-        let axis = apply(&r, &j.axis.map(|x| x / length));
-        let (parent, child) = (body_of[j.parent], body_of[j.child].unwrap_or(0));
-        let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
-        let (rho1, rho2) = (sub(&o, &from(parent)), sub(&o, &centres[child]));
-        if !rho1.iter().chain(&rho2).all(|x| x.is_finite()) {
-            return Err(fail(j.at, format!("joint `{}` is at a point out of range", j.name)));
-        }
-        out.push(RobotJoint {
-            name: j.name.clone(),
-            kind: if j.kind == "prismatic" { "translational" } else { "revolute" },
-            parent,
-            child,
-            axis,
-            rho1,
-            rho2,
-            limits: j.limits,
-        });
-    }
-    // Every link's frame: the body's axes are the world's at zero.
-    let frames = (0..links.len())
-        .map(|l| {
-            let (r, p) = pose[l].unwrap_or((IDENTITY, [0.0; 3]));
-            let body = body_of[l];
-            let origin = body.map_or(p, |b| sub(&p, &centres[b]));
-            FileLink { name: links[l].name.clone(), body, rotation: r, origin }
-        })
-        .collect();
-    Ok(Robot { bodies, joints: out, links: frames, path: String::new() })
-}
-
-/// Mass, centre and inertia about it (world axes at zero) of welded links.
-fn combine(members: &[usize], links: &[Link], pose: &[Option<(M3, V3)>]) -> (f64, V3, M3) {
-    let parts: Vec<(f64, V3, M3)> = members
-        .iter()
-        .filter_map(|&l| {
-            let (m, c, i) = links[l].inertial?;
-            let (r, p) = pose[l]?;
-            Some((m, add(&p, &apply(&r, &c)), mul(&mul(&r, &i), &transpose(&r))))
-        })
-        .collect();
-    // `+ 0.0`: an empty sum is −0.
-    let mass: f64 = parts.iter().map(|p| p.0).sum::<f64>() + 0.0;
-    let mut centre = [0.0; 3];
-    if mass > 0.0 {
-        for (m, c, _) in &parts {
-            centre = add(&centre, &c.map(|x| x * m / mass));
-        }
-    }
-    let mut inertia = [[0.0; 3]; 3];
-    for (m, c, i) in &parts {
-        let d = sub(c, &centre);
-        let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        for r in 0..3 {
-            for k in 0..3 {
-                let steiner = if r == k { dd } else { 0.0 } - d[r] * d[k];
-                inertia[r][k] += i[r][k] + m * steiner;
-            }
-        }
-    }
-    (mass, centre, inertia)
-}
-
-/// A moving body needs a positive mass and the inertia of a real body:
-/// positive definite, each principal moment at most the sum of the others.
-fn check_inertia(head: &Link, mass: f64, i: &M3, fail: &Fail) -> syn::Result<()> {
-    let name = &head.name;
-    if mass.is_nan() || mass <= 0.0 || mass.is_infinite() {
-        return Err(fail(head.at, format!("link `{name}` moves but has mass {mass}; expected a positive `<mass>`")));
-    }
-    let moments = eigenvalues(i);
-    if !physical(&moments) {
-        return Err(fail(
-            head.at,
-            format!(
-                "link `{name}` moves with principal moments {moments:?}; expected a real body's inertia: positive, \
-                 each at most the sum of the other two"
-            ),
-        ));
-    }
-    Ok(())
-}
-
 /// `<origin xyz=".." rpy=".."/>`: the rotation `Rz(y) Ry(p) Rx(r)` and the offset.
 fn origin(node: roxmltree::Node, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<(M3, V3)> {
     let xyz = triple(node, "xyz", at, fail)?.unwrap_or([0.0; 3]);
@@ -433,64 +164,11 @@ fn origin(node: roxmltree::Node, at: roxmltree::TextPos, fail: &Fail) -> syn::Re
     Ok((turn, xyz))
 }
 
-/// An attribute of three numbers, if present.
-fn triple(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<Option<V3>> {
-    let Some(text) = node.attribute(key) else { return Ok(None) };
-    let numbers: Vec<f64> = text.split_whitespace().filter_map(|t| t.parse().ok()).collect();
-    match numbers.as_slice() {
-        [x, y, z] if text.split_whitespace().count() == 3 && [x, y, z].iter().all(|v| v.is_finite()) => {
-            Ok(Some([*x, *y, *z]))
-        }
-        _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected three numbers, as in `{key}=\"0 0 1\"`"))),
-    }
-}
-
-/// An attribute holding one number.
-fn number(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<f64> {
-    let text = node.attribute(key).ok_or_else(|| {
-        fail(at, format!("`<{}>` has no `{key}`; expected `{key}=\"NUMBER\"`", node.tag_name().name()))
-    })?;
-    match text.trim().parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
-    }
-}
-
-/// A required text attribute.
-fn required(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<String> {
-    node.attribute(key)
-        .map(str::to_string)
-        .ok_or_else(|| fail(at, format!("`<{}>` has no `{key}`; expected `{key}=\"..\"`", node.tag_name().name())))
-}
-
-const IDENTITY: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-
-fn mul(a: &M3, b: &M3) -> M3 {
-    std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[k][c]).sum()))
-}
-
-fn transpose(a: &M3) -> M3 {
-    std::array::from_fn(|r| std::array::from_fn(|c| a[c][r]))
-}
-
-fn apply(a: &M3, v: &V3) -> V3 {
-    std::array::from_fn(|r| (0..3).map(|k| a[r][k] * v[k]).sum())
-}
-
-fn add(a: &V3, b: &V3) -> V3 {
-    std::array::from_fn(|i| a[i] + b[i])
-}
-
-fn sub(a: &V3, b: &V3) -> V3 {
-    std::array::from_fn(|i| a[i] - b[i])
-}
-
-fn norm(v: &V3) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::geometry::eigenvalues;
+    use super::super::robot::apply;
+    use super::super::robot::tests::{cut_and_mutated, test_file};
     use super::*;
 
     #[test]
@@ -586,47 +264,13 @@ mod tests {
     /// or a robot, never a panic.
     #[test]
     fn cut_and_mutated_files_never_panic() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/robots");
-        let mut seed = 2026_u64;
-        let mut next = |n: usize| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((seed >> 33) as usize) % n.max(1)
-        };
         let span = proc_macro2::Span::call_site();
         for robot in ["double_pendulum", "ur5", "panda", "solo12"] {
-            let text = std::fs::read_to_string(dir.join(format!("{robot}.urdf"))).unwrap();
+            let text = test_file(&format!("robots/{robot}.urdf"));
             assert!(from_text(&text, robot, span, false).is_ok() && from_text(&text, robot, span, true).is_ok());
-            let bytes = text.as_bytes();
-            for _ in 0..300 {
-                let mut mutated = bytes[..next(bytes.len())].to_vec();
-                mutated.extend_from_slice(&bytes[next(bytes.len())..]);
-                for _ in 0..next(4) {
-                    let at = next(mutated.len());
-                    if let Some(b) = mutated.get_mut(at) {
-                        *b = b"<>/\"= 0-.e9xyz"[next(14)];
-                    }
-                }
-                let _ = from_text(&String::from_utf8_lossy(&mutated), robot, span, next(2) == 0);
+            for (k, mutated) in cut_and_mutated(&text, 300).iter().enumerate() {
+                let _ = from_text(mutated, robot, span, k % 2 == 0);
             }
-        }
-    }
-
-    #[test]
-    fn names_become_identifiers() {
-        let cases = [
-            ("shoulder_pan_joint", "shoulder_pan_joint"),
-            ("FL-HAA", "FL_HAA"),
-            ("7dof", "_7dof"),
-            ("type", "_type"),
-            ("ground", "_ground"),
-            ("", "_3"),
-            ("_", "__"),
-            ("ü", "__"),
-            ("a b", "a_b"),
-        ];
-        for (name, rust) in cases {
-            assert_eq!(rust_name(name, 3), rust, "{name:?}");
-            assert!(syn::parse_str::<syn::Ident>(rust).is_ok());
         }
     }
 
@@ -646,7 +290,7 @@ mod tests {
         let doc = roxmltree::Document::parse(&text).unwrap();
         let fail = |_: roxmltree::TextPos, m: String| syn::Error::new(proc_macro2::Span::call_site(), m);
         let (links, joints) = elements(&doc, &fail).unwrap();
-        let robot = assemble(&links, &joints, false, &fail).unwrap();
+        let robot = assemble(&links, &joints, &[], false, &fail).unwrap();
         assert_eq!(robot.bodies.len(), 1);
         let b = &robot.bodies[0];
         assert!((b.mass - 3.0).abs() < 1e-15);

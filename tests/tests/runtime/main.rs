@@ -17,6 +17,7 @@ mod dynamics;
 mod floating;
 mod linear;
 mod loops;
+mod mjcf;
 mod one_simulation;
 mod record;
 mod second_order;

@@ -111,7 +111,7 @@ fn our_v<const NV: usize>(map: &[(TreeJointKind, usize, usize)], v: &[f64]) -> S
 /// Every sample of `robot`: `M`, `τ = RNEA(q, v, a)`, `q̈ = ABA(q, v,
 /// τ)`, and the position and Jacobian of a point on one of its links
 /// (`links`: the scene's `LINKS`); returns the largest relative differences.
-fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(
+pub(crate) fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(
     scene: &S,
     links: &[LinkFrame],
     robot: &str,
@@ -166,8 +166,11 @@ where
 
 /// 1 s under gravity from the first sample at rest, RK4 at h = 1e-4 on both
 /// sides: the same coordinates and rates to `bound`.
-fn motion_against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str, bound: f64)
-where
+pub(crate) fn motion_against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    robot: &str,
+    bound: f64,
+) where
     S: TreeScene<NB, NQ, NV>,
 {
     let data = reference(robot);
@@ -233,6 +236,7 @@ fn limits_as_the_files_give_them() {
             velocity: Some(3.15),
             damping: Some(0.0),
             friction: Some(0.0),
+            armature: None,
         }
     );
     assert_eq!(Ur5::LIMITS.len(), 6);

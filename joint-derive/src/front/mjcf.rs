@@ -1,0 +1,742 @@
+//! `#[scene(mjcf = "robot.xml")]`: a robot's bodies and joints read from
+//! MuJoCo's MJCF file at compile time and put in the scene's terms by
+//! [`assemble`] (frames at the centres, world axes at the zero
+//! configuration, bodies without joints welded to their parents).
+//!
+//! Read: `<compiler angle eulerseq inertiafromgeom>`, `<option gravity>`,
+//! `<default>` classes for joints, nested `<body>` and `<frame>` with any of
+//! MuJoCo's orientations (`quat`, `axisangle`, `euler`, `xyaxes`, `zaxis`),
+//! `<inertial>` (`diaginertia` turned by its orientation, or
+//! `fullinertia`), one joint per body (`hinge`, `slide`, `ball`, or `free`
+//! and `<freejoint>` on a body of the world), `<site>` as frames, and
+//! `<equality>`'s `connect` (a ball joint) and `weld` (a fixed joint) as
+//! joints that close loops, at the file's reference configuration. A
+//! joint's range, damping, `frictionloss`, `armature` and
+//! `actuatorfrcrange` are data ([`FileLimits`]). Refused, each by name:
+//! what would change the dynamics without being modelled (a joint's
+//! `stiffness` or `ref`, inertia computed from geoms, several joints in one
+//! body, `<equality joint>`, `<include>`, composites, mocap bodies).
+//! Geoms, meshes, actuators, sensors and contacts are not read.
+
+use std::collections::HashMap;
+
+use super::robot::{
+    Closure, Fail, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, add, apply, assemble, mul, norm, number,
+    numbers, read_text, required, transpose, triple,
+};
+
+/// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
+/// error at the attribute, naming the file, line and column.
+pub fn read(path: &syn::LitStr) -> syn::Result<Robot> {
+    let (text, shown) = read_text(path, "an MJCF")?;
+    let robot = from_text(&text, &shown, path.span())?;
+    Ok(Robot { path: shown, ..robot })
+}
+
+/// The robot of a file's `text` (`shown` names it in errors, at `span`).
+fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Robot> {
+    let fail = |at: roxmltree::TextPos, message: String| {
+        syn::Error::new(span, format!("{shown}:{}:{}: {message}", at.row, at.col))
+    };
+    let doc = roxmltree::Document::parse(text).map_err(|e| fail(e.pos(), format!("malformed XML: {e}")))?;
+    let mut reader = Reader::new(&doc, &fail)?;
+    let root = doc.root_element();
+    let world = root.children().find(|n| n.has_tag_name("worldbody"));
+    let world = world.ok_or_else(|| {
+        fail(reader.pos(root), "the file has no `<worldbody>`; expected the robot's bodies in it".into())
+    })?;
+    reader.links.push(Link { name: "world".into(), inertial: None, at: reader.pos(world) });
+    reader.children(world, 0, "main", (IDENTITY, [0.0; 3]))?;
+    if reader.links.len() == 1 {
+        return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
+    }
+    let closures = reader.equalities(root)?;
+    let gravity = match root.children().find(|n| n.has_tag_name("option")) {
+        Some(o) => triple(o, "gravity", reader.pos(o), &fail)?,
+        None => None,
+    };
+    let robot = assemble(&reader.links, &reader.joints, &closures, false, &fail)?;
+    Ok(Robot { gravity: Some(gravity.unwrap_or([0.0, 0.0, -9.81])), ..robot })
+}
+
+/// What `<compiler>` says that changes numbers.
+struct Compiler {
+    /// `angle="degree"` (MuJoCo's default): angles in the file are degrees.
+    degrees: bool,
+    /// `eulerseq`: the axes of `euler`, lower case about the turned axes.
+    eulerseq: [u8; 3],
+}
+
+/// The file walked, bodies and sites as links, their joints as joints.
+struct Reader<'a, 'i> {
+    doc: &'a roxmltree::Document<'i>,
+    fail: &'a Fail<'a>,
+    compiler: Compiler,
+    /// Each `<default>` class's joint attributes, its parents' included.
+    defaults: HashMap<String, HashMap<String, String>>,
+    links: Vec<Link>,
+    joints: Vec<Joint>,
+}
+
+impl<'a, 'i> Reader<'a, 'i> {
+    fn new(doc: &'a roxmltree::Document<'i>, fail: &'a Fail<'a>) -> syn::Result<Self> {
+        let root = doc.root_element();
+        let pos = |n: roxmltree::Node| doc.text_pos_at(n.range().start);
+        if root.tag_name().name() != "mujoco" {
+            return Err(fail(
+                pos(root),
+                format!("expected a `<mujoco>` element, found `<{}>`", root.tag_name().name()),
+            ));
+        }
+        let mut compiler = Compiler { degrees: true, eulerseq: *b"xyz" };
+        for c in root.children().filter(|n| n.has_tag_name("compiler")) {
+            match c.attribute("angle") {
+                None => {}
+                Some("degree") => compiler.degrees = true,
+                Some("radian") => compiler.degrees = false,
+                Some(other) => return Err(fail(pos(c), format!("`angle=\"{other}\"`: expected `degree` or `radian`"))),
+            }
+            if let Some(seq) = c.attribute("eulerseq") {
+                let ok = seq.len() == 3 && seq.bytes().all(|b| b"xyzXYZ".contains(&b));
+                if !ok {
+                    return Err(fail(pos(c), format!("`eulerseq=\"{seq}\"`: expected three of `xyzXYZ`, as in `xyz`")));
+                }
+                compiler.eulerseq.copy_from_slice(seq.as_bytes());
+            }
+            if c.attribute("inertiafromgeom") == Some("true") {
+                return Err(fail(
+                    pos(c),
+                    "`inertiafromgeom=\"true\"`: inertia from geoms is not computed; expected `<inertial>` in every \
+                     body that has mass"
+                        .into(),
+                ));
+            }
+        }
+        for n in root.descendants().filter(|n| n.is_element()) {
+            let what = match n.tag_name().name() {
+                "include" => "`<include>` is not read; expected one file",
+                "composite" | "flexcomp" | "replicate" | "attach" => {
+                    "this element is not read; expected plain `<body>`s"
+                }
+                _ => continue,
+            };
+            return Err(fail(pos(n), format!("`<{}>`: {what}", n.tag_name().name())));
+        }
+        let mut defaults = HashMap::new();
+        for d in root.children().filter(|n| n.has_tag_name("default")) {
+            default_class(d, "main", &HashMap::new(), &mut defaults, &pos, fail)?;
+        }
+        defaults.entry("main".to_string()).or_default();
+        Ok(Reader { doc, fail, compiler, defaults, links: Vec::new(), joints: Vec::new() })
+    }
+
+    fn pos(&self, n: roxmltree::Node) -> roxmltree::TextPos {
+        self.doc.text_pos_at(n.range().start)
+    }
+
+    /// The bodies, frames and sites in `node` (link `parent`, childclass
+    /// `class`), each placed by `offset` in the parent's frame.
+    fn children(&mut self, node: roxmltree::Node, parent: usize, class: &str, offset: (M3, V3)) -> syn::Result<()> {
+        for c in node.children().filter(|n| n.is_element()) {
+            let at = self.pos(c);
+            match c.tag_name().name() {
+                "body" => self.body(c, parent, class, offset)?,
+                "frame" => {
+                    let frame = self.frame(c)?;
+                    let inner = self.class(c, "childclass", class)?;
+                    self.children(c, parent, &inner, compose(&offset, &frame))?;
+                }
+                "site" => {
+                    let name = self.name(c, "site")?;
+                    let origin = compose(&offset, &self.frame(c)?);
+                    self.links.push(Link { name: name.clone(), inertial: None, at });
+                    let child = self.links.len() - 1;
+                    let (point, axis, limits) = ([0.0; 3], [0.0, 0.0, 1.0], FileLimits::default());
+                    self.joints.push(Joint { name, kind: Kind::Fixed, parent, child, origin, point, axis, limits, at });
+                }
+                "joint" | "freejoint" if parent == 0 => {
+                    return Err((self.fail)(at, "a joint of the world; expected joints inside a `<body>`".into()));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// A `<body>`: its link, its joint from `parent` (fixed without one),
+    /// then its children.
+    fn body(&mut self, b: roxmltree::Node, parent: usize, class: &str, offset: (M3, V3)) -> syn::Result<()> {
+        let at = self.pos(b);
+        let name = self.name(b, "body")?;
+        if b.attribute("mocap") == Some("true") {
+            return Err((self.fail)(
+                at,
+                format!("body `{name}` is a mocap body; expected a body that moves by its joints"),
+            ));
+        }
+        let class = self.class(b, "childclass", class)?;
+        let origin = compose(&offset, &self.frame(b)?);
+        let inertial = match b.children().find(|n| n.has_tag_name("inertial")) {
+            Some(i) => Some(self.inertial(i, &name)?),
+            None if b.children().any(|n| n.has_tag_name("geom")) => {
+                return Err((self.fail)(
+                    at,
+                    format!(
+                        "body `{name}` has geoms but no `<inertial>`: inertia from geoms is not computed; expected \
+                         `<inertial pos=\"..\" mass=\"..\" diaginertia=\"..\"/>`"
+                    ),
+                ));
+            }
+            None => None,
+        };
+        self.links.push(Link { name: name.clone(), inertial, at });
+        let child = self.links.len() - 1;
+        let declared: Vec<roxmltree::Node> =
+            b.children().filter(|n| n.has_tag_name("joint") || n.has_tag_name("freejoint")).collect();
+        let joint = match declared.as_slice() {
+            [] => Joint {
+                name,
+                kind: Kind::Fixed,
+                parent,
+                child,
+                origin,
+                point: [0.0; 3],
+                axis: [0.0, 0.0, 1.0],
+                limits: FileLimits::default(),
+                at,
+            },
+            [j] => self.joint(*j, parent, child, origin, &class)?,
+            [_, second, ..] => {
+                return Err((self.fail)(
+                    self.pos(*second),
+                    format!(
+                        "body `{name}` has a second joint; expected one (`hinge`, `slide`, `ball` or `free`): \
+                         several joints in one body are not read yet"
+                    ),
+                ));
+            }
+        };
+        self.joints.push(joint);
+        self.children(b, child, &class, (IDENTITY, [0.0; 3]))
+    }
+
+    /// A body's joint, with its class's defaults.
+    fn joint(
+        &self,
+        j: roxmltree::Node,
+        parent: usize,
+        child: usize,
+        origin: (M3, V3),
+        class: &str,
+    ) -> syn::Result<Joint> {
+        let at = self.pos(j);
+        let fail = self.fail;
+        let name = self.name(j, "joint")?;
+        let label = match name.as_str() {
+            "" => format!("the joint of body `{}`", self.links[child].name),
+            _ => format!("joint `{name}`"),
+        };
+        let class = self.class(j, "class", class)?;
+        let get = |key: &str| j.attribute(key).or_else(|| self.defaults[&class].get(key).map(String::as_str));
+        let value = |key: &str| -> syn::Result<Option<f64>> {
+            match get(key) {
+                None => Ok(None),
+                Some(text) => match text.trim().parse::<f64>() {
+                    Ok(x) if x.is_finite() => Ok(Some(x)),
+                    _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
+                },
+            }
+        };
+        let free = j.has_tag_name("freejoint");
+        let kind = match if free { "free" } else { get("type").unwrap_or("hinge") } {
+            "hinge" => Kind::Revolute,
+            "slide" => Kind::Prismatic,
+            "ball" => Kind::Spherical,
+            "free" if parent == 0 => Kind::Floating,
+            "free" => {
+                return Err(fail(
+                    at,
+                    format!("{label} is free on a body of a body; expected a free joint only on a body of the world"),
+                ));
+            }
+            other => {
+                return Err(fail(
+                    at,
+                    format!("{label} has type `{other}`; expected `hinge`, `slide`, `ball` or `free`"),
+                ));
+            }
+        };
+        for key in ["stiffness", "ref"] {
+            if value(key)?.is_some_and(|x| x != 0.0) && !free {
+                return Err(fail(
+                    at,
+                    format!("{label} has a nonzero `{key}`, which is not modelled; expected `{key}=\"0\"` or none"),
+                ));
+            }
+        }
+        let vector = |key: &str, default: V3| -> syn::Result<V3> {
+            let Some(text) = get(key) else { return Ok(default) };
+            let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
+            match <[f64; 3]>::try_from(parsed.as_slice()) {
+                Ok(v) if text.split_whitespace().count() == 3 && v.iter().all(|x| x.is_finite()) => Ok(v),
+                _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected three numbers, as in `{key}=\"0 0 1\"`"))),
+            }
+        };
+        let (point, axis) = (vector("pos", [0.0; 3])?, vector("axis", [0.0, 0.0, 1.0])?);
+        let angular = matches!(kind, Kind::Revolute | Kind::Spherical);
+        let scale = if angular && self.compiler.degrees { std::f64::consts::PI / 180.0 } else { 1.0 };
+        let range = match get("range") {
+            Some(text) if get("limited") != Some("false") => {
+                let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
+                match parsed.as_slice() {
+                    [a, b] if text.split_whitespace().count() == 2 && a.is_finite() && b.is_finite() => {
+                        Some((a * scale, b * scale))
+                    }
+                    _ => {
+                        return Err(fail(
+                            at,
+                            format!("`range=\"{text}\"`: expected two numbers, as in `range=\"-1 1\"`"),
+                        ));
+                    }
+                }
+            }
+            _ => None,
+        };
+        let effort = match get("actuatorfrcrange") {
+            Some(text) => {
+                let parsed: Vec<f64> = text.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+                parsed.iter().map(|x| x.abs()).reduce(f64::max)
+            }
+            None => None,
+        };
+        let limits = FileLimits {
+            range,
+            effort,
+            velocity: None,
+            damping: value("damping")?,
+            friction: value("frictionloss")?,
+            armature: value("armature")?,
+        };
+        Ok(Joint { name, kind, parent, child, origin, point, axis, limits, at })
+    }
+
+    /// `<inertial>`: mass, centre and inertia in the body's frame.
+    fn inertial(&self, i: roxmltree::Node, body: &str) -> syn::Result<(f64, V3, M3)> {
+        let (at, fail) = (self.pos(i), self.fail);
+        let (turn, centre) = self.frame(i)?;
+        let mass = number(i, "mass", at, fail)?;
+        let turned = ORIENTATIONS.iter().any(|k| i.attribute(*k).is_some());
+        let tensor = match (numbers::<3>(i, "diaginertia", at, fail)?, numbers::<6>(i, "fullinertia", at, fail)?) {
+            (Some([a, b, c]), None) => {
+                mul(&mul(&turn, &[[a, 0.0, 0.0], [0.0, b, 0.0], [0.0, 0.0, c]]), &transpose(&turn))
+            }
+            (None, Some([xx, yy, zz, xy, xz, yz])) if !turned => [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
+            (None, Some(_)) => {
+                return Err(fail(
+                    at,
+                    format!("body `{body}`'s `<inertial>` has `fullinertia` and an orientation; expected one of them"),
+                ));
+            }
+            _ => {
+                return Err(fail(
+                    at,
+                    format!(
+                        "body `{body}`'s `<inertial>` needs one of `diaginertia=\"ixx iyy izz\"` or `fullinertia=\"ixx iyy izz ixy ixz iyz\"`"
+                    ),
+                ));
+            }
+        };
+        Ok((mass, centre, tensor))
+    }
+
+    /// An element's `pos` and orientation (at most one of MuJoCo's five).
+    fn frame(&self, n: roxmltree::Node) -> syn::Result<(M3, V3)> {
+        let (at, fail) = (self.pos(n), self.fail);
+        let p = triple(n, "pos", at, fail)?.unwrap_or([0.0; 3]);
+        let given: Vec<&str> = ["quat", "axisangle", "euler", "xyaxes", "zaxis"]
+            .into_iter()
+            .filter(|k| n.attribute(*k).is_some())
+            .collect();
+        let turn = match given.as_slice() {
+            [] => IDENTITY,
+            [_, _, ..] => {
+                return Err(fail(
+                    at,
+                    format!("`{}` and `{}` both give the orientation; expected one", given[0], given[1]),
+                ));
+            }
+            ["quat"] => quaternion(numbers::<4>(n, "quat", at, fail)?.unwrap_or([1.0, 0.0, 0.0, 0.0])),
+            ["axisangle"] => {
+                let [x, y, z, a] = numbers::<4>(n, "axisangle", at, fail)?.unwrap_or([0.0, 0.0, 1.0, 0.0]);
+                let angle = if self.compiler.degrees { a.to_radians() } else { a };
+                let l = norm(&[x, y, z]);
+                let (s, c) = (0.5 * angle).sin_cos();
+                quaternion([c, s * x / l, s * y / l, s * z / l])
+            }
+            ["euler"] => {
+                let angles = triple(n, "euler", at, fail)?.unwrap_or([0.0; 3]);
+                let mut turn = IDENTITY;
+                for (axis, angle) in self.compiler.eulerseq.iter().zip(angles) {
+                    let angle = if self.compiler.degrees { angle.to_radians() } else { angle };
+                    let (s, c) = (0.5 * angle).sin_cos();
+                    let k = usize::from(axis.to_ascii_lowercase() - b'x');
+                    let mut q = [c, 0.0, 0.0, 0.0];
+                    q[1 + k] = s;
+                    // Lower case: about the turned axes (after); upper case: about the fixed ones (before).
+                    turn =
+                        if axis.is_ascii_lowercase() { mul(&turn, &quaternion(q)) } else { mul(&quaternion(q), &turn) };
+                }
+                turn
+            }
+            ["xyaxes"] => {
+                let [a, b, c, d, e, f] = numbers::<6>(n, "xyaxes", at, fail)?.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+                let x = unit([a, b, c]);
+                let y = [d, e, f];
+                let along = x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+                let y = unit(add(&y, &x.map(|v| -along * v)));
+                let z = cross(&x, &y);
+                transpose(&[x, y, z])
+            }
+            _ => {
+                let z = unit(triple(n, "zaxis", at, fail)?.unwrap_or([0.0, 0.0, 1.0]));
+                // The shortest turn taking the frame's z to `z` (MuJoCo's).
+                let axis = cross(&[0.0, 0.0, 1.0], &z);
+                let s = norm(&axis);
+                if s < 1e-14 {
+                    if z[2] > 0.0 { IDENTITY } else { quaternion([0.0, 1.0, 0.0, 0.0]) }
+                } else {
+                    let angle = s.atan2(z[2]);
+                    let (hs, hc) = (0.5 * angle).sin_cos();
+                    quaternion([hc, hs * axis[0] / s, hs * axis[1] / s, hs * axis[2] / s])
+                }
+            }
+        };
+        if !turn.iter().flatten().all(|x| x.is_finite()) {
+            return Err(fail(
+                at,
+                format!("the orientation `{}` is degenerate (a zero vector); expected a turn", given[0]),
+            ));
+        }
+        Ok((turn, p))
+    }
+
+    /// An element's `name` (empty if none), unique among the links.
+    fn name(&self, n: roxmltree::Node, what: &str) -> syn::Result<String> {
+        let name = n.attribute("name").unwrap_or("").to_string();
+        let named = |l: &Link| !name.is_empty() && l.name == name;
+        let taken = if what == "joint" {
+            self.joints.iter().any(|j| !name.is_empty() && j.name == name)
+        } else {
+            self.links.iter().any(named)
+        };
+        if taken {
+            let plural = if what == "joint" { "joint" } else { "body or site" };
+            return Err((self.fail)(
+                self.pos(n),
+                format!("{what} `{name}` is declared twice; expected unique {plural} names"),
+            ));
+        }
+        Ok(name)
+    }
+
+    /// The class of `n`: its own (`key`) or the one it inherits.
+    fn class(&self, n: roxmltree::Node, key: &str, inherited: &str) -> syn::Result<String> {
+        let class = n.attribute(key).unwrap_or(inherited).to_string();
+        if self.defaults.contains_key(&class) {
+            return Ok(class);
+        }
+        Err((self.fail)(self.pos(n), format!("`{key}=\"{class}\"` names no `<default class=\"{class}\">`")))
+    }
+
+    /// `<equality>`'s `connect` and `weld` as closing joints.
+    fn equalities(&self, root: roxmltree::Node) -> syn::Result<Vec<Closure>> {
+        let fail = self.fail;
+        let link = |n: roxmltree::Node, key: &str| -> syn::Result<usize> {
+            let name = n.attribute(key).unwrap_or("world");
+            self.links.iter().position(|l| l.name == name).ok_or_else(|| {
+                fail(self.pos(n), format!("`{key}=\"{name}\"` is not a body of the file; expected one of its bodies"))
+            })
+        };
+        let mut out = Vec::new();
+        for (k, e) in root
+            .children()
+            .filter(|n| n.has_tag_name("equality"))
+            .flat_map(|q| q.children())
+            .filter(|n| n.is_element())
+            .enumerate()
+        {
+            let (at, tag) = (self.pos(e), e.tag_name().name());
+            if e.attribute("active") == Some("false") {
+                continue;
+            }
+            let weld = match tag {
+                "connect" => false,
+                "weld" => true,
+                _ => {
+                    return Err(fail(
+                        at,
+                        format!("`<{tag}>` equalities are not read yet; expected `connect` or `weld`"),
+                    ));
+                }
+            };
+            if e.attribute("site1").is_some() {
+                return Err(fail(at, format!("`<{tag}>` between sites is not read yet; expected `body1` and `body2`")));
+            }
+            let _ = required(e, "body1", at, fail)?;
+            let links = [link(e, "body1")?, link(e, "body2")?];
+            let anchor = triple(e, "anchor", at, fail)?;
+            if !weld && anchor.is_none() {
+                return Err(fail(
+                    at,
+                    "`<connect>` has no `anchor`; expected `anchor=\"x y z\"` in `body1`'s frame".into(),
+                ));
+            }
+            // A zero quaternion is MuJoCo's "the reference pose".
+            let relpose = numbers::<7>(e, "relpose", at, fail)?;
+            if relpose.is_some_and(|[_, _, _, a, b, c, d]| [a, b, c, d] != [0.0; 4]) {
+                let message =
+                    "`relpose` is not read yet; expected the weld at the file's reference pose (no `relpose`)";
+                return Err(fail(at, message.into()));
+            }
+            let name = e.attribute("name").map_or_else(|| format!("{tag}{k}"), str::to_string);
+            // `connect`'s anchor is in body1's frame, `weld`'s in body2's.
+            let anchor_on = if weld { links[1] } else { links[0] };
+            out.push(Closure { name, weld, links, anchor_on, anchor: anchor.unwrap_or([0.0; 3]), at });
+        }
+        Ok(out)
+    }
+}
+
+/// MuJoCo's five ways to give an orientation.
+const ORIENTATIONS: [&str; 5] = ["quat", "axisangle", "euler", "xyaxes", "zaxis"];
+
+/// One `<default>` and the classes inside it: each class's joint
+/// attributes over its parent's.
+fn default_class(
+    d: roxmltree::Node,
+    name: &str,
+    parent: &HashMap<String, String>,
+    out: &mut HashMap<String, HashMap<String, String>>,
+    pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
+    fail: &Fail,
+) -> syn::Result<()> {
+    let name = d.attribute("class").unwrap_or(name).to_string();
+    if out.contains_key(&name) {
+        return Err(fail(pos(d), format!("default class `{name}` is declared twice; expected unique class names")));
+    }
+    let mut own = parent.clone();
+    for j in d.children().filter(|n| n.has_tag_name("joint")) {
+        own.extend(j.attributes().map(|a| (a.name().to_string(), a.value().to_string())));
+    }
+    for inner in d.children().filter(|n| n.has_tag_name("default")) {
+        if inner.attribute("class").is_none() {
+            return Err(fail(pos(inner), "a nested `<default>` has no `class`; expected `class=\"..\"`".into()));
+        }
+        default_class(inner, "", &own, out, pos, fail)?;
+    }
+    out.insert(name, own);
+    Ok(())
+}
+
+/// `b` in `a`'s frame, in the frame `a` is in.
+fn compose(a: &(M3, V3), b: &(M3, V3)) -> (M3, V3) {
+    (mul(&a.0, &b.0), add(&a.1, &apply(&a.0, &b.1)))
+}
+
+fn unit(v: V3) -> V3 {
+    let l = norm(&v);
+    v.map(|x| x / l)
+}
+
+/// The rotation of a quaternion `[w, x, y, z]` (normalised first).
+fn quaternion(q: [f64; 4]) -> M3 {
+    let l = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    let [w, x, y, z] = q.map(|v| v / l);
+    [
+        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+        [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+    ]
+}
+
+/// `u × v`.
+pub fn cross(u: &V3, v: &V3) -> V3 {
+    [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::robot::tests::{cut_and_mutated, test_file};
+    use super::*;
+
+    /// The error of reading `text`, from its line and column on.
+    fn error(text: &str) -> String {
+        let span = proc_macro2::Span::call_site();
+        let message = from_text(text, "f.xml", span).err().map(|e| e.to_string()).unwrap_or_default();
+        message.strip_prefix("f.xml:").unwrap_or(&message).to_string()
+    }
+
+    /// A file of one body on a hinge, `body` inside its `<body>`, `extra`
+    /// after the `<worldbody>`.
+    fn one_body(body: &str, extra: &str) -> String {
+        format!(
+            "<mujoco>\n<worldbody>\n<body name=\"arm\">\n<inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/>\n\
+             {body}\n</body>\n</worldbody>\n{extra}\n</mujoco>"
+        )
+    }
+
+    #[test]
+    fn bad_files_one_message_each_at_line_and_column() {
+        let hinge = "<joint name=\"j\"/>";
+        let second = "<body name=\"hand\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint/></body>";
+        let cases = [
+            ("<mujoco><worldbody></mujoco>", "1:", "malformed XML"),
+            ("<robot/>", "1:1:", "expected a `<mujoco>` element"),
+            ("<mujoco/>", "1:1:", "has no `<worldbody>`"),
+            ("<mujoco><worldbody/></mujoco>", "1:9:", "has no `<body>`"),
+            (&one_body("<joint type=\"cylinder\"/>", ""), "5:1:", "has type `cylinder`; expected `hinge`"),
+            (&one_body("<joint/><joint name=\"k\"/>", ""), "5:9:", "has a second joint"),
+            (&one_body(&format!("{hinge}<body><geom size=\"1\"/></body>"), ""), "5:18:", "inertia from geoms"),
+            (&one_body("<joint stiffness=\"10\"/>", ""), "5:1:", "nonzero `stiffness`"),
+            (&one_body("<joint ref=\"0.3\"/>", ""), "5:1:", "nonzero `ref`"),
+            (
+                &one_body(&format!("{hinge}{}", second.replace("hand", "arm")), ""),
+                "5:18:",
+                "body `arm` is declared twice",
+            ),
+            (&one_body("<joint class=\"big\"/>", ""), "5:1:", "`class=\"big\"` names no `<default class=\"big\">`"),
+            (&one_body(hinge, "<equality><connect body1=\"arm\"/></equality>"), "8:11:", "has no `anchor`"),
+            (
+                &one_body(hinge, "<equality><connect body1=\"leg\" anchor=\"0 0 0\"/></equality>"),
+                "8:11:",
+                "`body1=\"leg\"` is not a body",
+            ),
+            (
+                &one_body(hinge, "<equality><joint joint1=\"j\"/></equality>"),
+                "8:11:",
+                "`<joint>` equalities are not read yet",
+            ),
+            (
+                &one_body(hinge, "<equality><weld body1=\"arm\" body2=\"arm\"/></equality>"),
+                "8:11:",
+                "joins a body to itself",
+            ),
+            (
+                &one_body(
+                    &format!("{hinge}{second}"),
+                    "<equality><weld body1=\"arm\" body2=\"hand\" relpose=\"0 0 0 1 0 0 0\"/></equality>",
+                ),
+                "8:11:",
+                "`relpose` is not read yet",
+            ),
+            (&one_body(hinge, "<include file=\"more.xml\"/>"), "8:1:", "`<include>` is not read"),
+            (
+                &one_body(&format!("{hinge}{}", second.replace("<joint/>", "<freejoint/>")), ""),
+                "5:88:",
+                "free on a body of a body",
+            ),
+            (
+                &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" quat=\"1 0 0 0\" euler=\"0 0 1\""),
+                "3:1:",
+                "`quat` and `euler` both",
+            ),
+            (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" quat=\"0 0 0 0\""), "3:1:", "degenerate"),
+            (&one_body(hinge, "").replace("mass=\"1\"", "mass=\"0\""), "3:1:", "link `arm` moves but has mass 0"),
+            (&one_body(hinge, "").replace("mass=\"1\" ", ""), "4:1:", "has no `mass`"),
+            (
+                &one_body(hinge, "").replace("diaginertia=\"1 1 1\"", "quat=\"1 0 0 0\" fullinertia=\"1 1 1 0 0 0\""),
+                "4:1:",
+                "`fullinertia` and an orientation",
+            ),
+            (
+                &one_body(hinge, "").replace("diaginertia=\"1 1 1\"", "diaginertia=\"1 1 3\""),
+                "3:1:",
+                "expected a real body's inertia",
+            ),
+            (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" mocap=\"true\""), "3:1:", "mocap body"),
+            (&one_body("<joint range=\"1\"/>", ""), "5:1:", "`range=\"1\"`: expected two numbers"),
+            (&one_body("<joint axis=\"0 0 0\"/>", ""), "5:1:", "zero axis"),
+        ];
+        for (text, at, expected) in cases {
+            let message = error(text);
+            assert!(message.starts_with(at) && message.contains(expected), "{text}\n{message}");
+        }
+        let missing = read(&syn::LitStr::new("/no/such/robot.xml", proc_macro2::Span::call_site()));
+        assert!(missing.err().is_some_and(|e| e.to_string().starts_with("cannot read `/no/such/robot.xml`")));
+    }
+
+    /// A body's rotation as the reader gives it, its attributes `attr`.
+    fn turn(compiler: &str, attr: &str) -> M3 {
+        let text = format!(
+            "<mujoco><compiler {compiler}/><worldbody><site name=\"s\" {attr}/>\
+             <body><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint/></body></worldbody></mujoco>"
+        );
+        let robot = from_text(&text, "f.xml", proc_macro2::Span::call_site()).unwrap();
+        robot.links.iter().find(|l| l.name == "s").unwrap().rotation
+    }
+
+    /// Each orientation against MuJoCo 4.0's compiled `body_quat` (as a
+    /// matrix, 8 digits) for the same attribute.
+    #[test]
+    fn orientations_as_mujoco_compiles_them() {
+        let cases: [(&str, &str, M3); 8] = [
+            ("", "euler=\"90 90 0\"", [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+            ("eulerseq=\"XYZ\"", "euler=\"90 90 0\"", [[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]]),
+            (
+                "eulerseq=\"zyx\"",
+                "euler=\"30 20 10\"",
+                [
+                    [0.81379768, -0.44096961, 0.37852231],
+                    [0.46984631, 0.88256412, 0.01802831],
+                    [-0.34202014, 0.16317591, 0.92541658],
+                ],
+            ),
+            (
+                "",
+                "xyaxes=\"0 1 0 -1 0 0.5\"",
+                [[0.0, -0.89442719, 0.4472136], [1.0, 0.0, 0.0], [0.0, 0.4472136, 0.89442719]],
+            ),
+            ("", "zaxis=\"1 0 0\"", [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]),
+            ("", "zaxis=\"0 0 -1\"", [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
+            (
+                "",
+                "zaxis=\"1 1 1\"",
+                [
+                    [0.78867513, -0.21132487, 0.57735027],
+                    [-0.21132487, 0.78867513, 0.57735027],
+                    [-0.57735027, -0.57735027, 0.57735027],
+                ],
+            ),
+            (
+                "",
+                "axisangle=\"1 1 0 120\"",
+                [[0.25, 0.75, 0.61237244], [0.75, 0.25, -0.61237244], [-0.61237244, 0.61237244, -0.5]],
+            ),
+        ];
+        for (compiler, attr, expected) in cases {
+            let r = turn(compiler, attr);
+            let worst = (0..9).map(|i| (r[i / 3][i % 3] - expected[i / 3][i % 3]).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-8, "{compiler} {attr}: {r:?}");
+        }
+        // Radians when the compiler says so; a quaternion as given.
+        let quarter = turn("angle=\"radian\"", "axisangle=\"0 0 1 1.5707963267948966\"");
+        let same = turn("", "quat=\"0.7071067811865476 0 0 0.7071067811865476\"");
+        assert!((0..9).all(|i| (quarter[i / 3][i % 3] - same[i / 3][i % 3]).abs() < 1e-15 && (same[1][0] - 1.0).abs() < 1e-15));
+    }
+
+    /// The robots' files and the tests' own, cut short and with bytes
+    /// changed: an error or a robot, never a panic.
+    #[test]
+    fn cut_and_mutated_files_never_panic() {
+        let span = proc_macro2::Span::call_site();
+        let files = ["double_pendulum", "ur5", "panda", "solo12_floating"].map(|r| format!("robots/{r}.xml"));
+        let ours = ["ball_pendulum", "four_bar", "welded_pendulum"].map(|r| format!("mjcf/{r}.xml"));
+        for path in files.iter().chain(&ours) {
+            let text = test_file(path);
+            assert!(from_text(&text, path, span).is_ok(), "{path}");
+            for mutated in cut_and_mutated(&text, 300) {
+                let _ = from_text(&mutated, path, span);
+            }
+        }
+    }
+}

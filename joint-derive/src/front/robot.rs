@@ -1,0 +1,502 @@
+//! What the robot readers share (`urdf.rs`, `mjcf.rs`): a file's links and
+//! joints as read, and [`assemble`], which puts them in the scene's terms,
+//! as if written as `#[body]` and `#[joint]` attributes.
+//!
+//! Frames: every body's frame has its origin at the body's centre of mass
+//! and its axes parallel to the world's at the file's zero configuration
+//! (every joint value zero). Each joint's axis is then one vector on both of
+//! its bodies, its rest rotation the identity, and its coordinate the
+//! file's: an angle positive about the axis (a slide along it), zero where
+//! the file's is. Links joined by fixed joints (a URDF `fixed` joint, an
+//! MJCF body without joints, a site) are one body (masses, centres and
+//! inertias combined: the scene models only what moves); the root link and
+//! the links fixed to it are the ground. A floating joint is left out, so
+//! its child floats (the derive gives it a free joint).
+
+use std::collections::HashMap;
+
+use super::geometry::{eigenvalues, physical};
+
+pub use super::scene::{FileLimits, FileLink};
+
+/// A robot in the scene's terms.
+pub struct Robot {
+    /// The moving bodies, in the order of their first links in the file.
+    pub bodies: Vec<RobotBody>,
+    /// The moving joints, in the file's order.
+    pub joints: Vec<RobotJoint>,
+    /// The joints that close loops (MJCF's `<equality>`), in the file's order.
+    pub closures: Vec<RobotJoint>,
+    /// Every link's frame on its body, in the file's order.
+    pub links: Vec<FileLink>,
+    /// The file, absolute: the derive includes it so that cargo rebuilds
+    /// when it changes.
+    pub path: String,
+    /// The file's gravity, if the format has one (MJCF's `<option gravity>`).
+    pub gravity: Option<V3>,
+}
+
+/// One body: the links a chain of fixed joints welds together.
+pub struct RobotBody {
+    /// The first link's name.
+    pub name: String,
+    /// Mass.
+    pub mass: f64,
+    /// Inertia about the centre of mass, world axes at the zero
+    /// configuration: `[ixx, iyy, izz, ixy, ixz, iyz]` (tensor entries).
+    pub inertia: [f64; 6],
+}
+
+/// One joint between two bodies (`None`: the ground).
+pub struct RobotJoint {
+    /// The file's name.
+    pub name: String,
+    /// The catalogue's kind: `revolute`, `translational`, `spherical` or `fixed`.
+    pub kind: &'static str,
+    /// The parent body.
+    pub parent: Option<usize>,
+    /// The child body.
+    pub child: usize,
+    /// The unit axis, both bodies' (and the world's) components at zero.
+    pub axis: V3,
+    /// The joint point from the parent's centre of mass (the world's origin
+    /// for the ground).
+    pub rho1: V3,
+    /// The joint point from the child's centre of mass.
+    pub rho2: V3,
+    /// Its limits and friction.
+    pub limits: FileLimits,
+}
+
+pub type V3 = [f64; 3];
+pub type M3 = [[f64; 3]; 3];
+/// A rotation (by rows) and an offset: a frame in another.
+pub type Pose = (M3, V3);
+
+/// A joint's kind as the files give it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Kind {
+    /// URDF `revolute` and `continuous`, MJCF `hinge`.
+    Revolute,
+    /// URDF `prismatic`, MJCF `slide`.
+    Prismatic,
+    /// MJCF `ball`.
+    Spherical,
+    /// URDF `fixed`; an MJCF body without joints, a site.
+    Fixed,
+    /// URDF `floating`, MJCF `free`: left out, so the child floats.
+    Floating,
+}
+
+/// A link as the file gives it.
+pub struct Link {
+    pub name: String,
+    /// Mass, centre and inertia in the link's frame (inertia's own frame
+    /// turned into the link's axes); `None` without one.
+    pub inertial: Option<(f64, V3, M3)>,
+    pub at: roxmltree::TextPos,
+}
+
+/// A joint as the file gives it: the child link's frame is `origin` in the
+/// parent's, the joint's point `point` in the child's.
+pub struct Joint {
+    pub name: String,
+    pub kind: Kind,
+    pub parent: usize,
+    pub child: usize,
+    pub origin: (M3, V3),
+    pub point: V3,
+    /// In the child link's frame.
+    pub axis: V3,
+    pub limits: FileLimits,
+    pub at: roxmltree::TextPos,
+}
+
+/// A joint that closes a loop between two links: a ball (`weld: false`)
+/// or a weld, at `anchor` in the frame of link `anchor_on`.
+pub struct Closure {
+    pub name: String,
+    pub weld: bool,
+    pub links: [usize; 2],
+    pub anchor_on: usize,
+    pub anchor: V3,
+    pub at: roxmltree::TextPos,
+}
+
+/// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`): its text
+/// and its absolute name for messages.
+pub fn read_text(path: &syn::LitStr, what: &str) -> syn::Result<(String, String)> {
+    let dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default();
+    let full = std::path::Path::new(&dir).join(path.value());
+    let shown = full.display().to_string();
+    let text = std::fs::read_to_string(&full).map_err(|e| {
+        syn::Error::new(
+            path.span(),
+            format!("cannot read `{shown}`: {e}; expected {what} file's path relative to the crate's directory"),
+        )
+    })?;
+    Ok((text, shown))
+}
+
+/// A file's name as a Rust identifier: other characters as `_`, a leading
+/// `_` where the name is not one (a digit first, a keyword, `ground`), and
+/// `_{index}` for a name with nothing left.
+pub fn rust_name(name: &str, index: usize) -> String {
+    let mut text: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+    if text == "ground" || syn::parse_str::<syn::Ident>(&text).is_err() {
+        text.insert(0, '_');
+    }
+    if syn::parse_str::<syn::Ident>(&text).is_err() {
+        text = format!("_{index}");
+    }
+    text
+}
+
+pub type Fail<'f> = dyn Fn(roxmltree::TextPos, String) -> syn::Error + 'f;
+
+/// The bodies (links welded by fixed joints), the moving joints and the
+/// closures. With `floating`, the root link (and the links fixed to it) is
+/// a body that floats, not the ground.
+pub fn assemble(
+    links: &[Link],
+    joints: &[Joint],
+    closures: &[Closure],
+    floating: bool,
+    fail: &Fail,
+) -> syn::Result<Robot> {
+    let (inbound, root) = tree(links, joints, fail)?;
+    let (pose, order) = poses(links, joints, root, fail)?;
+    // Bodies: each moving joint's child starts one; a fixed joint's child
+    // joins its parent's (the root's: the ground, or a floating base).
+    let mut body_of: Vec<Option<usize>> = vec![None; links.len()];
+    let mut heads: Vec<usize> = Vec::new();
+    if floating {
+        heads.push(root);
+        body_of[root] = Some(0);
+    }
+    for &l in &order[1..] {
+        let j = &joints[inbound[l].unwrap_or(0)];
+        body_of[l] = if j.kind == Kind::Fixed {
+            body_of[j.parent]
+        } else {
+            heads.push(l);
+            Some(heads.len() - 1)
+        };
+    }
+    // The file's link order for the bodies.
+    let mut by_file: Vec<usize> = (0..heads.len()).collect();
+    by_file.sort_by_key(|&b| heads[b]);
+    let renumber: HashMap<usize, usize> = by_file.iter().enumerate().map(|(new, &old)| (old, new)).collect();
+    let body_of: Vec<Option<usize>> = body_of.iter().map(|b| b.map(|b| renumber[&b])).collect();
+    let heads: Vec<usize> = by_file.iter().map(|&b| heads[b]).collect();
+    let mut centres = Vec::new();
+    let mut bodies = Vec::new();
+    for (b, &head) in heads.iter().enumerate() {
+        let members: Vec<usize> = (0..links.len()).filter(|&l| body_of[l] == Some(b)).collect();
+        let (mass, centre, inertia) = combine(&members, links, &pose);
+        check_inertia(&links[head], mass, &inertia, fail)?;
+        centres.push(centre);
+        bodies.push(RobotBody {
+            name: links[head].name.clone(),
+            mass,
+            inertia: [inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2], inertia[1][2]],
+        });
+    }
+    let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
+    let mut out = Vec::new();
+    for j in joints.iter().filter(|j| !matches!(j.kind, Kind::Fixed | Kind::Floating)) {
+        let (r, o) = pose[j.child];
+        let length = norm(&j.axis);
+        if j.kind != Kind::Spherical && (length.is_nan() || length <= 1e-12) {
+            return Err(fail(j.at, format!("joint `{}` has a zero axis; expected an axis such as `0 0 1`", j.name)));
+        }
+        let (parent, child) = (body_of[j.parent], body_of[j.child].unwrap_or(0));
+        let at = add(&o, &apply(&r, &j.point));
+        let joint = between(&j.name, parent, child, &at, &centres, j.at, fail)?;
+        let kind = match j.kind {
+            Kind::Prismatic => "translational",
+            Kind::Spherical => "spherical",
+            _ => "revolute",
+        };
+        let axis = if j.kind == Kind::Spherical { [0.0, 0.0, 1.0] } else { apply(&r, &j.axis.map(|x| x / length)) };
+        out.push(RobotJoint { kind, axis, limits: j.limits, ..joint });
+    }
+    let mut loops = Vec::new();
+    for c in closures {
+        let (r, o) = pose[c.anchor_on];
+        let at = add(&o, &apply(&r, &c.anchor));
+        let [a, b] = c.links.map(|l| body_of[l]);
+        let (parent, child) = match (a, b) {
+            (_, Some(b)) if a != Some(b) => (a, b),
+            (Some(a), None) => (None, a),
+            _ => {
+                let message = format!("`{}` joins a body to itself (links on one body or both the world)", c.name);
+                return Err(fail(c.at, message));
+            }
+        };
+        let joint = between(&c.name, parent, child, &at, &centres, c.at, fail)?;
+        let kind = if c.weld { "fixed" } else { "spherical" };
+        loops.push(RobotJoint { kind, axis: [0.0, 0.0, 1.0], ..joint });
+    }
+    // Every link's frame: the body's axes are the world's at zero.
+    let frames = (0..links.len())
+        .map(|l| {
+            let (r, p) = pose[l];
+            let body = body_of[l];
+            FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)) }
+        })
+        .collect();
+    Ok(Robot { bodies, joints: out, closures: loops, links: frames, path: String::new(), gravity: None })
+}
+
+/// A joint at the world point `at` between two bodies (axis and kind to be
+/// filled in).
+fn between(
+    name: &str,
+    parent: Option<usize>,
+    child: usize,
+    at: &V3,
+    centres: &[V3],
+    pos: roxmltree::TextPos,
+    fail: &Fail,
+) -> syn::Result<RobotJoint> {
+    let rho1 = sub(at, &parent.map_or([0.0; 3], |b| centres[b]));
+    let rho2 = sub(at, &centres[child]);
+    if !rho1.iter().chain(&rho2).all(|x| x.is_finite()) {
+        return Err(fail(pos, format!("joint `{name}` is at a point out of range")));
+    }
+    let limits = FileLimits::default();
+    Ok(RobotJoint { name: name.to_string(), kind: "", parent, child, axis: [0.0; 3], rho1, rho2, limits })
+}
+
+/// Each link's joint from its parent (one at most: the file is a tree) and
+/// the root link.
+fn tree(links: &[Link], joints: &[Joint], fail: &Fail) -> syn::Result<(Vec<Option<usize>>, usize)> {
+    let mut inbound: Vec<Option<usize>> = vec![None; links.len()];
+    for (k, j) in joints.iter().enumerate() {
+        if let Some(other) = inbound[j.child] {
+            let (a, c) = (&joints[other].name, &links[j.child].name);
+            return Err(fail(
+                j.at,
+                format!(
+                    "link `{c}` is the child of joints `{a}` and `{}`; a URDF is a tree (close a loop with a \
+                     `#[joint]` attribute)",
+                    j.name
+                ),
+            ));
+        }
+        inbound[j.child] = Some(k);
+    }
+    let roots: Vec<usize> = (0..links.len()).filter(|&l| inbound[l].is_none()).collect();
+    match roots.as_slice() {
+        [root] => Ok((inbound, *root)),
+        [] => Err(fail(joints.first().map_or(links[0].at, |j| j.at), "the joints form a cycle".into())),
+        [_, second, ..] => {
+            let (a, b) = (&links[roots[0]].name, &links[*second].name);
+            Err(fail(
+                links[*second].at,
+                format!("links `{a}` and `{b}` both have no parent joint; expected one root link"),
+            ))
+        }
+    }
+}
+
+/// Every link's pose at zero, and the links from the root outwards.
+fn poses(links: &[Link], joints: &[Joint], root: usize, fail: &Fail) -> syn::Result<(Vec<Pose>, Vec<usize>)> {
+    let mut pose: Vec<Option<(M3, V3)>> = vec![None; links.len()];
+    pose[root] = Some((IDENTITY, [0.0; 3]));
+    let mut order = vec![root];
+    let mut i = 0;
+    while let Some(&l) = order.get(i) {
+        i += 1;
+        for j in joints.iter().filter(|j| j.parent == l) {
+            let (r, p) = pose[l].unwrap_or((IDENTITY, [0.0; 3]));
+            let (ro, po) = j.origin;
+            pose[j.child] = Some((mul(&r, &ro), add(&p, &apply(&r, &po))));
+            order.push(j.child);
+        }
+    }
+    let mut out = Vec::with_capacity(links.len());
+    for (l, p) in pose.into_iter().enumerate() {
+        out.push(p.ok_or_else(|| fail(links[l].at, format!("link `{}` is on a cycle of joints", links[l].name)))?);
+    }
+    Ok((out, order))
+}
+
+/// Mass, centre and inertia about it (world axes at zero) of welded links.
+fn combine(members: &[usize], links: &[Link], pose: &[(M3, V3)]) -> (f64, V3, M3) {
+    let parts: Vec<(f64, V3, M3)> = members
+        .iter()
+        .filter_map(|&l| {
+            let (m, c, i) = links[l].inertial?;
+            let (r, p) = pose[l];
+            Some((m, add(&p, &apply(&r, &c)), mul(&mul(&r, &i), &transpose(&r))))
+        })
+        .collect();
+    // `+ 0.0`: an empty sum is −0.
+    let mass: f64 = parts.iter().map(|p| p.0).sum::<f64>() + 0.0;
+    let mut centre = [0.0; 3];
+    if mass > 0.0 {
+        for (m, c, _) in &parts {
+            centre = add(&centre, &c.map(|x| x * m / mass));
+        }
+    }
+    let mut inertia = [[0.0; 3]; 3];
+    for (m, c, i) in &parts {
+        let d = sub(c, &centre);
+        let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        for r in 0..3 {
+            for k in 0..3 {
+                let steiner = if r == k { dd } else { 0.0 } - d[r] * d[k];
+                inertia[r][k] += i[r][k] + m * steiner;
+            }
+        }
+    }
+    (mass, centre, inertia)
+}
+
+/// A moving body needs a positive mass and the inertia of a real body:
+/// positive definite, each principal moment at most the sum of the others.
+fn check_inertia(head: &Link, mass: f64, i: &M3, fail: &Fail) -> syn::Result<()> {
+    let name = &head.name;
+    if mass.is_nan() || mass <= 0.0 || mass.is_infinite() {
+        return Err(fail(head.at, format!("link `{name}` moves but has mass {mass}; expected a positive mass")));
+    }
+    let moments = eigenvalues(i);
+    if !physical(&moments) {
+        return Err(fail(
+            head.at,
+            format!(
+                "link `{name}` moves with principal moments {moments:?}; expected a real body's inertia: positive, \
+                 each at most the sum of the other two"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// An attribute of `N` numbers, if present.
+pub fn numbers<const N: usize>(
+    node: roxmltree::Node,
+    key: &str,
+    at: roxmltree::TextPos,
+    fail: &Fail,
+) -> syn::Result<Option<[f64; N]>> {
+    let Some(text) = node.attribute(key) else { return Ok(None) };
+    let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
+    match <[f64; N]>::try_from(parsed.as_slice()) {
+        Ok(v) if text.split_whitespace().count() == N && v.iter().all(|x| x.is_finite()) => Ok(Some(v)),
+        _ => {
+            let example = ["0", "0", "1", "0", "0", "0", "1"][..N.min(7)].join(" ");
+            let what = match N {
+                1 => "a number".to_string(),
+                n => format!("{} numbers", ["two", "three", "four", "five", "six", "seven"].get(n - 2).unwrap_or(&"")),
+            };
+            Err(fail(at, format!("`{key}=\"{text}\"`: expected {what}, as in `{key}=\"{example}\"`")))
+        }
+    }
+}
+
+/// An attribute of three numbers, if present.
+pub fn triple(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<Option<V3>> {
+    numbers::<3>(node, key, at, fail)
+}
+
+/// An attribute holding one number.
+pub fn number(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<f64> {
+    let text = node.attribute(key).ok_or_else(|| {
+        fail(at, format!("`<{}>` has no `{key}`; expected `{key}=\"NUMBER\"`", node.tag_name().name()))
+    })?;
+    match text.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
+    }
+}
+
+/// A required text attribute.
+pub fn required(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<String> {
+    node.attribute(key)
+        .map(str::to_string)
+        .ok_or_else(|| fail(at, format!("`<{}>` has no `{key}`; expected `{key}=\"..\"`", node.tag_name().name())))
+}
+
+pub const IDENTITY: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+pub fn mul(a: &M3, b: &M3) -> M3 {
+    std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[k][c]).sum()))
+}
+
+pub fn transpose(a: &M3) -> M3 {
+    std::array::from_fn(|r| std::array::from_fn(|c| a[c][r]))
+}
+
+pub fn apply(a: &M3, v: &V3) -> V3 {
+    std::array::from_fn(|r| (0..3).map(|k| a[r][k] * v[k]).sum())
+}
+
+pub fn add(a: &V3, b: &V3) -> V3 {
+    std::array::from_fn(|i| a[i] + b[i])
+}
+
+pub fn sub(a: &V3, b: &V3) -> V3 {
+    std::array::from_fn(|i| a[i] - b[i])
+}
+
+pub fn norm(v: &V3) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+#[cfg(test)]
+pub mod tests {
+    use super::*;
+
+    /// A file of the workspace's `tests/data`.
+    pub fn test_file(path: &str) -> String {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data");
+        std::fs::read_to_string(dir.join(path)).unwrap()
+    }
+
+    /// `n` copies of `text`, each cut (a middle part left out) and with up
+    /// to three bytes changed to XML's and numbers' characters: for readers
+    /// that must give an error or a robot, never a panic.
+    pub fn cut_and_mutated(text: &str, n: usize) -> Vec<String> {
+        let mut seed = 2026_u64;
+        let mut next = |n: usize| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 33) as usize) % n.max(1)
+        };
+        let bytes = text.as_bytes();
+        (0..n)
+            .map(|_| {
+                let mut mutated = bytes[..next(bytes.len())].to_vec();
+                mutated.extend_from_slice(&bytes[next(bytes.len())..]);
+                for _ in 0..next(4) {
+                    let at = next(mutated.len());
+                    if let Some(b) = mutated.get_mut(at) {
+                        *b = b"<>/\"= 0-.e9xyz"[next(14)];
+                    }
+                }
+                String::from_utf8_lossy(&mutated).into_owned()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn names_become_identifiers() {
+        let cases = [
+            ("shoulder_pan_joint", "shoulder_pan_joint"),
+            ("FL-HAA", "FL_HAA"),
+            ("7dof", "_7dof"),
+            ("type", "_type"),
+            ("ground", "_ground"),
+            ("", "_3"),
+            ("_", "__"),
+            ("ü", "__"),
+            ("a b", "a_b"),
+        ];
+        for (name, rust) in cases {
+            assert_eq!(rust_name(name, 3), rust, "{name:?}");
+            assert!(syn::parse_str::<syn::Ident>(rust).is_ok());
+        }
+    }
+}

@@ -1,0 +1,179 @@
+//! Robots read from MJCF files (`#[scene(mjcf = "..")]`): the same robots
+//! as `urdf.rs`, written as MJCF by MuJoCo's own compiler
+//! (`tests/data/robots/make_mjcf.py`), against the same Pinocchio values.
+
+use joint_runtime::Scene;
+use joint_runtime::nalgebra::{SVector, Vector3, Vector4};
+use joint_runtime::robot::LinkFrame;
+use joint_runtime::tree::{TreeSimulation, TreeState};
+
+use super::urdf::{against_pinocchio, motion_against_pinocchio};
+
+#[derive(Scene)]
+#[scene(mjcf = "data/robots/double_pendulum.xml")]
+struct DoublePendulum;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/robots/ur5.xml")]
+struct Ur5;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/robots/panda.xml")]
+struct Panda;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/robots/solo12.xml")]
+struct Solo12;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/robots/solo12_floating.xml")]
+struct Solo12Floating;
+
+#[test]
+fn double_pendulum_against_pinocchio() {
+    against_pinocchio(&DoublePendulum, &DoublePendulum::LINKS, "double_pendulum");
+}
+
+#[test]
+fn ur5_against_pinocchio() {
+    against_pinocchio(&Ur5, &Ur5::LINKS, "ur5");
+}
+
+#[test]
+fn panda_against_pinocchio() {
+    against_pinocchio(&Panda, &Panda::LINKS, "panda");
+}
+
+#[test]
+fn solo12_fixed_base_against_pinocchio() {
+    against_pinocchio(&Solo12, &Solo12::LINKS, "solo12");
+}
+
+#[test]
+fn solo12_floating_base_against_pinocchio() {
+    against_pinocchio(&Solo12Floating, &Solo12Floating::LINKS, "solo12_floating");
+}
+
+#[test]
+fn motion_against_pinocchio_rk4() {
+    motion_against_pinocchio(&DoublePendulum, "double_pendulum", 1e-11);
+    motion_against_pinocchio(&Ur5, "ur5", 1e-11);
+    motion_against_pinocchio(&Panda, "panda", 1e-11);
+    motion_against_pinocchio(&Solo12Floating, "solo12_floating", 1e-11);
+}
+
+/// The gravity is the file's (MuJoCo's default where it says nothing); the
+/// limits are MuJoCo's import of the URDF's, in radians.
+#[test]
+#[allow(clippy::approx_constant)] // the file's digits, not 2π
+fn gravity_and_limits_from_the_file() {
+    let sim = joint_runtime::tree::TreeSimulation::new(&Ur5).unwrap();
+    assert_eq!(sim.tree().gravity(), joint_runtime::nalgebra::Vector3::new(0.0, 0.0, -9.81));
+    let pan = Ur5::LIMITS[0];
+    assert_eq!((pan.name, pan.range, pan.effort), ("shoulder_pan_joint", Some((-6.28319, 6.28319)), Some(150.0)));
+    assert_eq!(LinkFrame::find(&Ur5::LINKS, "tool0").unwrap().body, Some(5));
+}
+
+/// Each of MJCF's orientations (`euler` on a `<frame>`, `axisangle` on the
+/// body, `xyaxes` on its inertia, `zaxis` on a site), in degrees, with
+/// `<default>` classes: worked out by hand, the bob's centre is at
+/// (0, 0.5, 0.1), its inertia about it diag(0.2, 0.1, 0.25) in world axes,
+/// the ball joint at (0, 0.5, 0.5).
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/ball_pendulum.xml")]
+struct BallFromFile;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(bob, mass = 2.0, inertia = [0.2, 0.1, 0.25])]
+#[joint(ball = spherical(ground, bob), rho1 = [0, 0.5, 0.5], rho2 = [0, 0, 0.4])]
+struct BallByHand;
+
+#[test]
+fn orientations_and_classes_as_worked_out_by_hand() {
+    let (mut file, mut hand) = (TreeSimulation::new(&BallFromFile).unwrap(), TreeSimulation::new(&BallByHand).unwrap());
+    let q = Vector4::new(0.9, 0.3, -0.2, 0.25).normalize();
+    let state = TreeState::<4, 3> { q, v: Vector3::new(0.7, -1.1, 0.4), t: 0.0 };
+    let tau = Vector3::new(0.3, 0.1, -0.2);
+    let (a, b) = (file.forward_dynamics(&state, &tau).unwrap(), hand.forward_dynamics(&state, &tau).unwrap());
+    assert!((a - b).amax() < 1e-13 * b.amax(), "{a} {b}");
+    // Sites are frames: the tip 0.4 below the centre, its z along x (a
+    // quarter turn about y); the anchor on the ground.
+    let tip = LinkFrame::find(&BallFromFile::LINKS, "tip").unwrap();
+    assert_eq!(tip.body, Some(0));
+    let expected = [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]];
+    let close = |x: &[f64; 3], y: &[f64; 3]| x.iter().zip(y).all(|(a, b)| (a - b).abs() < 1e-15);
+    assert!(close(&tip.origin, &[0.0, 0.0, -0.4]), "{:?}", tip.origin);
+    assert!(tip.rotation.iter().zip(&expected).all(|(c, e)| close(c, e)), "{:?}", tip.rotation);
+    let anchor = LinkFrame::find(&BallFromFile::LINKS, "anchor").unwrap();
+    assert_eq!((anchor.body, anchor.origin), (None, [0.0, 0.0, 1.0]));
+    // The joint's data: damping from the main class, armature from the
+    // body's `childclass`, the range from degrees.
+    let ball = BallFromFile::LIMITS[0];
+    assert_eq!((ball.name, ball.damping, ball.armature), ("ball", Some(0.1), Some(0.01)));
+    let (lo, hi) = ball.range.unwrap();
+    assert!(lo == 0.0 && (hi - std::f64::consts::FRAC_PI_3).abs() < 1e-15);
+}
+
+/// A four-bar closed by `connect`, against the same written as attributes
+/// (points from the centres worked out by hand): the same motion.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/four_bar.xml")]
+struct FourBarFromFile;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(crank, mass = 1.0, inertia = [0.09, 0.09, 0.01])]
+#[body(coupler, mass = 2.0, inertia = [0.1, 0.6, 0.55, 0, -0.05, 0])]
+#[body(rocker, mass = 1.5, inertia = [0.3, 0.3, 0.02])]
+#[joint(a = revolute(ground, crank), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, -0.5])]
+#[joint(b = revolute(crank, coupler), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0.5], rho2 = [-1, 0, -0.25])]
+#[joint(d = revolute(ground, rocker), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [2, 0, 0], rho2 = [0, 0, -0.75])]
+#[joint(c = spherical(coupler, rocker), rho1 = [1, 0, 0.25], rho2 = [0, 0, 0.75])]
+struct FourBarByHand;
+
+#[test]
+fn connect_closes_a_loop_as_a_ball_joint() {
+    let (mut file, mut hand) =
+        (TreeSimulation::new(&FourBarFromFile).unwrap(), TreeSimulation::new(&FourBarByHand).unwrap());
+    let mut guess = file.tree().zero_state();
+    guess.v = SVector::from([1.0, -0.5, 0.7]);
+    let mut x = file.assemble(&guess).unwrap();
+    let mut y = x;
+    for _ in 0..500 {
+        file.step(&mut x, 1e-3).unwrap();
+        hand.step(&mut y, 1e-3).unwrap();
+    }
+    let worst = (x.q - y.q).amax().max((x.v - y.v).amax());
+    eprintln!("four-bar by connect against attributes after 0.5 s: {worst:.1e} (q {:?})", x.q.as_slice());
+    assert!(worst < 1e-12, "{worst:e}");
+    assert!(x.q.amax() > 0.1, "it moved: {:?}", x.q.as_slice());
+    let closed = file.closure_rows(&x).phi.amax();
+    assert!(closed < 1e-10, "the loop stays closed: {closed:e}");
+}
+
+/// `weld` holds the elbow: the double pendulum swings as the rigid one
+/// (the lower link a body without joints).
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/welded_pendulum.xml")]
+struct Welded;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/rigid_pendulum.xml")]
+struct Rigid;
+
+#[test]
+fn weld_makes_two_bodies_one() {
+    let (mut welded, mut rigid) = (TreeSimulation::new(&Welded).unwrap(), TreeSimulation::new(&Rigid).unwrap());
+    let (mut x, mut y) = (welded.tree().zero_state(), rigid.tree().zero_state());
+    x.q[0] = 0.7;
+    y.q[0] = 0.7;
+    for _ in 0..1000 {
+        welded.step(&mut x, 1e-3).unwrap();
+        rigid.step(&mut y, 1e-3).unwrap();
+    }
+    let (dq, dv) = ((x.q[0] - y.q[0]).abs(), (x.v[0] - y.v[0]).abs());
+    eprintln!("welded against rigid after 1 s: shoulder {dq:.1e}, rate {dv:.1e}; elbow {:.1e}", x.q[1].abs());
+    assert!(dq < 1e-10 && dv < 1e-10 && x.q[1].abs() < 1e-10, "{dq:e} {dv:e} {:e}", x.q[1]);
+    assert!((y.q[0] - 0.7).abs() > 0.1, "it swung");
+}
