@@ -248,3 +248,42 @@ fn limits_as_the_files_give_them() {
     assert_eq!(LinkFrame::find(&Ur5::LINKS, "tool0").unwrap().body, Some(5));
     assert_eq!(Ur5::LINKS.len(), 11);
 }
+
+/// The UR5 with a payload declared beside its file: a body of the
+/// attributes welded to the file's `wrist_3_link` by name, 0.1 m along y
+/// from that link's centre.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
+#[body(payload, mass = 2.0, inertia = [0.01, 0.02, 0.03])]
+#[joint(grip = fixed(wrist_3_link, payload), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.1, 0], rho2 = [0, 0, 0])]
+struct Ur5Payload;
+
+/// The payload adds `m Jpᵀ Jp + Jωᵀ (R I Rᵀ) Jω` to the arm's mass matrix
+/// and `m Jpᵀ (−g)` to the torques that hold it (Jp, Jω: the payload
+/// centre's Jacobian on the arm alone, itself checked against Pinocchio).
+#[test]
+fn a_payload_beside_the_file() {
+    let (arm, held) = (TreeSimulation::new(&Ur5).unwrap(), TreeSimulation::new(&Ur5Payload).unwrap());
+    assert_eq!(held.tree().joints().len(), 7, "the arm's six and the weld");
+    let inertia = SMatrix::<f64, 3, 3>::from_diagonal(&Vector3::new(0.01, 0.02, 0.03));
+    let (mut worst_m, mut worst_g) = (0.0_f64, 0.0_f64);
+    for k in 0..20 {
+        let q = SVector::<f64, 6>::from_fn(|i, _| ((k * 6 + i) as f64 * 0.7137).sin() * 2.5);
+        let state = TreeState::<6, 6> { q, v: SVector::zeros(), t: 0.0 };
+        let j = arm.tree().point_jacobian(&q, 5, &Vector3::new(0.0, 0.1, 0.0)).unwrap();
+        let (jw, jp) = (j.fixed_rows::<3>(0), j.fixed_rows::<3>(3));
+        let turn = held.system_state(&state).bodies[6].rotation();
+        let world = turn.to_rotation_matrix().matrix() * inertia * turn.to_rotation_matrix().matrix().transpose();
+        let (mut m, mut mp) = (SMatrix::<f64, 6, 6>::zeros(), SMatrix::<f64, 6, 6>::zeros());
+        arm.mass_matrix_into(&q, &mut m);
+        held.mass_matrix_into(&q, &mut mp);
+        let expected = m + 2.0 * jp.transpose() * jp + jw.transpose() * world * jw;
+        worst_m = worst_m.max((mp - expected).amax() / expected.amax());
+        let hold = arm.inverse_dynamics(&state, &SVector::zeros());
+        let hold_payload = held.inverse_dynamics(&state, &SVector::zeros());
+        let expected = hold + 2.0 * jp.transpose() * Vector3::new(0.0, 0.0, 9.81);
+        worst_g = worst_g.max((hold_payload - expected).amax() / expected.amax());
+    }
+    eprintln!("UR5 with a payload: M to {worst_m:.1e}, holding torques to {worst_g:.1e} of the largest entry");
+    assert!(worst_m < 1e-13 && worst_g < 1e-13, "{worst_m:e} {worst_g:e}");
+}
