@@ -36,13 +36,18 @@ fn body_pixels((width, pixels): &(u32, Vec<[u8; 3]>), body: usize) -> (usize, [f
     (n, [sum[0] / n.max(1) as f64, sum[1] / n.max(1) as f64])
 }
 
-/// Every body is drawn in both frames and its centroid moves by more than
-/// `min_move` pixels; the animated file renders as its first frame.
-fn check_motion<const NB: usize>(run: &Trajectory<NB>, options: &SvgOptions, min_move: f64) {
+/// Every body of `bodies` is drawn in both frames and its centroid moves by
+/// more than `min_move` pixels; the animated file renders as its first frame.
+fn check_motion<const NB: usize>(
+    run: &Trajectory<NB>,
+    options: &SvgOptions,
+    min_move: f64,
+    bodies: std::ops::Range<usize>,
+) {
     let frames = run.samples().len().min(options.max_frames);
     let first = render(&run.svg_frame(0, options).expect("a first frame"));
     let last = render(&run.svg_frame(frames - 1, options).expect("a last frame"));
-    for body in 0..NB {
+    for body in bodies {
         let ((n0, c0), (n1, c1)) = (body_pixels(&first, body), body_pixels(&last, body));
         assert!(n0 > 50 && n1 > 50, "body {body} drawn: {n0} and {n1} pixels");
         let moved = (c1[0] - c0[0]).hypot(c1[1] - c0[1]);
@@ -56,12 +61,21 @@ fn check_motion<const NB: usize>(run: &Trajectory<NB>, options: &SvgOptions, min
 fn bricard_bars_move_on_screen() {
     let scene = bricard::scene();
     let run = bricard::simulate(&scene, Integrator::Rk4, 1e-3, 2.0, 20).expect("runs");
-    check_motion(&run.trajectory, &SvgOptions::default(), 2.0);
+    check_motion(&run.trajectory, &SvgOptions::default(), 2.0, 0..5);
 }
 
 #[test]
 fn four_bar_cranks_move_on_screen() {
     let scene = four_bar::scene();
     let run = four_bar::simulate(&scene, &four_bar::initial_state(), Integrator::Rk4, 1e-3, 1.0, 20).expect("runs");
-    check_motion(&run.trajectory, &SvgOptions::default().with_view(View::xy()), 2.0);
+    check_motion(&run.trajectory, &SvgOptions::default().with_view(View::xy()), 2.0, 0..3);
+}
+
+/// The arm's seven links (each drawn from its centre to its link frames'
+/// origins) are seen to move; the fingers are a few pixels.
+#[test]
+fn panda_links_move_on_screen() {
+    let run = joint_examples::panda::simulate(1.0, 1e-3).expect("runs");
+    let options = SvgOptions::default().with_view(View::isometric()).with_size(1000, 640);
+    check_motion(&run.trajectory, &options, 2.0, 0..7);
 }
