@@ -248,6 +248,10 @@ pub(crate) struct Joint {
     /// `Some(k)`: its points or axes are fields, so all of its geometry is
     /// read from the runtime's `TreeGeometry` at `k` (the numbers above unused).
     pub(crate) read: Option<usize>,
+    /// Inertia added to each freedom (`armature`) and viscous damping of
+    /// each (`damping`): numbers, zero unless declared.
+    pub(crate) armature: f64,
+    pub(crate) damping: f64,
 }
 
 fn known(j: &JointDecl, name: &str) -> Option<[f64; 3]> {
@@ -339,6 +343,8 @@ impl Joint {
             slide: [0.0; 3],
             plane: [[0.0; 3]; 2],
             read: None,
+            armature: 0.0,
+            damping: 0.0,
         }
     }
 }
@@ -363,6 +369,7 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         // A floating body: its centre from the ground's origin.
         return Some(Joint { kind: TreeKind::Free, parent, child, ..Joint::spherical() });
     };
+    let (armature, damping) = (j.dynamics.armature, j.dynamics.damping);
     let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
     let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
     let mut slide = [0.0; 3];
@@ -382,6 +389,8 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
             slide: a,
             plane: [[0.0; 3]; 2],
             read: None,
+            armature,
+            damping,
         });
     }
     let mut plane = [[0.0; 3]; 2];
@@ -408,7 +417,7 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         }
     }
     let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide, plane, read: None })
+    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide, plane, read: None, armature, damping })
 }
 
 /// A planar joint's in-plane unit axes `(f, g)` of the parent, `f × g = a`,
@@ -784,7 +793,13 @@ impl Builder {
             return (keep, j.parent.map(|_| ([[zero; 6]; 6], self.force_back(x, f))));
         }
         let u_cols: Vec<V6> = s_k.iter().map(|col| self.m6v(ia, *col)).collect();
-        let d: Vec<Vec<Id>> = (0..dof).map(|r| (0..dof).map(|c| self.dot(&s_k[r], &u_cols[c])).collect()).collect();
+        let mut d: Vec<Vec<Id>> = (0..dof).map(|r| (0..dof).map(|c| self.dot(&s_k[r], &u_cols[c])).collect()).collect();
+        if j.armature != 0.0 {
+            let a = self.c(j.armature);
+            for (r, row) in d.iter_mut().enumerate() {
+                row[r] = self.g.add(row[r], a);
+            }
+        }
         let dinv = self.inverse(&d);
         let u: Vec<Id> = (0..dof)
             .map(|i| {
@@ -821,7 +836,9 @@ impl Builder {
         // Exact zeros the graph cannot see (A − A A⁻¹ A): the reduced
         // inertia moves nothing along the joint's own freedoms.
         // (Known only for numbers: a read joint's subspace is not.)
-        let constant = !matches!(j.kind, TreeKind::Universal | TreeKind::Planar) && j.read.is_none();
+        // (Not with an armature: D is then more than Sᵀ Iᴬ S.)
+        let constant =
+            !matches!(j.kind, TreeKind::Universal | TreeKind::Planar) && j.read.is_none() && j.armature == 0.0;
         for &i in selected(&subspace(j)).filter(|_| constant).iter().flatten() {
             reduced[i] = [zero; 6];
             for row in reduced.iter_mut() {
@@ -982,11 +999,14 @@ pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option
 fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
     let parents = parent_edges(s, edges);
     let read = |(k, (e, parent)): (usize, (&TreeEdge, Option<usize>))| {
+        let dynamics = e.joint.map_or_else(Default::default, |i| s.joints[i].dynamics);
         joint(s, e, parent).unwrap_or(Joint {
             kind: e.kind,
             parent,
             child: e.ends.1,
             read: Some(k),
+            armature: dynamics.armature,
+            damping: dynamics.damping,
             ..Joint::spherical()
         })
     };
@@ -998,10 +1018,18 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
     let mut b = Builder::new(Graph::new());
     let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
     let v: Vec<Id> = (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect();
-    let tau: Vec<Id> = (0..nv).map(|i| b.g.param(format!("tau_{i}"))).collect();
+    let mut tau: Vec<Id> = (0..nv).map(|i| b.g.param(format!("tau_{i}"))).collect();
     let zero = b.c(0.0);
     let n = joints.len();
     let (qa, va) = offsets(joints);
+    // A damped joint's force: `τ − damping · v`.
+    for (k, j) in joints.iter().enumerate().filter(|(_, j)| j.damping != 0.0) {
+        let d = b.c(j.damping);
+        for i in va[k]..va[k] + j.kind.sizes().1 {
+            let dv = b.g.mul(d, v[i]);
+            tau[i] = b.g.sub(tau[i], dv);
+        }
+    }
     let mut downs: Vec<Down> = Vec::with_capacity(n);
     for (k, j) in joints.iter().enumerate() {
         let parent = j.parent.map(|p| downs[p].vel);
@@ -1230,8 +1258,10 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     // A kernel is shared by joints of one text, its subspace constant: a
     // universal joint's turns with θ₂ (the runtime's recursion runs such a
     // tree past the limit).
+    // Nor with an armature or damping (the recursion carries them).
     let varying = |j: &Joint| matches!(j.kind, TreeKind::Universal | TreeKind::Planar | TreeKind::Free);
-    if joints.iter().any(|j| varying(j) || j.read.is_some()) {
+    let own = |j: &Joint| j.armature != 0.0 || j.damping != 0.0;
+    if joints.iter().any(|j| varying(j) || own(j) || j.read.is_some()) {
         return None;
     }
     let (qa, va) = offsets(joints);
@@ -1456,8 +1486,8 @@ pub fn controller_methods(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usiz
 }
 
 /// Every joint's pass 1 on a fresh graph, `q` and `v` as inputs (`v` held at
-/// zero when `moving` is false).
-fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize, moving: bool) -> Vec<Down> {
+/// zero when `moving` is false), and `v`.
+fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize, moving: bool) -> (Vec<Down>, Vec<Id>) {
     let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
     let v: Vec<Id> = if moving { (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect() } else { vec![b.c(0.0); nv] };
     let (qa, va) = offsets(joints);
@@ -1469,14 +1499,14 @@ fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize,
         let d = b.down(s, j, inbound, &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
         out.push(d);
     }
-    out
+    (out, v)
 }
 
 /// `fn inverse_dynamics_into`: `τ = Sᵀ f` with `f = I a + v ×* I v` summed
 /// from the leaves.
 fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
     let mut b = Builder::new(Graph::new());
-    let d = downs(&mut b, s, joints, nq, nv, true);
+    let (d, v) = downs(&mut b, s, joints, nq, nv, true);
     let vdot: Vec<Id> = (0..nv).map(|i| b.g.param(format!("a_{i}"))).collect();
     let (_, va) = offsets(joints);
     let ground = b.ground(s);
@@ -1499,8 +1529,13 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
     let zero = b.c(0.0);
     let mut tau = vec![zero; nv];
     for (k, j) in joints.iter().enumerate().rev() {
+        let (armature, damping) = (b.c(j.armature), b.c(j.damping));
         for (i, col) in d[k].s.iter().enumerate() {
-            tau[va[k] + i] = b.dot(col, &force[k]);
+            let own = b.g.mul(armature, vdot[va[k] + i]);
+            let damped = b.g.mul(damping, v[va[k] + i]);
+            let t = b.dot(col, &force[k]);
+            let t = b.g.add(t, own);
+            tau[va[k] + i] = b.g.add(t, damped);
         }
         if let Some(p) = j.parent {
             let back = b.force_back(&d[k].x, force[k]);
@@ -1516,7 +1551,7 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
 /// freedom's force carried to the root.
 fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
     let mut b = Builder::new(Graph::new());
-    let d = downs(&mut b, s, joints, nq, nv, false);
+    let (d, _) = downs(&mut b, s, joints, nq, nv, false);
     let (_, va) = offsets(joints);
     let mut ic: Vec<M6> = d.iter().map(|x| x.inertia).collect();
     for (k, j) in joints.iter().enumerate().rev() {
@@ -1527,7 +1562,7 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
     }
     let zero = b.c(0.0);
     let mut m = vec![vec![zero; nv]; nv];
-    for (k, _) in joints.iter().enumerate() {
+    for k in 0..joints.len() {
         for (i, col) in d[k].s.iter().enumerate() {
             let c = va[k] + i;
             let mut f = b.m6v(&ic[k], *col);
@@ -1543,6 +1578,8 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
                 f = b.force_back(&d[at].x, f);
                 at = p;
             }
+            let armature = b.c(joints[k].armature);
+            m[c][c] = b.g.add(m[c][c], armature);
         }
     }
     let flat: Vec<Id> = m.iter().flatten().copied().collect();

@@ -122,6 +122,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     let (rho_p, rho_c, axis_p, axis_c) =
         if e.reversed { (rho2, rho1, axis2, axis1) } else { (rho1, rho2, axis1, axis2) };
     let (lock_p, lock_c) = if e.reversed { (lock2, lock1) } else { (lock1, lock2) };
+    let (armature, damping) = (j.dynamics.armature, j.dynamics.damping);
     let kind = match e.kind {
         TreeKind::Revolute => quote!(Revolute),
         TreeKind::Spherical => quote!(Spherical),
@@ -144,6 +145,8 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
             axis_child: #axis_c,
             lock_parent: #lock_p,
             lock_child: #lock_c,
+            armature: #armature,
+            damping: #damping,
         }
     }
 }
@@ -167,6 +170,8 @@ fn free(s: &SceneDecl, e: &TreeEdge) -> TokenStream {
             axis_child: #z,
             lock_parent: #z,
             lock_child: #z,
+            armature: 0.0,
+            damping: 0.0,
         }
     }
 }

@@ -309,14 +309,14 @@ impl<'a, 'i> Reader<'a, 'i> {
             }
             None => None,
         };
-        let limits = FileLimits {
-            range,
-            effort,
-            velocity: None,
-            damping: value("damping")?,
-            friction: value("frictionloss")?,
-            armature: value("armature")?,
-        };
+        let (damping, armature) = (value("damping")?, value("armature")?);
+        if damping.or(armature).is_some_and(|_| damping.unwrap_or(0.0) < 0.0 || armature.unwrap_or(0.0) < 0.0) {
+            return Err(fail(
+                at,
+                format!("{label} has a negative `damping` or `armature`; expected numbers at least zero"),
+            ));
+        }
+        let limits = FileLimits { range, effort, velocity: None, damping, friction: value("frictionloss")?, armature };
         Ok(Joint { name, kind, parent, child, origin, point, axis, limits, at })
     }
 

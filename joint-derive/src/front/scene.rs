@@ -226,6 +226,20 @@ pub struct JointDecl {
     pub bodies: [Option<usize>; 2],
     /// Its parameters in the joint's order.
     pub params: Vec<Parameter>,
+    /// `armature = ..`, `damping = ..` (zero unless given).
+    pub dynamics: JointDynamics,
+}
+
+/// A tree joint's own inertia and damping, per freedom (relative
+/// coordinates only).
+#[derive(Clone, Copy, Default, Debug)]
+pub struct JointDynamics {
+    /// Inertia added to each freedom.
+    pub armature: f64,
+    /// Viscous damping of each freedom.
+    pub damping: f64,
+    /// Where the first was written (`None`: neither).
+    pub span: Option<Span>,
 }
 
 impl JointDecl {
@@ -472,7 +486,13 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
              body without joints floats already",
         ),
     }
-    let read = file.as_ref().and_then(|(format, lit)| robot(*format, lit, floating_base.is_some(), &mut errors));
+    // MJCF's armature and damping enter the dynamics (MuJoCo's do) where the
+    // scene is relative only; URDF's `<dynamics>` stays data (Pinocchio's
+    // algorithms leave it out too).
+    let read = file.as_ref().and_then(|(format, lit)| {
+        let dynamics = *format == RobotFormat::Mjcf && !absolute;
+        robot(*format, lit, (floating_base.is_some(), dynamics), &mut errors)
+    });
     let (mut bodies, file_joints, files, file_gravity, file_data) = match read {
         Some(r) => (r.bodies, r.joints, r.files, r.gravity, Some(r.data)),
         None => Default::default(),
@@ -516,6 +536,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     if relative.is_some() && errors.is_empty() {
         scene.tree = Some(super::tree::spanning_tree(&scene.bodies, &scene.joints));
     }
+    check_dynamics(&scene, &mut errors);
     errors.finish()?;
     Ok(scene)
 }
@@ -566,7 +587,7 @@ struct FromFile {
 fn robot(
     format: RobotFormat,
     lit: &syn::LitStr,
-    #[cfg_attr(not(feature = "urdf"), allow(unused_variables))] floating: bool,
+    #[cfg_attr(not(feature = "urdf"), allow(unused_variables))] (floating, dynamics): (bool, bool),
     errors: &mut Errors,
 ) -> Option<FromFile> {
     let read = match format {
@@ -577,12 +598,12 @@ fn robot(
         #[allow(unreachable_patterns)] // with both features on
         _ => return missing_feature(format, lit, errors),
     };
-    from_file(read.map_err(|e| errors.push(e)).ok()?, lit.span(), errors)
+    from_file(read.map_err(|e| errors.push(e)).ok()?, lit.span(), dynamics, errors)
 }
 
 /// Without the format's feature, a file cannot be read.
 #[cfg(not(any(feature = "urdf", feature = "mjcf")))]
-fn robot(format: RobotFormat, lit: &syn::LitStr, _: bool, errors: &mut Errors) -> Option<FromFile> {
+fn robot(format: RobotFormat, lit: &syn::LitStr, _: (bool, bool), errors: &mut Errors) -> Option<FromFile> {
     missing_feature(format, lit, errors)
 }
 
@@ -599,9 +620,10 @@ fn missing_feature(format: RobotFormat, lit: &syn::LitStr, errors: &mut Errors) 
     None
 }
 
-/// A robot read, as attributes would give it.
+/// A robot read, as attributes would give it (with each joint's armature
+/// and damping when `dynamics`).
 #[cfg(any(feature = "urdf", feature = "mjcf"))]
-fn from_file(robot: super::robot::Robot, span: Span, errors: &mut Errors) -> Option<FromFile> {
+fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mut Errors) -> Option<FromFile> {
     // Links and joints are named apart, as in the file.
     let (mut body_names, mut joint_names) = (Vec::new(), Vec::new());
     let ident = |name: &str, taken: &mut Vec<String>, errors: &mut Errors| -> syn::Ident {
@@ -635,11 +657,19 @@ fn from_file(robot: super::robot::Robot, span: Span, errors: &mut Errors) -> Opt
         .iter()
         .chain(&robot.closures)
         .map(|j| {
-            let args = match j.kind {
+            let mut args = match j.kind {
                 "spherical" => vec![arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
                 "fixed" => vec![arg("axis1", &z), arg("axis2", &z), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
                 _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
             };
+            for (key, value) in [("armature", j.limits.armature), ("damping", j.limits.damping)] {
+                if let Some(x) = value.filter(|&x| dynamics && x != 0.0) {
+                    args.push(Arg {
+                        key: syn::Ident::new(key, span),
+                        value: Some(Value::Number(Number::Known(x), span)),
+                    });
+                }
+            }
             JointAttr {
                 name: ident(&j.name, &mut joint_names, errors),
                 repeat: None,
@@ -657,6 +687,56 @@ fn from_file(robot: super::robot::Robot, span: Span, errors: &mut Errors) -> Opt
         gravity: robot.gravity,
         data: FileData { links: robot.links, limits },
     })
+}
+
+/// `armature` and `damping` only on a tree's moving joints, in relative
+/// coordinates alone (the absolute engine does not model them).
+fn check_dynamics(scene: &SceneDecl, errors: &mut Errors) {
+    for (i, j) in scene.joints.iter().enumerate() {
+        let Some(span) = j.dynamics.span else { continue };
+        let edge = scene.tree.as_ref().and_then(|edges| edges.iter().find(|e| e.joint == Some(i)));
+        let message = match edge {
+            _ if scene.absolute => {
+                "`armature` and `damping` are modelled in relative coordinates only; expected `coordinates = \
+                 relative`"
+                    .to_string()
+            }
+            None if scene.tree.is_some() => {
+                format!("joint `{}` closes a loop; `armature` and `damping` are for the tree's joints", j.label())
+            }
+            Some(e) if e.kind == super::tree::TreeKind::Fixed => "a fixed joint has no freedom to damp".to_string(),
+            _ => continue,
+        };
+        errors.at(span, message);
+    }
+}
+
+/// `armature = A`, `damping = D` taken out of a joint's arguments: numbers,
+/// at least zero.
+fn joint_dynamics(args: Vec<Arg>, errors: &mut Errors) -> (JointDynamics, Vec<Arg>) {
+    let mut out = JointDynamics::default();
+    let mut rest = Vec::new();
+    for a in args {
+        let key = a.key.to_string();
+        if key != "armature" && key != "damping" {
+            rest.push(a);
+            continue;
+        }
+        let value = match &a.value {
+            Some(Value::Number(Number::Known(x), _)) if x.is_finite() && *x >= 0.0 => *x,
+            _ => {
+                errors.at(a.key.span(), format!("expected `{key} = NUMBER`, a number at least zero"));
+                continue;
+            }
+        };
+        if key == "armature" {
+            out.armature = value
+        } else {
+            out.damping = value
+        }
+        out.span.get_or_insert(a.key.span());
+    }
+    (out, rest)
 }
 
 /// `#[scene(gravity = .., formulation = omega_body, second_order, coordinates
@@ -872,7 +952,8 @@ impl SceneDecl {
         if a.name == "ground" && b.name == "ground" {
             errors.at(j.kind.span(), "a joint between the ground and itself constrains nothing");
         }
-        let given: Vec<Given> = j.args.into_iter().map(|a| given(a, fields, errors)).collect();
+        let (dynamics, args) = joint_dynamics(j.args, errors);
+        let given: Vec<Given> = args.into_iter().map(|a| given(a, fields, errors)).collect();
         let dialect = Dialect { scalar: "f64", fields_by_name: false };
         let resolved = resolve::resolve(kind, Formulation::OmegaBody, given, &dialect, j.kind.span(), errors);
         for (s, span) in resolved.scalars.iter().filter(|(s, _)| s != "f64") {
@@ -895,8 +976,8 @@ impl SceneDecl {
                 Some((i, var)) => with_variable(&resolved.params, var, i, errors),
                 None => resolved.params.clone(),
             };
-            let decl =
-                JointDecl { name: j.name.clone(), element, kind, kind_span: j.kind.span(), bodies: pair, params };
+            let (name, kind_span, bodies) = (j.name.clone(), j.kind.span(), pair);
+            let decl = JointDecl { name, element, kind, kind_span, bodies, params, dynamics };
             self.joints.push(decl);
         }
     }

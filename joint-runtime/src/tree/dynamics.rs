@@ -70,15 +70,16 @@ struct Articulated {
 }
 
 impl Articulated {
-    fn new(s: &Subspace, ia: &Matrix6<f64>, pa: &Vector6<f64>, tau: Vector3<f64>) -> Option<Self> {
+    /// `armature` adds to `D`'s diagonal (the joint's own inertia).
+    fn new(s: &Subspace, ia: &Matrix6<f64>, pa: &Vector6<f64>, tau: Vector3<f64>, armature: f64) -> Option<Self> {
         let u_cols = [0, 1, 2].map(|i| if i < s.n { ia * s.cols[i] } else { Vector6::zeros() });
         let d_inv = if s.n == 1 {
-            let d = s.cols[0].dot(&u_cols[0]);
+            let d = s.cols[0].dot(&u_cols[0]) + armature;
             (d > 0.0).then(|| Matrix3::new(1.0 / d, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0))?
         } else {
             // Padded with the identity past the joint's freedoms (a universal's 2).
             let d = Matrix3::from_fn(|r, c| match (r < s.n, c < s.n) {
-                (true, true) => s.cols[r].dot(&u_cols[c]),
+                (true, true) => s.cols[r].dot(&u_cols[c]) + if r == c { armature } else { 0.0 },
                 _ => f64::from(u8::from(r == c)),
             });
             spd_inverse(&d)?
@@ -142,7 +143,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut free = [Vector6::zeros(); NB];
         for k in (0..NB).rev() {
             let s = &kin.s[k];
-            let t = self.joint_forces(k, tau);
+            let t = self.joint_forces(k, tau) - self.joint_forces(k, &state.v) * self.joints[k].damping;
             let singular = TreeError::Singular { joint: self.joints[k].name };
             if self.joints[k].kind == TreeJointKind::Free {
                 // S is a permutation, so U D⁻¹ Uᵀ = Iᴬ: nothing of the
@@ -156,10 +157,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 }
                 continue;
             }
-            let a = Articulated::new(s, &ia[k], &pa[k], three(&t)).ok_or(singular)?;
+            let armature = self.joints[k].armature;
+            let a = Articulated::new(s, &ia[k], &pa[k], three(&t), armature).ok_or(singular)?;
             if let Some(p) = self.parent[k] {
                 let handed = a.u_times(s.n, &(a.d_inv * a.u));
-                if self.joints[k].kind == TreeJointKind::Spherical {
+                if self.joints[k].kind == TreeJointKind::Spherical && armature == 0.0 {
                     // S = [1; 0] in the link frame: Iᴬ − U D⁻¹ Uᵀ is
                     // [0 0; 0 C − Bᵀ A⁻¹ B], exactly; only that block moves on.
                     let lower = a.translational(&ia[k]);
@@ -200,7 +202,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let (kin, f) = self.joint_wrenches(state, vdot, None);
         let mut tau = SVector::<f64, NV>::zeros();
         for (k, (s, f)) in kin.s.iter().zip(&f).enumerate() {
-            self.put(k, &project(s, f), &mut tau);
+            let j = &self.joints[k];
+            let own = self.joint_forces(k, vdot) * j.armature + self.joint_forces(k, &state.v) * j.damping;
+            self.put(k, &(project(s, f) + own), &mut tau);
         }
         tau
     }
@@ -294,6 +298,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     force = kin.x[j].force_back(&force);
                     j = p;
                 }
+                out[(col, col)] += self.joints[k].armature;
             }
         }
     }
@@ -301,7 +306,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// Kinetic and potential energy.
     pub fn energy(&self, state: &TreeState<NQ, NV>) -> TreeEnergy {
         let kin = self.kinematics(&state.q, &state.v);
-        let kinetic = (0..NB).map(|k| 0.5 * kin.vel[k].dot(&(self.inertia[k] * kin.vel[k]))).sum();
+        let rotors = (0..NB).map(|k| 0.5 * self.joints[k].armature * self.joint_forces(k, &state.v).norm_squared());
+        let kinetic =
+            (0..NB).map(|k| 0.5 * kin.vel[k].dot(&(self.inertia[k] * kin.vel[k]))).sum::<f64>() + rotors.sum::<f64>();
         let system = self.system_state(state);
         let gravity = system.bodies.iter().zip(&self.mass).map(|(b, m)| -m.mass * self.gravity.dot(&b.r)).sum();
         TreeEnergy { kinetic, gravity }

@@ -18,6 +18,10 @@ What is done to each URDF (in memory; the URDF files are not touched):
     <mujoco><compiler discardvisual="true" fusestatic="false"/></mujoco> is added, so every
     URDF link is a MuJoCo body (the links on fixed joints are bodies without joints, which the
     reader welds to their parents, as it welds the URDF's fixed links);
+  * every joint's damping is set to zero: the reader puts an MJCF's damping and armature in the
+    dynamics, as MuJoCo does, and Pinocchio's reference (like its aba, rnea and crba) has none
+    (the URDF's <dynamics damping> is data there); tests/data/mjcf/reference.py checks damping
+    and armature against MuJoCo itself;
   * equality constraints are removed: MuJoCo turns panda's <mimic> into a joint equality,
     which the reader refuses (not read yet); Pinocchio's reference treats the mimic joint as
     an independent degree of freedom, and so does the file without it;
@@ -27,7 +31,6 @@ What is done to each URDF (in memory; the URDF files are not touched):
     is replaced by the compiled model's own value printed with 17 significant digits (MuJoCo
     has diagonalised each inertia: `quat` turns its principal axes). The file written is
     reloaded and checked to give the same model arrays (to 1e-15).
-Joint damping and friction stay as MuJoCo's URDF import made them (data for the reader).
 """
 import os
 import xml.etree.ElementTree as ET
@@ -56,6 +59,8 @@ def urdf_without_meshes(path):
 def make(urdf, floating):
     spec = mujoco.MjSpec.from_string(urdf_without_meshes(urdf))
     spec.option.gravity = [0.0, 0.0, -9.81]
+    for j in spec.joints:
+        j.damping = np.zeros_like(np.asarray(j.damping, dtype=float)) if np.ndim(j.damping) else 0.0
     for e in list(spec.equalities):
         spec.delete(e)
     if floating:

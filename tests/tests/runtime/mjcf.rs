@@ -3,7 +3,7 @@
 //! (`tests/data/robots/make_mjcf.py`), against the same Pinocchio values.
 
 use joint_runtime::Scene;
-use joint_runtime::nalgebra::{SVector, Vector3, Vector4};
+use joint_runtime::nalgebra::{SMatrix, SVector, Vector3, Vector4};
 use joint_runtime::robot::LinkFrame;
 use joint_runtime::tree::{TreeSimulation, TreeState};
 
@@ -78,7 +78,8 @@ fn gravity_and_limits_from_the_file() {
 /// body, `xyaxes` on its inertia, `zaxis` on a site), in degrees, with
 /// `<default>` classes: worked out by hand, the bob's centre is at
 /// (0, 0.5, 0.1), its inertia about it diag(0.2, 0.1, 0.25) in world axes,
-/// the ball joint at (0, 0.5, 0.5).
+/// the ball joint at (0, 0.5, 0.5), its damping 0.1 (the main class) and
+/// armature 0.01 (the body's `childclass`).
 #[derive(Scene)]
 #[scene(mjcf = "data/mjcf/ball_pendulum.xml")]
 struct BallFromFile;
@@ -86,7 +87,7 @@ struct BallFromFile;
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
 #[body(bob, mass = 2.0, inertia = [0.2, 0.1, 0.25])]
-#[joint(ball = spherical(ground, bob), rho1 = [0, 0.5, 0.5], rho2 = [0, 0, 0.4])]
+#[joint(ball = spherical(ground, bob), rho1 = [0, 0.5, 0.5], rho2 = [0, 0, 0.4], armature = 0.01, damping = 0.1)]
 struct BallByHand;
 
 #[test]
@@ -176,4 +177,58 @@ fn weld_makes_two_bodies_one() {
     eprintln!("welded against rigid after 1 s: shoulder {dq:.1e}, rate {dv:.1e}; elbow {:.1e}", x.q[1].abs());
     assert!(dq < 1e-10 && dv < 1e-10 && x.q[1].abs() < 1e-10, "{dq:e} {dv:e} {:e}", x.q[1]);
     assert!((y.q[0] - 0.7).abs() > 0.1, "it swung");
+}
+
+/// Armature and damping as MuJoCo 4.0 has them (`tests/data/mjcf/reference.py`:
+/// `mj_fullM`, `mj_forward`'s `qacc` under applied joint forces, `mj_inverse`),
+/// on the Panda with every joint's own values and on the ball pendulum.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/panda_damped.xml")]
+struct PandaDamped;
+
+fn against_mujoco<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, key: &str) -> [f64; 3]
+where
+    S: joint_runtime::tree::TreeScene<NB, NQ, NV>,
+{
+    let path = format!("{}/data/mjcf/reference.json", env!("CARGO_MANIFEST_DIR"));
+    let data: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let numbers =
+        |v: &serde_json::Value| -> Vec<f64> { v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    let mut sim = TreeSimulation::new(scene).unwrap();
+    let mut worst = [0.0_f64; 3];
+    for s in data[key].as_array().unwrap() {
+        let state = TreeState::<NQ, NV> {
+            q: SVector::from_iterator(numbers(&s["q"])),
+            v: SVector::from_iterator(numbers(&s["v"])),
+            t: 0.0,
+        };
+        let vector = |k: &str| SVector::<f64, NV>::from_iterator(numbers(&s[k]));
+        let scale = |x: &SVector<f64, NV>| x.amax().max(f64::MIN_POSITIVE);
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        sim.mass_matrix_into(&state.q, &mut m);
+        let theirs =
+            SMatrix::<f64, NV, NV>::from_iterator(s["mass_matrix"].as_array().unwrap().iter().flat_map(numbers));
+        worst[0] = worst[0].max((m - theirs).amax() / theirs.amax());
+        let qacc = sim.forward_dynamics(&state, &vector("tau")).unwrap();
+        worst[1] = worst[1].max((qacc - vector("qacc")).amax() / scale(&vector("qacc")));
+        let tau = sim.inverse_dynamics(&state, &vector("a"));
+        worst[2] = worst[2].max((tau - vector("inverse")).amax() / scale(&vector("inverse")));
+    }
+    eprintln!(
+        "{key} against MuJoCo: M {:.1e}, forward {:.1e}, inverse {:.1e} of the largest entry",
+        worst[0], worst[1], worst[2]
+    );
+    for (what, w) in ["M", "forward dynamics", "inverse dynamics"].iter().zip(worst) {
+        assert!(w < 1e-12, "{key}: {what} off by {w:e}");
+    }
+    worst
+}
+
+#[test]
+fn armature_and_damping_as_mujoco_has_them() {
+    against_mujoco(&PandaDamped, "panda_damped");
+    against_mujoco(&BallFromFile, "ball_pendulum");
+    // The file's values are also data.
+    let j3 = PandaDamped::LIMITS[2];
+    assert_eq!((j3.name, j3.armature), ("panda_joint3", Some(0.03)));
 }

@@ -1,0 +1,88 @@
+#!/usr/bin/env python3
+"""MuJoCo's own numbers for joints with armature and damping, which the MJCF reader puts in the
+dynamics as MuJoCo does.
+
+Run by hand, like tests/data/robots/reference.py, with a Python that has MuJoCo:
+
+    /some/venv/bin/pip install mujoco numpy
+    /some/venv/bin/python tests/data/mjcf/reference.py
+
+It writes, next to itself:
+  * panda_damped.xml: ../robots/panda.xml with an armature and a damping on every joint, each
+    joint's own (0.01 (k + 1) and 0.1 (k + 1) for the k-th), so that a value put on the wrong
+    joint shows;
+  * reference.json: for panda_damped.xml and ball_pendulum.xml (a ball joint: armature and
+    damping on each of its three freedoms), at 20 random states each (q, v, tau; quaternions
+    w x y z, a ball's velocity and torque in the child's frame, as MuJoCo and the scenes have
+    them): M (mj_fullM: armature on the diagonal), qacc = mj_forward with qfrc_applied = tau
+    (damping: qfrc_passive = -damping v), and qfrc_inverse = mj_inverse at qacc = a (that is
+    M a + bias + damping v).
+Joint limits would be constraints in MuJoCo: the constraint solver is disabled (the scenes keep
+limits as data). Gravity is the files' (MuJoCo's default 0 0 -9.81).
+"""
+import json
+import os
+import xml.etree.ElementTree as ET
+
+import mujoco
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SEED = 2026
+N = 20
+
+
+def damped_panda():
+    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
+    for k, j in enumerate(root.iter("joint")):
+        j.set("armature", repr(0.01 * (k + 1)))
+        j.set("damping", repr(0.1 * (k + 1)))
+    path = os.path.join(HERE, "panda_damped.xml")
+    with open(path, "w") as fh:
+        fh.write("<!-- Written by reference.py from ../robots/panda.xml: every joint its own armature "
+                 "and damping. -->\n")
+        fh.write(ET.tostring(root, encoding="unicode") + "\n")
+    return path
+
+
+def samples(path, rng):
+    m = mujoco.MjModel.from_xml_path(path)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    d = mujoco.MjData(m)
+    out = []
+    for _ in range(N):
+        q = np.zeros(m.nq)
+        for j in range(m.njnt):
+            a = m.jnt_qposadr[j]
+            if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL:
+                w = rng.normal(size=4)
+                q[a:a + 4] = w / np.linalg.norm(w)
+            else:
+                q[a] = rng.uniform(-1.5, 1.5)
+        v, tau, acc = (rng.uniform(-2, 2, m.nv) for _ in range(3))
+        d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+        mujoco.mj_forward(m, d)
+        qacc = d.qacc.copy()
+        mass = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, mass)
+        d.qacc[:] = acc
+        mujoco.mj_inverse(m, d)
+        out.append({"q": list(q), "v": list(v), "tau": list(tau), "qacc": list(qacc), "a": list(acc),
+                    "mass_matrix": [list(r) for r in mass], "inverse": list(d.qfrc_inverse)})
+    return out
+
+
+def main():
+    rng = np.random.default_rng(SEED)
+    damped_panda()
+    out = {"generator": f"reference.py, MuJoCo {mujoco.__version__}",
+           "panda_damped": samples(os.path.join(HERE, "panda_damped.xml"), rng),
+           "ball_pendulum": samples(os.path.join(HERE, "ball_pendulum.xml"), rng)}
+    with open(os.path.join(HERE, "reference.json"), "w") as fh:
+        json.dump(out, fh, indent=1)
+        fh.write("\n")
+    print("wrote", os.path.join(HERE, "reference.json"))
+
+
+if __name__ == "__main__":
+    main()
