@@ -230,6 +230,76 @@ impl Builder {
     }
 }
 
+/// A rigid body's spatial inertia about a frame's origin, compact: the
+/// mass, the first moment `h = m c` and the rotational inertia `Ī` about the
+/// origin (symmetric). Composite inertias stay rigid, so carrying one to
+/// the parent turns `Ī` and `h` (and keeps `m` exact) instead of the three
+/// 6 × 6 blocks of `Xᵀ I X` (where `Eᵀ (m 1) E` would not fold to `m 1`).
+#[derive(Clone, Copy)]
+struct Rigid {
+    m: Id,
+    h: V3,
+    i: M3,
+}
+
+impl Rigid {
+    /// Of a spatial inertia `[Ī, [h]×; [h]×ᵀ, m 1]` (as `link_inertia` makes them).
+    fn of(i: &M6) -> Self {
+        Rigid { m: i[3][3], h: [i[2][4], i[0][5], i[1][3]], i: [0, 1, 2].map(|r| [0, 1, 2].map(|c| i[r][c])) }
+    }
+}
+
+impl Builder {
+    /// `Xᵀ I X` of a rigid inertia: with `R = Eᵀ`, `h̃ = R h`,
+    /// `h' = h̃ + m r` and `Ī' = R Ī Rᵀ + (2 r·h̃ + m r·r) 1 − h̃ rᵀ − r h̃ᵀ − m r rᵀ`
+    /// (the parallel-axis theorem for the moved first moment).
+    fn rigid_back(&mut self, x: &Transform, b: &Rigid) -> Rigid {
+        let ht = self.mtv(&x.e, b.h);
+        let mr = x.r.map(|r| self.g.mul(b.m, r));
+        let h = self.add3(ht, mr);
+        // R Ī Rᵀ = Eᵀ Ī E, its upper triangle.
+        let ie: M3 = [0, 1, 2].map(|i| [0, 1, 2].map(|j| self.dot(&b.i[i], &[x.e[0][j], x.e[1][j], x.e[2][j]])));
+        let rh = self.dot(&x.r, &ht);
+        let rmr = self.dot(&x.r, &mr);
+        let twice = self.g.add(rh, rh);
+        let diagonal = self.g.add(twice, rmr);
+        let mut i = [[b.m; 3]; 3];
+        for r in 0..3 {
+            for c in r..3 {
+                let turned = self.dot(&[x.e[0][r], x.e[1][r], x.e[2][r]], &[ie[0][c], ie[1][c], ie[2][c]]);
+                let cross = [self.g.mul(ht[r], x.r[c]), self.g.mul(x.r[r], ht[c]), self.g.mul(mr[r], x.r[c])];
+                let mut v = turned;
+                for t in cross {
+                    v = self.g.sub(v, t);
+                }
+                if r == c {
+                    v = self.g.add(v, diagonal);
+                }
+                i[r][c] = v;
+                i[c][r] = v;
+            }
+        }
+        Rigid { m: b.m, h, i }
+    }
+
+    fn rigid_add(&mut self, a: &Rigid, b: &Rigid) -> Rigid {
+        let m = self.g.add(a.m, b.m);
+        let h = self.add3(a.h, b.h);
+        let i = [0, 1, 2].map(|r| [0, 1, 2].map(|c| self.g.add(a.i[r][c], b.i[r][c])));
+        Rigid { m, h, i }
+    }
+
+    /// `I s`: `[Ī w + h × v; m v − h × w]`.
+    fn rigid_mul(&mut self, a: &Rigid, s: V6) -> V6 {
+        let (w, v) = halves(s);
+        let iw = self.mv(&a.i, w);
+        let hv = self.cross(a.h, v);
+        let mv = v.map(|x| self.g.mul(a.m, x));
+        let hw = self.cross(a.h, w);
+        join(self.add3(iw, hv), self.sub3(mv, hw))
+    }
+}
+
 /// What the derive knows of one tree joint: numbers only.
 pub(crate) struct Joint {
     pub(crate) kind: TreeKind,
@@ -1553,11 +1623,11 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
     let mut b = Builder::new(Graph::new());
     let (d, _) = downs(&mut b, s, joints, nq, nv, false);
     let (_, va) = offsets(joints);
-    let mut ic: Vec<M6> = d.iter().map(|x| x.inertia).collect();
+    let mut ic: Vec<Rigid> = d.iter().map(|x| Rigid::of(&x.inertia)).collect();
     for (k, j) in joints.iter().enumerate().rev() {
         if let Some(p) = j.parent {
-            let back = b.inertia_back(&d[k].x, &ic[k]);
-            ic[p] = b.add6(&ic[p], &back);
+            let back = b.rigid_back(&d[k].x, &ic[k]);
+            ic[p] = b.rigid_add(&ic[p], &back);
         }
     }
     let zero = b.c(0.0);
@@ -1565,7 +1635,7 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
     for k in 0..joints.len() {
         for (i, col) in d[k].s.iter().enumerate() {
             let c = va[k] + i;
-            let mut f = b.m6v(&ic[k], *col);
+            let mut f = b.rigid_mul(&ic[k], *col);
             let mut at = k;
             loop {
                 for (r, row_col) in d[at].s.iter().enumerate() {

@@ -199,7 +199,14 @@ pub fn assemble(
         bodies.push(RobotBody {
             name: links[head].name.clone(),
             mass,
-            inertia: [inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2], inertia[1][2]],
+            inertia: round_off([
+                inertia[0][0],
+                inertia[1][1],
+                inertia[2][2],
+                inertia[0][1],
+                inertia[0][2],
+                inertia[1][2],
+            ]),
         });
     }
     let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
@@ -218,7 +225,13 @@ pub fn assemble(
             Kind::Spherical => "spherical",
             _ => "revolute",
         };
-        let axis = if j.kind == Kind::Spherical { [0.0, 0.0, 1.0] } else { apply(&r, &j.axis.map(|x| x / length)) };
+        let axis = match j.kind {
+            Kind::Spherical => [0.0, 0.0, 1.0],
+            _ => {
+                let axis = round_off(apply(&r, &j.axis.map(|x| x / length)));
+                axis.map(|x| x / norm(&axis))
+            }
+        };
         out.push(RobotJoint { kind, axis, limits: j.limits, ..joint });
     }
     let mut loops = Vec::new();
@@ -249,6 +262,17 @@ pub fn assemble(
     Ok(Robot { bodies, joints: out, closures: loops, links: frames, path: String::new(), gravity: None })
 }
 
+/// `v` with the entries below 1e-14 of its largest set to zero: what a
+/// file's quarter turns leave (`rpy="1.5707963267948966"`: cos = 6e-17),
+/// which would otherwise be numbers in every product the derive writes
+/// (a joint axis along a frame's axis folds its rotations to a sine and a
+/// cosine; at 1e-17 off it does not). Points in metres: below 1e-14 m
+/// (`at least 1 m` as the scale). The model moves by 1e-14 of itself at most.
+fn round_off<const N: usize>(v: [f64; N]) -> [f64; N] {
+    let scale = v.iter().fold(0.0_f64, |a, x| a.max(x.abs())).max(if N == 3 { 1.0 } else { 0.0 });
+    v.map(|x| if x.abs() <= 1e-14 * scale { 0.0 } else { x })
+}
+
 /// A joint at the world point `at` between two bodies (axis and kind to be
 /// filled in).
 fn between(
@@ -260,8 +284,8 @@ fn between(
     pos: roxmltree::TextPos,
     fail: &Fail,
 ) -> syn::Result<RobotJoint> {
-    let rho1 = sub(at, &parent.map_or([0.0; 3], |b| centres[b]));
-    let rho2 = sub(at, &centres[child]);
+    let rho1 = round_off(sub(at, &parent.map_or([0.0; 3], |b| centres[b])));
+    let rho2 = round_off(sub(at, &centres[child]));
     if !rho1.iter().chain(&rho2).all(|x| x.is_finite()) {
         return Err(fail(pos, format!("joint `{name}` is at a point out of range")));
     }
