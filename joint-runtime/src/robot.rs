@@ -8,9 +8,9 @@
 //! A link's frame is given in its body's frame (origin at the body's
 //! centre of mass): where it is and how it is turned. Its pose, velocity
 //! and Jacobian at a state are then the body's, moved to it:
-//! [`LinkFrame::pose`] from the bodies' [`SystemState`] (either coordinate
-//! choice converts to it), [`LinkFrame::point`] for the point to give a
-//! point Jacobian, such as
+//! [`LinkFrame::pose`] and [`LinkFrame::velocity`] from the bodies'
+//! [`SystemState`] (either coordinate choice converts to it),
+//! [`LinkFrame::point`] for the point to give a point Jacobian, such as
 //! [`Tree::point_jacobian`](crate::tree::Tree::point_jacobian).
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
@@ -54,6 +54,19 @@ impl LinkFrame {
                 (a * turn, b.r + a * Vector3::from(self.origin))
             }
             None => (turn, Vector3::from(self.origin)),
+        }
+    }
+
+    /// The link's angular velocity and its origin's velocity, both in the
+    /// world's components, at the bodies' state: its body's `ω` and
+    /// `ṙ + ω × (A origin)` (zero on the ground).
+    pub fn velocity<const NB: usize>(&self, system: &SystemState<NB>) -> (Vector3<f64>, Vector3<f64>) {
+        match self.body.and_then(|b| system.bodies.get(b)) {
+            Some(b) => {
+                let omega = b.omega_inertial();
+                (omega, b.rdot + omega.cross(&(b.rotation_matrix() * Vector3::from(self.origin))))
+            }
+            None => (Vector3::zeros(), Vector3::zeros()),
         }
     }
 

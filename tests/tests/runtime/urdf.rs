@@ -115,7 +115,7 @@ pub(crate) fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: u
     scene: &S,
     links: &[LinkFrame],
     robot: &str,
-) -> [f64; 5]
+) -> [f64; 6]
 where
     S: TreeScene<NB, NQ, NV>,
 {
@@ -133,7 +133,7 @@ where
     let link = LinkFrame::find(links, data["frame"]["link"].as_str().unwrap()).unwrap();
     let point = Vector3::from_iterator(numbers(&data["frame"]["point"]));
     let body = link.body.unwrap();
-    let mut worst = [0.0_f64; 5];
+    let mut worst = [0.0_f64; 6];
     for s in data["samples"].as_array().unwrap() {
         let v = |key: &str| our_v::<NV>(&map, &numbers(&s[key]));
         let state = TreeState::<NQ, NV> { q: our_q(&map, &numbers(&s["q"])), v: v("v"), t: 0.0 };
@@ -153,12 +153,18 @@ where
         let rows: Vec<Vec<f64>> = s["point_jacobian"].as_array().unwrap().iter().map(numbers).collect();
         let theirs = (0..3 * NV).map(|i| rows[i % 3][index[i / 3]]);
         worst[4] = worst[4].max(relative(jacobian.fixed_rows::<3>(3).iter().copied(), theirs));
+        // The link frame's velocity: its origin's Jacobian times v.
+        let (omega, velocity) = link.velocity(&sim.system_state(&state));
+        let origin = sim.tree().point_jacobian(&state.q, body, &link.point(&Vector3::zeros())).unwrap() * state.v;
+        let ours = omega.iter().chain(velocity.iter()).copied();
+        worst[5] = worst[5].max(relative(ours, origin.iter().copied()));
     }
     eprintln!(
-        "{robot}: M {:.1e}, RNEA {:.1e}, ABA {:.1e}, point {:.1e}, its Jacobian {:.1e} of the largest entry",
-        worst[0], worst[1], worst[2], worst[3], worst[4]
+        "{robot}: M {:.1e}, RNEA {:.1e}, ABA {:.1e}, point {:.1e}, its Jacobian {:.1e} of the largest entry; the \
+         link's velocity against its Jacobian {:.1e}",
+        worst[0], worst[1], worst[2], worst[3], worst[4], worst[5]
     );
-    for (what, w) in ["M", "RNEA", "ABA", "point", "point Jacobian"].iter().zip(worst) {
+    for (what, w) in ["M", "RNEA", "ABA", "point", "point Jacobian", "frame velocity"].iter().zip(worst) {
         assert!(w < 1e-12, "{robot}: {what} off by {w:e} of its largest entry");
     }
     worst
