@@ -21,7 +21,7 @@ use joint_runtime::tree::{TreeScene, TreeSimulation, TreeState};
 struct Ur5;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf")]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent)]
 struct Panda;
 
 #[derive(Scene)]

@@ -17,9 +17,12 @@ use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
 use joint_runtime::record::{Column, Trajectory};
 use joint_runtime::tree::{TreeError, TreeSimulation, TreeState};
 
-/// The Panda: seven revolute joints and the two fingers' slides.
+/// The Panda: seven revolute joints and the two fingers' slides, each
+/// finger its own joint (`mimic = independent`: the controller holds both;
+/// the file's coupling would be a row of relative coordinates alone, and
+/// the animation wants the absolute ones too).
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", coordinates = both)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", coordinates = both, mimic = independent)]
 pub struct Panda;
 
 /// Joint coordinates, rates or torques, in the file's joint order.

@@ -39,7 +39,7 @@ pub fn derive(
     (nq, nv): (usize, usize),
 ) -> syn::Result<Option<(Derived, Vec<Block>)>> {
     let loops = closures(&s.joints, edges);
-    if loops.is_empty() {
+    if loops.is_empty() && s.couplings.is_empty() {
         return Ok(None);
     }
     let mut k = Kinematics::tree(nq, nv);
@@ -70,6 +70,22 @@ pub fn derive(
             }
         }
         blocks.push(Block { name: j.label(), start, rows: phi.len() - start });
+    }
+    // A follower's row: `q_f − (m q_l + o)`, linear in the coordinates.
+    let (qa, _) = kind_offsets(edges.iter().map(|e| e.kind));
+    for c in &s.couplings {
+        let at = |joint: usize| edges.iter().position(|e| e.joint == Some(joint)).map(|n| k.coords[qa[n]]);
+        let (Some(follower), Some(leader)) = (at(c.follower), at(c.leader)) else {
+            let message =
+                format!("joint `{}` follows another, but one of them closes a loop; expected tree joints", c.name);
+            errors.at(s.joints[c.follower].name.span(), message);
+            continue;
+        };
+        let (m, o) = (k.g.constant(c.multiplier), k.g.constant(c.offset));
+        let led = k.g.mul(m, leader);
+        let target = k.g.add(led, o);
+        blocks.push(Block { name: c.name.clone(), start: phi.len(), rows: 1 });
+        phi.push(k.g.sub(follower, target));
     }
     errors.finish()?;
     if phi.is_empty() {

@@ -21,8 +21,8 @@
 use std::collections::HashMap;
 
 use super::robot::{
-    Closure, Fail, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, add, apply, assemble, mul, norm, number,
-    numbers, read_text, required, transpose, triple,
+    Closure, Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, add, apply, assemble, mul,
+    norm, number, numbers, read_text, required, transpose, triple,
 };
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
@@ -50,13 +50,13 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     if reader.links.len() == 1 {
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
     }
-    let closures = reader.equalities(root)?;
+    let (closures, couplings) = reader.equalities(root)?;
     let gravity = match root.children().find(|n| n.has_tag_name("option")) {
         Some(o) => triple(o, "gravity", reader.pos(o), &fail)?,
         None => None,
     };
     let robot = assemble(&reader.links, &reader.joints, &closures, false, &fail)?;
-    Ok(Robot { gravity: Some(gravity.unwrap_or([0.0, 0.0, -9.81])), ..robot })
+    Ok(Robot { gravity: Some(gravity.unwrap_or([0.0, 0.0, -9.81])), couplings, ..robot })
 }
 
 /// What `<compiler>` says that changes numbers.
@@ -448,8 +448,9 @@ impl<'a, 'i> Reader<'a, 'i> {
         Err((self.fail)(self.pos(n), format!("`{key}=\"{class}\"` names no `<default class=\"{class}\">`")))
     }
 
-    /// `<equality>`'s `connect` and `weld` as closing joints.
-    fn equalities(&self, root: roxmltree::Node) -> syn::Result<Vec<Closure>> {
+    /// `<equality>`'s `connect` and `weld` as closing joints, `joint` as
+    /// couplings (`joint1 = a0 + a1 joint2`).
+    fn equalities(&self, root: roxmltree::Node) -> syn::Result<(Vec<Closure>, Vec<FileCoupling>)> {
         let fail = self.fail;
         let link = |n: roxmltree::Node, key: &str| -> syn::Result<usize> {
             let name = n.attribute(key).unwrap_or("world");
@@ -457,7 +458,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 fail(self.pos(n), format!("`{key}=\"{name}\"` is not a body of the file; expected one of its bodies"))
             })
         };
-        let mut out = Vec::new();
+        let (mut out, mut couplings) = (Vec::new(), Vec::new());
         for (k, e) in root
             .children()
             .filter(|n| n.has_tag_name("equality"))
@@ -472,10 +473,14 @@ impl<'a, 'i> Reader<'a, 'i> {
             let weld = match tag {
                 "connect" => false,
                 "weld" => true,
+                "joint" => {
+                    couplings.push(self.coupling(e)?);
+                    continue;
+                }
                 _ => {
                     return Err(fail(
                         at,
-                        format!("`<{tag}>` equalities are not read yet; expected `connect` or `weld`"),
+                        format!("`<{tag}>` equalities are not read yet; expected `connect`, `weld` or `joint`"),
                     ));
                 }
             };
@@ -503,7 +508,39 @@ impl<'a, 'i> Reader<'a, 'i> {
             let anchor_on = if weld { links[1] } else { links[0] };
             out.push(Closure { name, weld, links, anchor_on, anchor: anchor.unwrap_or([0.0; 3]), at });
         }
-        Ok(out)
+        Ok((out, couplings))
+    }
+
+    /// `<joint joint1 joint2 polycoef>`: `joint1 = a0 + a1 joint2`, both
+    /// moving joints of the file (higher powers are not read).
+    fn coupling(&self, e: roxmltree::Node) -> syn::Result<FileCoupling> {
+        let (at, fail) = (self.pos(e), self.fail);
+        let follower = required(e, "joint1", at, fail)?;
+        let leader = e.attribute("joint2").ok_or_else(|| {
+            fail(
+                at,
+                "`<joint>` equality without `joint2` (a locked joint) is not read; expected `joint2=\"..\"`".into(),
+            )
+        })?;
+        let [a0, a1, a2, a3, a4] = numbers::<5>(e, "polycoef", at, fail)?.unwrap_or([0.0, 1.0, 0.0, 0.0, 0.0]);
+        if [a2, a3, a4] != [0.0; 3] {
+            return Err(fail(
+                at,
+                "`polycoef` beyond the linear term is not read; expected `polycoef=\"a0 a1 0 0 0\"`".into(),
+            ));
+        }
+        let moving = |name: &str| {
+            self.joints.iter().any(|j| j.name == name && matches!(j.kind, Kind::Revolute | Kind::Prismatic))
+        };
+        if !moving(&follower) || !moving(leader) {
+            return Err(fail(
+                at,
+                format!(
+                    "`<joint>` equality of `{follower}` and `{leader}`: expected two hinge or slide joints of the file"
+                ),
+            ));
+        }
+        Ok(FileCoupling { follower, leader: leader.to_string(), multiplier: a1, offset: a0 })
     }
 }
 
@@ -611,11 +648,7 @@ mod tests {
                 "8:11:",
                 "`body1=\"leg\"` is not a body",
             ),
-            (
-                &one_body(hinge, "<equality><joint joint1=\"j\"/></equality>"),
-                "8:11:",
-                "`<joint>` equalities are not read yet",
-            ),
+            (&one_body(hinge, "<equality><joint joint1=\"j\"/></equality>"), "8:11:", "without `joint2`"),
             (
                 &one_body(hinge, "<equality><weld body1=\"arm\" body2=\"arm\"/></equality>"),
                 "8:11:",

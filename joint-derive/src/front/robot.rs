@@ -34,6 +34,17 @@ pub struct Robot {
     pub path: String,
     /// The file's gravity, if the format has one (MJCF's `<option gravity>`).
     pub gravity: Option<V3>,
+    /// Joints that follow others (URDF `<mimic>`, MJCF `<equality joint>`).
+    pub couplings: Vec<FileCoupling>,
+}
+
+/// `follower = multiplier · leader + offset`, by the joints' names.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileCoupling {
+    pub follower: String,
+    pub leader: String,
+    pub multiplier: f64,
+    pub offset: f64,
 }
 
 /// One body: the links a chain of fixed joints welds together.
@@ -259,7 +270,15 @@ pub fn assemble(
             FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)) }
         })
         .collect();
-    Ok(Robot { bodies, joints: out, closures: loops, links: frames, path: String::new(), gravity: None })
+    Ok(Robot {
+        bodies,
+        joints: out,
+        closures: loops,
+        links: frames,
+        path: String::new(),
+        gravity: None,
+        couplings: Vec::new(),
+    })
 }
 
 /// `v` with the entries below 1e-14 of its largest set to zero: what a

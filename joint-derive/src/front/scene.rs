@@ -279,6 +279,20 @@ pub struct SceneDecl {
     pub files: Vec<String>,
     /// A robot file's links and limits (`None` without a file).
     pub file: Option<FileData>,
+    /// Joints that follow others (a file's `<mimic>` or `<equality
+    /// joint>`), as rows of the tree's coordinates.
+    pub couplings: Vec<Coupling>,
+}
+
+/// `follower = multiplier · leader + offset`: joints by their index.
+#[derive(Clone, Debug)]
+pub struct Coupling {
+    /// The follower's name in the file (the row block's).
+    pub name: String,
+    pub follower: usize,
+    pub leader: usize,
+    pub multiplier: f64,
+    pub offset: f64,
 }
 
 /// A link's frame on its body (`None`: the ground), from a robot's file:
@@ -476,8 +490,11 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let Options { gravity, second_order, relative, absolute, file, floating_base } =
+    let Options { gravity, second_order, relative, absolute, file, floating_base, independent } =
         scene_options(input, &fields, &mut errors);
+    if let (Some(at), None) = (independent, &file) {
+        errors.at(at, "`mimic` is for a robot's file (`urdf = \"..\"` or `mjcf = \"..\"`)");
+    }
     match (floating_base, &file) {
         (Some(_), Some((RobotFormat::Urdf, _))) | (None, _) => {}
         (Some(at), _) => errors.at(
@@ -493,10 +510,23 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         let dynamics = *format == RobotFormat::Mjcf && !absolute;
         robot(*format, lit, (floating_base.is_some(), dynamics), &mut errors)
     });
-    let (mut bodies, file_joints, files, file_gravity, file_data) = match read {
-        Some(r) => (r.bodies, r.joints, r.files, r.gravity, Some(r.data)),
+    let (mut bodies, file_joints, files, file_gravity, file_data, mut couplings) = match read {
+        Some(r) => (r.bodies, r.joints, r.files, r.gravity, Some(r.data), r.couplings),
         None => Default::default(),
     };
+    if independent.is_some() {
+        couplings.clear();
+    } else if let (Some(c), true, Some((_, lit))) = (couplings.first(), absolute, &file) {
+        errors.at(
+            lit.span(),
+            format!(
+                "the file couples joint `{}` to another; couplings are rows in relative coordinates only: expected \
+                 `coordinates = relative` (a file's default), or `mimic = independent` to read them as independent \
+                 joints",
+                c.name
+            ),
+        );
+    }
     let known = |g: [f64; 3]| Quantity::Const(g.iter().map(|&x| Number::Known(x)).collect());
     let gravity = gravity.unwrap_or_else(|| known(file_gravity.unwrap_or([0.0; 3])));
     bodies.extend(self::bodies(input, &fields, &mut errors));
@@ -518,6 +548,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         absolute,
         files,
         file: file_data,
+        couplings,
     };
     for j in file_joints {
         scene.joint(j, &fields, &mut errors);
@@ -553,6 +584,8 @@ struct Options {
     file: Option<(RobotFormat, syn::LitStr)>,
     /// `floating_base`: the file's root link floats.
     floating_base: Option<Span>,
+    /// `mimic = independent`: a file's couplings read as independent joints.
+    independent: Option<Span>,
 }
 
 /// The formats of robot files.
@@ -580,6 +613,7 @@ struct FromFile {
     files: Vec<String>,
     gravity: Option<[f64; 3]>,
     data: FileData,
+    couplings: Vec<Coupling>,
 }
 
 /// A robot file read; `None` after an error.
@@ -680,12 +714,24 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
         })
         .collect();
     let limits = robot.joints.iter().map(|j| (j.name.clone(), j.limits)).collect();
+    // The file's moving joints are the scene's first joints, in its order.
+    let index = |name: &str| robot.joints.iter().position(|j| j.name == name);
+    let couplings = robot
+        .couplings
+        .iter()
+        .filter_map(|c| {
+            let (follower, leader) = (index(&c.follower)?, index(&c.leader)?);
+            let (multiplier, offset) = (c.multiplier, c.offset);
+            Some(Coupling { name: c.follower.clone(), follower, leader, multiplier, offset })
+        })
+        .collect();
     Some(FromFile {
         bodies,
         joints,
         files: vec![robot.path],
         gravity: robot.gravity,
         data: FileData { links: robot.links, limits },
+        couplings,
     })
 }
 
@@ -748,8 +794,18 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     let mut coordinates = Slot::new("`coordinates`", "it once");
     let mut file = Slot::new("a robot's file", "one `urdf` or `mjcf`");
     let mut floating_base = Slot::new("`floating_base`", "it once");
+    let mut mimic = Slot::new("`mimic`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
+            "mimic" => match &a.value {
+                Some(Value::Ident(m)) if m == "coupled" || m == "independent" => {
+                    mimic.set(a.key.span(), m == "independent", errors)
+                }
+                _ => errors.at(
+                    a.value.as_ref().map_or(a.key.span(), Value::span),
+                    "expected `mimic = coupled` (a file's followers as rows, the default) or `mimic = independent`",
+                ),
+            },
             "floating_base" => match a.value {
                 None => floating_base.set(a.key.span(), (), errors),
                 Some(v) => errors.at(v.span(), "`floating_base` takes no value; expected `floating_base` alone"),
@@ -792,13 +848,15 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 ),
             },
             other => {
-                let hint =
-                    did_you_mean(other, ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base"]);
+                let hint = did_you_mean(
+                    other,
+                    ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base", "mimic"],
+                );
                 errors.at(
                     a.key.span(),
                     format!(
                         "unknown scene option `{other}`{hint}; expected `gravity`, `second_order`, `coordinates`, \
-                         `urdf`, `mjcf` or `floating_base`"
+                         `urdf`, `mjcf`, `floating_base` or `mimic`"
                     ),
                 )
             }
@@ -817,6 +875,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
         },
     };
     let floating_base = floating_base.take().map(|(_, span)| span);
+    let independent = mimic.take().and_then(|(independent, span)| independent.then_some(span));
     Options {
         gravity,
         second_order: second_order.take().map(|(_, span)| span),
@@ -824,6 +883,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
         absolute,
         file,
         floating_base,
+        independent,
     }
 }
 

@@ -4,12 +4,12 @@
 //! at the zero configuration, fixed links welded into one body).
 //!
 //! Visuals, collisions, transmissions and Gazebo tags are not read; a
-//! `<mimic>` joint is read as an independent joint, as Pinocchio's and
-//! MuJoCo's readers do by default (its coupling as a driver row is not
-//! derived yet).
+//! `<mimic joint multiplier offset>` is a coupling (a row in relative
+//! coordinates, unless the scene says `mimic = independent`).
 
 use super::robot::{
-    Fail, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, assemble, mul, number, required, transpose, triple,
+    Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, assemble, mul, number, required,
+    transpose, triple,
 };
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
@@ -33,7 +33,40 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, floating: bool) -
         let at = doc.text_pos_at(doc.root_element().range().start);
         return Err(fail(at, "the robot has no `<link>`; expected its links and joints".into()));
     }
-    assemble(&links, &joints, &[], floating, &fail)
+    let robot = assemble(&links, &joints, &[], floating, &fail)?;
+    Ok(Robot { couplings: mimics(&doc, &joints, &fail)?, ..robot })
+}
+
+/// Each `<mimic>`: its joint follows the named one, both moving joints.
+fn mimics(doc: &roxmltree::Document, joints: &[Joint], fail: &Fail) -> syn::Result<Vec<FileCoupling>> {
+    let mut out = Vec::new();
+    for node in doc.root_element().children().filter(|n| n.has_tag_name("joint")) {
+        let Some(m) = node.children().find(|n| n.has_tag_name("mimic")) else { continue };
+        let at = doc.text_pos_at(m.range().start);
+        let follower = node.attribute("name").unwrap_or("").to_string();
+        let leader = required(m, "joint", at, fail)?;
+        let moving =
+            |name: &str| joints.iter().any(|j| j.name == name && matches!(j.kind, Kind::Revolute | Kind::Prismatic));
+        if !moving(&leader) || !moving(&follower) {
+            return Err(fail(
+                at,
+                format!(
+                    "`<mimic joint=\"{leader}\">` of joint `{follower}`: expected both to be moving joints of the file"
+                ),
+            ));
+        }
+        let optional = |key: &str, default: f64| match m.attribute(key) {
+            Some(_) => number(m, key, at, fail),
+            None => Ok(default),
+        };
+        out.push(FileCoupling {
+            follower,
+            leader,
+            multiplier: optional("multiplier", 1.0)?,
+            offset: optional("offset", 0.0)?,
+        });
+    }
+    Ok(out)
 }
 
 /// The `<link>` and `<joint>` elements, checked one by one.

@@ -232,3 +232,39 @@ fn armature_and_damping_as_mujoco_has_them() {
     let j3 = PandaDamped::LIMITS[2];
     assert_eq!((j3.name, j3.armature), ("panda_joint3", Some(0.03)));
 }
+
+/// `<equality joint>` is a row: `joint2 = 0.1 − 0.5 joint1`. The coupled
+/// pendulum's accelerations are Gauss's `T (Tᵀ M T)⁻¹ Tᵀ (τ − C)`,
+/// `T = [1; −0.5]`, from the same file read with `mimic = independent`.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/coupled_pendulum.xml")]
+struct CoupledPendulum;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/coupled_pendulum.xml", mimic = independent)]
+struct UncoupledPendulum;
+
+#[test]
+fn a_joint_equality_is_a_row() {
+    let mut coupled = TreeSimulation::new(&CoupledPendulum).unwrap();
+    let free = TreeSimulation::new(&UncoupledPendulum).unwrap();
+    let t = SVector::<f64, 2>::new(1.0, -0.5);
+    let mut worst = 0.0_f64;
+    for k in 0..10 {
+        let x = f64::from(k) * 0.37 - 1.5;
+        let state = TreeState::<2, 2> {
+            q: SVector::from([x, 0.1 - 0.5 * x]),
+            v: SVector::from([0.8 - x, -0.5 * (0.8 - x)]),
+            t: 0.0,
+        };
+        let tau = SVector::<f64, 2>::new(0.02 * x, -0.01);
+        let mut m = SMatrix::<f64, 2, 2>::zeros();
+        free.mass_matrix_into(&state.q, &mut m);
+        let bias = free.inverse_dynamics(&state, &SVector::zeros());
+        let expected = t * (t.dot(&(tau - bias)) / t.dot(&(m * t)));
+        let ours = coupled.forward_dynamics(&state, &tau).unwrap();
+        worst = worst.max((ours - expected).amax() / expected.amax());
+    }
+    eprintln!("pendulum coupled by <equality joint>: accelerations to {worst:.1e} of Gauss's");
+    assert!(worst < 1e-12, "{worst:e}");
+}

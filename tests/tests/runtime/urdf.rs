@@ -19,9 +19,16 @@ struct DoublePendulum;
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
 struct Ur5;
 
+/// The fingers' `<mimic>` read as an independent joint, as Pinocchio's
+/// reader does by default (its values are for that model).
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf", mimic = independent)]
+struct Panda;
+
+/// The file as it says: the second finger follows the first (one row).
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf")]
-struct Panda;
+struct PandaCoupled;
 
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf")]
@@ -292,4 +299,48 @@ fn a_payload_beside_the_file() {
     }
     eprintln!("UR5 with a payload: M to {worst_m:.1e}, holding torques to {worst_g:.1e} of the largest entry");
     assert!(worst_m < 1e-13 && worst_g < 1e-13, "{worst_m:e} {worst_g:e}");
+}
+
+/// A `<mimic>` follower is a row `q₈ − q₇ = 0`: the coupled Panda's
+/// accelerations are Gauss's, `T (Tᵀ M T)⁻¹ Tᵀ (τ − C)` with `T` the map
+/// from the eight free coordinates to the nine, from the independent arm's
+/// `M` and `C` (checked against Pinocchio); and the fingers stay together.
+#[test]
+fn mimic_is_a_row_of_the_tree() {
+    let (free, mut coupled) = (TreeSimulation::new(&Panda).unwrap(), TreeSimulation::new(&PandaCoupled).unwrap());
+    let mut t = SMatrix::<f64, 9, 8>::zeros();
+    for i in 0..8 {
+        t[(i, i)] = 1.0;
+    }
+    t[(8, 7)] = 1.0;
+    let mut worst = 0.0_f64;
+    for k in 0..20 {
+        let wave = |i: usize, scale: f64| ((k * 9 + i) as f64 * 0.6173).sin() * scale;
+        let mut state = TreeState::<9, 9> {
+            q: SVector::from_fn(|i, _| wave(i, 1.5)),
+            v: SVector::from_fn(|i, _| wave(i + 40, 2.0)),
+            t: 0.0,
+        };
+        state.q[7] = 0.02 + wave(3, 0.01);
+        (state.q[8], state.v[8]) = (state.q[7], state.v[7]);
+        let tau = SVector::<f64, 9>::from_fn(|i, _| wave(i + 90, 5.0));
+        let mut m = SMatrix::<f64, 9, 9>::zeros();
+        free.mass_matrix_into(&state.q, &mut m);
+        let bias = free.inverse_dynamics(&state, &SVector::zeros());
+        let reduced = (t.transpose() * m * t).cholesky().unwrap();
+        let expected = t * reduced.solve(&(t.transpose() * (tau - bias)));
+        let ours = coupled.forward_dynamics(&state, &tau).unwrap();
+        worst = worst.max((ours - expected).amax() / expected.amax());
+    }
+    let mut state = coupled.tree().zero_state();
+    (state.q[1], state.q[7], state.q[8]) = (0.4, 0.03, 0.03);
+    for _ in 0..500 {
+        coupled.step(&mut state, 1e-3).unwrap();
+    }
+    let apart = (state.q[8] - state.q[7]).abs();
+    eprintln!(
+        "Panda with its mimic row: accelerations to {worst:.1e} of Gauss's; fingers apart by {apart:.1e} after 0.5 s"
+    );
+    assert!(worst < 1e-12 && apart < 1e-12, "{worst:e} {apart:e}");
+    assert_eq!(<PandaCoupled as TreeScene<9, 9, 9, 1>>::CLOSURES[0].name, "panda_finger_joint2");
 }
