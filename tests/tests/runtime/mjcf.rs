@@ -7,60 +7,10 @@ use joint_runtime::nalgebra::{SMatrix, SVector, Vector3, Vector4};
 use joint_runtime::robot::LinkFrame;
 use joint_runtime::tree::{TreeSimulation, TreeState};
 
-use super::urdf::{against_pinocchio, motion_against_pinocchio};
-
-#[derive(Scene)]
-#[scene(mjcf = "data/robots/double_pendulum.xml")]
-struct DoublePendulum;
-
-#[derive(Scene)]
-#[scene(mjcf = "data/robots/ur5.xml")]
-struct Ur5;
-
-#[derive(Scene)]
-#[scene(mjcf = "data/robots/panda.xml")]
-struct Panda;
-
-#[derive(Scene)]
-#[scene(mjcf = "data/robots/solo12.xml")]
-struct Solo12;
-
-#[derive(Scene)]
-#[scene(mjcf = "data/robots/solo12_floating.xml")]
-struct Solo12Floating;
-
-#[test]
-fn double_pendulum_against_pinocchio() {
-    against_pinocchio(&DoublePendulum, &DoublePendulum::LINKS, "double_pendulum");
-}
-
-#[test]
-fn ur5_against_pinocchio() {
-    against_pinocchio(&Ur5, &Ur5::LINKS, "ur5");
-}
-
-#[test]
-fn panda_against_pinocchio() {
-    against_pinocchio(&Panda, &Panda::LINKS, "panda");
-}
-
-#[test]
-fn solo12_fixed_base_against_pinocchio() {
-    against_pinocchio(&Solo12, &Solo12::LINKS, "solo12");
-}
-
-#[test]
-fn solo12_floating_base_against_pinocchio() {
-    against_pinocchio(&Solo12Floating, &Solo12Floating::LINKS, "solo12_floating");
-}
-
-#[test]
-fn motion_against_pinocchio_rk4() {
-    motion_against_pinocchio(&DoublePendulum, "double_pendulum", 1e-11);
-    motion_against_pinocchio(&Ur5, "ur5", 1e-11);
-    motion_against_pinocchio(&Panda, "panda", 1e-11);
-    motion_against_pinocchio(&Solo12Floating, "solo12_floating", 1e-11);
-}
+super::urdf::robots_against_pinocchio!(
+    mjcf: "data/robots/double_pendulum.xml", "data/robots/ur5.xml", "data/robots/panda.xml", "data/robots/solo12.xml",
+    floating: [mjcf = "data/robots/solo12_floating.xml"]
+);
 
 /// The gravity is the file's (MuJoCo's default where it says nothing); the
 /// limits are MuJoCo's import of the URDF's, in radians.

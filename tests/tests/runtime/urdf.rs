@@ -11,32 +11,79 @@ use joint_runtime::robot::{JointLimits, LinkFrame};
 use joint_runtime::tree::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
 use serde_json::Value;
 
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/double_pendulum.urdf")]
-struct DoublePendulum;
+/// The five robots of `tests/data/robots`, read from files of one format
+/// (`$key = PATH` for each; the floating Solo12's whole `#[scene]` list), and
+/// each checked against Pinocchio's values: both formats' modules use it.
+macro_rules! robots_against_pinocchio {
+    ($key:ident: $pendulum:literal, $ur5:literal, $panda:literal, $solo:literal, floating: [$($floating:tt)*]) => {
+        #[derive(Scene)]
+        #[scene(gravity = [0, 0, -9.81], $key = $pendulum)]
+        struct DoublePendulum;
 
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
-struct Ur5;
+        #[derive(Scene)]
+        #[scene(gravity = [0, 0, -9.81], $key = $ur5)]
+        struct Ur5;
 
-/// The fingers' `<mimic>` read as an independent joint, as Pinocchio's
-/// reader does by default (its values are for that model).
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf", mimic = independent)]
-struct Panda;
+        /// The fingers' coupling read as an independent joint, as
+        /// Pinocchio's reader does by default (its values are for that model).
+        #[derive(Scene)]
+        #[scene(gravity = [0, 0, -9.81], $key = $panda, mimic = independent)]
+        struct Panda;
 
-/// The file as it says: the second finger follows the first (one row).
+        #[derive(Scene)]
+        #[scene(gravity = [0, 0, -9.81], $key = $solo)]
+        struct Solo12;
+
+        #[derive(Scene)]
+        #[scene(gravity = [0, 0, -9.81], $($floating)*)]
+        struct Solo12Floating;
+
+        #[test]
+        fn double_pendulum_against_pinocchio() {
+            $crate::urdf::against_pinocchio(&DoublePendulum, &DoublePendulum::LINKS, "double_pendulum");
+        }
+
+        #[test]
+        fn ur5_against_pinocchio() {
+            $crate::urdf::against_pinocchio(&Ur5, &Ur5::LINKS, "ur5");
+        }
+
+        #[test]
+        fn panda_against_pinocchio() {
+            $crate::urdf::against_pinocchio(&Panda, &Panda::LINKS, "panda");
+        }
+
+        #[test]
+        fn solo12_fixed_base_against_pinocchio() {
+            $crate::urdf::against_pinocchio(&Solo12, &Solo12::LINKS, "solo12");
+        }
+
+        #[test]
+        fn solo12_floating_base_against_pinocchio() {
+            $crate::urdf::against_pinocchio(&Solo12Floating, &Solo12Floating::LINKS, "solo12_floating");
+        }
+
+        #[test]
+        fn motion_against_pinocchio_rk4() {
+            use $crate::urdf::motion_against_pinocchio;
+            motion_against_pinocchio(&DoublePendulum, "double_pendulum", 1e-11);
+            motion_against_pinocchio(&Ur5, "ur5", 1e-11);
+            motion_against_pinocchio(&Panda, "panda", 1e-11);
+            motion_against_pinocchio(&Solo12Floating, "solo12_floating", 1e-11);
+        }
+    };
+}
+pub(crate) use robots_against_pinocchio;
+
+robots_against_pinocchio!(
+    urdf: "data/robots/double_pendulum.urdf", "data/robots/ur5.urdf", "data/robots/panda.urdf", "data/robots/solo12.urdf",
+    floating: [urdf = "data/robots/solo12.urdf", floating_base]
+);
+
+/// The Panda's file as it says: the second finger follows the first (one row).
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf")]
 struct PandaCoupled;
-
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf")]
-struct Solo12;
-
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base)]
-struct Solo12Floating;
 
 /// Pinocchio's values for `robot`.
 fn reference(robot: &str) -> Value {
@@ -200,39 +247,6 @@ pub(crate) fn motion_against_pinocchio<S, const NB: usize, const NQ: usize, cons
     let (dq, dv) = ((state.q - q1).amax(), (state.v - v1).amax());
     eprintln!("{robot}: after 1 s, q to {dq:.1e}, v to {dv:.1e} (|v| up to {:.2})", v1.amax());
     assert!(dq < bound && dv < bound, "{robot}: q off by {dq:e}, v by {dv:e}");
-}
-
-#[test]
-fn double_pendulum_against_pinocchio() {
-    against_pinocchio(&DoublePendulum, &DoublePendulum::LINKS, "double_pendulum");
-}
-
-#[test]
-fn ur5_against_pinocchio() {
-    against_pinocchio(&Ur5, &Ur5::LINKS, "ur5");
-}
-
-#[test]
-fn panda_against_pinocchio() {
-    against_pinocchio(&Panda, &Panda::LINKS, "panda");
-}
-
-#[test]
-fn solo12_fixed_base_against_pinocchio() {
-    against_pinocchio(&Solo12, &Solo12::LINKS, "solo12");
-}
-
-#[test]
-fn solo12_floating_base_against_pinocchio() {
-    against_pinocchio(&Solo12Floating, &Solo12Floating::LINKS, "solo12_floating");
-}
-
-#[test]
-fn motion_against_pinocchio_rk4() {
-    motion_against_pinocchio(&DoublePendulum, "double_pendulum", 1e-11);
-    motion_against_pinocchio(&Ur5, "ur5", 1e-11);
-    motion_against_pinocchio(&Panda, "panda", 1e-11);
-    motion_against_pinocchio(&Solo12Floating, "solo12_floating", 1e-11);
 }
 
 /// The file's limits and friction, as data by the joints' names.
