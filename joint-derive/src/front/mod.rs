@@ -14,6 +14,7 @@
 pub mod attr;
 pub mod context;
 pub mod custom;
+pub mod files;
 pub mod geometry;
 pub mod joint;
 #[cfg(feature = "mjcf")]

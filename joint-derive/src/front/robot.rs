@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use super::geometry::{eigenvalues, physical};
 
-pub use super::scene::{FileLimits, FileLink};
+pub use super::files::{FileLimits, FileLink};
 
 /// A robot in the scene's terms.
 pub struct Robot {

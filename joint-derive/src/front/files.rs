@@ -1,0 +1,264 @@
+//! A scene's robot file (`#[scene(urdf = "..")]`, `#[scene(mjcf = "..")]`):
+//! the options that go with one checked, the file read by its format's
+//! reader (each behind its feature), and its bodies and joints handed to the
+//! scene parser as attributes would give them, with the data the derive
+//! writes beside the dynamics (`LINKS`, `LIMITS`) and the couplings.
+
+use proc_macro2::Span;
+
+use super::context::Errors;
+use super::scene::{Body, JointAttr};
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+use {
+    super::attr::{Arg, Number, Value},
+    super::scene::{BodyRef, Quantity},
+};
+
+/// What a scene's robot file gives it (empty without one, or after an error).
+#[derive(Default)]
+pub(super) struct FromFile {
+    /// Its bodies, as `#[body]` attributes would.
+    pub bodies: Vec<Body>,
+    /// Its moving joints, then the joints that close its loops, as
+    /// `#[joint]` attributes would.
+    pub(super) joints: Vec<JointAttr>,
+    /// The file, absolute, for the output to include.
+    pub files: Vec<String>,
+    /// Its gravity, if the format states one.
+    pub gravity: Option<[f64; 3]>,
+    /// Its links and limits (`None` without a file).
+    pub data: Option<FileData>,
+    /// Its couplings (none with `mimic = independent`).
+    pub couplings: Vec<Coupling>,
+}
+
+/// Reads the scene's `file` (none: nothing), with `floating_base`,
+/// `mimic = independent` and whether the absolute impls are wanted; every
+/// mistake into `errors`.
+pub(super) fn read(
+    file: Option<&(RobotFormat, syn::LitStr)>,
+    (floating_base, independent, absolute): (Option<Span>, Option<Span>, bool),
+    errors: &mut Errors,
+) -> FromFile {
+    if let (Some(at), None) = (independent, file) {
+        errors.at(at, "`mimic` is for a robot's file (`urdf = \"..\"` or `mjcf = \"..\"`)");
+    }
+    match (floating_base, file) {
+        (Some(_), Some((RobotFormat::Urdf, _))) | (None, _) => {}
+        (Some(at), _) => errors.at(
+            at,
+            "`floating_base` is for a URDF file (`urdf = \"..\"`): in MJCF a `<freejoint/>` floats a body, and a \
+             body without joints floats already",
+        ),
+    }
+    let Some((format, lit)) = file else { return FromFile::default() };
+    // MJCF's armature and damping enter the dynamics (MuJoCo's do) where the
+    // scene is relative only; URDF's `<dynamics>` stays data (Pinocchio's
+    // algorithms leave it out too).
+    let dynamics = *format == RobotFormat::Mjcf && !absolute;
+    let Some(mut read) = robot(*format, lit, (floating_base.is_some(), dynamics), errors) else {
+        return FromFile::default();
+    };
+    if independent.is_some() {
+        read.couplings.clear();
+    } else if let (Some(c), true) = (read.couplings.first(), absolute) {
+        errors.at(
+            lit.span(),
+            format!(
+                "the file couples joint `{}` to another; couplings are rows in relative coordinates only: expected \
+                 `coordinates = relative` (a file's default), or `mimic = independent` to read them as independent \
+                 joints",
+                c.name
+            ),
+        );
+    }
+    read
+}
+
+/// The formats of robot files.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum RobotFormat {
+    /// `urdf = ".."`.
+    Urdf,
+    /// `mjcf = ".."`.
+    Mjcf,
+}
+
+impl RobotFormat {
+    fn key(self) -> &'static str {
+        match self {
+            RobotFormat::Urdf => "urdf",
+            RobotFormat::Mjcf => "mjcf",
+        }
+    }
+}
+
+/// A robot file read; `None` after an error.
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+fn robot(
+    format: RobotFormat,
+    lit: &syn::LitStr,
+    #[cfg_attr(not(feature = "urdf"), allow(unused_variables))] (floating, dynamics): (bool, bool),
+    errors: &mut Errors,
+) -> Option<FromFile> {
+    let read = match format {
+        #[cfg(feature = "urdf")]
+        RobotFormat::Urdf => super::urdf::read(lit, floating),
+        #[cfg(feature = "mjcf")]
+        RobotFormat::Mjcf => super::mjcf::read(lit),
+        #[allow(unreachable_patterns)] // with both features on
+        _ => return missing_feature(format, lit, errors),
+    };
+    from_file(read.map_err(|e| errors.push(e)).ok()?, lit.span(), dynamics, errors)
+}
+
+/// Without the format's feature, a file cannot be read.
+#[cfg(not(any(feature = "urdf", feature = "mjcf")))]
+fn robot(format: RobotFormat, lit: &syn::LitStr, _: (bool, bool), errors: &mut Errors) -> Option<FromFile> {
+    missing_feature(format, lit, errors)
+}
+
+/// The error for a file whose format's feature is off.
+fn missing_feature(format: RobotFormat, lit: &syn::LitStr, errors: &mut Errors) -> Option<FromFile> {
+    let key = format.key();
+    errors.at(
+        lit.span(),
+        format!(
+            "reading a robot's `{key}` file needs the `{key}` feature: `joint-runtime = {{ version = \"..\", features \
+             = [\"{key}\"] }}`"
+        ),
+    );
+    None
+}
+
+/// A robot read, as attributes would give it (with each joint's armature
+/// and damping when `dynamics`).
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mut Errors) -> Option<FromFile> {
+    // Links and joints are named apart, as in the file.
+    let (mut body_names, mut joint_names) = (Vec::new(), Vec::new());
+    let ident = |name: &str, taken: &mut Vec<String>, errors: &mut Errors| -> syn::Ident {
+        let text = super::robot::rust_name(name, taken.len());
+        if taken.contains(&text) {
+            errors.at(span, format!("`{name}` and another name of the file are both `{text}` as Rust names"));
+        }
+        taken.push(text.clone());
+        syn::Ident::new(&text, span)
+    };
+    let known = |v: &[f64]| v.iter().map(|&x| Number::Known(x)).collect::<Vec<_>>();
+    let bodies: Vec<Body> = robot
+        .bodies
+        .iter()
+        .map(|b| Body {
+            name: ident(&b.name, &mut body_names, errors),
+            element: None,
+            mass: Quantity::Const(known(&[b.mass])),
+            inertia: Quantity::Const(known(&b.inertia)),
+        })
+        .collect();
+    let body_ref = |b: Option<usize>| BodyRef {
+        name: b.map_or_else(|| syn::Ident::new("ground", span), |b| bodies[b].name.clone()),
+        index: None,
+    };
+    let list = |v: &[f64; 3]| Some(Value::List(known(v), span));
+    let arg = |key: &str, v: &[f64; 3]| Arg { key: syn::Ident::new(key, span), value: list(v) };
+    let z = [0.0, 0.0, 1.0];
+    let joints = robot
+        .joints
+        .iter()
+        .chain(&robot.closures)
+        .map(|j| {
+            let mut args = match j.kind {
+                "spherical" => vec![arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+                "fixed" => vec![arg("axis1", &z), arg("axis2", &z), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+                _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
+            };
+            for (key, value) in [("armature", j.limits.armature), ("damping", j.limits.damping)] {
+                if let Some(x) = value.filter(|&x| dynamics && x != 0.0) {
+                    args.push(Arg {
+                        key: syn::Ident::new(key, span),
+                        value: Some(Value::Number(Number::Known(x), span)),
+                    });
+                }
+            }
+            JointAttr {
+                name: ident(&j.name, &mut joint_names, errors),
+                repeat: None,
+                kind: syn::Ident::new(j.kind, span),
+                bodies: vec![body_ref(j.parent), body_ref(Some(j.child))],
+                args,
+            }
+        })
+        .collect();
+    let limits = robot.joints.iter().map(|j| (j.name.clone(), j.limits)).collect();
+    // The file's moving joints are the scene's first joints, in its order.
+    let index = |name: &str| robot.joints.iter().position(|j| j.name == name);
+    let couplings = robot
+        .couplings
+        .iter()
+        .filter_map(|c| {
+            let (follower, leader) = (index(&c.follower)?, index(&c.leader)?);
+            let (multiplier, offset) = (c.multiplier, c.offset);
+            Some(Coupling { name: c.follower.clone(), follower, leader, multiplier, offset })
+        })
+        .collect();
+    Some(FromFile {
+        bodies,
+        joints,
+        files: vec![robot.path],
+        gravity: robot.gravity,
+        data: Some(FileData { links: robot.links, limits }),
+        couplings,
+    })
+}
+
+/// `follower = multiplier · leader + offset`: joints by their index.
+#[derive(Clone, Debug)]
+pub struct Coupling {
+    /// The follower's name in the file (the row block's).
+    pub name: String,
+    pub follower: usize,
+    pub leader: usize,
+    pub multiplier: f64,
+    pub offset: f64,
+}
+
+/// A link's frame on its body (`None`: the ground), from a robot's file:
+/// the rotation from the link's frame to the body's (rows) and the link's
+/// origin from the body's centre, the body's components.
+pub struct FileLink {
+    /// The file's name.
+    pub name: String,
+    /// Its body.
+    pub body: Option<usize>,
+    /// The rotation from the link's frame to the body's, by rows.
+    pub rotation: [[f64; 3]; 3],
+    /// The link's origin from the body's centre (the world's origin for the ground).
+    pub origin: [f64; 3],
+}
+
+/// A joint's limits, damping and friction as its file gives them, where given.
+#[derive(Clone, Copy, Default)]
+pub struct FileLimits {
+    /// `lower`, `upper` (both given).
+    pub range: Option<(f64, f64)>,
+    /// `effort`.
+    pub effort: Option<f64>,
+    /// `velocity`.
+    pub velocity: Option<f64>,
+    /// `damping`.
+    pub damping: Option<f64>,
+    /// `friction` (MJCF: `frictionloss`).
+    pub friction: Option<f64>,
+    /// MJCF's `armature`: inertia added to the joint's own freedom.
+    pub armature: Option<f64>,
+}
+
+/// What a robot's file says beyond its bodies and joints.
+#[derive(Default)]
+pub struct FileData {
+    /// Every link's frame, in the file's order.
+    pub links: Vec<FileLink>,
+    /// Each moving joint's limits, by the file's name, in the file's order.
+    pub limits: Vec<(String, FileLimits)>,
+}
