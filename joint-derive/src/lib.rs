@@ -50,6 +50,14 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 /// #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho2 = [0, 0, 0.5])]
 /// struct Pendulum;
 /// ```
+///
+/// `#[scene(..)]` options: `gravity = [x, y, z]`, `coordinates = absolute |
+/// relative | both`, `second_order`, and for a robot's file (features `urdf`,
+/// `mjcf`) `urdf = "path"` or `mjcf = "path"` (relative to the crate),
+/// `floating_base` (URDF: the root link floats) and `mimic = coupled |
+/// independent` (a file's followers as rows, the default, or as free joints).
+/// A tree joint in relative coordinates may add `armature = A` and
+/// `damping = D`. See the `joint-runtime` documentation for the whole language.
 #[proc_macro_derive(Scene, attributes(scene, body, joint))]
 pub fn derive_scene(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
     let input = syn::parse_macro_input!(input as syn::DeriveInput);
