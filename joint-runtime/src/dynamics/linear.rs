@@ -82,8 +82,20 @@ pub(crate) fn minimal<const NB: usize>(
     moved: &DMatrix<f64>,
     a_u: DMatrix<f64>,
 ) -> Result<Linearisation, AnalysisError> {
-    let nv = v.len();
-    let full = full_matrix::<NB>(v, a_q, a_v);
+    reduce(full_matrix::<NB>(v, a_q, a_v), j, moved, a_u)
+}
+
+/// The minimal coordinates of a full linearisation `full` (`2 NV × 2 NV`,
+/// in whatever increments) under constraints of Jacobian `j` and
+/// `moved = ∂(J v)/∂q + ∂Φ_t/∂q` in those increments; `a_u` the inputs'
+/// columns of `v̇`.
+pub(crate) fn reduce(
+    full: DMatrix<f64>,
+    j: &DMatrix<f64>,
+    moved: &DMatrix<f64>,
+    a_u: DMatrix<f64>,
+) -> Result<Linearisation, AnalysisError> {
+    let nv = full.nrows() / 2;
     let (null, pinv) = null_space(j)?;
     let n = null.ncols();
     let correction = -(&pinv * moved * &null);

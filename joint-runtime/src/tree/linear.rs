@@ -1,4 +1,4 @@
-//! The linearised dynamics of a tree without loops about a state, for a
+//! The linearised dynamics of a tree about a state, for a
 //! controller's design (LQR, pole placement) or a stability check:
 //! `ẋ = A x + B u` in the tree's increments `x = (δq, δv)`, `δq` on the
 //! joints' own group (`q ⊕ δq`, [`Tree::displace`](super::Tree::displace):
@@ -12,6 +12,13 @@
 //! (the springs' and the user's loads included), not the derive's exact
 //! second derivatives, which the absolute path's `second_order` gives.
 //! `B = [0; M⁻¹]`, exact (`v̇` is affine in the joint forces).
+//!
+//! With loops (or a file's couplings) the accelerations are the
+//! constrained ones, `B` their columns (differences of an affine map), and
+//! the linearisation is taken to the minimal coordinates of the absolute
+//! path: `δq` in the null space `N` of the closure rows' `J`, `δv` in it
+//! corrected by `∂(J v + Φ_t)/∂q` (by central differences), `basis` the map
+//! back.
 
 use nalgebra::{DMatrix, SMatrix, SVector};
 
@@ -23,14 +30,20 @@ use crate::dynamics::{AppliedLoads, Linearisation};
 /// truncation and round-off.
 const STEP: f64 = 1e-5;
 
-impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
-    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
 {
     /// The linearisation about `state` under joint forces `tau` (held): the
     /// module's `A` and `B` (`2 NV × 2 NV`, `2 NV × NV`, the inputs the
-    /// joint forces); `basis` the identity and `freedoms` `NV`, as a tree
-    /// has no constraint to reduce by. [`Linearisation::eigenvalues`] gives
-    /// its poles.
+    /// joint forces); `basis` the identity and `freedoms` `NV` for a tree
+    /// without loops, else the minimal coordinates on its loops (the
+    /// module's). [`Linearisation::eigenvalues`] gives its poles.
     ///
     /// ```
     /// use joint_runtime::Scene;
@@ -75,6 +88,9 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
             let column = (self.forward_dynamics(&plus, tau)? - self.forward_dynamics(&minus, tau)?) / (2.0 * h);
             a.view_mut((n, i), (n, 1)).copy_from(&column);
         }
+        if NC > 0 {
+            return self.on_loops(state, tau, a);
+        }
         let mut m = SMatrix::<f64, NV, NV>::zeros();
         self.mass_matrix_into(&state.q, &mut m);
         let joint = self.tree().joints.first().map_or("", |j| j.name);
@@ -86,6 +102,39 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         }
         let basis = DMatrix::identity(2 * n, 2 * n);
         Ok(Linearisation { a: a.clone(), b: b.clone(), basis, freedoms: n, full: a, full_b: b })
+    }
+
+    /// The full linearisation `full` taken to the loops' minimal
+    /// coordinates: `B`'s columns the constrained accelerations' own
+    /// (`v̇` is affine in `τ`: differences of a unit step are exact to
+    /// round-off), `∂(J v + Φ_t)/∂q` by central differences along each
+    /// increment.
+    fn on_loops(
+        &mut self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        full: DMatrix<f64>,
+    ) -> Result<Linearisation, TreeError> {
+        let mut a_u = DMatrix::<f64>::zeros(NV, NV);
+        for i in 0..NV {
+            let push = SVector::<f64, NV>::from_fn(|r, _| if r == i { 1.0 } else { 0.0 });
+            let column =
+                (self.forward_dynamics(state, &(tau + push))? - self.forward_dynamics(state, &(tau - push))?) / 2.0;
+            a_u.set_column(i, &column);
+        }
+        let rows = self.closure_rows(state);
+        let j = DMatrix::from_iterator(NC, NV, rows.jacobian.iter().copied());
+        let mut moved = DMatrix::<f64>::zeros(NC, NV);
+        for i in 0..NV {
+            let dq = SVector::<f64, NV>::from_fn(|r, _| if r == i { STEP } else { 0.0 });
+            let rate = |sign: f64| {
+                let at = TreeState { q: self.tree().displaced(&state.q, &(dq * sign)), ..*state };
+                let rows = self.closure_rows(&at);
+                rows.jacobian * state.v + rows.phi_t
+            };
+            moved.set_column(i, &((rate(1.0) - rate(-1.0)) / (2.0 * STEP)));
+        }
+        crate::dynamics::linear::reduce(full, &j, &moved, a_u).map_err(|_| TreeError::NonFinite)
     }
 }
 

@@ -218,3 +218,33 @@ fn a_joint_equality_is_a_row() {
     eprintln!("pendulum coupled by <equality joint>: accelerations to {worst:.1e} of Gauss's");
     assert!(worst < 1e-12, "{worst:e}");
 }
+
+/// The coupled pendulum linearised on its coupling: one freedom, and its
+/// `A` has the trace and determinant of the reduced system's
+/// `[[0, 1], [∂f/∂s, ∂f/∂w]]`, `f(s, w) = tᵀ (−C) / tᵀ M t` at
+/// `q = (s, 0.1 − 0.5 s)`, `v = t w`, from the uncoupled file's `M` and `C`
+/// (both by differences: to 1e-6).
+#[test]
+fn a_coupled_pendulum_linearises_on_its_coupling() {
+    let mut coupled = TreeSimulation::new(&CoupledPendulum).unwrap();
+    let free = TreeSimulation::new(&UncoupledPendulum).unwrap();
+    let t = SVector::<f64, 2>::new(1.0, -0.5);
+    let at = |s: f64, w: f64| TreeState::<2, 2> { q: SVector::from([s, 0.1 - 0.5 * s]), v: t * w, t: 0.0 };
+    let f = |s: f64, w: f64| {
+        let mut m = SMatrix::<f64, 2, 2>::zeros();
+        free.mass_matrix_into(&at(s, w).q, &mut m);
+        -t.dot(&free.inverse_dynamics(&at(s, w), &SVector::zeros())) / t.dot(&(m * t))
+    };
+    let (s, w, h) = (0.4, 0.3, 1e-5);
+    let (dfds, dfdw) = ((f(s + h, w) - f(s - h, w)) / (2.0 * h), (f(s, w + h) - f(s, w - h)) / (2.0 * h));
+    let lin = coupled.linearise(&at(s, w), &SVector::zeros()).unwrap();
+    assert_eq!((lin.freedoms, lin.a.shape()), (1, (2, 2)));
+    let (trace, det) = (lin.a.trace(), lin.a.determinant());
+    eprintln!("coupled pendulum: trace {trace:.9} against {dfdw:.9}, determinant {det:.9} against {:.9}", -dfds);
+    assert!((trace - dfdw).abs() < 1e-6 * dfdw.abs().max(1.0) && (det + dfds).abs() < 1e-6 * dfds.abs());
+    // The input: a unit torque on the shoulder moves the reduced rate by tᵀ e₀ / tᵀ M t (times |t|).
+    let mut m = SMatrix::<f64, 2, 2>::zeros();
+    free.mass_matrix_into(&at(s, w).q, &mut m);
+    let expected = t.norm() / t.dot(&(m * t));
+    assert!((lin.b[(1, 0)].abs() - expected).abs() < 1e-9 * expected, "{} {expected}", lin.b[(1, 0)]);
+}
