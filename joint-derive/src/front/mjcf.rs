@@ -237,7 +237,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             _ => format!("joint `{name}`"),
         };
         let class = self.class(j, "class", class)?;
-        let get = |key: &str| j.attribute(key).or_else(|| self.defaults[&class].get(key).map(String::as_str));
+        let get = |key: &str| j.attribute(key).or_else(|| self.defaults.get(&class)?.get(key).map(String::as_str));
         let value = |key: &str| -> syn::Result<Option<f64>> {
             match get(key) {
                 None => Ok(None),
