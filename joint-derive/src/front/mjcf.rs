@@ -45,7 +45,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     let world = world.ok_or_else(|| {
         fail(reader.pos(root), "the file has no `<worldbody>`; expected the robot's bodies in it".into())
     })?;
-    reader.links.push(Link { name: "world".into(), inertial: None, at: reader.pos(world) });
+    reader.links.push(Link { name: "world".into(), inertial: None, unknown: false, at: reader.pos(world) });
     reader.children(world, 0, "main", (IDENTITY, [0.0; 3]))?;
     if reader.links.len() == 1 {
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
@@ -149,7 +149,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 "site" => {
                     let name = self.name(c, "site")?;
                     let origin = compose(&offset, &self.frame(c)?);
-                    self.links.push(Link { name: name.clone(), inertial: None, at });
+                    self.links.push(Link { name: name.clone(), inertial: None, unknown: false, at });
                     let child = self.links.len() - 1;
                     let (point, axis, limits) = ([0.0; 3], [0.0, 0.0, 1.0], FileLimits::default());
                     self.joints.push(Joint { name, kind: Kind::Fixed, parent, child, origin, point, axis, limits, at });
@@ -178,18 +178,13 @@ impl<'a, 'i> Reader<'a, 'i> {
         let origin = compose(&offset, &self.frame(b)?);
         let inertial = match b.children().find(|n| n.has_tag_name("inertial")) {
             Some(i) => Some(self.inertial(i, &name)?),
-            None if b.children().any(|n| n.has_tag_name("geom")) => {
-                return Err((self.fail)(
-                    at,
-                    format!(
-                        "body `{name}` has geoms but no `<inertial>`: inertia from geoms is not computed; expected \
-                         `<inertial pos=\"..\" mass=\"..\" diaginertia=\"..\"/>`"
-                    ),
-                ));
-            }
             None => None,
         };
-        self.links.push(Link { name: name.clone(), inertial, at });
+        // Geoms without `<inertial>` would give MuJoCo's body a mass from
+        // them: an error if the body moves (`assemble` knows), not if the
+        // ground holds it.
+        let unknown = inertial.is_none() && b.children().any(|n| n.has_tag_name("geom"));
+        self.links.push(Link { name: name.clone(), inertial, unknown, at });
         let child = self.links.len() - 1;
         let declared: Vec<roxmltree::Node> =
             b.children().filter(|n| n.has_tag_name("joint") || n.has_tag_name("freejoint")).collect();
@@ -694,6 +689,11 @@ mod tests {
             let message = error(text);
             assert!(message.starts_with(at) && message.contains(expected), "{text}\n{message}");
         }
+        // A body with geoms and no `<inertial>` on the ground is no error:
+        // its mass would not move.
+        let mount =
+            one_body(hinge, "").replace("<worldbody>", "<worldbody><body name=\"mount\"><geom size=\"1\"/></body>");
+        assert!(from_text(&mount, "f.xml", proc_macro2::Span::call_site()).is_ok());
         let missing = read(&syn::LitStr::new("/no/such/robot.xml", proc_macro2::Span::call_site()));
         assert!(missing.err().is_some_and(|e| e.to_string().starts_with("cannot read `/no/such/robot.xml`")));
     }

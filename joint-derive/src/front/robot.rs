@@ -105,6 +105,9 @@ pub struct Link {
     /// Mass, centre and inertia in the link's frame (inertia's own frame
     /// turned into the link's axes); `None` without one.
     pub inertial: Option<(f64, V3, M3)>,
+    /// Its mass is the file's but not stated (an MJCF body with geoms and
+    /// no `<inertial>`): an error on a moving body.
+    pub unknown: bool,
     pub at: roxmltree::TextPos,
 }
 
@@ -204,6 +207,16 @@ pub fn assemble(
     let mut bodies = Vec::new();
     for (b, &head) in heads.iter().enumerate() {
         let members: Vec<usize> = (0..links.len()).filter(|&l| body_of[l] == Some(b)).collect();
+        if let Some(&l) = members.iter().find(|&&l| links[l].unknown) {
+            let name = &links[l].name;
+            return Err(fail(
+                links[l].at,
+                format!(
+                    "body `{name}` moves and has geoms but no `<inertial>`: inertia from geoms is not computed; \
+                     expected `<inertial pos=\"..\" mass=\"..\" diaginertia=\"..\"/>`"
+                ),
+            ));
+        }
         let (mass, centre, inertia) = combine(&members, links, &pose);
         check_inertia(&links[head], mass, &inertia, fail)?;
         centres.push(centre);

@@ -86,7 +86,7 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             Some(i) => Some(inertial(i, &name, &pos, fail)?),
             None => None,
         };
-        links.push(Link { name, inertial, at: pos(node) });
+        links.push(Link { name, inertial, unknown: false, at: pos(node) });
     }
     let index = |name: &str, at, what: &str| {
         links.iter().position(|l| l.name == name).ok_or_else(|| {
