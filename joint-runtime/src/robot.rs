@@ -77,8 +77,9 @@ impl LinkFrame {
 }
 
 /// A moving joint's limits and friction as its file gives them (`None`
-/// where it says nothing): data for a controller; the dynamics do not use
-/// them.
+/// where it says nothing): data for a controller. Only an MJCF file's
+/// `armature` and `damping` are also in the dynamics (in relative
+/// coordinates, as MuJoCo has them); the rest the dynamics do not use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointLimits {
     /// The joint's name in the file.
@@ -89,12 +90,12 @@ pub struct JointLimits {
     pub effort: Option<f64>,
     /// Largest rate magnitude.
     pub velocity: Option<f64>,
-    /// Viscous damping coefficient (`<dynamics damping>`, MJCF `damping`;
-    /// data only: the dynamics do not include it yet).
+    /// Viscous damping coefficient (URDF `<dynamics damping>`: data only;
+    /// MJCF `damping`: in a relative-coordinate scene's dynamics too).
     pub damping: Option<f64>,
     /// Coulomb friction (URDF `<dynamics friction>`, MJCF `frictionloss`).
     pub friction: Option<f64>,
-    /// Inertia added to the joint's own freedom (MJCF `armature`; the
-    /// dynamics do not include it yet).
+    /// Inertia added to the joint's own freedom (MJCF `armature`: in a
+    /// relative-coordinate scene's dynamics too).
     pub armature: Option<f64>,
 }
