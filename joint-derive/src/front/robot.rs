@@ -243,7 +243,7 @@ pub fn assemble(
         }
         let (parent, child) = (body_of[j.parent], body_of[j.child].unwrap_or(0));
         let at = add(&o, &apply(&r, &j.point));
-        let joint = between(&j.name, parent, child, &at, &centres, j.at, fail)?;
+        let (rho1, rho2) = points(&at, from, (parent, child)).ok_or_else(|| out_of_range(&j.name, j.at, fail))?;
         let kind = match j.kind {
             Kind::Prismatic => "translational",
             Kind::Spherical => "spherical",
@@ -256,7 +256,8 @@ pub fn assemble(
                 axis.map(|x| x / norm(&axis))
             }
         };
-        out.push(RobotJoint { kind, axis, limits: j.limits, ..joint });
+        let name = j.name.clone();
+        out.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits: j.limits });
     }
     let mut loops = Vec::new();
     for c in closures {
@@ -271,9 +272,10 @@ pub fn assemble(
                 return Err(fail(c.at, message));
             }
         };
-        let joint = between(&c.name, parent, child, &at, &centres, c.at, fail)?;
-        let kind = if c.weld { "fixed" } else { "spherical" };
-        loops.push(RobotJoint { kind, axis: [0.0, 0.0, 1.0], ..joint });
+        let (rho1, rho2) = points(&at, from, (parent, child)).ok_or_else(|| out_of_range(&c.name, c.at, fail))?;
+        let (name, kind, axis) = (c.name.clone(), if c.weld { "fixed" } else { "spherical" }, [0.0, 0.0, 1.0]);
+        let limits = FileLimits::default();
+        loops.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits });
     }
     // Every link's frame: the body's axes are the world's at zero.
     let frames = (0..links.len())
@@ -294,6 +296,10 @@ pub fn assemble(
     })
 }
 
+fn out_of_range(name: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Error {
+    fail(at, format!("joint `{name}` is at a point out of range"))
+}
+
 /// `v` with the entries below 1e-14 of its largest set to zero: what a
 /// file's quarter turns leave (`rpy="1.5707963267948966"`: cos = 6e-17),
 /// which would otherwise be numbers in every product the derive writes
@@ -305,24 +311,11 @@ fn round_off<const N: usize>(v: [f64; N]) -> [f64; N] {
     v.map(|x| if x.abs() <= 1e-14 * scale { 0.0 } else { x })
 }
 
-/// A joint at the world point `at` between two bodies (axis and kind to be
-/// filled in).
-fn between(
-    name: &str,
-    parent: Option<usize>,
-    child: usize,
-    at: &V3,
-    centres: &[V3],
-    pos: roxmltree::TextPos,
-    fail: &Fail,
-) -> syn::Result<RobotJoint> {
-    let rho1 = round_off(sub(at, &parent.map_or([0.0; 3], |b| centres[b])));
-    let rho2 = round_off(sub(at, &centres[child]));
-    if !rho1.iter().chain(&rho2).all(|x| x.is_finite()) {
-        return Err(fail(pos, format!("joint `{name}` is at a point out of range")));
-    }
-    let limits = FileLimits::default();
-    Ok(RobotJoint { name: name.to_string(), kind: "", parent, child, axis: [0.0; 3], rho1, rho2, limits })
+/// The joint point `at` (world, at zero) from the parent's centre (the
+/// world's origin for the ground) and from the child's: `rho1`, `rho2`.
+fn points(at: &V3, from: impl Fn(Option<usize>) -> V3, (parent, child): (Option<usize>, usize)) -> Option<(V3, V3)> {
+    let (rho1, rho2) = (round_off(sub(at, &from(parent))), round_off(sub(at, &from(Some(child)))));
+    rho1.iter().chain(&rho2).all(|x| x.is_finite()).then_some((rho1, rho2))
 }
 
 /// Each link's joint from its parent (one at most: the file is a tree) and
