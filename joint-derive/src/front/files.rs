@@ -162,15 +162,14 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
     };
     let list = |v: &[f64; 3]| Some(Value::List(known(v), span));
     let arg = |key: &str, v: &[f64; 3]| Arg { key: syn::Ident::new(key, span), value: list(v) };
-    let z = [0.0, 0.0, 1.0];
     let joints = robot
         .joints
         .iter()
         .chain(&robot.closures)
         .map(|j| {
+            // A weld's axis is `z` on both bodies: its rest rotation the identity.
             let mut args = match j.kind {
                 "spherical" => vec![arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
-                "fixed" => vec![arg("axis1", &z), arg("axis2", &z), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
                 _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
             };
             for (key, value) in [("armature", j.limits.armature), ("damping", j.limits.damping)] {
