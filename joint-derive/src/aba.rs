@@ -614,7 +614,7 @@ impl Builder {
 
     /// The rotation matrix of the quaternion `q` normalised (`/ |q|²`: an
     /// RK4 stage's is off the unit sphere).
-    fn quaternion_matrix(&mut self, q: &[Id]) -> M3 {
+    pub(crate) fn quaternion_matrix(&mut self, q: &[Id]) -> M3 {
         let (e0, e) = (q[0], [q[1], q[2], q[3]]);
         let n2 = self.dot(q, q);
         let one = self.c(1.0);
@@ -1066,7 +1066,7 @@ pub fn method(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usize) -> Option
 /// The joints of a tree whose algorithms the derive writes: each with its
 /// points and axes as numbers (folded), or read from the runtime's
 /// `TreeGeometry` where they are fields.
-fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
+pub(crate) fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
     let parents = parent_edges(s, edges);
     let read = |(k, (e, parent)): (usize, (&TreeEdge, Option<usize>))| {
         let dynamics = e.joint.map_or_else(Default::default, |i| s.joints[i].dynamics);
@@ -1180,12 +1180,12 @@ pub(crate) fn scalar() -> ScalarTy {
     ScalarTy { ty: quote!(f64), krate: krate(), concrete_f64: true }
 }
 
-fn used_names(g: &Graph, emitted: &crate::engine::emit::Emitted) -> std::collections::BTreeSet<String> {
+pub(crate) fn used_names(g: &Graph, emitted: &crate::engine::emit::Emitted) -> std::collections::BTreeSet<String> {
     emitted.used_vars.iter().map(|v| g.vars()[v.0 as usize].name.clone()).collect()
 }
 
 /// `let p_3: f64 = self.mass;` for each field or named constant used.
-fn bindings(b: &Builder, used: &std::collections::BTreeSet<String>) -> Vec<TokenStream> {
+pub(crate) fn bindings(b: &Builder, used: &std::collections::BTreeSet<String>) -> Vec<TokenStream> {
     b.bindings
         .iter()
         .filter(|(name, _)| used.contains(name))
@@ -1197,7 +1197,7 @@ fn bindings(b: &Builder, used: &std::collections::BTreeSet<String>) -> Vec<Token
 }
 
 /// `[q_0, _, q_2]`: the inputs named `prefix_i`, `_` where unused.
-fn pattern(used: &std::collections::BTreeSet<String>, prefix: &str, count: usize) -> TokenStream {
+pub(crate) fn pattern(used: &std::collections::BTreeSet<String>, prefix: &str, count: usize) -> TokenStream {
     let ids = (0..count).map(|i| {
         let name = format!("{prefix}_{i}");
         if used.contains(&name) {
@@ -1556,8 +1556,15 @@ pub fn controller_methods(s: &SceneDecl, edges: &[TreeEdge], nq: usize, nv: usiz
 }
 
 /// Every joint's pass 1 on a fresh graph, `q` and `v` as inputs (`v` held at
-/// zero when `moving` is false), and `v`.
-fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize, moving: bool) -> (Vec<Down>, Vec<Id>) {
+/// zero when `moving` is false), and `q`, `v`.
+fn downs(
+    b: &mut Builder,
+    s: &SceneDecl,
+    joints: &[Joint],
+    nq: usize,
+    nv: usize,
+    moving: bool,
+) -> (Vec<Down>, Vec<Id>, Vec<Id>) {
     let q: Vec<Id> = (0..nq).map(|i| b.g.param(format!("q_{i}"))).collect();
     let v: Vec<Id> = if moving { (0..nv).map(|i| b.g.param(format!("v_{i}"))).collect() } else { vec![b.c(0.0); nv] };
     let (qa, va) = offsets(joints);
@@ -1569,14 +1576,31 @@ fn downs(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize,
         let d = b.down(s, j, inbound, &q[qa[k]..qa[k] + nqk], &v[va[k]..va[k] + nvk], parent);
         out.push(d);
     }
-    (out, v)
+    (out, q, v)
 }
 
 /// `fn inverse_dynamics_into`: `τ = Sᵀ f` with `f = I a + v ×* I v` summed
 /// from the leaves.
 fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
     let mut b = Builder::new(Graph::new());
-    let (d, v) = downs(&mut b, s, joints, nq, nv, true);
+    let rnea = newton_euler(&mut b, s, joints, nq, nv);
+    let (method, ops) = vector_method(&b, &rnea.tau, ("inverse_dynamics_into", "vdot", "a"), (s.bodies.len(), nq, nv))?;
+    let doc = format!(" The recursive Newton–Euler algorithm written out: {ops} operations.");
+    Some(quote!(#[doc = #doc] #[inline] #method))
+}
+
+/// The inverse dynamics on `b`'s graph: its inputs `q_i`, `v_i` (the
+/// accelerations are `a_i`) and the joint forces `τ`.
+pub(crate) struct NewtonEuler {
+    pub(crate) q: Vec<Id>,
+    pub(crate) v: Vec<Id>,
+    pub(crate) tau: Vec<Id>,
+}
+
+/// `τ(q, v, a)` on `b`'s graph: `τ = Sᵀ f` with `f = I a + v ×* I v`
+/// summed from the leaves, armature and damping added.
+pub(crate) fn newton_euler(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> NewtonEuler {
+    let (d, q, v) = downs(b, s, joints, nq, nv, true);
     let vdot: Vec<Id> = (0..nv).map(|i| b.g.param(format!("a_{i}"))).collect();
     let (_, va) = offsets(joints);
     let ground = b.ground(s);
@@ -1612,16 +1636,14 @@ fn inverse_dynamics(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Op
             force[p] = [0, 1, 2, 3, 4, 5].map(|r| b.g.add(force[p][r], back[r]));
         }
     }
-    let (method, ops) = vector_method(&b, &tau, ("inverse_dynamics_into", "vdot", "a"), (s.bodies.len(), nq, nv))?;
-    let doc = format!(" The recursive Newton–Euler algorithm written out: {ops} operations.");
-    Some(quote!(#[doc = #doc] #[inline] #method))
+    NewtonEuler { q, v, tau }
 }
 
 /// `fn mass_matrix_into`: composite inertias from the leaves, then each
 /// freedom's force carried to the root.
 fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
     let mut b = Builder::new(Graph::new());
-    let (d, _) = downs(&mut b, s, joints, nq, nv, false);
+    let (d, _, _) = downs(&mut b, s, joints, nq, nv, false);
     let (_, va) = offsets(joints);
     let mut ic: Vec<Rigid> = d.iter().map(|x| Rigid::of(&x.inertia)).collect();
     for (k, j) in joints.iter().enumerate().rev() {

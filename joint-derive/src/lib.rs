@@ -21,6 +21,7 @@ mod normal;
 mod products;
 mod program;
 mod second_order;
+mod tree_derivatives;
 
 #[cfg(test)]
 mod output_tests;

@@ -51,6 +51,11 @@ pub fn print(
         quote!(#[doc = #doc] #[inline] #method)
     });
     let controller = crate::aba::controller_methods(s, edges, nq, nv);
+    // `second_order`: the dynamics' derivatives, what a linearisation needs.
+    let derivatives = s
+        .second_order
+        .and_then(|_| crate::aba::written(s, edges))
+        .and_then(|joints| crate::tree_derivatives::method(s, &joints, nq, nv));
     let (closure, nc) =
         loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
     let body = quote! {
@@ -59,6 +64,7 @@ pub fn print(
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
         #aba
         #controller
+        #derivatives
         #closure
     };
     wrap(input, generics, s.bodies.len(), (nq, nv, nc), body)

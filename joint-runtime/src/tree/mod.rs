@@ -86,6 +86,7 @@
 //! assert!((system.bodies[0].point(&[-0.5, 0.0, 0.0].into())).norm() < 1e-15);
 //! ```
 
+mod derivatives;
 mod dynamics;
 mod kinematics;
 #[cfg(feature = "alloc")]
@@ -94,6 +95,7 @@ mod simulation;
 mod spatial;
 mod topology;
 
+pub use derivatives::{ForwardDerivatives, InverseDerivatives};
 pub use dynamics::TreeEnergy;
 pub use simulation::TreeSimulation;
 pub use topology::{Tree, TreeError};
@@ -266,6 +268,22 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     #[inline]
     fn mass_matrix_into(&self, geometry: &TreeGeometry<NB>, q: &[f64; NQ], out: &mut [[f64; NV]; NV]) -> bool {
         let _ = (geometry, q, out);
+        false
+    }
+    /// The inverse dynamics' first derivatives written out by the derive
+    /// (`#[scene(second_order)]`, for trees whose derivatives fit its
+    /// straight line): `τ`, `∂τ/∂q` (tangent columns) and `∂τ/∂v` into
+    /// `out` (its `d_a` untouched) and `true`, or `false` when not written.
+    #[inline]
+    fn inverse_dynamics_derivatives_into(
+        &self,
+        geometry: &TreeGeometry<NB>,
+        q: &[f64; NQ],
+        v: &[f64; NV],
+        vdot: &[f64; NV],
+        out: &mut InverseDerivatives<NV>,
+    ) -> bool {
+        let _ = (geometry, q, v, vdot, out);
         false
     }
     /// The closure rows at `state`, derived by the engine from the closing

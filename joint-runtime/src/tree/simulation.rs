@@ -39,7 +39,7 @@ type Closed = (usize, f64, f64);
 /// and torques on the bodies, from the bodies' state) and springs.
 #[derive(Clone, Debug)]
 pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0, L = NoLoads> {
-    scene: &'a S,
+    pub(super) scene: &'a S,
     tree: Tree<NB, NQ, NV>,
     /// Spring-dampers between body points (their forces as joint forces).
     springs: &'a [SpringDamper],

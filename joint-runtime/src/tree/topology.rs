@@ -81,6 +81,10 @@ pub enum TreeError {
         /// The option's name.
         name: &'static str,
     },
+    /// The scene has no generated derivatives of its dynamics: it did not
+    /// ask for them (`#[scene(second_order)]`), or its tree is past the
+    /// limit of the derive's straight line.
+    NotDerived,
     /// The error-controlled step fell below round-off at `t`.
     StepTooSmall {
         /// The time reached.
@@ -124,6 +128,10 @@ impl fmt::Display for TreeError {
                 f,
                 "the step's start has the loop of joint `{joint}` open by {misfit:e}: close it first \
                  (`TreeSimulation::assemble`)"
+            ),
+            TreeError::NotDerived => f.write_str(
+                "the scene has no generated derivatives of its dynamics: add `second_order` to its `#[scene(..)]` \
+                 (trees past the derive's limit have none)",
             ),
             TreeError::StepTooSmall { t, step } => {
                 write!(f, "the error-controlled step fell to {step:e} at t = {t}: the motion is too fast to follow")

@@ -24,6 +24,7 @@ mod second_order;
 mod serde_io;
 mod tree;
 mod tree_adaptive;
+mod tree_derivatives;
 mod tree_joints;
 mod tree_linear;
 mod tree_reactions;

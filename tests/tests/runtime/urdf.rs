@@ -86,12 +86,12 @@ robots_against_pinocchio!(
 struct PandaCoupled;
 
 /// Pinocchio's values for `robot`.
-fn reference(robot: &str) -> Value {
+pub(crate) fn reference(robot: &str) -> Value {
     let path = format!("{}/data/robots/{robot}.json", env!("CARGO_MANIFEST_DIR"));
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
-fn numbers(v: &Value) -> Vec<f64> {
+pub(crate) fn numbers(v: &Value) -> Vec<f64> {
     v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
 }
 
@@ -108,7 +108,7 @@ fn relative(ours: impl Iterator<Item = f64>, theirs: impl Iterator<Item = f64>) 
 /// Where each of our joints' coordinates and velocities are in Pinocchio's
 /// vectors (the file's joints found by name; a floating root is Pinocchio's
 /// `root_joint`), and how many.
-fn joint_map<S, const NB: usize, const NQ: usize, const NV: usize>(
+pub(crate) fn joint_map<S, const NB: usize, const NQ: usize, const NV: usize>(
     sim: &TreeSimulation<'_, S, NB, NQ, NV>,
     data: &Value,
 ) -> Vec<(TreeJointKind, usize, usize)>
@@ -131,7 +131,7 @@ where
 /// Pinocchio's `q` in ours: a free joint's quaternion `[x, y, z, w]` first
 /// `w`; its position is the base's origin, here its centre of mass (the
 /// robots' bases have theirs at the origin of their frames).
-fn our_q<const NQ: usize>(map: &[(TreeJointKind, usize, usize)], q: &[f64]) -> SVector<f64, NQ> {
+pub(crate) fn our_q<const NQ: usize>(map: &[(TreeJointKind, usize, usize)], q: &[f64]) -> SVector<f64, NQ> {
     let mut out = SVector::<f64, NQ>::zeros();
     let mut at = 0;
     for &(kind, theirs, _) in map {
@@ -150,7 +150,7 @@ fn our_q<const NQ: usize>(map: &[(TreeJointKind, usize, usize)], q: &[f64]) -> S
 
 /// Pinocchio's velocity-like vector in ours (a free joint's velocities are
 /// the same: its base frame's, local components).
-fn our_v<const NV: usize>(map: &[(TreeJointKind, usize, usize)], v: &[f64]) -> SVector<f64, NV> {
+pub(crate) fn our_v<const NV: usize>(map: &[(TreeJointKind, usize, usize)], v: &[f64]) -> SVector<f64, NV> {
     let mut out = SVector::<f64, NV>::zeros();
     let mut at = 0;
     for &(kind, _, theirs) in map {

@@ -1,0 +1,160 @@
+//! The first derivatives of a tree's inverse dynamics, written out
+//! (`TreeScene::inverse_dynamics_derivatives_into`): `∂τ/∂q` and `∂τ/∂v` of
+//! the recursive Newton–Euler graph (`aba::newton_euler`), by the engine's
+//! forward-mode derivative along each freedom, so that nobody writes a
+//! chain rule by hand.
+//!
+//! `∂/∂q` is taken in the tangent space, one column per freedom (`NV`, not
+//! `NQ`): along `q ⊕ ε e_i`, the runtime's `Tree::displace` (an angle or a
+//! slide moved by `ε`; a quaternion turned by `ε` about its own axis `i`,
+//! `ṗ = ½ p ⊗ (0, e_i)`; a free joint's offset moved along its child's
+//! axis `i`, `ṙ = R e_i`), which is Pinocchio's convention to first order.
+//! A direction's derivative of a node that does not depend on it folds to
+//! zero as it is made, so each column costs the joints the freedom moves
+//! (its subtree on the way down, its path to the root on the way up):
+//! the sparsity Carpentier and Mansard's recursion exploits by hand.
+//! The forward dynamics' derivatives follow in the runtime as
+//! `∂q̈/∂x = −M⁻¹ ∂τ/∂x` at `v̇ = q̈` (`tree/derivatives.rs`).
+
+use proc_macro2::TokenStream;
+use quote::quote;
+
+use crate::aba::{Builder, Joint, NewtonEuler, bindings, kind_offsets, newton_euler, pattern, scalar, used_names};
+use crate::engine::diff::TimeRules;
+use crate::engine::emit::emit;
+use crate::engine::graph::{Graph, Id};
+use crate::front::scene::SceneDecl;
+use crate::front::tree::TreeKind;
+use crate::generate::krate;
+
+/// Operations above which the derivatives are not written (the runtime's
+/// recursion runs): measured on the Panda (9 freedoms) and the floating
+/// Solo12 (18), see `ARCHITECTURE.md`.
+pub const LIMIT: usize = 40_000;
+
+/// The rules of one tangent direction: freedom `i` of the tree moved by one
+/// unit, every other coordinate held (`q`: the graph's coordinates).
+fn direction(b: &mut Builder, joints: &[Joint], q: &[Id], i: usize) -> TimeRules {
+    let mut rules = TimeRules::new();
+    let (qa, va) = kind_offsets(joints.iter().map(|j| j.kind));
+    let Some(k) = (0..joints.len()).find(|&k| va[k] <= i && i < va[k] + joints[k].kind.sizes().1) else {
+        return rules;
+    };
+    let (at, f) = (qa[k], i - va[k]);
+    let one = b.g.constant(1.0);
+    match joints[k].kind {
+        TreeKind::Spherical => turn(b, &mut rules, &q[at..at + 4], f),
+        TreeKind::Free if f >= 3 => turn(b, &mut rules, &q[at + 3..at + 7], f - 3),
+        TreeKind::Free => {
+            // The offset moves along the child's axis `f`: `R e_f`, parent components.
+            let r = b.quaternion_matrix(&q[at + 3..at + 7]);
+            for (c, row) in r.iter().enumerate() {
+                rules.set_var(&b.g, q[at + c], row[f]);
+            }
+        }
+        // Angles and slides: the coordinate is the freedom.
+        _ => rules.set_var(&b.g, q[at + f], one),
+    }
+    rules
+}
+
+/// `ṗ = ½ p ⊗ (0, e_f)` for the quaternion `p = (w, x, y, z)`: turned about
+/// its own (child) axis `f`.
+fn turn(b: &mut Builder, rules: &mut TimeRules, p: &[Id], f: usize) {
+    let (w, e) = (p[0], [p[1], p[2], p[3]]);
+    let half = b.g.constant(0.5);
+    // (½ p ⊗ (0, e_f)) = ½ (−e_f, w e_f + e × e_f)
+    let neg = b.g.neg(e[f]);
+    let scalar = b.g.mul(half, neg);
+    rules.set_var(&b.g, p[0], scalar);
+    for r in 0..3 {
+        // (e × e_f)_r = ε_{r a f} e_a: the one `a` that is neither r nor f.
+        let mut x = if r == f { w } else { b.g.zero() };
+        if r != f {
+            let a = 3 - r - f;
+            let sign = if (r + 1) % 3 == a { 1.0 } else { -1.0 };
+            let s = b.g.constant(sign);
+            let t = b.g.mul(s, e[a]);
+            x = b.g.add(x, t);
+        }
+        let value = b.g.mul(half, x);
+        rules.set_var(&b.g, p[r + 1], value);
+    }
+}
+
+/// `∂τ/∂q` (tangent columns) and `∂τ/∂v`, column by column, on `b`'s graph.
+pub(crate) fn columns(b: &mut Builder, joints: &[Joint], rnea: &NewtonEuler) -> (Vec<Vec<Id>>, Vec<Vec<Id>>) {
+    let nv = rnea.v.len();
+    let mut by_q = Vec::with_capacity(nv);
+    for i in 0..nv {
+        let mut rules = direction(b, joints, &rnea.q, i);
+        by_q.push(rnea.tau.iter().map(|&t| rules.dt(&mut b.g, t)).collect());
+    }
+    let mut by_v = Vec::with_capacity(nv);
+    let one = b.g.constant(1.0);
+    for &vi in &rnea.v {
+        let mut rules = TimeRules::new();
+        rules.set_var(&b.g, vi, one);
+        by_v.push(rnea.tau.iter().map(|&t| rules.dt(&mut b.g, t)).collect());
+    }
+    (by_q, by_v)
+}
+
+/// `fn inverse_dynamics_derivatives_into`, or nothing above [`LIMIT`].
+pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
+    let mut b = Builder::new(Graph::new());
+    let rnea = newton_euler(&mut b, s, joints, nq, nv);
+    let (by_q, by_v) = columns(&mut b, joints, &rnea);
+    let mut outputs = rnea.tau.clone();
+    outputs.extend(by_q.iter().flatten());
+    outputs.extend(by_v.iter().flatten());
+    let emitted = emit(&b.g, &outputs, &scalar());
+    if std::env::var_os("JOINT_DERIVE_OPS").is_some() {
+        eprintln!("inverse_dynamics_derivatives_into: {} operations (nv {nv})", emitted.ops);
+    }
+    if emitted.ops > LIMIT {
+        return None;
+    }
+    let used = used_names(&b.g, &emitted);
+    let binds = bindings(&b, &used);
+    let (qp, vp, ap) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, "a", nv));
+    let (body, ops) = (emitted.body, emitted.ops);
+    let mut out = emitted.outputs.into_iter();
+    let tau: Vec<TokenStream> = out.by_ref().take(nv).collect();
+    let matrix = |out: &mut std::vec::IntoIter<TokenStream>| -> Vec<TokenStream> {
+        (0..nv)
+            .map(|_| {
+                let column: Vec<TokenStream> = out.by_ref().take(nv).collect();
+                quote!([#(#column),*])
+            })
+            .collect()
+    };
+    let (dq, dv) = (matrix(&mut out), matrix(&mut out));
+    let doc = format!(
+        " The inverse dynamics' derivatives written out (forward-mode on the Newton–Euler graph): {ops} operations."
+    );
+    let (k, nb) = (krate(), s.bodies.len());
+    let p = quote!(#k::__private);
+    Some(quote! {
+        #[doc = #doc]
+        #[inline]
+        fn inverse_dynamics_derivatives_into(
+            &self,
+            geometry: &#k::tree::TreeGeometry<#nb>,
+            q: &[f64; #nq],
+            v: &[f64; #nv],
+            vdot: &[f64; #nv],
+            out: &mut #k::tree::InverseDerivatives<#nv>,
+        ) -> bool {
+            let #qp = *q;
+            let #vp = *v;
+            let #ap = *vdot;
+            #(#binds)*
+            #body
+            out.tau = #p::SVector::from_data(#p::ArrayStorage([[#(#tau),*]]));
+            out.d_q = #p::SMatrix::from_data(#p::ArrayStorage([#(#dq),*]));
+            out.d_v = #p::SMatrix::from_data(#p::ArrayStorage([#(#dv),*]));
+            true
+        }
+    })
+}

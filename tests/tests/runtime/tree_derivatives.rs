@@ -1,0 +1,245 @@
+//! The dynamics' exact first derivatives (`#[scene(second_order)]` in
+//! relative coordinates): every joint kind a tree has, armature and damping,
+//! against central differences of the library's own inverse and forward
+//! dynamics along the tangent space (`Tree::displace`); the robots from
+//! their files against Pinocchio's analytical derivatives
+//! (`tests/data/robots/derivatives.py` wrote them).
+
+use joint_runtime::Scene;
+use joint_runtime::nalgebra::{SMatrix, SVector};
+use joint_runtime::tree::{ForwardDerivatives, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
+
+use super::tree::quaternion;
+
+/// Every kind of tree joint at once: a floating drone (free) with a
+/// gripper on a ball joint (damped) and a finger on a hinge (armature,
+/// damping); a cylindrical shaft from the ground with a wheel, a universal
+/// arm, a slider on the arm and a plate welded to it; a puck on a planar
+/// joint.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative, second_order)]
+#[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
+#[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
+#[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
+#[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
+#[body(wheel, mass = 0.4, inertia = [0.008, 0.005, 0.005, 0.001, 0.0, 0.0])]
+#[body(arm, mass = 0.7, inertia = [0.03, 0.02, 0.012])]
+#[body(block, mass = 0.3, inertia = [0.002, 0.003, 0.004])]
+#[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
+#[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
+#[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
+#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
+#[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
+#[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
+#[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
+#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
+#[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
+#[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
+struct Menagerie;
+
+/// A small deterministic generator (xorshift), uniform in `[-1, 1]`.
+struct Draw(u64);
+
+impl Draw {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
+/// A random state of `sim`'s tree: angles and slides in `[-1, 1]`, random
+/// unit quaternions, velocities in `[-2, 2]`.
+fn random_state<S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>(
+    sim: &TreeSimulation<'_, S, NB, NQ, NV>,
+    draw: &mut Draw,
+) -> TreeState<NQ, NV> {
+    let mut q = SVector::<f64, NQ>::from_fn(|_, _| draw.next());
+    let mut at = 0;
+    for j in sim.tree().joints() {
+        if let Some(p) = j.kind.quaternion() {
+            let [a, b, c, d] = quaternion(draw.next(), draw.next(), draw.next(), draw.next());
+            q.fixed_rows_mut::<4>(at + p).copy_from_slice(&[a, b, c, d]);
+        }
+        at += j.kind.coordinates();
+    }
+    TreeState { q, v: SVector::from_fn(|_, _| 2.0 * draw.next()), t: 0.0 }
+}
+
+/// Central differences of `f` along each tangent direction of `q` and each
+/// velocity: `(∂f/∂q, ∂f/∂v)`.
+fn differences<S, const NB: usize, const NQ: usize, const NV: usize>(
+    sim: &TreeSimulation<'_, S, NB, NQ, NV>,
+    state: &TreeState<NQ, NV>,
+    f: &dyn Fn(&TreeState<NQ, NV>) -> SVector<f64, NV>,
+) -> (SMatrix<f64, NV, NV>, SMatrix<f64, NV, NV>)
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let h = 1e-6;
+    let mut d_q = SMatrix::<f64, NV, NV>::zeros();
+    let mut d_v = SMatrix::<f64, NV, NV>::zeros();
+    for i in 0..NV {
+        let e = SVector::<f64, NV>::from_fn(|r, _| if r == i { h } else { 0.0 });
+        let at = |sign: f64| TreeState { q: sim.tree().displaced(&state.q, &(e * sign)), ..*state };
+        d_q.set_column(i, &((f(&at(1.0)) - f(&at(-1.0))) / (2.0 * h)));
+        let at = |sign: f64| TreeState { v: state.v + e * sign, ..*state };
+        d_v.set_column(i, &((f(&at(1.0)) - f(&at(-1.0))) / (2.0 * h)));
+    }
+    (d_q, d_v)
+}
+
+/// The largest difference over the largest entry of `theirs`.
+fn relative<const R: usize, const C: usize>(ours: &SMatrix<f64, R, C>, theirs: &SMatrix<f64, R, C>) -> f64 {
+    (ours - theirs).amax() / theirs.amax().max(f64::MIN_POSITIVE)
+}
+
+/// Both derivatives of `scene` at `samples` random states against central
+/// differences of the library's own dynamics; returns the worst of each.
+fn against_differences<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, samples: usize) -> [f64; 6]
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let sim = TreeSimulation::new(scene).unwrap();
+    let mut draw = Draw(0x9e37_79b9_7f4a_7c15);
+    let (mut inverse, mut forward) = (InverseDerivatives::<NV>::zeros(), ForwardDerivatives::<NV>::zeros());
+    let mut worst = [0.0_f64; 6];
+    for _ in 0..samples {
+        let state = random_state(&sim, &mut draw);
+        let a = SVector::<f64, NV>::from_fn(|_, _| draw.next());
+        let tau = SVector::<f64, NV>::from_fn(|_, _| draw.next());
+        sim.inverse_dynamics_derivatives(&state, &a, &mut inverse).unwrap();
+        assert!((inverse.tau - sim.inverse_dynamics(&state, &a)).amax() < 1e-12 * (1.0 + inverse.tau.amax()));
+        let (d_q, d_v) = differences(&sim, &state, &|s| sim.inverse_dynamics(s, &a));
+        worst[0] = worst[0].max(relative(&inverse.d_q, &d_q));
+        worst[1] = worst[1].max(relative(&inverse.d_v, &d_v));
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        sim.mass_matrix_into(&state.q, &mut m);
+        assert_eq!(inverse.d_a, m);
+
+        sim.forward_dynamics_derivatives(&state, &tau, &mut inverse, &mut forward).unwrap();
+        let (d_q, d_v) = differences(&sim, &state, &|s| sim.tree_dynamics(s, &tau).unwrap());
+        worst[2] = worst[2].max(relative(&forward.d_q, &d_q));
+        worst[3] = worst[3].max(relative(&forward.d_v, &d_v));
+        worst[4] = worst[4].max((forward.d_tau * m - SMatrix::<f64, NV, NV>::identity()).amax());
+        worst[5] = worst[5].max(relative(&forward.qdd, &sim.tree_dynamics(&state, &tau).unwrap()));
+    }
+    worst
+}
+
+#[test]
+fn every_joint_kind_against_differences() {
+    let worst = against_differences(&Menagerie, 20);
+    eprintln!(
+        "every kind: ∂τ/∂q {:.1e}, ∂τ/∂v {:.1e}, ∂q̈/∂q {:.1e}, ∂q̈/∂v {:.1e} of the largest entry; M⁻¹ M − I {:.1e}",
+        worst[0], worst[1], worst[2], worst[3], worst[4]
+    );
+    for (what, w) in ["∂τ/∂q", "∂τ/∂v", "∂q̈/∂q", "∂q̈/∂v"].iter().zip(worst) {
+        assert!(w < 1e-7, "{what} off its central differences by {w:e} of the largest entry");
+    }
+    assert!(worst[4] < 1e-10 && worst[5] == 0.0);
+}
+
+/// A pendulum without `second_order` has none: the call says so.
+#[test]
+fn a_scene_that_did_not_ask_has_none() {
+    #[derive(Scene)]
+    #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    #[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
+    #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    struct Plain;
+
+    let sim = TreeSimulation::new(&Plain).unwrap();
+    let state = TreeState { q: SVector::from([0.3]), v: SVector::from([0.1]), t: 0.0 };
+    let mut d = InverseDerivatives::zeros();
+    let err = sim.inverse_dynamics_derivatives(&state, &SVector::zeros(), &mut d).unwrap_err();
+    assert_eq!(err, TreeError::NotDerived);
+    assert!(err.to_string().contains("`second_order`"));
+    let bad = TreeState { q: SVector::from([f64::NAN]), ..state };
+    assert_eq!(sim.inverse_dynamics_derivatives(&bad, &SVector::zeros(), &mut d), Err(TreeError::NonFinite));
+}
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf", second_order)]
+struct Ur5;
+
+/// The fingers' coupling read as an independent joint, as Pinocchio's
+/// reader does by default (its values are for that model).
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf", mimic = independent, second_order)]
+struct Panda;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base, second_order)]
+struct Solo12Floating;
+
+/// Every sample of `robot`'s Pinocchio derivatives: `τ`, `∂τ/∂q`, `∂τ/∂v`
+/// (`computeRNEADerivatives`) and `q̈`, `∂q̈/∂q`, `∂q̈/∂v`, `M⁻¹`
+/// (`computeABADerivatives`); returns the worst of each, relative to each
+/// matrix's largest entry.
+fn against_pinocchio<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str) -> [f64; 8]
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    use super::urdf::{joint_map, numbers, our_q, our_v, reference};
+    let data = reference(&format!("{robot}_derivatives"));
+    let sim = TreeSimulation::new(scene).unwrap();
+    let map = joint_map(&sim, &data);
+    let mut index = Vec::with_capacity(NV);
+    for &(kind, _, theirs) in &map {
+        index.extend((0..kind.freedoms()).map(|i| theirs + i));
+    }
+    let matrix = |value: &serde_json::Value| {
+        let rows: Vec<Vec<f64>> = value.as_array().unwrap().iter().map(numbers).collect();
+        SMatrix::<f64, NV, NV>::from_fn(|r, c| rows[index[r]][index[c]])
+    };
+    let (mut inverse, mut forward) = (InverseDerivatives::<NV>::zeros(), ForwardDerivatives::<NV>::zeros());
+    let (mut worst, mut residual) = ([0.0_f64; 8], 0.0_f64);
+    for s in data["samples"].as_array().unwrap() {
+        let v = |key: &str| our_v::<NV>(&map, &numbers(&s[key]));
+        let state = TreeState::<NQ, NV> { q: our_q(&map, &numbers(&s["q"])), v: v("v"), t: 0.0 };
+        sim.forward_dynamics_derivatives(&state, &v("tau"), &mut inverse, &mut forward).unwrap();
+        worst[1] = worst[1].max(relative(&forward.qdd, &v("aba")));
+        let ours = [forward.d_q, forward.d_v, forward.d_tau];
+        for (w, (o, key)) in worst[5..].iter_mut().zip(ours.iter().zip(["daba_dq", "daba_dv", "minv"])) {
+            *w = w.max(relative(o, &matrix(&s[key])));
+        }
+        sim.inverse_dynamics_derivatives(&state, &v("a"), &mut inverse).unwrap();
+        worst[0] = worst[0].max(relative(&inverse.tau, &v("rnea")));
+        worst[2] = worst[2].max(relative(&inverse.d_q, &matrix(&s["drnea_dq"])));
+        worst[3] = worst[3].max(relative(&inverse.d_v, &matrix(&s["drnea_dv"])));
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        sim.mass_matrix_into(&state.q, &mut m);
+        worst[4] = worst[4].max(relative(&inverse.d_a, &m));
+        residual = residual.max((matrix(&s["minv"]) * m - SMatrix::<f64, NV, NV>::identity()).amax());
+    }
+    eprintln!(
+        "{robot}: τ {:.1e}, q̈ {:.1e}, ∂τ/∂q {:.1e}, ∂τ/∂v {:.1e}, ∂q̈/∂q {:.1e}, ∂q̈/∂v {:.1e}, M⁻¹ {:.1e} of the \
+         largest entry (their M⁻¹ M − I {residual:.1e})",
+        worst[0], worst[1], worst[2], worst[3], worst[5], worst[6], worst[7]
+    );
+    // What goes through M⁻¹ is as good as the reference's own inverse
+    // (the floating Solo12's light legs on a heavy base: 5e-13).
+    let bound = |i: usize| if i < 5 { 1e-12 } else { 1e-12_f64.max(4.0 * residual) };
+    let names = ["τ", "q̈", "∂τ/∂q", "∂τ/∂v", "M", "∂q̈/∂q", "∂q̈/∂v", "M⁻¹"];
+    for (i, (what, w)) in names.iter().zip(worst).enumerate() {
+        assert!(w < bound(i), "{robot}: {what} off Pinocchio's by {w:e} of its largest entry");
+    }
+    worst
+}
+
+#[test]
+fn ur5_against_pinocchio() {
+    against_pinocchio(&Ur5, "ur5");
+}
+
+#[test]
+fn panda_against_pinocchio() {
+    against_pinocchio(&Panda, "panda");
+}
+
+#[test]
+fn solo12_floating_base_against_pinocchio() {
+    against_pinocchio(&Solo12Floating, "solo12_floating");
+}
