@@ -1,7 +1,12 @@
 //! Robots read from their URDF files (`tests/data/robots`), timed per call
 //! as Pinocchio and MuJoCo are timed in the project's peer notes: forward
 //! dynamics (`aba_ns`), the mass matrix (`crba_ns`), inverse dynamics
-//! (`rnea_ns`) and an RK4 step at h = 1 ms (`rk4_us`) at one fixed state,
+//! (`rnea_ns`), their exact first derivatives (`aba_derivatives_ns`:
+//! `q̈`, `∂q̈/∂q`, `∂q̈/∂v`, `M⁻¹`; `rnea_derivatives_ns`: `τ`, `∂τ/∂q`,
+//! `∂τ/∂v`, `M`), `linearise` on them (`linearise_us`), one step's exact
+//! Jacobian (`rk4_jacobian_us`, `euler_jacobian_us`; NaN for a floating
+//! base, which has none yet) beside the differenced RK4 one
+//! (`transition_us`), and an RK4 step at h = 1 ms (`rk4_us`) at one fixed state,
 //! each the median of 15 calibrated batches (`report::variants::median_ns`);
 //! one JSON line.
 //!
@@ -14,22 +19,24 @@ use std::hint::black_box;
 use joint_examples::report::variants::median_ns;
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
-use joint_runtime::tree::{TreeScene, TreeSimulation, TreeState};
+use joint_runtime::tree::{
+    ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeScene, TreeSimulation, TreeState,
+};
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/ur5.urdf")]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/ur5.urdf", second_order)]
 struct Ur5;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent, second_order)]
 struct Panda;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf")]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", second_order)]
 struct Solo12;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base, second_order)]
 struct Solo12Floating;
 
 fn bench<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str)
@@ -73,6 +80,43 @@ where
     let rnea = median_ns(1, || {
         black_box(sim.inverse_dynamics(black_box(&start), black_box(&tau)));
     });
+    let (mut inverse, mut forward) = (InverseDerivatives::zeros(), ForwardDerivatives::zeros());
+    let aba_derivatives = median_ns(1, || {
+        black_box(
+            sim.forward_dynamics_derivatives(black_box(&start), black_box(&tau), &mut inverse, &mut forward).ok(),
+        );
+        black_box(&forward);
+    });
+    let rnea_derivatives = median_ns(1, || {
+        black_box(sim.inverse_dynamics_derivatives(black_box(&start), black_box(&tau), &mut inverse).ok());
+        black_box(&inverse);
+    });
+    // One step's Jacobian: exact (RK4, semi-implicit Euler; trees without
+    // quaternions), and by central differences (`transition`).
+    let (mut work, mut jacobian) = (StepWork::new(), StepJacobian::zeros());
+    let mut exact_step = |euler: bool| {
+        let mut s = start;
+        if sim.rk4_step_jacobian(&mut s, 1e-3, &tau, &mut work, &mut jacobian).is_err() {
+            return f64::NAN;
+        }
+        median_ns(1, || {
+            let mut s = start;
+            let done = if euler {
+                sim.euler_step_jacobian(&mut s, 1e-3, &tau, &mut work, &mut jacobian)
+            } else {
+                sim.rk4_step_jacobian(&mut s, 1e-3, &tau, &mut work, &mut jacobian)
+            };
+            black_box((done.ok(), &jacobian));
+        }) / 1e3
+    };
+    let (rk4_jacobian, euler_jacobian) = (exact_step(false), exact_step(true));
+    let transition = median_ns(1, || {
+        let mut s = start;
+        black_box(sim.transition(&mut s, 1e-3, &tau).ok());
+    }) / 1e3;
+    let linearise = median_ns(1, || {
+        black_box(sim.linearise(black_box(&start), &tau).ok());
+    }) / 1e3;
     let mut steps = 0_usize;
     let rk4 = median_ns(1, || {
         if steps.is_multiple_of(1000) {
@@ -84,7 +128,10 @@ where
     let end: TreeState<NQ, NV> = state;
     println!(
         "{{\"peer\":\"joint\",\"robot\":\"{robot}\",\"nq\":{NQ},\"nv\":{NV},\"aba_ns\":{aba:.1},\"crba_ns\":{crba:.1},\
-         \"rnea_ns\":{rnea:.1},\"rk4_us\":{:.4},\"q0\":{:.6}}}",
+         \"rnea_ns\":{rnea:.1},\
+         \"aba_derivatives_ns\":{aba_derivatives:.1},\"rnea_derivatives_ns\":{rnea_derivatives:.1},\
+         \"linearise_us\":{linearise:.3},\"rk4_jacobian_us\":{rk4_jacobian:.3},\"euler_jacobian_us\":{euler_jacobian:.3},\
+         \"transition_us\":{transition:.3},\"rk4_us\":{:.4},\"q0\":{:.6}}}",
         rk4 / 1e3,
         end.q[0]
     );

@@ -136,6 +136,7 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
     let (k, nb) = (krate(), s.bodies.len());
     let p = quote!(#k::__private);
     Some(quote! {
+        const DERIVATIVES: bool = true;
         #[doc = #doc]
         #[inline]
         fn inverse_dynamics_derivatives_into(

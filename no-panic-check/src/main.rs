@@ -26,6 +26,9 @@
 //!   the free shaft's `integrate` with every method ([`scenes`]). The integrator,
 //!   stabilisation, projection and springs are run-time options, so every one of
 //!   them is inside the checked `step`.
+//! - A three-hinge arm in relative coordinates: the exact derivatives of its
+//!   inverse and forward dynamics and its RK4 and semi-implicit Euler step
+//!   Jacobians ([`trees`]).
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`
 //!   and `f32 × 8`, and over packed states) for a universal joint ([`batch`]).
 //!
@@ -72,6 +75,7 @@ mod guard;
 mod batch;
 mod joints;
 mod scenes;
+mod trees;
 
 /// A function that can panic (the index may be out of range): with the feature
 /// `canary` the check must fail, naming it.
@@ -84,7 +88,7 @@ mod canary {
 
 fn main() {
     let joints = joints::keep();
-    let scenes = scenes::driven::keep() + scenes::free::keep() + scenes::block::keep();
+    let scenes = scenes::driven::keep() + scenes::free::keep() + scenes::block::keep() + trees::keep();
     let batches = batch::keep();
     #[cfg(feature = "canary")]
     let scenes = scenes + canary::keep();

@@ -13,8 +13,18 @@ use std::cell::Cell;
 use joint_runtime::analysis::{Analyses, AssemblyOptions};
 use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, Tolerance};
-use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
+use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
+use joint_runtime::tree::{ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeSimulation};
 use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
+
+/// A double pendulum in relative coordinates with its derivatives.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative, second_order)]
+#[body(upper, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+#[body(lower, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+#[joint(shoulder = revolute(ground, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(elbow = revolute(upper, lower), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+struct Pendulum;
 
 thread_local! {
     static COUNT: Cell<usize> = const { Cell::new(0) };
@@ -193,6 +203,26 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     });
     assert_eq!(n, 0, "a step or integrate allocated");
     assert!(ok, "the steps ran");
+    // A tree's exact derivatives and step Jacobians: fixed-size outputs,
+    // nothing allocated per call.
+    let tree = TreeSimulation::new(&Pendulum).expect("a valid tree");
+    let mut start: PendulumTreeState = tree.tree().zero_state();
+    start.q[0] = 0.3;
+    start.v[1] = -0.7;
+    let tau = SVector::from([0.1, -0.2]);
+    let (mut inverse, mut forward) = (InverseDerivatives::zeros(), ForwardDerivatives::zeros());
+    let (mut work, mut jacobian) = (StepWork::new(), StepJacobian::zeros());
+    let mut ok = false;
+    let n = allocations(|| {
+        let a = tree.inverse_dynamics_derivatives(&start, &tau, &mut inverse).is_ok();
+        let b = tree.forward_dynamics_derivatives(&start, &tau, &mut inverse, &mut forward).is_ok();
+        let mut end = start;
+        let c = tree.rk4_step_jacobian(&mut end, 1e-3, &tau, &mut work, &mut jacobian).is_ok();
+        let d = tree.euler_step_jacobian(&mut end, 1e-3, &tau, &mut work, &mut jacobian).is_ok();
+        ok = a && b && c && d;
+    });
+    assert_eq!(n, 0, "a tree's derivatives allocated");
+    assert!(ok, "the derivatives ran");
     // The counter counts: a vector allocates.
     assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
 }

@@ -181,6 +181,18 @@ impl<
         vdot: &SVector<f64, NV>,
         out: &mut InverseDerivatives<NV>,
     ) -> Result<(), TreeError> {
+        self.derivatives_at(state, vdot, out)?;
+        self.mass_matrix_into(&state.q, &mut out.d_a);
+        Ok(())
+    }
+
+    /// `τ`, `∂τ/∂q`, `∂τ/∂v` into `out` (its `d_a` untouched).
+    fn derivatives_at(
+        &self,
+        state: &TreeState<NQ, NV>,
+        vdot: &SVector<f64, NV>,
+        out: &mut InverseDerivatives<NV>,
+    ) -> Result<(), TreeError> {
         if !(state.q.iter().chain(state.v.iter()).chain(vdot.iter()).all(|x| x.is_finite())) {
             return Err(TreeError::NonFinite);
         }
@@ -188,14 +200,13 @@ impl<
         if !self.scene.inverse_dynamics_derivatives_into(self.tree().geometry(), q, v, a, out) {
             return Err(TreeError::NotDerived);
         }
-        self.mass_matrix_into(&state.q, &mut out.d_a);
         Ok(())
     }
 
     /// The forward dynamics' first derivatives at `state` under joint forces
     /// `tau` into `out` ([`ForwardDerivatives`]: `q̈`, `∂q̈/∂q`, `∂q̈/∂v`,
-    /// `M⁻¹`), exact: `q̈` from the articulated-body algorithm, then
-    /// `∂q̈/∂x = −M⁻¹ ∂τ/∂x` at `v̇ = q̈` with `M⁻¹` by a Cholesky factor.
+    /// `M⁻¹`), exact: `M⁻¹` by a Cholesky factor of the mass matrix,
+    /// `q̈ = M⁻¹ (τ − b(q, v))`, then `∂q̈/∂x = −M⁻¹ ∂τ/∂x` at `v̇ = q̈`.
     /// `work` holds the inverse dynamics' derivatives on the way (the
     /// caller's, so that nothing of the tree's size lives on the stack
     /// twice). Allocation-free.
@@ -212,13 +223,21 @@ impl<
         work: &mut InverseDerivatives<NV>,
         out: &mut ForwardDerivatives<NV>,
     ) -> Result<(), TreeError> {
-        if !tau.iter().all(|x| x.is_finite()) {
+        if !S::DERIVATIVES {
+            return Err(TreeError::NotDerived);
+        }
+        let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
+        if !numbers.copied().all(f64::is_finite) {
             return Err(TreeError::NonFinite);
         }
-        out.qdd = self.tree_dynamics(state, tau)?;
-        self.inverse_dynamics_derivatives(state, &out.qdd, work)?;
+        // q̈ = M⁻¹ (τ − b): the factor is wanted anyway, and the bias is one
+        // Newton–Euler pass, cheaper than the articulated-body algorithm.
+        self.mass_matrix_into(&state.q, &mut work.d_a);
         let joint = self.tree().joints.first().map_or("", |j| j.name);
         spd_inverse(&work.d_a, &mut out.d_tau).ok_or(TreeError::Singular { joint })?;
+        let bias = self.inverse_dynamics(state, &SVector::zeros());
+        out.d_tau.mul_to(&(tau - bias), &mut out.qdd);
+        self.derivatives_at(state, &out.qdd, work)?;
         out.d_tau.mul_to(&work.d_q, &mut out.d_q);
         out.d_tau.mul_to(&work.d_v, &mut out.d_v);
         out.d_q.neg_mut();

@@ -8,10 +8,14 @@
 //! `A = [[Λ(v), I], [A_q, A_v]]`: `Λ(v)` is the increments' own rate, exact
 //! (zero for angles and slides; `−[ω']×` for a quaternion turned by ω' in
 //! its own frame; for a free joint also `−[ω']× δ − [u]× δθ` for its
-//! offset); `A_q`, `A_v` are central differences of the forward dynamics
-//! (the springs' and the user's loads included), not the derive's exact
-//! second derivatives, which the absolute path's `second_order` gives.
-//! `B = [0; M⁻¹]`, exact (`v̇` is affine in the joint forces).
+//! offset); `A_q`, `A_v` are the forward dynamics' exact derivatives
+//! ([`forward_dynamics_derivatives`](super::TreeSimulation::forward_dynamics_derivatives))
+//! where the derive wrote them (`#[scene(second_order)]`) and the tree has
+//! no loops, springs or user loads; central differences of the forward
+//! dynamics otherwise (the springs' and the user's loads included).
+//! `B = [0; M⁻¹]`, exact (`v̇` is affine in the joint forces). The outputs
+//! are dense matrices (they allocate); the allocation-free form is
+//! `forward_dynamics_derivatives` itself, whose blocks these are.
 //!
 //! With loops (or a file's couplings) the accelerations are the
 //! constrained ones, `B` their columns (differences of an affine map), and
@@ -22,7 +26,9 @@
 
 use nalgebra::{DMatrix, SMatrix, SVector};
 
-use super::{TreeError, TreeJointKind, TreeScene, TreeSimulation, TreeState};
+use alloc::boxed::Box;
+
+use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeJointKind, TreeScene, TreeSimulation, TreeState};
 use crate::dynamics::{AppliedLoads, Linearisation};
 
 /// The central differences' step, scaled by `1 + |x|` of the coordinate or
@@ -74,6 +80,9 @@ impl<
         for i in 0..n {
             a[(i, n + i)] = 1.0;
         }
+        if S::DERIVATIVES && NC == 0 && !self.loaded() {
+            return self.exact(state, tau, a);
+        }
         for i in 0..n {
             let h = STEP * (1.0 + libm::fabs(state.v[i]));
             let dv = SVector::<f64, NV>::from_fn(|r, _| if r == i { h } else { 0.0 });
@@ -100,6 +109,26 @@ impl<
         if !a.iter().chain(b.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
         }
+        let basis = DMatrix::identity(2 * n, 2 * n);
+        Ok(Linearisation { a: a.clone(), b: b.clone(), basis, freedoms: n, full: a, full_b: b })
+    }
+
+    /// `A`'s lower blocks and `B` from the exact derivatives (`a` holds
+    /// the upper blocks).
+    fn exact(
+        &mut self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        mut a: DMatrix<f64>,
+    ) -> Result<Linearisation, TreeError> {
+        let n = NV;
+        let mut work = Box::new(InverseDerivatives::<NV>::zeros());
+        let mut d = Box::new(ForwardDerivatives::<NV>::zeros());
+        self.forward_dynamics_derivatives(state, tau, &mut work, &mut d)?;
+        a.view_mut((n, 0), (n, n)).copy_from(&d.d_q);
+        a.view_mut((n, n), (n, n)).copy_from(&d.d_v);
+        let mut b = DMatrix::<f64>::zeros(2 * n, n);
+        b.view_mut((n, 0), (n, n)).copy_from(&d.d_tau);
         let basis = DMatrix::identity(2 * n, 2 * n);
         Ok(Linearisation { a: a.clone(), b: b.clone(), basis, freedoms: n, full: a, full_b: b })
     }

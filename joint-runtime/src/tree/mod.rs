@@ -93,11 +93,13 @@ mod kinematics;
 mod linear;
 mod simulation;
 mod spatial;
+mod step_jacobian;
 mod topology;
 
 pub use derivatives::{ForwardDerivatives, InverseDerivatives};
 pub use dynamics::TreeEnergy;
 pub use simulation::TreeSimulation;
+pub use step_jacobian::{StepJacobian, StepWork};
 pub use topology::{Tree, TreeError};
 
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -222,6 +224,9 @@ pub struct TreeJoint {
 pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0> {
     /// The joints outside the tree, each with its block of the closure rows.
     const CLOSURES: &'static [RowBlock] = &[];
+    /// Whether the derive wrote the dynamics' derivatives
+    /// ([`inverse_dynamics_derivatives_into`](Self::inverse_dynamics_derivatives_into)).
+    const DERIVATIVES: bool = false;
     /// The tree joints, parents before children (joint `k` is the `k`-th
     /// joint reached from the ground).
     fn tree_joints(&self) -> [TreeJoint; NB];

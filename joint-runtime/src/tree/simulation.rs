@@ -204,6 +204,12 @@ impl<
         Ok(self)
     }
 
+    /// Whether springs or the user's loads act (beyond the tree's own
+    /// dynamics: gravity, armature, damping).
+    pub(super) fn loaded(&self) -> bool {
+        !(self.springs.is_empty() && L::NONE)
+    }
+
     /// The springs' and the user's loads as joint forces (zero without
     /// either): their wrenches on the bodies carried to the root.
     fn applied_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {

@@ -85,6 +85,10 @@ pub enum TreeError {
     /// ask for them (`#[scene(second_order)]`), or its tree is past the
     /// limit of the derive's straight line.
     NotDerived,
+    /// A step's exact Jacobian asked of a tree whose coordinates are not
+    /// its freedoms (a spherical or free joint's quaternion), or with
+    /// springs or user loads: `TreeSimulation::transition` differences it.
+    NotEuclidean,
     /// The error-controlled step fell below round-off at `t`.
     StepTooSmall {
         /// The time reached.
@@ -132,6 +136,10 @@ impl fmt::Display for TreeError {
             TreeError::NotDerived => f.write_str(
                 "the scene has no generated derivatives of its dynamics: add `second_order` to its `#[scene(..)]` \
                  (trees past the derive's limit have none)",
+            ),
+            TreeError::NotEuclidean => f.write_str(
+                "the step's exact Jacobian covers trees whose coordinates are their freedoms, without springs or \
+                 loads; this one has a quaternion joint, springs or loads (`transition` differences its step)",
             ),
             TreeError::StepTooSmall { t, step } => {
                 write!(f, "the error-controlled step fell to {step:e} at t = {t}: the motion is too fast to follow")
