@@ -6,6 +6,7 @@ pub mod bricard;
 pub mod coordinates;
 pub mod double_cardan;
 pub mod four_bar;
+pub mod ilqr;
 pub mod panda;
 pub mod pendulum_chain;
 pub mod press;

@@ -109,9 +109,6 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
     outputs.extend(by_q.iter().flatten());
     outputs.extend(by_v.iter().flatten());
     let emitted = emit(&b.g, &outputs, &scalar());
-    if std::env::var_os("JOINT_DERIVE_OPS").is_some() {
-        eprintln!("inverse_dynamics_derivatives_into: {} operations (nv {nv})", emitted.ops);
-    }
     if emitted.ops > LIMIT {
         return None;
     }
