@@ -105,7 +105,7 @@ fn cost<const NV: usize>(p: &Problem<NV>, states: &[TreeState<NV, NV>], controls
 /// A tree scene's RK4 plant.
 struct Plant<'s, 'a, S, const NB: usize, const NV: usize> {
     sim: &'s mut TreeSimulation<'a, S, NB, NV, NV>,
-    work: StepWork<NV>,
+    work: StepWork<NV, NV>,
     jacobian: StepJacobian<NV>,
 }
 

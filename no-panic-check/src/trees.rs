@@ -42,7 +42,7 @@ checked! {
         state: &mut State,
         h: f64,
         tau: &SVector<f64, 3>,
-        work: &mut StepWork<3>,
+        work: &mut StepWork<3, 3>,
         out: &mut StepJacobian<3>,
     ) -> Result<(), TreeError> {
         sim.rk4_step_jacobian(state, h, tau, work, out)
@@ -52,7 +52,7 @@ checked! {
         state: &mut State,
         h: f64,
         tau: &SVector<f64, 3>,
-        work: &mut StepWork<3>,
+        work: &mut StepWork<3, 3>,
         out: &mut StepJacobian<3>,
     ) -> Result<(), TreeError> {
         sim.euler_step_jacobian(state, h, tau, work, out)

@@ -94,6 +94,7 @@ mod linear;
 mod simulation;
 mod spatial;
 mod step_jacobian;
+mod tangent;
 mod topology;
 
 pub use derivatives::{ForwardDerivatives, InverseDerivatives};

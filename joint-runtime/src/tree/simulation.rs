@@ -9,6 +9,7 @@ use core::cell::Cell;
 
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
+use super::tangent::{get, put_quaternion, put_three, quaternion_at, set, three, unit_at};
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
 use crate::SystemState;
@@ -684,17 +685,15 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for (k, j) in self.joints.iter().enumerate() {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
-                TreeJointKind::Fixed => {}
-                TreeJointKind::Revolute | TreeJointKind::Prismatic => out[qa] = v[va],
-                TreeJointKind::Universal | TreeJointKind::Cylindrical | TreeJointKind::Planar => {
-                    let n = j.kind.freedoms();
-                    out.rows_mut(qa, n).copy_from(&v.rows(va, n));
-                }
                 TreeJointKind::Spherical => spin(q, v, (qa, va), &mut out),
                 TreeJointKind::Free => {
-                    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa + 3).into_owned());
-                    out.fixed_rows_mut::<3>(qa).copy_from(&(p * v.fixed_rows::<3>(va)));
+                    put_three(&mut out, qa, &(unit_at(q, qa + 3) * three(v, va)));
                     spin(q, v, (qa + 3, va + 3), &mut out);
+                }
+                kind => {
+                    for i in 0..kind.freedoms() {
+                        set(&mut out, qa + i, get(v, va + i));
+                    }
                 }
             }
         }
@@ -708,20 +707,16 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         for (k, j) in self.joints.iter().enumerate() {
             let (qa, va) = (self.q_at[k], self.v_at[k]);
             match j.kind {
-                TreeJointKind::Fixed => {}
-                TreeJointKind::Revolute | TreeJointKind::Prismatic => q[qa] += delta[va],
-                TreeJointKind::Universal | TreeJointKind::Cylindrical | TreeJointKind::Planar => {
-                    let n = j.kind.freedoms();
-                    let mut at = q.rows_mut(qa, n);
-                    at += delta.rows(va, n);
-                }
                 TreeJointKind::Spherical => turn(q, delta, (qa, va)),
                 TreeJointKind::Free => {
-                    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa + 3).into_owned());
-                    let moved = p * delta.fixed_rows::<3>(va);
-                    let mut at = q.fixed_rows_mut::<3>(qa);
-                    at += moved;
+                    let moved = three(q, qa) + unit_at(q, qa + 3) * three(delta, va);
+                    put_three(q, qa, &moved);
                     turn(q, delta, (qa + 3, va + 3));
+                }
+                kind => {
+                    for i in 0..kind.freedoms() {
+                        set(q, qa + i, get(q, qa + i) + get(delta, va + i));
+                    }
                 }
             }
         }
@@ -766,10 +761,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     pub fn normalise(&self, q: &mut SVector<f64, NQ>) {
         for (k, j) in self.joints.iter().enumerate() {
             if let Some(at) = j.kind.quaternion() {
-                let mut p = q.fixed_rows_mut::<4>(self.q_at[k] + at);
+                let at = self.q_at[k] + at;
+                let p = quaternion_at(q, at);
                 let n = p.norm();
                 if n > 0.0 {
-                    p /= n;
+                    put_quaternion(q, at, &(p / n));
                 }
             }
         }
@@ -783,10 +779,8 @@ fn spin<const NQ: usize, const NV: usize>(
     (qa, va): (usize, usize),
     out: &mut SVector<f64, NQ>,
 ) {
-    let p = Quaternion::new(q[qa], q[qa + 1], q[qa + 2], q[qa + 3]);
-    let w = Quaternion::new(0.0, v[va], v[va + 1], v[va + 2]);
-    let d = p * w * 0.5;
-    out.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+    let d = quaternion_at(q, qa) * Quaternion::from_imag(three(v, va)) * 0.5;
+    put_quaternion(out, qa, &d);
 }
 
 /// The quaternion at `q[qa..]` turned by `δ[va..]` in its own frame: `p ⊗ exp(δθ / 2)`.
@@ -795,10 +789,8 @@ fn turn<const NQ: usize, const NV: usize>(
     delta: &SVector<f64, NV>,
     (qa, va): (usize, usize),
 ) {
-    let p = super::kinematics::unit(&q.fixed_rows::<4>(qa).into_owned());
-    let turn = UnitQuaternion::from_scaled_axis(delta.fixed_rows::<3>(va).into_owned());
-    let d = (p * turn).into_inner();
-    q.fixed_rows_mut::<4>(qa).copy_from(&nalgebra::Vector4::new(d.w, d.i, d.j, d.k));
+    let d = (unit_at(q, qa) * UnitQuaternion::from_scaled_axis(three(delta, va))).into_inner();
+    put_quaternion(q, qa, &d);
 }
 
 /// The closing joint whose rows hold closure row `row`.

@@ -10,16 +10,25 @@
 //! [`forward_dynamics_derivatives`](super::TreeSimulation::forward_dynamics_derivatives),
 //! and a stage's state `x + c h k` carries `I + c h ∂k/∂x` forward: four
 //! derivative evaluations for RK4, one for the semi-implicit Euler step
-//! (MuJoCo's default: `v₁ = v + h q̈`, `q₁ = q + h v₁`). Exact for trees
-//! whose coordinates are their freedoms (revolute, prismatic, cylindrical,
-//! planar, universal and fixed joints: `q̇ = v`, what fixed-base arms are);
-//! a tree with a spherical or free joint (whose step renormalises its
-//! quaternions) gets [`TreeError::NotEuclidean`], and
+//! (MuJoCo's default: `v₁ = v + h q̈`, `q₁ = q ⊕ h v₁`).
+//!
+//! Coordinates and their changes are in the tree's increments at both ends
+//! ([`Tree::displace`](super::Tree::displace),
+//! [`Tree::difference`](super::Tree::difference)): `q₀ ⊕ δq₀` at the start,
+//! `q₁ ⊕ δq₁` at the end. RK4 moves a quaternion as its four numbers
+//! (`ṗ = ½ p ⊗ (0, ω')`) and renormalises it after the step, and the chain
+//! rule follows it there (`tangent.rs`: the increments' map to the
+//! coordinates and back, the rates' and the normalisation's derivatives);
+//! the semi-implicit Euler step turns it by `exp(h ω₁)`, whose derivative
+//! is the rotation group's right Jacobian. A tree with springs or user
+//! loads gets [`TreeError::Loaded`] (the tree's own dynamics only; trees
+//! with loops have no such step), and
 //! [`transition`](super::TreeSimulation::transition) differences its step.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
+use super::tangent::three;
+use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeJointKind, TreeScene, TreeSimulation, TreeState};
 
 type Block<const NV: usize> = SMatrix<f64, NV, NV>;
 
@@ -63,29 +72,36 @@ impl<const NV: usize> StepJacobian<NV> {
         };
         block.get((r, c)).copied().unwrap_or(0.0)
     }
+}
 
-    /// `self += w · rate` (a stage's rate derivative into the sum).
-    fn add_scaled(&mut self, w: f64, rate: &StepJacobian<NV>) {
-        let pairs = [
-            (&mut self.q_q, &rate.q_q),
-            (&mut self.q_v, &rate.q_v),
-            (&mut self.q_tau, &rate.q_tau),
-            (&mut self.v_q, &rate.v_q),
-            (&mut self.v_v, &rate.v_v),
-            (&mut self.v_tau, &rate.v_tau),
-        ];
-        for (a, b) in pairs {
-            a.zip_apply(b, |x, y| *x += w * y);
+/// A stage's derivative with respect to the step's inputs: its coordinates
+/// (`NQ` rows) and velocities (`NV` rows) against the start's increments,
+/// velocities and the joint forces (`NV` columns each).
+#[derive(Clone, Copy, Debug)]
+struct Chain<const NQ: usize, const NV: usize> {
+    q: [SMatrix<f64, NQ, NV>; 3],
+    v: [SMatrix<f64, NV, NV>; 3],
+}
+
+impl<const NQ: usize, const NV: usize> Chain<NQ, NV> {
+    fn zeros() -> Self {
+        Chain { q: [SMatrix::zeros(); 3], v: [SMatrix::zeros(); 3] }
+    }
+
+    /// `self = base + c · rate`.
+    fn set(&mut self, base: &Self, c: f64, rate: &Self) {
+        for g in 0..3 {
+            self.q[g] = base.q[g] + rate.q[g] * c;
+            self.v[g] = base.v[g] + rate.v[g] * c;
         }
     }
 
-    /// `I + c · rate` on the state's columns, `c · rate` on `τ`'s: a
-    /// stage's state `x + c k` differentiated.
-    fn stage(&mut self, c: f64, rate: &StepJacobian<NV>) {
-        *self = StepJacobian::zeros();
-        self.q_q.fill_with_identity();
-        self.v_v.fill_with_identity();
-        self.add_scaled(c, rate);
+    /// `self += c · rate`.
+    fn add(&mut self, c: f64, rate: &Self) {
+        for g in 0..3 {
+            self.q[g] += rate.q[g] * c;
+            self.v[g] += rate.v[g] * c;
+        }
     }
 }
 
@@ -94,41 +110,64 @@ impl<const NV: usize> StepJacobian<NV> {
 /// controller makes them once and nothing of the tree's size is on the
 /// stack per call).
 #[derive(Clone, Copy, Debug)]
-pub struct StepWork<const NV: usize> {
+pub struct StepWork<const NQ: usize, const NV: usize> {
     inverse: InverseDerivatives<NV>,
     forward: ForwardDerivatives<NV>,
-    stage: StepJacobian<NV>,
-    rate: StepJacobian<NV>,
+    start: Chain<NQ, NV>,
+    stage: Chain<NQ, NV>,
+    rate: Chain<NQ, NV>,
+    sum: Chain<NQ, NV>,
 }
 
-impl<const NV: usize> StepWork<NV> {
+impl<const NQ: usize, const NV: usize> StepWork<NQ, NV> {
     /// Zeros, ready for any number of calls.
     pub fn new() -> Self {
         StepWork {
             inverse: InverseDerivatives::zeros(),
             forward: ForwardDerivatives::zeros(),
-            stage: StepJacobian::zeros(),
-            rate: StepJacobian::zeros(),
+            start: Chain::zeros(),
+            stage: Chain::zeros(),
+            rate: Chain::zeros(),
+            sum: Chain::zeros(),
         }
     }
 }
 
-impl<const NV: usize> Default for StepWork<NV> {
+impl<const NQ: usize, const NV: usize> Default for StepWork<NQ, NV> {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// `exp(φ)`'s rotation matrix and the right Jacobian `J_r(φ)` of the
+/// rotation group: `exp(φ + δ) = exp(φ) exp(J_r(φ) δ)` to first order.
+fn exp_and_right_jacobian(phi: Vector3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
+    let angle = phi.norm();
+    let k = phi.cross_matrix();
+    let k2 = k * k;
+    // (1 − cos θ)/θ² and (θ − sin θ)/θ³, by their series near zero.
+    let (a, b, s) = if angle < 1e-4 {
+        let t2 = angle * angle;
+        (0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0, 1.0 - t2 / 6.0)
+    } else {
+        let (sin, cos) = (libm::sin(angle), libm::cos(angle));
+        ((1.0 - cos) / (angle * angle), (angle - sin) / (angle * angle * angle), sin / angle)
+    };
+    let rotation = Matrix3::identity() + k * s + k2 * a;
+    let right = Matrix3::identity() - k * a + k2 * b;
+    (rotation, right)
 }
 
 impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
     TreeSimulation<'_, S, NB, NQ, NV, 0, L>
 {
     /// Refuses what the chain rule here does not cover.
-    fn check_euclidean(&self, state: &TreeState<NQ, NV>, h: f64, tau: &SVector<f64, NV>) -> Result<(), TreeError> {
+    fn check_step(&self, state: &TreeState<NQ, NV>, h: f64, tau: &SVector<f64, NV>) -> Result<(), TreeError> {
         if !S::DERIVATIVES {
             return Err(TreeError::NotDerived);
         }
-        if NQ != NV || self.tree().joints.iter().any(|j| j.kind.quaternion().is_some()) || self.loaded() {
-            return Err(TreeError::NotEuclidean);
+        if self.loaded() {
+            return Err(TreeError::Loaded);
         }
         let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
         if !(h.is_finite() && numbers.copied().all(f64::is_finite)) {
@@ -137,75 +176,95 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         Ok(())
     }
 
-    /// The rate `(v, q̈)` at `(q, v)` and its derivative `rate` (given
-    /// `stage`, the derivative of the stage's state): the chain rule's link.
-    fn rate_at(
+    /// The stage's rate `(q̇, q̈)` at `stage` and its derivative into
+    /// `work.rate`, given the stage's own derivative `work.stage`.
+    fn stage_rate(
         &self,
-        (q, v): (&SVector<f64, NV>, &SVector<f64, NV>),
+        stage: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
-        work: &mut StepWork<NV>,
-    ) -> Result<SVector<f64, NV>, TreeError> {
-        let mut state = TreeState::<NQ, NV> { q: SVector::zeros(), v: *v, t: 0.0 };
-        state.q.iter_mut().zip(q.iter()).for_each(|(a, b)| *a = *b);
-        self.forward_dynamics_derivatives(&state, tau, &mut work.inverse, &mut work.forward)?;
-        let (f, s, r) = (&work.forward, &work.stage, &mut work.rate);
-        // d(v)/dx is the stage's v rows; d(q̈)/dx = A_q D_q + A_v D_v (+ M⁻¹ on τ).
-        r.q_q = s.v_q;
-        r.q_v = s.v_v;
-        r.q_tau = s.v_tau;
-        f.d_q.mul_to(&s.q_q, &mut r.v_q);
-        r.v_q.gemm(1.0, &f.d_v, &s.v_q, 1.0);
-        f.d_q.mul_to(&s.q_v, &mut r.v_v);
-        r.v_v.gemm(1.0, &f.d_v, &s.v_v, 1.0);
-        f.d_q.mul_to(&s.q_tau, &mut r.v_tau);
-        r.v_tau.gemm(1.0, &f.d_v, &s.v_tau, 1.0);
-        r.v_tau += f.d_tau;
-        Ok(f.qdd)
+        work: &mut StepWork<NQ, NV>,
+    ) -> Result<(SVector<f64, NQ>, SVector<f64, NV>), TreeError> {
+        self.forward_dynamics_derivatives(stage, tau, &mut work.inverse, &mut work.forward)?;
+        let tree = self.tree();
+        let (f, d, r) = (&work.forward, &work.stage, &mut work.rate);
+        for g in 0..3 {
+            // q̇'s derivative column by column; q̈'s through the increments: A_q T⁺ D_q + A_v D_v.
+            let mut increments = SMatrix::<f64, NV, NV>::zeros();
+            for c in 0..NV {
+                let (dq, dv) = (d.q[g].column(c).into_owned(), d.v[g].column(c).into_owned());
+                r.q[g].set_column(c, &tree.rates_along((&stage.q, &stage.v), (&dq, &dv)));
+                increments.set_column(c, &tree.increment_of(&stage.q, &dq));
+            }
+            f.d_q.mul_to(&increments, &mut r.v[g]);
+            r.v[g].gemm(1.0, &f.d_v, &d.v[g], 1.0);
+        }
+        r.v[2] += f.d_tau;
+        Ok((tree.coordinate_rates(&stage.q, &stage.v), f.qdd))
     }
 
     /// One classical RK4 step of `state` under joint forces `tau` (as
     /// [`step_with`](Self::step_with) takes it on a tree without loops,
-    /// springs or loads) and its exact Jacobian into `out`, by the chain
-    /// rule through the four stages: `4` forward-dynamics derivatives.
-    /// Allocation-free; on error `state` is unchanged.
+    /// springs or loads: quaternions moved as four numbers, renormalised at
+    /// the end) and its exact Jacobian into `out`, by the chain rule through
+    /// the four stages: `4` forward-dynamics derivatives. Allocation-free;
+    /// on error `state` is unchanged.
     ///
     /// Needs the derive's derivatives (`#[scene(second_order)]`:
-    /// [`TreeError::NotDerived`]) and coordinates that are the freedoms
-    /// ([`TreeError::NotEuclidean`]: the module's).
+    /// [`TreeError::NotDerived`]); a tree with springs or user loads gets
+    /// [`TreeError::Loaded`].
     pub fn rk4_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,
         h: f64,
         tau: &SVector<f64, NV>,
-        work: &mut StepWork<NV>,
+        work: &mut StepWork<NQ, NV>,
         out: &mut StepJacobian<NV>,
     ) -> Result<(), TreeError> {
-        self.check_euclidean(state, h, tau)?;
-        let q0 = SVector::<f64, NV>::from_iterator(state.q.iter().copied());
-        let v0 = state.v;
-        *out = StepJacobian::zeros();
-        out.q_q.fill_with_identity();
-        out.v_v.fill_with_identity();
-        work.stage = *out;
-        let (mut dq, mut dv) = (SVector::<f64, NV>::zeros(), SVector::<f64, NV>::zeros());
-        let (mut kq, mut kv) = (v0, SVector::<f64, NV>::zeros());
+        self.check_step(state, h, tau)?;
+        let tree = self.tree();
+        // The start's derivative: q moves by T(q₀) δq₀, v by δv₀.
+        work.start = Chain::zeros();
+        for c in 0..NV {
+            let e = SVector::<f64, NV>::from_fn(|r, _| if r == c { 1.0 } else { 0.0 });
+            work.start.q[0].set_column(c, &tree.along_increment(&state.q, &e));
+        }
+        work.start.v[1].fill_with_identity();
+        work.sum = work.start;
+        let (q0, v0) = (state.q, state.v);
+        let (mut dq, mut dv) = (SVector::<f64, NQ>::zeros(), SVector::<f64, NV>::zeros());
+        let (mut kq, mut kv) = (SVector::<f64, NQ>::zeros(), SVector::<f64, NV>::zeros());
         for (c, w) in [(0.0, 1.0), (0.5, 2.0), (0.5, 2.0), (1.0, 1.0)] {
-            if c > 0.0 {
-                let rate = work.rate;
-                work.stage.stage(c * h, &rate);
+            let (start, rate) = (work.start, work.rate);
+            if c == 0.0 {
+                work.stage = start;
+            } else {
+                work.stage.set(&start, c * h, &rate);
             }
-            let (q, v) = (q0 + kq * (c * h), v0 + kv * (c * h));
-            kv = self.rate_at((&q, &v), tau, work)?;
-            kq = v;
+            let stage = TreeState { q: q0 + kq * (c * h), v: v0 + kv * (c * h), t: state.t };
+            (kq, kv) = self.stage_rate(&stage, tau, work)?;
             dq += kq * w;
             dv += kv * w;
-            out.add_scaled(w * h / 6.0, &work.rate);
+            let rate = work.rate;
+            work.sum.add(w * h / 6.0, &rate);
         }
-        self.finish_euclidean(state, q0 + dq * (h / 6.0), v0 + dv * (h / 6.0), h)
+        let mut end = TreeState { q: q0 + dq * (h / 6.0), v: v0 + dv * (h / 6.0), t: state.t + h };
+        // The end renormalised, and measured in its own increments.
+        let raw = end.q;
+        tree.normalise(&mut end.q);
+        let blocks = [(&mut out.q_q, &mut out.v_q), (&mut out.q_v, &mut out.v_v), (&mut out.q_tau, &mut out.v_tau)];
+        for (g, (q_block, v_block)) in blocks.into_iter().enumerate() {
+            for c in 0..NV {
+                let dq = tree.normalised_along(&raw, &work.sum.q[g].column(c).into_owned());
+                q_block.set_column(c, &tree.increment_of(&end.q, &dq));
+            }
+            *v_block = work.sum.v[g];
+        }
+        finish(state, end)
     }
 
     /// One semi-implicit (symplectic) Euler step, MuJoCo's default
-    /// integrator: `v₁ = v + h q̈(q, v, τ)`, `q₁ = q + h v₁`, and its exact
+    /// integrator: `v₁ = v + h q̈(q, v, τ)`, then `q₁ = q ⊕ h v₁` (a
+    /// quaternion turned by `exp(h ω₁)` in its own frame), and its exact
     /// Jacobian into `out` (one forward-dynamics derivative). What a user
     /// compares with MuJoCo's `mjd_transitionFD` compares like with like.
     /// Allocation-free; on error `state` is unchanged. Errors as
@@ -215,55 +274,70 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         state: &mut TreeState<NQ, NV>,
         h: f64,
         tau: &SVector<f64, NV>,
-        work: &mut StepWork<NV>,
+        work: &mut StepWork<NQ, NV>,
         out: &mut StepJacobian<NV>,
     ) -> Result<(), TreeError> {
-        self.check_euclidean(state, h, tau)?;
-        let q0 = SVector::<f64, NV>::from_iterator(state.q.iter().copied());
-        let v0 = state.v;
-        let qdd = self.rate_at_start(state, tau, work)?;
-        let f = &work.forward;
-        out.v_q = f.d_q * h;
-        out.v_v = f.d_v * h;
-        for i in 0..NV {
-            out.v_v[(i, i)] += 1.0;
-        }
-        out.v_tau = f.d_tau * h;
-        out.q_q = out.v_q * h;
-        for i in 0..NV {
-            out.q_q[(i, i)] += 1.0;
-        }
-        out.q_v = out.v_v * h;
-        out.q_tau = out.v_tau * h;
-        let v1 = v0 + qdd * h;
-        self.finish_euclidean(state, q0 + v1 * h, v1, h)
-    }
-
-    /// The forward dynamics' derivatives at the step's start.
-    fn rate_at_start(
-        &self,
-        state: &TreeState<NQ, NV>,
-        tau: &SVector<f64, NV>,
-        work: &mut StepWork<NV>,
-    ) -> Result<SVector<f64, NV>, TreeError> {
+        self.check_step(state, h, tau)?;
         self.forward_dynamics_derivatives(state, tau, &mut work.inverse, &mut work.forward)?;
-        Ok(work.forward.qdd)
-    }
-
-    /// The step's end into `state`, once it is finite.
-    fn finish_euclidean(
-        &self,
-        state: &mut TreeState<NQ, NV>,
-        q: SVector<f64, NV>,
-        v: SVector<f64, NV>,
-        h: f64,
-    ) -> Result<(), TreeError> {
-        if !(q.iter().chain(v.iter()).all(|x| x.is_finite())) {
-            return Err(TreeError::NonFinite);
+        let f = &work.forward;
+        let v1 = state.v + f.qdd * h;
+        // δv₁ = h A_q δq₀ + (I + h A_v) δv₀ + h M⁻¹ δτ.
+        out.v_q = f.d_q * h;
+        out.v_v = f.d_v * h + SMatrix::<f64, NV, NV>::identity();
+        out.v_tau = f.d_tau * h;
+        // δq₁ = (the turn's transport) δq₀ + (its right Jacobian) h δv₁, joint by joint.
+        out.q_q.fill_with_identity();
+        let mut push = SMatrix::<f64, NV, NV>::identity() * h;
+        let tree = self.tree();
+        for (k, j) in tree.joints.iter().enumerate() {
+            let va = tree.v_at[k];
+            let turn_at = match j.kind {
+                TreeJointKind::Spherical => va,
+                TreeJointKind::Free => va + 3,
+                _ => continue,
+            };
+            let phi = three(&v1, turn_at) * h;
+            let (rotation, right) = exp_and_right_jacobian(phi);
+            let back = rotation.transpose();
+            put_block(&mut out.q_q, (turn_at, turn_at), &back);
+            put_block(&mut push, (turn_at, turn_at), &(right * h));
+            if j.kind == TreeJointKind::Free {
+                // The offset moves by R(p₀) h u₁: δ₁ = R(φ)ᵀ (δ₀ + δθ₀ × h u₁ + h δu₁).
+                let u = three(&v1, va) * h;
+                put_block(&mut out.q_q, (va, va), &back);
+                put_block(&mut out.q_q, (va, va + 3), &(back * -u.cross_matrix()));
+                put_block(&mut push, (va, va), &(back * h));
+            }
         }
-        state.q.iter_mut().zip(q.iter()).for_each(|(a, b)| *a = *b);
-        state.v = v;
-        state.t += h;
-        Ok(())
+        let transport = out.q_q;
+        out.q_q = transport + push * out.v_q;
+        out.q_v = push * out.v_v;
+        out.q_tau = push * out.v_tau;
+        let mut end = TreeState { q: state.q, v: v1, t: state.t + h };
+        tree.displace(&mut end.q, &(v1 * h));
+        finish(state, end)
     }
+}
+
+/// `m[r.., c..] = block` (3 × 3), entries past the matrix dropped: no panic path.
+fn put_block<const N: usize>(m: &mut SMatrix<f64, N, N>, (r, c): (usize, usize), block: &Matrix3<f64>) {
+    for i in 0..3 {
+        for j in 0..3 {
+            if let Some(slot) = m.get_mut((r + i, c + j)) {
+                *slot = block[(i, j)];
+            }
+        }
+    }
+}
+
+/// The step's end into `state`, once it is finite.
+fn finish<const NQ: usize, const NV: usize>(
+    state: &mut TreeState<NQ, NV>,
+    end: TreeState<NQ, NV>,
+) -> Result<(), TreeError> {
+    if !(end.q.iter().chain(end.v.iter()).all(|x| x.is_finite())) {
+        return Err(TreeError::NonFinite);
+    }
+    *state = end;
+    Ok(())
 }

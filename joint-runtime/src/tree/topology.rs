@@ -85,10 +85,10 @@ pub enum TreeError {
     /// ask for them (`#[scene(second_order)]`), or its tree is past the
     /// limit of the derive's straight line.
     NotDerived,
-    /// A step's exact Jacobian asked of a tree whose coordinates are not
-    /// its freedoms (a spherical or free joint's quaternion), or with
-    /// springs or user loads: `TreeSimulation::transition` differences it.
-    NotEuclidean,
+    /// A step's exact Jacobian asked of a tree with springs or user loads:
+    /// it covers the tree's own dynamics (gravity, armature, damping);
+    /// `TreeSimulation::transition` differences such a step.
+    Loaded,
     /// The error-controlled step fell below round-off at `t`.
     StepTooSmall {
         /// The time reached.
@@ -137,9 +137,9 @@ impl fmt::Display for TreeError {
                 "the scene has no generated derivatives of its dynamics: add `second_order` to its `#[scene(..)]` \
                  (trees past the derive's limit have none)",
             ),
-            TreeError::NotEuclidean => f.write_str(
-                "the step's exact Jacobian covers trees whose coordinates are their freedoms, without springs or \
-                 loads; this one has a quaternion joint, springs or loads (`transition` differences its step)",
+            TreeError::Loaded => f.write_str(
+                "the step's exact Jacobian covers the tree's own dynamics; springs or user loads act on this one \
+                 (`transition` differences its step)",
             ),
             TreeError::StepTooSmall { t, step } => {
                 write!(f, "the error-controlled step fell to {step:e} at t = {t}: the motion is too fast to follow")
