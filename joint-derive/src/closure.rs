@@ -280,12 +280,20 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
         let (name, start, n) = (&b.name, b.start, b.rows);
         quote!(#k::RowBlock { name: #name, start: #start, rows: #n })
     });
+    // Rows linear in the coordinates (a file's couplings): J constant, no γ,
+    // no Φ_t; the runtime's exact derivatives cover these.
+    let g = &d.kinematics.g;
+    let zero = |id: &Id| g.as_const(*id) == Some(0.0);
+    let linear = d.jacobian.iter().flatten().all(|id| g.as_const(*id).is_some())
+        && d.gamma.iter().all(zero)
+        && d.phi_t.iter().all(zero);
     let doc = format!(" The closures' rows in the tree's coordinates, derived by the engine: {ops} operations.");
     let (nc, nv) = (proc_macro2::Literal::usize_unsuffixed(rows), proc_macro2::Literal::usize_unsuffixed(nv));
     let nq = proc_macro2::Literal::usize_unsuffixed(d.kinematics.coords.len());
     let nb = proc_macro2::Literal::usize_unsuffixed(bodies);
     let method = quote! {
         const CLOSURES: &'static [#k::RowBlock] = &[#(#blocks),*];
+        const LINEAR_CLOSURES: bool = #linear;
         #[doc = #doc]
         #[inline]
         fn closure_rows(

@@ -17,7 +17,7 @@
 //! `∂q̈/∂x = −M⁻¹ ∂τ/∂x` at `v̇ = q̈` (`tree/derivatives.rs`).
 
 use proc_macro2::TokenStream;
-use quote::quote;
+use quote::{format_ident, quote};
 
 use crate::aba::{Builder, Joint, NewtonEuler, bindings, kind_offsets, newton_euler, pattern, scalar, used_names};
 use crate::engine::diff::TimeRules;
@@ -100,6 +100,46 @@ pub(crate) fn columns(b: &mut Builder, joints: &[Joint], rnea: &NewtonEuler) -> 
     (by_q, by_v)
 }
 
+/// A straight line's `let`s (its inputs bound from the method's arguments)
+/// and its outputs, or `None` above [`LIMIT`].
+struct Written {
+    prelude: TokenStream,
+    outputs: std::vec::IntoIter<TokenStream>,
+    ops: usize,
+}
+
+/// `outputs` of `b`'s graph written out; `inputs` are `(prefix, argument,
+/// count)`: the graph's inputs `prefix_i` read from `*argument`.
+fn write(b: &Builder, outputs: &[Id], inputs: &[(&str, &str, usize)]) -> Option<Written> {
+    let emitted = emit(&b.g, outputs, &scalar());
+    if emitted.ops > LIMIT {
+        return None;
+    }
+    let used = used_names(&b.g, &emitted);
+    let binds = bindings(b, &used);
+    let reads = inputs.iter().map(|&(prefix, argument, count)| {
+        let (pattern, argument) = (pattern(&used, prefix, count), format_ident!("{argument}"));
+        quote!(let #pattern = *#argument;)
+    });
+    let body = emitted.body;
+    let prelude = quote!(#(#reads)* #(#binds)* #body);
+    Some(Written { prelude, outputs: emitted.outputs.into_iter(), ops: emitted.ops })
+}
+
+impl Written {
+    /// The next `NV × NV` outputs as a matrix, column by column.
+    fn matrix(&mut self, nv: usize) -> TokenStream {
+        let p = quote!(::joint_runtime::__private);
+        let columns: Vec<TokenStream> = (0..nv)
+            .map(|_| {
+                let column: Vec<TokenStream> = self.outputs.by_ref().take(nv).collect();
+                quote!([#(#column),*])
+            })
+            .collect();
+        quote!(#p::SMatrix::from_data(#p::ArrayStorage([#(#columns),*])))
+    }
+}
+
 /// `fn inverse_dynamics_derivatives_into`, or nothing above [`LIMIT`].
 pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
     let mut b = Builder::new(Graph::new());
@@ -108,29 +148,14 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
     let mut outputs = rnea.tau.clone();
     outputs.extend(by_q.iter().flatten());
     outputs.extend(by_v.iter().flatten());
-    let emitted = emit(&b.g, &outputs, &scalar());
-    if emitted.ops > LIMIT {
-        return None;
-    }
-    let used = used_names(&b.g, &emitted);
-    let binds = bindings(&b, &used);
-    let (qp, vp, ap) = (pattern(&used, "q", nq), pattern(&used, "v", nv), pattern(&used, "a", nv));
-    let (body, ops) = (emitted.body, emitted.ops);
-    let mut out = emitted.outputs.into_iter();
-    let tau: Vec<TokenStream> = out.by_ref().take(nv).collect();
-    let matrix = |out: &mut std::vec::IntoIter<TokenStream>| -> Vec<TokenStream> {
-        (0..nv)
-            .map(|_| {
-                let column: Vec<TokenStream> = out.by_ref().take(nv).collect();
-                quote!([#(#column),*])
-            })
-            .collect()
-    };
-    let (dq, dv) = (matrix(&mut out), matrix(&mut out));
+    let mut w = write(&b, &outputs, &[("q", "q", nq), ("v", "v", nv), ("a", "vdot", nv)])?;
+    let tau: Vec<TokenStream> = w.outputs.by_ref().take(nv).collect();
+    let (dq, dv) = (w.matrix(nv), w.matrix(nv));
     let doc = format!(
-        " The inverse dynamics' derivatives written out (forward-mode on the Newton–Euler graph): {ops} operations."
+        " The inverse dynamics' derivatives written out (forward mode on the Newton–Euler graph): {} operations.",
+        w.ops
     );
-    let (k, nb) = (krate(), s.bodies.len());
+    let (k, nb, prelude) = (krate(), s.bodies.len(), w.prelude);
     let p = quote!(#k::__private);
     Some(quote! {
         const DERIVATIVES: bool = true;
@@ -144,14 +169,74 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
             vdot: &[f64; #nv],
             out: &mut #k::tree::InverseDerivatives<#nv>,
         ) -> bool {
-            let #qp = *q;
-            let #vp = *v;
-            let #ap = *vdot;
-            #(#binds)*
-            #body
+            #prelude
             out.tau = #p::SVector::from_data(#p::ArrayStorage([[#(#tau),*]]));
-            out.d_q = #p::SMatrix::from_data(#p::ArrayStorage([#(#dq),*]));
-            out.d_v = #p::SMatrix::from_data(#p::ArrayStorage([#(#dv),*]));
+            out.d_q = #dq;
+            out.d_v = #dv;
+            true
+        }
+    })
+}
+
+/// `fn inverse_dynamics_second_derivatives_into`: with `s = λᵀ τ`, the
+/// second derivatives `∂²s/∂q_j ∂q_i` (the derivative along `q_j` of the
+/// tangent column `i`: iterated directions, not symmetric on the rotation
+/// group), `∂²s/∂q_i ∂v_j` and `∂²s/∂v_j ∂v_i`, what a DDP backward pass
+/// contracts; each rule set's memo shared by every column it takes.
+/// Nothing above [`LIMIT`].
+pub fn second_method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
+    let mut b = Builder::new(Graph::new());
+    let rnea = newton_euler(&mut b, s, joints, nq, nv);
+    let lambda: Vec<Id> = (0..nv).map(|i| b.g.param(format!("lambda_{i}"))).collect();
+    let terms: Vec<Id> = lambda.iter().zip(&rnea.tau).map(|(&l, &t)| b.g.mul(l, t)).collect();
+    let contracted = b.g.sum(&terms);
+    let mut by_q: Vec<TimeRules> = (0..nv).map(|i| direction(&mut b, joints, &rnea.q, i)).collect();
+    let one = b.g.constant(1.0);
+    let mut by_v: Vec<TimeRules> = rnea
+        .v
+        .iter()
+        .map(|&vi| {
+            let mut rules = TimeRules::new();
+            rules.set_var(&b.g, vi, one);
+            rules
+        })
+        .collect();
+    let first_q: Vec<Id> = by_q.iter_mut().map(|r| r.dt(&mut b.g, contracted)).collect();
+    let first_v: Vec<Id> = by_v.iter_mut().map(|r| r.dt(&mut b.g, contracted)).collect();
+    let mut outputs = Vec::with_capacity(3 * nv * nv);
+    // Column j of each: the derivative along direction j.
+    for (on_q, firsts) in [(true, &first_q), (false, &first_q), (false, &first_v)] {
+        let rules = if on_q { &mut by_q } else { &mut by_v };
+        for r in rules.iter_mut() {
+            for &f in firsts {
+                outputs.push(r.dt(&mut b.g, f));
+            }
+        }
+    }
+    let inputs = [("q", "q", nq), ("v", "v", nv), ("a", "vdot", nv), ("lambda", "lambda", nv)];
+    let mut w = write(&b, &outputs, &inputs)?;
+    let (qq, qv, vv) = (w.matrix(nv), w.matrix(nv), w.matrix(nv));
+    let doc = format!(
+        " The contracted second derivatives of the inverse dynamics written out (forward mode twice): {} operations.",
+        w.ops
+    );
+    let (k, nb, prelude) = (krate(), s.bodies.len(), w.prelude);
+    Some(quote! {
+        #[doc = #doc]
+        #[inline]
+        fn inverse_dynamics_second_derivatives_into(
+            &self,
+            geometry: &#k::tree::TreeGeometry<#nb>,
+            q: &[f64; #nq],
+            v: &[f64; #nv],
+            vdot: &[f64; #nv],
+            lambda: &[f64; #nv],
+            out: &mut #k::tree::SecondDerivatives<#nv>,
+        ) -> bool {
+            #prelude
+            out.d_qq = #qq;
+            out.d_qv = #qv;
+            out.d_vv = #vv;
             true
         }
     })

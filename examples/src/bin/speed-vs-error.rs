@@ -4,7 +4,9 @@
 //! Measures the generated Φ, J and γ beside a hand-written implementation,
 //! num-dual and central differences on the conformance vectors
 //! ([`joint_examples::report::variants`]), runs the simulations' work–precision
-//! diagrams ([`joint_examples::report::simulation`]), prints the summary tables
+//! diagrams ([`joint_examples::report::simulation`]), times the robots'
+//! dynamics' derivatives exact and by differences
+//! ([`joint_examples::report::derivatives`]), prints the summary tables
 //! and writes `report/README.md` with the SVG figures.
 //!
 //! Options (`--help`): `--vectors DIR` (default: the repository's
@@ -198,6 +200,10 @@ fn run(o: &Options) -> Result<(), String> {
     variants::plot_fd_steps(&results, &o.out.join("fd-steps.svg"))?;
     let evaluation = evaluation_section(&results, cases);
     let evaluation_time = start.elapsed().as_secs_f64();
+    progress("robot level: the dynamics' derivatives");
+    let robots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/robots");
+    let derivative_rows = joint_examples::report::derivatives::measure(&robots)?;
+    let derivatives = joint_examples::report::derivatives::section(&derivative_rows);
 
     let simulation = if !o.no_simulation {
         progress("simulation level: work–precision diagrams");
@@ -219,6 +225,7 @@ fn run(o: &Options) -> Result<(), String> {
         machine(),
     );
     readme += &evaluation;
+    readme += &derivatives;
     if let Some(sim) = &simulation {
         readme += sim;
     }
@@ -228,6 +235,7 @@ fn run(o: &Options) -> Result<(), String> {
     println!("{}", variants::main_table(&results));
     println!("{}", variants::targets_table(&results));
     println!("{}", variants::ops_table(&results));
+    println!("{derivatives}");
     let misses = variants::misses(&results);
     if misses.is_empty() {
         println!("Every target is met.");

@@ -2,11 +2,13 @@
 //! otherwise write — a hand-written nalgebra implementation, forward-mode
 //! automatic differentiation (num-dual) and central finite differences — timed
 //! and checked against the 60-digit conformance vectors in one run, plus
-//! work–precision diagrams of the simulations.
+//! work–precision diagrams of the simulations and, at the robot level, the
+//! dynamics' derivatives exact and by differences.
 //!
 //! `cargo run --release -p joint-examples --bin speed-vs-error` writes `report/`.
 
 pub mod counting;
+pub mod derivatives;
 pub mod handwritten;
 pub mod simulation;
 pub mod stiff;

@@ -52,10 +52,9 @@ pub fn print(
     });
     let controller = crate::aba::controller_methods(s, edges, nq, nv);
     // `second_order`: the dynamics' derivatives, what a linearisation needs.
-    let derivatives = s
-        .second_order
-        .and_then(|_| crate::aba::written(s, edges))
-        .and_then(|joints| crate::tree_derivatives::method(s, &joints, nq, nv));
+    let written = s.second_order.and_then(|_| crate::aba::written(s, edges));
+    let derivatives = written.as_ref().and_then(|joints| crate::tree_derivatives::method(s, joints, nq, nv));
+    let second = written.as_ref().and_then(|joints| crate::tree_derivatives::second_method(s, joints, nq, nv));
     let (closure, nc) =
         loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
     let body = quote! {
@@ -65,6 +64,7 @@ pub fn print(
         #aba
         #controller
         #derivatives
+        #second
         #closure
     };
     wrap(input, generics, s.bodies.len(), (nq, nv, nc), body)

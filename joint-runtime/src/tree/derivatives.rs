@@ -27,6 +27,8 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::{TreeError, TreeScene, TreeState};
+use crate::dynamics::Stabilisation;
+use crate::linalg::PivotedCholesky;
 
 /// The inverse dynamics and its first derivatives at one state:
 /// `τ(q, v, v̇)`, `∂τ/∂q` (tangent columns), `∂τ/∂v` and `∂τ/∂v̇ = M`.
@@ -77,6 +79,31 @@ impl<const NV: usize> ForwardDerivatives<NV> {
             d_v: SMatrix::zeros(),
             d_tau: SMatrix::zeros(),
         }
+    }
+}
+
+/// Second derivatives of the inverse dynamics contracted with a vector
+/// `λ` (one per freedom), at one state: what a DDP backward pass needs.
+/// With `s = λᵀ τ(q, v, v̇)`: `d_qq[(i, j)] = ∂/∂q_j (∂s/∂q_i)`,
+/// `d_qv[(i, j)] = ∂²s/∂q_i ∂v_j`, `d_vv[(i, j)] = ∂²s/∂v_i ∂v_j`. The
+/// `q` directions are the tangent ones of [`InverseDerivatives::d_q`],
+/// taken in turn (first `i`, then `j` at the moved point): on the rotation
+/// group `d_qq` is not symmetric in general, Pinocchio's convention for
+/// its second-order derivatives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecondDerivatives<const NV: usize> {
+    /// `∂/∂q_j (∂(λᵀτ)/∂q_i)` at `(i, j)`.
+    pub d_qq: SMatrix<f64, NV, NV>,
+    /// `∂²(λᵀτ)/∂q_i ∂v_j` at `(i, j)`.
+    pub d_qv: SMatrix<f64, NV, NV>,
+    /// `∂²(λᵀτ)/∂v_i ∂v_j` at `(i, j)` (symmetric).
+    pub d_vv: SMatrix<f64, NV, NV>,
+}
+
+impl<const NV: usize> SecondDerivatives<NV> {
+    /// All zero.
+    pub fn zeros() -> Self {
+        SecondDerivatives { d_qq: SMatrix::zeros(), d_qv: SMatrix::zeros(), d_vv: SMatrix::zeros() }
     }
 }
 
@@ -167,10 +194,10 @@ impl<
     /// let state = TreeState { q: SVector::from([0.3]), v: SVector::from([1.0]), t: 0.0 };
     /// let mut d = InverseDerivatives::zeros();
     /// sim.inverse_dynamics_derivatives(&state, &SVector::zeros(), &mut d)?;
-    /// // τ = (I + m l²) θ̈ − m g l sin θ about y (z up, the bar along x at θ = 0):
-    /// // ∂τ/∂θ = −m g l cos θ, ∂τ/∂θ̇ = 0, M = I + m l².
+    /// // The centre at height −l sin θ (z up, the bar along x at θ = 0), so
+    /// // τ = (I + m l²) θ̈ − m g l cos θ: ∂τ/∂θ = m g l sin θ, ∂τ/∂θ̇ = 0, M = I + m l².
     /// let (m, g, l) = (2.0, 9.81, 0.5);
-    /// assert!((d.d_q[(0, 0)] + m * g * l * 0.3f64.cos()).abs() < 1e-12);
+    /// assert!((d.d_q[(0, 0)] - m * g * l * 0.3f64.sin()).abs() < 1e-12);
     /// assert_eq!(d.d_v[(0, 0)], 0.0);
     /// assert!((d.d_a[(0, 0)] - (0.1 + m * l * l)).abs() < 1e-12);
     /// # Ok::<(), joint_runtime::tree::TreeError>(())
@@ -203,6 +230,29 @@ impl<
         Ok(())
     }
 
+    /// The inverse dynamics' second derivatives at `state` and
+    /// accelerations `vdot`, contracted with `lambda` ([`SecondDerivatives`]),
+    /// exact, from the code the derive wrote (`#[scene(second_order)]`, for
+    /// trees small enough: [`TreeError::NotDerived`] otherwise).
+    /// Allocation-free.
+    pub fn inverse_dynamics_second_derivatives(
+        &self,
+        state: &TreeState<NQ, NV>,
+        vdot: &SVector<f64, NV>,
+        lambda: &SVector<f64, NV>,
+        out: &mut SecondDerivatives<NV>,
+    ) -> Result<(), TreeError> {
+        let numbers = state.q.iter().chain(state.v.iter()).chain(vdot.iter()).chain(lambda.iter());
+        if !numbers.copied().all(f64::is_finite) {
+            return Err(TreeError::NonFinite);
+        }
+        let (q, v, a, l) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0], &lambda.data.0[0]);
+        if !self.scene.inverse_dynamics_second_derivatives_into(self.tree().geometry(), q, v, a, l, out) {
+            return Err(TreeError::NotDerived);
+        }
+        Ok(())
+    }
+
     /// The forward dynamics' first derivatives at `state` under joint forces
     /// `tau` into `out` ([`ForwardDerivatives`]: `q̈`, `∂q̈/∂q`, `∂q̈/∂v`,
     /// `M⁻¹`), exact: `M⁻¹` by a Cholesky factor of the mass matrix,
@@ -211,11 +261,15 @@ impl<
     /// caller's, so that nothing of the tree's size lives on the stack
     /// twice). Allocation-free.
     ///
-    /// The tree's own dynamics (gravity, armature, damping): closures,
-    /// springs and the user's loads are left out. Errors as
-    /// [`inverse_dynamics_derivatives`](Self::inverse_dynamics_derivatives),
-    /// and [`TreeError::Singular`] if the mass matrix is not positive
-    /// definite.
+    /// The derivatives of [`forward_dynamics`](Self::forward_dynamics):
+    /// the tree's own dynamics (gravity, armature, damping) and, where the
+    /// tree's closures are a file's couplings (rows linear in the
+    /// coordinates, `TreeScene::LINEAR_CLOSURES`), the constrained
+    /// accelerations, Baumgarte's terms included. Errors as
+    /// [`inverse_dynamics_derivatives`](Self::inverse_dynamics_derivatives);
+    /// [`TreeError::NotDerived`] for other loops, [`TreeError::Loaded`] with
+    /// springs or user loads, [`TreeError::Singular`] if the mass matrix is
+    /// not positive definite.
     pub fn forward_dynamics_derivatives(
         &self,
         state: &TreeState<NQ, NV>,
@@ -237,12 +291,64 @@ impl<
         spd_inverse(&work.d_a, &mut out.d_tau).ok_or(TreeError::Singular { joint })?;
         let bias = self.inverse_dynamics(state, &SVector::zeros());
         out.d_tau.mul_to(&(tau - bias), &mut out.qdd);
+        if self.loaded() {
+            return Err(TreeError::Loaded);
+        }
+        if NC > 0 {
+            return self.coupled(state, work, out);
+        }
         self.derivatives_at(state, &out.qdd, work)?;
         out.d_tau.mul_to(&work.d_q, &mut out.d_q);
         out.d_tau.mul_to(&work.d_v, &mut out.d_v);
         out.d_q.neg_mut();
         out.d_v.neg_mut();
         if !(out.d_q.iter().chain(out.d_v.iter()).all(|x| x.is_finite())) {
+            return Err(TreeError::NonFinite);
+        }
+        Ok(())
+    }
+
+    /// The constrained accelerations' derivatives on closures linear in the
+    /// coordinates (`LINEAR_CLOSURES`: a file's couplings, `J` constant, no
+    /// `γ`): with `M v̇ + b = τ + Jᵀλ`, `J v̇ = γ̃`, differentiating at fixed
+    /// `J` gives `dv̇ = −P̃ dτ_ID + C dγ̃`, `P̃ = M⁻¹ − C J M⁻¹`,
+    /// `C = M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁺` (redundant rows dropped as the step drops
+    /// them), `dτ_ID` the inverse dynamics' derivatives at the constrained
+    /// `v̇`, `γ̃` Baumgarte's (`−2α J v − β² Φ`, so `dγ̃ = −2α J dv − β² J dq`).
+    /// `out.qdd` holds the tree's own accelerations and `out.d_tau` `M⁻¹`
+    /// on entry.
+    fn coupled(
+        &self,
+        state: &TreeState<NQ, NV>,
+        work: &mut InverseDerivatives<NV>,
+        out: &mut ForwardDerivatives<NV>,
+    ) -> Result<(), TreeError> {
+        if !S::LINEAR_CLOSURES {
+            return Err(TreeError::NotDerived);
+        }
+        let rows = self.closure_rows(state);
+        let j = rows.jacobian;
+        let minv_jt = out.d_tau * j.transpose();
+        let factor =
+            PivotedCholesky::new(&(j * minv_jt), self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
+        let correction = |r: &SVector<f64, NC>| minv_jt * factor.solve(r);
+        let (alpha, beta) = match self.options().stabilisation {
+            Stabilisation::None => (0.0, 0.0),
+            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
+        };
+        let gamma = rows.gamma - (j * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
+        out.qdd += correction(&(gamma - j * out.qdd));
+        self.derivatives_at(state, &out.qdd, work)?;
+        // C J column by column, then P̃ = M⁻¹ − (C J) M⁻¹.
+        let mut cj = SMatrix::<f64, NV, NV>::zeros();
+        for c in 0..NV {
+            cj.set_column(c, &correction(&j.column(c).into_owned()));
+        }
+        let projected = out.d_tau - cj * out.d_tau;
+        out.d_q = -(projected * work.d_q) - cj * (beta * beta);
+        out.d_v = -(projected * work.d_v) - cj * (2.0 * alpha);
+        out.d_tau = projected;
+        if !(out.d_q.iter().chain(out.d_v.iter()).chain(out.qdd.iter()).all(|x| x.is_finite())) {
             return Err(TreeError::NonFinite);
         }
         Ok(())

@@ -11,8 +11,9 @@
 //! offset); `A_q`, `A_v` are the forward dynamics' exact derivatives
 //! ([`forward_dynamics_derivatives`](super::TreeSimulation::forward_dynamics_derivatives))
 //! where the derive wrote them (`#[scene(second_order)]`) and the tree has
-//! no loops, springs or user loads; central differences of the forward
-//! dynamics otherwise (the springs' and the user's loads included).
+//! no loops but couplings, no springs and no user loads; central
+//! differences of the forward dynamics otherwise (the springs' and the
+//! user's loads included).
 //! `B = [0; M⁻¹]`, exact (`v̇` is affine in the joint forces). The outputs
 //! are dense matrices (they allocate); the allocation-free form is
 //! `forward_dynamics_derivatives` itself, whose blocks these are.
@@ -80,7 +81,7 @@ impl<
         for i in 0..n {
             a[(i, n + i)] = 1.0;
         }
-        if S::DERIVATIVES && NC == 0 && !self.loaded() {
+        if S::DERIVATIVES && (NC == 0 || S::LINEAR_CLOSURES) && !self.loaded() {
             return self.exact(state, tau, a);
         }
         for i in 0..n {
@@ -127,6 +128,14 @@ impl<
         self.forward_dynamics_derivatives(state, tau, &mut work, &mut d)?;
         a.view_mut((n, 0), (n, n)).copy_from(&d.d_q);
         a.view_mut((n, n), (n, n)).copy_from(&d.d_v);
+        if NC > 0 {
+            // Couplings: J constant, so `J v + Φ_t` does not move with q.
+            let rows = self.closure_rows(state);
+            let j = DMatrix::from_iterator(NC, NV, rows.jacobian.iter().copied());
+            let b = DMatrix::from_iterator(NV, NV, d.d_tau.iter().copied());
+            let moved = DMatrix::<f64>::zeros(NC, NV);
+            return crate::dynamics::linear::reduce(a, &j, &moved, b).map_err(|_| TreeError::NonFinite);
+        }
         let mut b = DMatrix::<f64>::zeros(2 * n, n);
         b.view_mut((n, 0), (n, n)).copy_from(&d.d_tau);
         let basis = DMatrix::identity(2 * n, 2 * n);

@@ -97,7 +97,7 @@ mod step_jacobian;
 mod tangent;
 mod topology;
 
-pub use derivatives::{ForwardDerivatives, InverseDerivatives};
+pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives};
 pub use dynamics::TreeEnergy;
 pub use simulation::TreeSimulation;
 pub use step_jacobian::{StepJacobian, StepWork};
@@ -225,6 +225,10 @@ pub struct TreeJoint {
 pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0> {
     /// The joints outside the tree, each with its block of the closure rows.
     const CLOSURES: &'static [RowBlock] = &[];
+    /// Whether every closure row is linear in the coordinates (a constant
+    /// `J`, no `γ`, no `Φ_t`: a file's couplings), so that the constrained
+    /// accelerations' derivatives follow from the tree's.
+    const LINEAR_CLOSURES: bool = false;
     /// Whether the derive wrote the dynamics' derivatives
     /// ([`inverse_dynamics_derivatives_into`](Self::inverse_dynamics_derivatives_into)).
     const DERIVATIVES: bool = false;
@@ -290,6 +294,22 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
         out: &mut InverseDerivatives<NV>,
     ) -> bool {
         let _ = (geometry, q, v, vdot, out);
+        false
+    }
+    /// The inverse dynamics' second derivatives contracted with `lambda`,
+    /// written out by the derive (`#[scene(second_order)]`, trees whose
+    /// straight line fits its limit): into `out` and `true`, or `false`.
+    #[inline]
+    fn inverse_dynamics_second_derivatives_into(
+        &self,
+        geometry: &TreeGeometry<NB>,
+        q: &[f64; NQ],
+        v: &[f64; NV],
+        vdot: &[f64; NV],
+        lambda: &[f64; NV],
+        out: &mut SecondDerivatives<NV>,
+    ) -> bool {
+        let _ = (geometry, q, v, vdot, lambda, out);
         false
     }
     /// The closure rows at `state`, derived by the engine from the closing

@@ -187,14 +187,11 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         self.forward_dynamics_derivatives(stage, tau, &mut work.inverse, &mut work.forward)?;
         let tree = self.tree();
         let (f, d, r) = (&work.forward, &work.stage, &mut work.rate);
+        let mut increments = SMatrix::<f64, NV, NV>::zeros();
         for g in 0..3 {
-            // q̇'s derivative column by column; q̈'s through the increments: A_q T⁺ D_q + A_v D_v.
-            let mut increments = SMatrix::<f64, NV, NV>::zeros();
-            for c in 0..NV {
-                let (dq, dv) = (d.q[g].column(c).into_owned(), d.v[g].column(c).into_owned());
-                r.q[g].set_column(c, &tree.rates_along((&stage.q, &stage.v), (&dq, &dv)));
-                increments.set_column(c, &tree.increment_of(&stage.q, &dq));
-            }
+            // q̇'s derivative; q̈'s through the increments: A_q T⁺ D_q + A_v D_v.
+            tree.rates_along_columns((&stage.q, &stage.v), (&d.q[g], &d.v[g]), &mut r.q[g]);
+            tree.increments_of_columns(&stage.q, &d.q[g], &mut increments);
             f.d_q.mul_to(&increments, &mut r.v[g]);
             r.v[g].gemm(1.0, &f.d_v, &d.v[g], 1.0);
         }
@@ -234,18 +231,16 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         let (mut dq, mut dv) = (SVector::<f64, NQ>::zeros(), SVector::<f64, NV>::zeros());
         let (mut kq, mut kv) = (SVector::<f64, NQ>::zeros(), SVector::<f64, NV>::zeros());
         for (c, w) in [(0.0, 1.0), (0.5, 2.0), (0.5, 2.0), (1.0, 1.0)] {
-            let (start, rate) = (work.start, work.rate);
             if c == 0.0 {
-                work.stage = start;
+                work.stage = work.start;
             } else {
-                work.stage.set(&start, c * h, &rate);
+                work.stage.set(&work.start, c * h, &work.rate);
             }
             let stage = TreeState { q: q0 + kq * (c * h), v: v0 + kv * (c * h), t: state.t };
             (kq, kv) = self.stage_rate(&stage, tau, work)?;
             dq += kq * w;
             dv += kv * w;
-            let rate = work.rate;
-            work.sum.add(w * h / 6.0, &rate);
+            work.sum.add(w * h / 6.0, &work.rate);
         }
         let mut end = TreeState { q: q0 + dq * (h / 6.0), v: v0 + dv * (h / 6.0), t: state.t + h };
         // The end renormalised, and measured in its own increments.
@@ -253,10 +248,8 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         tree.normalise(&mut end.q);
         let blocks = [(&mut out.q_q, &mut out.v_q), (&mut out.q_v, &mut out.v_v), (&mut out.q_tau, &mut out.v_tau)];
         for (g, (q_block, v_block)) in blocks.into_iter().enumerate() {
-            for c in 0..NV {
-                let dq = tree.normalised_along(&raw, &work.sum.q[g].column(c).into_owned());
-                q_block.set_column(c, &tree.increment_of(&end.q, &dq));
-            }
+            tree.normalised_columns(&raw, &mut work.sum.q[g]);
+            tree.increments_of_columns(&end.q, &work.sum.q[g], q_block);
             *v_block = work.sum.v[g];
         }
         finish(state, end)

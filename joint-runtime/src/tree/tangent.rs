@@ -11,7 +11,7 @@
 //! `δ = R(p̂)ᵀ δr`. Both hold at any `p ≠ 0`, unit or not (an RK4 stage's is
 //! not), as the derive's derivatives do.
 
-use nalgebra::{Quaternion, SVector, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector4};
 
 use super::TreeJointKind;
 use super::kinematics::unit;
@@ -85,93 +85,6 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
         out
     }
-
-    /// `T⁺(q) dq`: the increment a change `dq` of the coordinates makes.
-    pub(crate) fn increment_of(&self, q: &SVector<f64, NQ>, dq: &SVector<f64, NQ>) -> SVector<f64, NV> {
-        let mut out = SVector::<f64, NV>::zeros();
-        let turn = |at: usize| -> Vector3<f64> {
-            let p = quaternion_at(q, at);
-            let d = p.conjugate() * quaternion_at(dq, at) * (2.0 / p.norm_squared());
-            d.imag()
-        };
-        for (k, j) in self.joints.iter().enumerate() {
-            let (qa, va) = (self.q_at[k], self.v_at[k]);
-            match j.kind {
-                TreeJointKind::Spherical => put_three(&mut out, va, &turn(qa)),
-                TreeJointKind::Free => {
-                    let r = unit_at(q, qa + 3).inverse() * three(dq, qa);
-                    put_three(&mut out, va, &r);
-                    put_three(&mut out, va + 3, &turn(qa + 3));
-                }
-                kind => {
-                    for i in 0..kind.freedoms() {
-                        set(&mut out, va + i, get(dq, qa + i));
-                    }
-                }
-            }
-        }
-        out
-    }
-
-    /// The derivative of [`Tree::coordinate_rates`] at `(q, v)` along
-    /// `(dq, dv)`: `∂q̇/∂q dq + G(q) dv`.
-    pub(crate) fn rates_along(
-        &self,
-        (q, v): (&SVector<f64, NQ>, &SVector<f64, NV>),
-        (dq, dv): (&SVector<f64, NQ>, &SVector<f64, NV>),
-    ) -> SVector<f64, NQ> {
-        let mut out = SVector::<f64, NQ>::zeros();
-        // ½ (dp ⊗ (0, ω) + p ⊗ (0, dω)): the spin's rate is bilinear.
-        let spin = |out: &mut SVector<f64, NQ>, (qa, va): (usize, usize)| {
-            let omega = Quaternion::from_imag(three(v, va));
-            let d_omega = Quaternion::from_imag(three(dv, va));
-            let d = (quaternion_at(dq, qa) * omega + quaternion_at(q, qa) * d_omega) * 0.5;
-            put_quaternion(out, qa, &d);
-        };
-        for (k, j) in self.joints.iter().enumerate() {
-            let (qa, va) = (self.q_at[k], self.v_at[k]);
-            match j.kind {
-                TreeJointKind::Spherical => spin(&mut out, (qa, va)),
-                TreeJointKind::Free => {
-                    // R(p̂) u = p ⊗ (0, u) ⊗ p̄ / |p|², differentiated in p and u.
-                    let (p, dp) = (quaternion_at(q, qa + 3), quaternion_at(dq, qa + 3));
-                    let (u, du) = (Quaternion::from_imag(three(v, va)), Quaternion::from_imag(three(dv, va)));
-                    let n = p.norm_squared();
-                    let turned = p * u * p.conjugate();
-                    let d = (dp * u * p.conjugate() + p * u * dp.conjugate() + p * du * p.conjugate()) / n
-                        - turned * (2.0 * p.coords.dot(&dp.coords) / (n * n));
-                    put_three(&mut out, qa, &d.imag());
-                    spin(&mut out, (qa + 3, va + 3));
-                }
-                kind => {
-                    for i in 0..kind.freedoms() {
-                        set(&mut out, qa + i, get(dv, va + i));
-                    }
-                }
-            }
-        }
-        out
-    }
-
-    /// The derivative of [`Tree::normalise`] at `q` along `dq`: each
-    /// quaternion's `(dp − p̂ (p̂ · dp)) / |p|`, the rest unchanged.
-    pub(crate) fn normalised_along(&self, q: &SVector<f64, NQ>, dq: &SVector<f64, NQ>) -> SVector<f64, NQ> {
-        let mut out = *dq;
-        for (k, j) in self.joints.iter().enumerate() {
-            if let Some(at) = j.kind.quaternion() {
-                let at = self.q_at[k] + at;
-                let (p, dp) = (quaternion_at(q, at).coords, quaternion_at(dq, at).coords);
-                let n = p.norm();
-                if n > 0.0 {
-                    let hat = p / n;
-                    // `coords` are (i, j, k, w): back through a quaternion to w first.
-                    let d = Quaternion::from((dp - hat * hat.dot(&dp)) / n);
-                    put_quaternion(&mut out, at, &d);
-                }
-            }
-        }
-        out
-    }
 }
 
 /// `½ p ⊗ (0, δθ)` of the quaternion at `q[qa..]` and the increment at
@@ -184,4 +97,144 @@ fn spin_into<const NQ: usize, const NV: usize>(
 ) {
     let d = quaternion_at(q, qa) * Quaternion::from_imag(three(delta, va)) * 0.5;
     put_quaternion(out, qa, &d);
+}
+
+/// `m[(r, c)]`, or zero out of range.
+fn at<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, r: usize, c: usize) -> f64 {
+    m.get((r, c)).copied().unwrap_or(0.0)
+}
+
+/// `m[(r, c)] = value` where in range.
+fn put<const R: usize, const C: usize>(m: &mut SMatrix<f64, R, C>, r: usize, c: usize, value: f64) {
+    if let Some(slot) = m.get_mut((r, c)) {
+        *slot = value;
+    }
+}
+
+/// Column `c`'s quaternion at rows `r..r + 4` (w first).
+fn quaternion_in<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, r: usize, c: usize) -> Quaternion<f64> {
+    Quaternion::new(at(m, r, c), at(m, r + 1, c), at(m, r + 2, c), at(m, r + 3, c))
+}
+
+/// Column `c`'s three numbers at rows `r..r + 3`.
+fn three_in<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, r: usize, c: usize) -> Vector3<f64> {
+    Vector3::new(at(m, r, c), at(m, r + 1, c), at(m, r + 2, c))
+}
+
+impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
+    /// The derivative of [`Tree::coordinate_rates`] at `(q, v)` along every
+    /// column of `(dq, dv)`, `∂q̇/∂q dq + G(q) dv`, into `out` (a joint whose
+    /// coordinates are its freedoms: rows copied; a quaternion's rate is
+    /// bilinear; a free joint's offset rate `R(p̂) u = p ⊗ (0, u) ⊗ p̄ / |p|²`).
+    pub(crate) fn rates_along_columns(
+        &self,
+        (q, v): (&SVector<f64, NQ>, &SVector<f64, NV>),
+        (dq, dv): (&SMatrix<f64, NQ, NV>, &SMatrix<f64, NV, NV>),
+        out: &mut SMatrix<f64, NQ, NV>,
+    ) {
+        for (k, j) in self.joints.iter().enumerate() {
+            let (qa, va) = (self.q_at[k], self.v_at[k]);
+            let (offset, turn) = match j.kind {
+                TreeJointKind::Spherical => (false, Some((qa, va))),
+                TreeJointKind::Free => (true, Some((qa + 3, va + 3))),
+                kind => {
+                    for c in 0..NV {
+                        for i in 0..kind.freedoms() {
+                            put(out, qa + i, c, at(dv, va + i, c));
+                        }
+                    }
+                    continue;
+                }
+            };
+            if let Some((qt, vt)) = turn {
+                let (p, omega) = (quaternion_at(q, qt), Quaternion::from_imag(three(v, vt)));
+                for c in 0..NV {
+                    let d_omega = Quaternion::from_imag(three_in(dv, vt, c));
+                    let d = (quaternion_in(dq, qt, c) * omega + p * d_omega) * 0.5;
+                    for (i, x) in [d.w, d.i, d.j, d.k].into_iter().enumerate() {
+                        put(out, qt + i, c, x);
+                    }
+                }
+            }
+            if offset {
+                let p = quaternion_at(q, qa + 3);
+                let u = Quaternion::from_imag(three(v, va));
+                let n = p.norm_squared();
+                let turned = p * u * p.conjugate();
+                for c in 0..NV {
+                    let (dp, du) = (quaternion_in(dq, qa + 3, c), Quaternion::from_imag(three_in(dv, va, c)));
+                    let d = (dp * u * p.conjugate() + p * u * dp.conjugate() + p * du * p.conjugate()) / n
+                        - turned * (2.0 * p.coords.dot(&dp.coords) / (n * n));
+                    for (i, x) in d.imag().iter().enumerate() {
+                        put(out, qa + i, c, *x);
+                    }
+                }
+            }
+        }
+    }
+
+    /// `T⁺(q)` of every column of `dq` into `out`: the increments the changes
+    /// make (`δθ = 2 Im(p̄ ⊗ δp) / |p|²`, an offset's `R(p̂)ᵀ δr`).
+    pub(crate) fn increments_of_columns(
+        &self,
+        q: &SVector<f64, NQ>,
+        dq: &SMatrix<f64, NQ, NV>,
+        out: &mut SMatrix<f64, NV, NV>,
+    ) {
+        for (k, j) in self.joints.iter().enumerate() {
+            let (qa, va) = (self.q_at[k], self.v_at[k]);
+            let turn_at = match j.kind {
+                TreeJointKind::Spherical => (qa, va),
+                TreeJointKind::Free => {
+                    let back = unit_at(q, qa + 3).inverse();
+                    for c in 0..NV {
+                        let r = back * three_in(dq, qa, c);
+                        for (i, x) in r.iter().enumerate() {
+                            put(out, va + i, c, *x);
+                        }
+                    }
+                    (qa + 3, va + 3)
+                }
+                kind => {
+                    for c in 0..NV {
+                        for i in 0..kind.freedoms() {
+                            put(out, va + i, c, at(dq, qa + i, c));
+                        }
+                    }
+                    continue;
+                }
+            };
+            let p = quaternion_at(q, turn_at.0);
+            let scale = 2.0 / p.norm_squared();
+            let conjugate = p.conjugate();
+            for c in 0..NV {
+                let d = (conjugate * quaternion_in(dq, turn_at.0, c)).imag() * scale;
+                for (i, x) in d.iter().enumerate() {
+                    put(out, turn_at.1 + i, c, *x);
+                }
+            }
+        }
+    }
+
+    /// The derivative of [`Tree::normalise`] at `q` along every column of
+    /// `dq`, in place: each quaternion's `(dp − p̂ (p̂ · dp)) / |p|`.
+    pub(crate) fn normalised_columns(&self, q: &SVector<f64, NQ>, dq: &mut SMatrix<f64, NQ, NV>) {
+        for (k, j) in self.joints.iter().enumerate() {
+            if let Some(offset) = j.kind.quaternion() {
+                let r = self.q_at[k] + offset;
+                let p = quaternion_at(q, r).coords;
+                let n = p.norm();
+                if n > 0.0 {
+                    let hat = p / n;
+                    for c in 0..NV {
+                        let dp = quaternion_in(dq, r, c).coords;
+                        let d = Quaternion::from((dp - hat * hat.dot(&dp)) / n);
+                        for (i, x) in [d.w, d.i, d.j, d.k].into_iter().enumerate() {
+                            put(dq, r + i, c, x);
+                        }
+                    }
+                }
+            }
+        }
+    }
 }

@@ -8,7 +8,8 @@
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
 use joint_runtime::tree::{
-    ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeError, TreeScene, TreeSimulation, TreeState,
+    ForwardDerivatives, InverseDerivatives, SecondDerivatives, StepJacobian, StepWork, TreeError, TreeScene,
+    TreeSimulation, TreeState,
 };
 
 use super::tree::quaternion;
@@ -53,8 +54,8 @@ impl Draw {
 
 /// A random state of `sim`'s tree: angles and slides in `[-1, 1]`, random
 /// unit quaternions, velocities in `[-2, 2]`.
-fn random_state<S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>(
-    sim: &TreeSimulation<'_, S, NB, NQ, NV>,
+fn random_state<S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+    sim: &TreeSimulation<'_, S, NB, NQ, NV, NC>,
     draw: &mut Draw,
 ) -> TreeState<NQ, NV> {
     let mut q = SVector::<f64, NQ>::from_fn(|_, _| draw.next());
@@ -429,4 +430,146 @@ fn linearise_is_exact_where_the_derive_wrote_derivatives() {
             assert!((lin.b[(6 + r, c)] - minv[r][c]).abs() < 1e-12 * (1.0 + minv[r][c].abs()));
         }
     }
+}
+
+/// The contracted second derivatives against central differences of the
+/// exact first ones (`λᵀ ∂τ/∂q`, `λᵀ ∂τ/∂v` moved along each direction);
+/// returns the worst of `d_qq`, `d_qv`, `d_vv` over their largest entries.
+fn second_against_differences<S, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    samples: usize,
+) -> [f64; 3]
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let sim = TreeSimulation::new(scene).unwrap();
+    let mut draw = Draw(0x2545_f491_4f6c_dd1d);
+    let (mut second, mut first) = (SecondDerivatives::<NV>::zeros(), InverseDerivatives::<NV>::zeros());
+    let mut worst = [0.0_f64; 3];
+    for _ in 0..samples {
+        let state = random_state(&sim, &mut draw);
+        let a = SVector::<f64, NV>::from_fn(|_, _| draw.next());
+        let lambda = SVector::<f64, NV>::from_fn(|_, _| draw.next());
+        sim.inverse_dynamics_second_derivatives(&state, &a, &lambda, &mut second).unwrap();
+        let mut contracted = |s: &TreeState<NQ, NV>| {
+            sim.inverse_dynamics_derivatives(s, &a, &mut first).unwrap();
+            (first.d_q.transpose() * lambda, first.d_v.transpose() * lambda)
+        };
+        let h = 1e-6;
+        let (mut qq, mut qv, mut vv) =
+            (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
+        for j in 0..NV {
+            let e = SVector::<f64, NV>::from_fn(|r, _| if r == j { h } else { 0.0 });
+            let (plus, minus) = (
+                contracted(&TreeState { q: sim.tree().displaced(&state.q, &e), ..state }),
+                contracted(&TreeState { q: sim.tree().displaced(&state.q, &-e), ..state }),
+            );
+            qq.set_column(j, &((plus.0 - minus.0) / (2.0 * h)));
+            let (plus, minus) = (
+                contracted(&TreeState { v: state.v + e, ..state }),
+                contracted(&TreeState { v: state.v - e, ..state }),
+            );
+            qv.set_column(j, &((plus.0 - minus.0) / (2.0 * h)));
+            vv.set_column(j, &((plus.1 - minus.1) / (2.0 * h)));
+        }
+        for (w, (ours, theirs)) in worst.iter_mut().zip([(second.d_qq, qq), (second.d_qv, qv), (second.d_vv, vv)]) {
+            *w = w.max(relative(&ours, &theirs));
+        }
+    }
+    worst
+}
+
+/// A floating drone with a gripper on a ball joint and a finger on a hinge:
+/// both quaternion kinds, small enough for the second derivatives' straight
+/// line (the whole `Menagerie`'s is 40 705 operations, past the limit).
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative, second_order)]
+#[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
+#[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
+#[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
+#[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
+#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
+struct Drone;
+
+/// The other kinds: a cylindrical shaft, a universal arm, a slider, a
+/// welded plate and a planar puck.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative, second_order)]
+#[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
+#[body(arm, mass = 0.7, inertia = [0.03, 0.02, 0.012])]
+#[body(block, mass = 0.3, inertia = [0.002, 0.003, 0.004])]
+#[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
+#[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
+#[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
+#[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
+#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
+#[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
+#[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
+struct Linkage;
+
+#[test]
+fn second_derivatives_against_differences_of_the_first() {
+    let runs = [
+        ("quaternions", second_against_differences(&Drone, 5)),
+        ("slides and turns", second_against_differences(&Linkage, 5)),
+        ("UR5", second_against_differences(&Ur5, 10)),
+    ];
+    for (name, worst) in runs {
+        eprintln!(
+            "{name}: λᵀ∂²τ/∂q² {:.1e}, λᵀ∂²τ/∂q∂v {:.1e}, λᵀ∂²τ/∂v² {:.1e} of the largest entry off differences",
+            worst[0], worst[1], worst[2]
+        );
+        assert!(worst.iter().all(|&w| w < 1e-7), "{name}: {worst:?}");
+    }
+}
+
+/// The Panda's file as it says: the second finger follows the first (a
+/// coupling row `q_f − q_l = 0`).
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf", second_order)]
+struct PandaCoupled;
+
+/// On a coupled tree the derivatives are the constrained accelerations':
+/// against central differences of `forward_dynamics` (the coupling's
+/// Baumgarte terms included), and `M⁻¹`'s place taken by the projected
+/// `P̃` (`J P̃ = 0`: no force moves the coupled fingers apart).
+#[test]
+fn a_coupled_tree_against_differences() {
+    let mut sim = TreeSimulation::new(&PandaCoupled).unwrap();
+    let mut draw = Draw(11);
+    let (mut work, mut d) = (InverseDerivatives::zeros(), ForwardDerivatives::zeros());
+    let mut worst = [0.0_f64; 3];
+    for _ in 0..10 {
+        let mut state = random_state(&sim, &mut draw);
+        state.q[8] = state.q[7] + 0.01 * draw.next(); // near the coupling, not on it
+        let tau = SVector::<f64, 9>::from_fn(|_, _| draw.next());
+        sim.forward_dynamics_derivatives(&state, &tau, &mut work, &mut d).unwrap();
+        let qdd = sim.forward_dynamics(&state, &tau).unwrap();
+        worst[2] = worst[2].max((d.qdd - qdd).amax() / qdd.amax());
+        let h = 1e-6;
+        let (mut d_q, mut d_v, mut d_tau) =
+            (SMatrix::<f64, 9, 9>::zeros(), SMatrix::<f64, 9, 9>::zeros(), SMatrix::<f64, 9, 9>::zeros());
+        for i in 0..9 {
+            let e = SVector::<f64, 9>::from_fn(|r, _| if r == i { h } else { 0.0 });
+            let mut f = |s: TreeState<9, 9>, t: SVector<f64, 9>| sim.forward_dynamics(&s, &t).unwrap();
+            d_q.set_column(
+                i,
+                &((f(TreeState { q: state.q + e, ..state }, tau) - f(TreeState { q: state.q - e, ..state }, tau))
+                    / (2.0 * h)),
+            );
+            d_v.set_column(
+                i,
+                &((f(TreeState { v: state.v + e, ..state }, tau) - f(TreeState { v: state.v - e, ..state }, tau))
+                    / (2.0 * h)),
+            );
+            d_tau.set_column(i, &((f(state, tau + e) - f(state, tau - e)) / (2.0 * h)));
+        }
+        worst[0] = worst[0].max(relative(&d.d_q, &d_q).max(relative(&d.d_v, &d_v)));
+        worst[1] = worst[1].max(relative(&d.d_tau, &d_tau));
+        // The fingers' coupled row: J P̃ = 0.
+        let j = sim.closure_rows(&state).jacobian;
+        assert!((j * d.d_tau).amax() < 1e-9 * d.d_tau.amax());
+    }
+    eprintln!("coupled Panda: ∂q̈/∂(q, v) {:.1e}, ∂q̈/∂τ {:.1e} off differences; q̈ {:.1e}", worst[0], worst[1], worst[2]);
+    assert!(worst[0] < 1e-6 && worst[1] < 1e-7 && worst[2] < 1e-12, "{worst:?}");
 }
