@@ -291,9 +291,15 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
     let (nc, nv) = (proc_macro2::Literal::usize_unsuffixed(rows), proc_macro2::Literal::usize_unsuffixed(nv));
     let nq = proc_macro2::Literal::usize_unsuffixed(d.kinematics.coords.len());
     let nb = proc_macro2::Literal::usize_unsuffixed(bodies);
+    // Said only where true (the trait's default is `false`).
+    let linear = linear.then(|| {
+        quote!(
+            const LINEAR_CLOSURES: bool = true;
+        )
+    });
     let method = quote! {
         const CLOSURES: &'static [#k::RowBlock] = &[#(#blocks),*];
-        const LINEAR_CLOSURES: bool = #linear;
+        #linear
         #[doc = #doc]
         #[inline]
         fn closure_rows(
