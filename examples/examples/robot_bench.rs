@@ -12,7 +12,12 @@
 //!
 //! ```text
 //! cargo run --release --example robot_bench -- ur5 | panda | solo12 | solo12_floating
+//! cargo run --release --example robot_bench -- ur5_recursion | panda_recursion | solo12_floating_recursion
 //! ```
+//!
+//! The `_recursion` robots are the same files without `second_order`: their
+//! derivatives are the runtime's recursion (`tree/recursion.rs`), not the
+//! generated straight line.
 
 use std::hint::black_box;
 
@@ -38,6 +43,19 @@ struct Solo12;
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base, second_order)]
 struct Solo12Floating;
+
+// The same without `second_order`: derivatives by the runtime's recursion.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/ur5.urdf")]
+struct Ur5Recursion;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent)]
+struct PandaRecursion;
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base)]
+struct Solo12FloatingRecursion;
 
 fn bench<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str)
 where
@@ -145,6 +163,12 @@ fn main() {
         "panda" => bench(&Panda, robot),
         "solo12" => bench(&Solo12, robot),
         "solo12_floating" => bench(&Solo12Floating, robot),
-        other => eprintln!("unknown robot `{other}`; expected ur5, panda, solo12 or solo12_floating"),
+        "ur5_recursion" => bench(&Ur5Recursion, robot),
+        "panda_recursion" => bench(&PandaRecursion, robot),
+        "solo12_floating_recursion" => bench(&Solo12FloatingRecursion, robot),
+        other => eprintln!(
+            "unknown robot `{other}`; expected ur5, panda, solo12 or solo12_floating, or the first, second or last \
+             with `_recursion` (derivatives by the runtime's recursion)"
+        ),
     }
 }

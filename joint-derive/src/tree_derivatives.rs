@@ -27,10 +27,22 @@ use crate::front::scene::SceneDecl;
 use crate::front::tree::TreeKind;
 use crate::generate::krate;
 
-/// Operations above which the derivatives are not written (the runtime's
-/// recursion runs): measured on the Panda (9 freedoms) and the floating
-/// Solo12 (18), see `ARCHITECTURE.md`.
+/// Operations above which the first derivatives are not written and the
+/// runtime's recursion (`tree/recursion.rs`) runs instead: measured on three
+/// robots (same run, medians), the straight line took 0.79 of the
+/// recursion's time on the UR5 (4 609 operations), 1.05 on the floating
+/// Solo12 (16 961) and 1.59 on the Panda (12 860), whose nine freedoms in
+/// one chain make the forward mode's columns long.
+pub const FIRST_LIMIT: usize = 8_000;
+
+/// Operations above which the second derivatives are not written (nothing
+/// runs: `TreeError::NotDerived`); a crate's build time grows with it.
 pub const LIMIT: usize = 40_000;
+
+/// The second derivatives cost at least this many times the first (UR5
+/// 4.6, floating Solo12 4.2, Panda 6.8): above [`LIMIT`] over this, their
+/// graph is not built at all.
+const SECOND_OVER_FIRST: usize = 4;
 
 /// The rules of one tangent direction: freedom `i` of the tree moved by one
 /// unit, every other coordinate held (`q`: the graph's coordinates).
@@ -101,7 +113,7 @@ pub(crate) fn columns(b: &mut Builder, joints: &[Joint], rnea: &NewtonEuler) -> 
 }
 
 /// A straight line's `let`s (its inputs bound from the method's arguments)
-/// and its outputs, or `None` above [`LIMIT`].
+/// and its outputs; above its limit, its operation count.
 struct Written {
     prelude: TokenStream,
     outputs: std::vec::IntoIter<TokenStream>,
@@ -110,10 +122,10 @@ struct Written {
 
 /// `outputs` of `b`'s graph written out; `inputs` are `(prefix, argument,
 /// count)`: the graph's inputs `prefix_i` read from `*argument`.
-fn write(b: &Builder, outputs: &[Id], inputs: &[(&str, &str, usize)]) -> Option<Written> {
+fn write(b: &Builder, outputs: &[Id], inputs: &[(&str, &str, usize)], limit: usize) -> Result<Written, usize> {
     let emitted = emit(&b.g, outputs, &scalar());
-    if emitted.ops > LIMIT {
-        return None;
+    if emitted.ops > limit {
+        return Err(emitted.ops);
     }
     let used = used_names(&b.g, &emitted);
     let binds = bindings(b, &used);
@@ -123,7 +135,7 @@ fn write(b: &Builder, outputs: &[Id], inputs: &[(&str, &str, usize)]) -> Option<
     });
     let body = emitted.body;
     let prelude = quote!(#(#reads)* #(#binds)* #body);
-    Some(Written { prelude, outputs: emitted.outputs.into_iter(), ops: emitted.ops })
+    Ok(Written { prelude, outputs: emitted.outputs.into_iter(), ops: emitted.ops })
 }
 
 impl Written {
@@ -140,15 +152,19 @@ impl Written {
     }
 }
 
-/// `fn inverse_dynamics_derivatives_into`, or nothing above [`LIMIT`].
-pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
+/// `fn inverse_dynamics_derivatives_into`, or nothing above [`FIRST_LIMIT`];
+/// with its operation count either way.
+pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> (Option<TokenStream>, usize) {
     let mut b = Builder::new(Graph::new());
     let rnea = newton_euler(&mut b, s, joints, nq, nv);
     let (by_q, by_v) = columns(&mut b, joints, &rnea);
     let mut outputs = rnea.tau.clone();
     outputs.extend(by_q.iter().flatten());
     outputs.extend(by_v.iter().flatten());
-    let mut w = write(&b, &outputs, &[("q", "q", nq), ("v", "v", nv), ("a", "vdot", nv)])?;
+    let mut w = match write(&b, &outputs, &[("q", "q", nq), ("v", "v", nv), ("a", "vdot", nv)], FIRST_LIMIT) {
+        Ok(w) => w,
+        Err(ops) => return (None, ops),
+    };
     let tau: Vec<TokenStream> = w.outputs.by_ref().take(nv).collect();
     let (dq, dv) = (w.matrix(nv), w.matrix(nv));
     let doc = format!(
@@ -157,7 +173,7 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
     );
     let (k, nb, prelude) = (krate(), s.bodies.len(), w.prelude);
     let p = quote!(#k::__private);
-    Some(quote! {
+    let method = quote! {
         const DERIVATIVES: bool = true;
         #[doc = #doc]
         #[inline]
@@ -175,7 +191,8 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
             out.d_v = #dv;
             true
         }
-    })
+    };
+    (Some(method), w.ops)
 }
 
 /// `fn inverse_dynamics_second_derivatives_into`: with `s = λᵀ τ`, the
@@ -183,8 +200,12 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<T
 /// tangent column `i`: iterated directions, not symmetric on the rotation
 /// group), `∂²s/∂q_i ∂v_j` and `∂²s/∂v_j ∂v_i`, what a DDP backward pass
 /// contracts; each rule set's memo shared by every column it takes.
-/// Nothing above [`LIMIT`].
-pub fn second_method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<TokenStream> {
+/// Nothing above [`LIMIT`], nor where the first derivatives took `first`
+/// operations, more than [`LIMIT`] over [`SECOND_OVER_FIRST`].
+pub fn second_method(s: &SceneDecl, joints: &[Joint], (nq, nv): (usize, usize), first: usize) -> Option<TokenStream> {
+    if first * SECOND_OVER_FIRST > LIMIT {
+        return None;
+    }
     let mut b = Builder::new(Graph::new());
     let rnea = newton_euler(&mut b, s, joints, nq, nv);
     let lambda: Vec<Id> = (0..nv).map(|i| b.g.param(format!("lambda_{i}"))).collect();
@@ -214,7 +235,7 @@ pub fn second_method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> O
         }
     }
     let inputs = [("q", "q", nq), ("v", "v", nv), ("a", "vdot", nv), ("lambda", "lambda", nv)];
-    let mut w = write(&b, &outputs, &inputs)?;
+    let mut w = write(&b, &outputs, &inputs, LIMIT).ok()?;
     let (qq, qv, vv) = (w.matrix(nv), w.matrix(nv), w.matrix(nv));
     let doc = format!(
         " The contracted second derivatives of the inverse dynamics written out (forward mode twice): {} operations.",

@@ -21,7 +21,20 @@ use joint_runtime::tree::{
 #[joint(elbow = revolute(upper, lower), axis1 = [1, 0.2, 0], axis2 = [1, 0.2, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0], armature = 0.01)]
 pub struct Arm;
 
+/// The same arm without `second_order`: its derivatives by the runtime's
+/// recursion.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(base, mass = 2.0, inertia = [0.02, 0.03, 0.02])]
+#[body(upper, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+#[body(lower, mass = 0.5, inertia = [0.0005, 0.04, 0.04])]
+#[joint(turn = revolute(ground, base), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.1], rho2 = [0, 0, -0.1])]
+#[joint(shoulder = revolute(base, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0.1], rho2 = [-0.5, 0, 0], damping = 0.1)]
+#[joint(elbow = revolute(upper, lower), axis1 = [1, 0.2, 0], axis2 = [1, 0.2, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0], armature = 0.01)]
+pub struct RecursionArm;
+
 type Sim<'a> = TreeSimulation<'a, Arm, 3, 3, 3>;
+type RecursionSim<'a> = TreeSimulation<'a, RecursionArm, 3, 3, 3>;
 type State = TreeState<3, 3>;
 
 checked! {
@@ -36,6 +49,14 @@ checked! {
         out: &mut ForwardDerivatives<3>,
     ) -> Result<(), TreeError> {
         sim.forward_dynamics_derivatives(state, tau, work, out)
+    }
+    fn inverse_derivatives_by_recursion(
+        sim: &RecursionSim<'_>,
+        state: &State,
+        vdot: &SVector<f64, 3>,
+        out: &mut InverseDerivatives<3>,
+    ) -> Result<(), TreeError> {
+        sim.inverse_dynamics_derivatives(state, vdot, out)
     }
     fn rk4_step_jacobian(
         sim: &Sim<'_>,

@@ -26,6 +26,15 @@ use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, 
 #[joint(elbow = revolute(upper, lower), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
 struct Pendulum;
 
+/// The same without `second_order`: its derivatives by the runtime's recursion.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(upper, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+#[body(lower, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+#[joint(shoulder = revolute(ground, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(elbow = revolute(upper, lower), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+struct RecursionPendulum;
+
 thread_local! {
     static COUNT: Cell<usize> = const { Cell::new(0) };
 }
@@ -223,6 +232,16 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     });
     assert_eq!(n, 0, "a tree's derivatives allocated");
     assert!(ok, "the derivatives ran");
+    let recursion = TreeSimulation::new(&RecursionPendulum).expect("a valid tree");
+    let n = allocations(|| {
+        let a = recursion.inverse_dynamics_derivatives(&start, &tau, &mut inverse).is_ok();
+        let b = recursion.forward_dynamics_derivatives(&start, &tau, &mut inverse, &mut forward).is_ok();
+        let mut end = start;
+        let c = recursion.rk4_step_jacobian(&mut end, 1e-3, &tau, &mut work, &mut jacobian).is_ok();
+        ok = a && b && c;
+    });
+    assert_eq!(n, 0, "the recursion's derivatives allocated");
+    assert!(ok, "the recursion's derivatives ran");
     // The counter counts: a vector allocates.
     assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
 }

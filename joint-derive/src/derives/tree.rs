@@ -53,8 +53,13 @@ pub fn print(
     let controller = crate::aba::controller_methods(s, edges, nq, nv);
     // `second_order`: the dynamics' derivatives, what a linearisation needs.
     let written = s.second_order.and_then(|_| crate::aba::written(s, edges));
-    let derivatives = written.as_ref().and_then(|joints| crate::tree_derivatives::method(s, joints, nq, nv));
-    let second = written.as_ref().and_then(|joints| crate::tree_derivatives::second_method(s, joints, nq, nv));
+    let (derivatives, second) = match &written {
+        Some(joints) => {
+            let (first, ops) = crate::tree_derivatives::method(s, joints, nq, nv);
+            (first, crate::tree_derivatives::second_method(s, joints, (nq, nv), ops))
+        }
+        None => (None, None),
+    };
     let (closure, nc) =
         loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
     let body = quote! {

@@ -5,6 +5,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3, Vector4, Vect
 
 use super::TreeJointKind;
 use super::spatial::{Transform, join};
+use super::tangent::{get, three, unit_at};
 use super::topology::Tree;
 
 /// A joint's columns of `S` in the child's link frame (its axes, origin at
@@ -73,18 +74,21 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// Joint `k`'s subspace at `q`: constant but for a universal joint, whose
     /// first column `rot(h, θ₂)ᵀ R₀ᵀ s` turns with θ₂, and a planar one, whose
     /// slides `rot(h, θ)ᵀ R₀ᵀ (f, g)` turn with θ.
+    // Inlined into the recursions' loops over the joints, where `k` is in
+    // range by construction: no bounds check, no panic path.
+    #[inline(always)]
     pub(crate) fn subspace_at(&self, k: usize, q: &SVector<f64, NQ>) -> Subspace {
         let mut s = self.subspace[k];
         if self.joints[k].kind == TreeJointKind::Planar {
             let h = nalgebra::Unit::new_unchecked(self.axis[k]);
-            let turn = UnitQuaternion::from_axis_angle(&h, -q[self.q_at[k] + 2]);
+            let turn = UnitQuaternion::from_axis_angle(&h, -get(q, self.q_at[k] + 2));
             for (col, x) in s.cols.iter_mut().zip(self.geometry.plane[k]) {
                 *col = sliding(&(turn * (self.rest[k].inverse() * x)));
             }
         }
         if self.joints[k].kind == TreeJointKind::Universal {
             let h = nalgebra::Unit::new_unchecked(self.axis[k]);
-            let turn = UnitQuaternion::from_axis_angle(&h, -q[self.q_at[k] + 1]);
+            let turn = UnitQuaternion::from_axis_angle(&h, -get(q, self.q_at[k] + 1));
             let b = self.rest[k].inverse() * self.slide[k];
             s.cols[0] = turning(&(turn * b));
         }
@@ -108,26 +112,29 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     }
 
     /// The child's rotation relative to its parent (`A_child = A_parent R`).
+    // Inlined into the recursions' loops over the joints, where `k` is in
+    // range by construction: no bounds check, no panic path.
+    #[inline(always)]
     pub(crate) fn relative_rotation(&self, k: usize, q: &SVector<f64, NQ>) -> UnitQuaternion<f64> {
         let at = self.q_at[k];
         match self.joints[k].kind {
             TreeJointKind::Revolute | TreeJointKind::Cylindrical => {
                 let axis = nalgebra::Unit::new_unchecked(self.axis[k]);
-                self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at])
+                self.rest[k] * UnitQuaternion::from_axis_angle(&axis, get(q, at))
             }
             TreeJointKind::Planar => {
                 let axis = nalgebra::Unit::new_unchecked(self.axis[k]);
-                self.rest[k] * UnitQuaternion::from_axis_angle(&axis, q[at + 2])
+                self.rest[k] * UnitQuaternion::from_axis_angle(&axis, get(q, at + 2))
             }
-            TreeJointKind::Spherical => unit(&q.fixed_rows::<4>(at).into_owned()),
-            TreeJointKind::Free => unit(&q.fixed_rows::<4>(at + 3).into_owned()),
+            TreeJointKind::Spherical => unit_at(q, at),
+            TreeJointKind::Free => unit_at(q, at + 3),
             TreeJointKind::Prismatic | TreeJointKind::Fixed => self.rest[k],
             TreeJointKind::Universal => {
                 let a = nalgebra::Unit::new_unchecked(self.slide[k]);
                 let h = nalgebra::Unit::new_unchecked(self.axis[k]);
-                UnitQuaternion::from_axis_angle(&a, q[at])
+                UnitQuaternion::from_axis_angle(&a, get(q, at))
                     * self.rest[k]
-                    * UnitQuaternion::from_axis_angle(&h, q[at + 1])
+                    * UnitQuaternion::from_axis_angle(&h, get(q, at + 1))
             }
         }
     }
@@ -136,16 +143,19 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// the offset between the two joint points is a constant of the parent
     /// (plus the slide along the parent's axis, prismatic; plus the free
     /// joint's own offset).
+    // Inlined into the recursions' loops over the joints, where `k` is in
+    // range by construction: no bounds check, no panic path.
+    #[inline(always)]
     pub(crate) fn transform(&self, k: usize, q: &SVector<f64, NQ>) -> Transform {
         let rel: Matrix3<f64> = self.relative_rotation(k, q).to_rotation_matrix().into_inner();
         let at = self.q_at[k];
         let r = match self.joints[k].kind {
-            TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * q[at],
-            TreeJointKind::Cylindrical => self.offset[k] + self.slide[k] * q[at + 1],
+            TreeJointKind::Prismatic => self.offset[k] + self.slide[k] * get(q, at),
+            TreeJointKind::Cylindrical => self.offset[k] + self.slide[k] * get(q, at + 1),
             TreeJointKind::Planar => {
-                self.offset[k] + self.geometry.plane[k][0] * q[at] + self.geometry.plane[k][1] * q[at + 1]
+                self.offset[k] + self.geometry.plane[k][0] * get(q, at) + self.geometry.plane[k][1] * get(q, at + 1)
             }
-            TreeJointKind::Free => self.offset[k] + q.fixed_rows::<3>(at),
+            TreeJointKind::Free => self.offset[k] + three(q, at),
             _ => self.offset[k],
         };
         Transform { e: rel.transpose(), r }

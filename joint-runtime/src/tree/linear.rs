@@ -10,10 +10,9 @@
 //! its own frame; for a free joint also `−[ω']× δ − [u]× δθ` for its
 //! offset); `A_q`, `A_v` are the forward dynamics' exact derivatives
 //! ([`forward_dynamics_derivatives`](super::TreeSimulation::forward_dynamics_derivatives))
-//! where the derive wrote them (`#[scene(second_order)]`) and the tree has
-//! no loops but couplings, no springs and no user loads; central
-//! differences of the forward dynamics otherwise (the springs' and the
-//! user's loads included).
+//! where the tree has no loops but couplings, no springs and no user
+//! loads; central differences of the forward dynamics otherwise (the
+//! springs' and the user's loads included).
 //! `B = [0; M⁻¹]`, exact (`v̇` is affine in the joint forces). The outputs
 //! are dense matrices (they allocate); the allocation-free form is
 //! `forward_dynamics_derivatives` itself, whose blocks these are.
@@ -81,7 +80,7 @@ impl<
         for i in 0..n {
             a[(i, n + i)] = 1.0;
         }
-        if S::DERIVATIVES && (NC == 0 || S::LINEAR_CLOSURES) && !self.loaded() {
+        if (NC == 0 || S::LINEAR_CLOSURES) && !self.loaded() {
             return self.exact(state, tau, a);
         }
         for i in 0..n {

@@ -91,6 +91,7 @@ mod dynamics;
 mod kinematics;
 #[cfg(feature = "alloc")]
 mod linear;
+mod recursion;
 mod simulation;
 mod spatial;
 mod step_jacobian;
@@ -229,8 +230,9 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     /// `J`, no `γ`, no `Φ_t`: a file's couplings), so that the constrained
     /// accelerations' derivatives follow from the tree's.
     const LINEAR_CLOSURES: bool = false;
-    /// Whether the derive wrote the dynamics' derivatives
-    /// ([`inverse_dynamics_derivatives_into`](Self::inverse_dynamics_derivatives_into)).
+    /// Whether the derive wrote the dynamics' first derivatives out
+    /// ([`inverse_dynamics_derivatives_into`](Self::inverse_dynamics_derivatives_into));
+    /// where it did not, the runtime's recursion gives the same numbers.
     const DERIVATIVES: bool = false;
     /// The tree joints, parents before children (joint `k` is the `k`-th
     /// joint reached from the ground).

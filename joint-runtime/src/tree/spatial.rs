@@ -18,14 +18,16 @@ pub(crate) struct Transform {
     pub r: Vector3<f64>,
 }
 
-/// The angular and linear halves.
-#[inline]
+/// The angular and linear halves. Always inlined, as [`join`]: a call left
+/// out of line has been left as one that may unwind, which the no-panic
+/// proof of the recursions (`tree/recursion.rs`) cannot see through.
+#[inline(always)]
 pub(crate) fn split(m: &Vector6<f64>) -> (Vector3<f64>, Vector3<f64>) {
     (m.fixed_rows::<3>(0).into_owned(), m.fixed_rows::<3>(3).into_owned())
 }
 
 /// Joins an angular and a linear half.
-#[inline]
+#[inline(always)]
 pub(crate) fn join(a: &Vector3<f64>, l: &Vector3<f64>) -> Vector6<f64> {
     Vector6::new(a.x, a.y, a.z, l.x, l.y, l.z)
 }

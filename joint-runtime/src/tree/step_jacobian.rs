@@ -163,9 +163,6 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
 {
     /// Refuses what the chain rule here does not cover.
     fn check_step(&self, state: &TreeState<NQ, NV>, h: f64, tau: &SVector<f64, NV>) -> Result<(), TreeError> {
-        if !S::DERIVATIVES {
-            return Err(TreeError::NotDerived);
-        }
         if self.loaded() {
             return Err(TreeError::Loaded);
         }
@@ -206,9 +203,7 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
     /// the four stages: `4` forward-dynamics derivatives. Allocation-free;
     /// on error `state` is unchanged.
     ///
-    /// Needs the derive's derivatives (`#[scene(second_order)]`:
-    /// [`TreeError::NotDerived`]); a tree with springs or user loads gets
-    /// [`TreeError::Loaded`].
+    /// A tree with springs or user loads gets [`TreeError::Loaded`].
     pub fn rk4_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,

@@ -100,12 +100,12 @@ fn spin_into<const NQ: usize, const NV: usize>(
 }
 
 /// `m[(r, c)]`, or zero out of range.
-fn at<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, r: usize, c: usize) -> f64 {
+pub(super) fn at<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>, r: usize, c: usize) -> f64 {
     m.get((r, c)).copied().unwrap_or(0.0)
 }
 
 /// `m[(r, c)] = value` where in range.
-fn put<const R: usize, const C: usize>(m: &mut SMatrix<f64, R, C>, r: usize, c: usize, value: f64) {
+pub(super) fn put<const R: usize, const C: usize>(m: &mut SMatrix<f64, R, C>, r: usize, c: usize, value: f64) {
     if let Some(slot) = m.get_mut((r, c)) {
         *slot = value;
     }

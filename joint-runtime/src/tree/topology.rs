@@ -81,9 +81,11 @@ pub enum TreeError {
         /// The option's name.
         name: &'static str,
     },
-    /// The scene has no generated derivatives of its dynamics: it did not
-    /// ask for them (`#[scene(second_order)]`), or its tree is past the
-    /// limit of the derive's straight line.
+    /// No exact derivatives for this: the inverse dynamics' second
+    /// derivatives of a scene that did not ask for them
+    /// (`#[scene(second_order)]`) or whose tree is past the derive's
+    /// straight line, or the forward dynamics' first derivatives of a tree
+    /// whose loops are not a file's couplings.
     NotDerived,
     /// A step's exact Jacobian asked of a tree with springs or user loads:
     /// it covers the tree's own dynamics (gravity, armature, damping);
@@ -134,8 +136,8 @@ impl fmt::Display for TreeError {
                  (`TreeSimulation::assemble`)"
             ),
             TreeError::NotDerived => f.write_str(
-                "the scene has no generated derivatives of its dynamics: add `second_order` to its `#[scene(..)]` \
-                 (trees past the derive's limit have none)",
+                "no exact derivatives for this: second derivatives need `second_order` in the `#[scene(..)]` (trees \
+                 past the derive's limit have none), and a tree's loops must be a file's couplings",
             ),
             TreeError::Loaded => f.write_str(
                 "the step's exact Jacobian covers the tree's own dynamics; springs or user loads act on this one \

@@ -144,23 +144,83 @@ fn every_joint_kind_against_differences() {
     assert!(worst[4] < 1e-10 && worst[5] < 1e-12, "{worst:?}");
 }
 
-/// A pendulum without `second_order` has none: the call says so.
+/// A pendulum without `second_order` gets its derivatives by the runtime's
+/// recursion: the closed form, and `NonFinite` for a state that is not.
 #[test]
-fn a_scene_that_did_not_ask_has_none() {
+fn a_scene_that_did_not_ask_gets_the_recursion() {
     #[derive(Scene)]
     #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
-    #[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
-    #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    #[body(bar, mass = 2.0, inertia = [0.001, 0.1, 0.1])]
+    #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0], damping = 0.3)]
     struct Plain;
 
     let sim = TreeSimulation::new(&Plain).unwrap();
     let state = TreeState { q: SVector::from([0.3]), v: SVector::from([0.1]), t: 0.0 };
     let mut d = InverseDerivatives::zeros();
-    let err = sim.inverse_dynamics_derivatives(&state, &SVector::zeros(), &mut d).unwrap_err();
-    assert_eq!(err, TreeError::NotDerived);
-    assert!(err.to_string().contains("`second_order`"));
+    sim.inverse_dynamics_derivatives(&state, &SVector::from([0.7]), &mut d).unwrap();
+    // τ = (I + m l²) θ̈ − m g l cos θ + c θ̇ (the centre at height −l sin θ).
+    let (m, g, l, c) = (2.0, 9.81, 0.5, 0.3);
+    let expected = (0.1 + m * l * l) * 0.7 - m * g * l * 0.3f64.cos() + c * 0.1;
+    assert!((d.tau[0] - expected).abs() < 1e-12, "{} against {expected}", d.tau[0]);
+    assert!((d.d_q[(0, 0)] - m * g * l * 0.3f64.sin()).abs() < 1e-12, "{}", d.d_q[(0, 0)]);
+    assert!((d.d_v[(0, 0)] - c).abs() < 1e-15, "{}", d.d_v[(0, 0)]);
     let bad = TreeState { q: SVector::from([f64::NAN]), ..state };
     assert_eq!(sim.inverse_dynamics_derivatives(&bad, &SVector::zeros(), &mut d), Err(TreeError::NonFinite));
+}
+
+/// The menagerie again, without `second_order`: the recursion's.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
+#[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
+#[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
+#[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
+#[body(wheel, mass = 0.4, inertia = [0.008, 0.005, 0.005, 0.001, 0.0, 0.0])]
+#[body(arm, mass = 0.7, inertia = [0.03, 0.02, 0.012])]
+#[body(block, mass = 0.3, inertia = [0.002, 0.003, 0.004])]
+#[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
+#[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
+#[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
+#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
+#[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
+#[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
+#[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
+#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
+#[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
+#[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
+struct MenagerieByRecursion;
+
+#[test]
+fn the_recursion_on_every_joint_kind() {
+    let worst = against_differences(&MenagerieByRecursion, 20);
+    eprintln!(
+        "every kind, recursion: ∂τ/∂q {:.1e}, ∂τ/∂v {:.1e}, ∂q̈/∂q {:.1e}, ∂q̈/∂v {:.1e} of the largest entry",
+        worst[0], worst[1], worst[2], worst[3]
+    );
+    for (what, w) in ["∂τ/∂q", "∂τ/∂v", "∂q̈/∂q", "∂q̈/∂v"].iter().zip(worst) {
+        assert!(w < 1e-7, "{what} off its central differences by {w:e} of the largest entry");
+    }
+    // ...and the generated straight line's, to round-off.
+    assert!(written(&Menagerie) && !written(&MenagerieByRecursion));
+    let (generated, recursion) =
+        (TreeSimulation::new(&Menagerie).unwrap(), TreeSimulation::new(&MenagerieByRecursion).unwrap());
+    let mut draw = Draw(0x2545_f491_4f6c_dd1d);
+    let (mut a, mut b) = (InverseDerivatives::zeros(), InverseDerivatives::zeros());
+    let mut gap = [0.0_f64; 3];
+    for _ in 0..50 {
+        let state = random_state(&generated, &mut draw);
+        let vdot = SVector::from_fn(|_, _| draw.next());
+        generated.inverse_dynamics_derivatives(&state, &vdot, &mut a).unwrap();
+        recursion.inverse_dynamics_derivatives(&state, &vdot, &mut b).unwrap();
+        gap[0] = gap[0].max(relative(&b.tau, &a.tau));
+        gap[1] = gap[1].max(relative(&b.d_q, &a.d_q));
+        gap[2] = gap[2].max(relative(&b.d_v, &a.d_v));
+    }
+    eprintln!(
+        "every kind, recursion against the straight line: τ {:.1e}, ∂τ/∂q {:.1e}, ∂τ/∂v {:.1e}",
+        gap[0], gap[1], gap[2]
+    );
+    assert!(gap.iter().all(|&g| g < 1e-13), "{gap:?}");
 }
 
 #[derive(Scene)]
@@ -230,6 +290,27 @@ where
         assert!(w < bound(i), "{robot}: {what} off Pinocchio's by {w:e} of its largest entry");
     }
     worst
+}
+
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
+struct Ur5ByRecursion;
+
+/// Whether the derive wrote `scene`'s first derivatives out.
+fn written<S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+    _: &S,
+) -> bool {
+    S::DERIVATIVES
+}
+
+/// The UR5 without `second_order`: the runtime's recursion. (The Panda's
+/// and the floating Solo12's straight lines would be past the limit where
+/// the recursion is faster: theirs is the recursion either way.)
+#[test]
+fn the_recursion_against_pinocchio() {
+    assert!(written(&Ur5) && !written(&Ur5ByRecursion));
+    assert!(!written(&Panda) && !written(&Solo12Floating));
+    against_pinocchio(&Ur5ByRecursion, "ur5");
 }
 
 #[test]
@@ -412,10 +493,17 @@ fn a_loaded_tree_has_no_exact_step_jacobian() {
 /// `linearise` on the exact derivatives: `A`'s lower blocks and `B` are
 /// Pinocchio's `∂q̈/∂q`, `∂q̈/∂v`, `M⁻¹` (the UR5's first sample).
 #[test]
-fn linearise_is_exact_where_the_derive_wrote_derivatives() {
+fn linearise_is_exact_on_both_paths() {
+    linearise_against_pinocchio(&Ur5);
+    linearise_against_pinocchio(&Ur5ByRecursion);
+}
+
+/// `linearise`'s `A` and `B` on the UR5 against Pinocchio's `∂q̈/∂q`,
+/// `∂q̈/∂v` and `M⁻¹`.
+fn linearise_against_pinocchio<S: TreeScene<NB, 6, 6>, const NB: usize>(scene: &S) {
     use super::urdf::{joint_map, numbers, our_q, our_v, reference};
     let data = reference("ur5_derivatives");
-    let mut sim = TreeSimulation::new(&Ur5).unwrap();
+    let mut sim = TreeSimulation::new(scene).unwrap();
     let map = joint_map(&sim, &data);
     let s = &data["samples"][0];
     let v = |key: &str| our_v::<6>(&map, &numbers(&s[key]));
