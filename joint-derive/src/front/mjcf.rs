@@ -12,10 +12,13 @@
 //! `<equality>`'s `connect` (a ball joint) and `weld` (a fixed joint) as
 //! joints that close loops, at the file's reference configuration. A
 //! joint's range, damping, `frictionloss`, `armature` and
-//! `actuatorfrcrange` are data ([`FileLimits`]). Refused, each by name:
-//! what would change the dynamics without being modelled (a joint's
-//! `stiffness` or `ref`, inertia computed from geoms, several joints in one
-//! body, `<equality joint>`, `<include>`, composites, mocap bodies).
+//! `actuatorfrcrange` are data ([`FileLimits`]); `<flag gravity="disable">`
+//! switches gravity off. Refused, each by name at the attribute: what would
+//! change the dynamics without being modelled ([`UNMODELLED`]: gravity
+//! compensation, joint springs, fluid forces, the compiler's mass rescaling,
+//! switched-off passive forces or constraints; an equality's softness; a
+//! joint's `ref`, inertia computed from geoms, several joints in one body,
+//! a damped free joint, `<include>`, composites, mocap bodies).
 //! Geoms, meshes, actuators, sensors and contacts are not read.
 
 use std::collections::HashMap;
@@ -38,7 +41,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     let fail = |at: roxmltree::TextPos, message: String| {
         syn::Error::new(span, format!("{shown}:{}:{}: {message}", at.row, at.col))
     };
-    let doc = roxmltree::Document::parse(text).map_err(|e| fail(e.pos(), format!("malformed XML: {e}")))?;
+    let doc = super::robot::parse_xml(text, &fail)?;
     let mut reader = Reader::new(&doc, &fail)?;
     let root = doc.root_element();
     let world = root.children().find(|n| n.has_tag_name("worldbody"));
@@ -51,12 +54,17 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
     }
     let (closures, couplings) = reader.equalities(root)?;
-    let gravity = match root.children().find(|n| n.has_tag_name("option")) {
+    let option = root.children().find(|n| n.has_tag_name("option"));
+    let gravity = match option {
         Some(o) => triple(o, "gravity", reader.pos(o), &fail)?,
         None => None,
     };
+    // `<flag gravity="disable"/>`: MuJoCo's model without gravity.
+    let flags = option.into_iter().flat_map(|o| o.children()).filter(|n| n.has_tag_name("flag"));
+    let off = flags.clone().any(|f| f.attribute("gravity") == Some("disable"));
+    let gravity = if off { [0.0; 3] } else { gravity.unwrap_or([0.0, 0.0, -9.81]) };
     let robot = assemble(&reader.links, &reader.joints, &closures, false, &fail)?;
-    Ok(Robot { gravity: Some(gravity.unwrap_or([0.0, 0.0, -9.81])), couplings, ..robot })
+    Ok(Robot { gravity: Some(gravity), couplings, ..robot })
 }
 
 /// What `<compiler>` says that changes numbers.
@@ -122,6 +130,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             };
             return Err(fail(pos(n), format!("`<{}>`: {what}", n.tag_name().name())));
         }
+        unmodelled(doc, fail)?;
         let mut defaults = HashMap::new();
         for d in root.children().filter(|n| n.has_tag_name("default")) {
             default_class(d, "main", &HashMap::new(), &mut defaults, &pos, fail)?;
@@ -238,6 +247,13 @@ impl<'a, 'i> Reader<'a, 'i> {
                 None => Ok(None),
                 Some(text) => match text.trim().parse::<f64>() {
                     Ok(x) if x.is_finite() => Ok(Some(x)),
+                    _ if text.split_whitespace().filter(|t| t.parse::<f64>().is_ok()).count() > 1 => Err(fail(
+                        at,
+                        format!(
+                            "`{key}=\"{text}\"`: a value per freedom is not read yet; expected one number for the \
+                             whole joint"
+                        ),
+                    )),
                     _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
                 },
             }
@@ -305,6 +321,15 @@ impl<'a, 'i> Reader<'a, 'i> {
             None => None,
         };
         let (damping, armature) = (value("damping")?, value("armature")?);
+        if kind == Kind::Floating && [damping, armature].iter().flatten().any(|&x| x != 0.0) {
+            return Err(fail(
+                at,
+                format!(
+                    "{label} is free and has `damping` or `armature` (its own or its class's), which a floating body \
+                     does not model; expected none"
+                ),
+            ));
+        }
         if damping.or(armature).is_some_and(|_| damping.unwrap_or(0.0) < 0.0 || armature.unwrap_or(0.0) < 0.0) {
             return Err(fail(
                 at,
@@ -539,6 +564,93 @@ impl<'a, 'i> Reader<'a, 'i> {
     }
 }
 
+/// The values of an attribute that leave MuJoCo's dynamics as this reader
+/// models them.
+#[derive(Clone, Copy)]
+enum Neutral {
+    /// Numbers, all zero.
+    Zero,
+    /// A number at most zero (MuJoCo's "off").
+    NotPositive,
+    /// `false`.
+    False,
+    /// `enable`: a `<flag>` left on.
+    Enable,
+    /// None at all: any value is refused.
+    Absent,
+}
+
+impl Neutral {
+    fn holds(self, value: &str) -> bool {
+        let numbers = || value.split_whitespace().map(str::parse::<f64>);
+        match self {
+            Neutral::Zero => numbers().all(|x| x == Ok(0.0)),
+            Neutral::NotPositive => numbers().all(|x| x.is_ok_and(|x| x <= 0.0)),
+            Neutral::False => value == "false",
+            Neutral::Enable => value == "enable",
+            Neutral::Absent => false,
+        }
+    }
+}
+
+/// What changes MuJoCo's dynamics and is not modelled here, refused
+/// wherever the file states it (a `<default>` class included), at the
+/// attribute: `(element, attribute, what leaves it neutral, what it is)`.
+/// Modelled instead: `<option gravity>` and `<flag gravity>`, a joint's
+/// `armature` and `damping`; data: `<option timestep integrator>`, ranges,
+/// `frictionloss`, actuators (the `README`'s table).
+const UNMODELLED: &[(&str, &str, Neutral, &str)] = &[
+    ("body", "gravcomp", Neutral::Zero, "gravity compensation"),
+    ("joint", "springdamper", Neutral::Zero, "a joint's spring-damper"),
+    ("joint", "stiffness", Neutral::Zero, "a joint's spring"),
+    ("compiler", "settotalmass", Neutral::NotPositive, "masses scaled to a total"),
+    ("compiler", "boundmass", Neutral::Zero, "a lower bound on the masses"),
+    ("compiler", "boundinertia", Neutral::Zero, "a lower bound on the inertias"),
+    ("compiler", "balanceinertia", Neutral::False, "inertias balanced by the compiler"),
+    ("option", "density", Neutral::Zero, "fluid forces"),
+    ("option", "viscosity", Neutral::Zero, "fluid forces"),
+    ("option", "wind", Neutral::Zero, "fluid forces"),
+    ("geom", "fluidshape", Neutral::Absent, "fluid forces"),
+    ("flag", "passive", Neutral::Enable, "passive forces switched off"),
+    ("flag", "damper", Neutral::Enable, "joint damping switched off"),
+    ("flag", "equality", Neutral::Enable, "equalities switched off"),
+    ("flag", "constraint", Neutral::Enable, "constraints switched off"),
+];
+
+/// An equality's softness (MuJoCo's `solref`, `solimp`): its rows are hard
+/// here, which a file that tunes them does not mean.
+const SOFTNESS: [&str; 2] = ["solref", "solimp"];
+
+/// Refuses the first of [`UNMODELLED`] the file states, and an equality's
+/// explicit softness, at the attribute's line and column.
+fn unmodelled(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<()> {
+    for n in doc.root_element().descendants().filter(|n| n.is_element()) {
+        let tag = n.tag_name().name();
+        let in_equality = tag == "equality" || n.parent_element().is_some_and(|p| p.has_tag_name("equality"));
+        for a in n.attributes() {
+            let at = doc.text_pos_at(a.range().start);
+            let (key, value) = (a.name(), a.value());
+            if in_equality && SOFTNESS.contains(&key) {
+                return Err(fail(
+                    at,
+                    format!(
+                        "`{key}=\"{value}\"` on `<{tag}>`: an equality's softness is not modelled (its rows are hard \
+                         constraints here); expected none"
+                    ),
+                ));
+            }
+            let refused = UNMODELLED.iter().find(|(t, k, neutral, _)| *t == tag && *k == key && !neutral.holds(value));
+            if let Some((_, _, _, what)) = refused {
+                return Err(fail(
+                    at,
+                    format!("`{key}=\"{value}\"` on `<{tag}>` ({what}) is not modelled; expected none"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// MuJoCo's five ways to give an orientation.
 const ORIENTATIONS: [&str; 5] = ["quat", "axisangle", "euler", "xyaxes", "zaxis"];
 
@@ -617,6 +729,19 @@ mod tests {
         )
     }
 
+    /// `<flag gravity="disable"/>` is MuJoCo's model without gravity; the
+    /// file's `<option gravity>` otherwise, MuJoCo's `0 0 -9.81` without one.
+    #[test]
+    fn gravity_as_the_file_says() {
+        let hinge = "<joint name=\"j\"/>";
+        let gravity = |extra: &str| {
+            from_text(&one_body(hinge, extra), "f.xml", proc_macro2::Span::call_site()).map(|r| r.gravity).ok()
+        };
+        assert_eq!(gravity(""), Some(Some([0.0, 0.0, -9.81])));
+        assert_eq!(gravity("<option gravity=\"0 -1 0\"/>"), Some(Some([0.0, -1.0, 0.0])));
+        assert_eq!(gravity("<option><flag gravity=\"disable\"/></option>"), Some(Some([0.0; 3])));
+    }
+
     #[test]
     fn bad_files_one_message_each_at_line_and_column() {
         let hinge = "<joint name=\"j\"/>";
@@ -629,7 +754,29 @@ mod tests {
             (&one_body("<joint type=\"cylinder\"/>", ""), "5:1:", "has type `cylinder`; expected `hinge`"),
             (&one_body("<joint/><joint name=\"k\"/>", ""), "5:9:", "has a second joint"),
             (&one_body(&format!("{hinge}<body><geom size=\"1\"/></body>"), ""), "5:18:", "inertia from geoms"),
-            (&one_body("<joint stiffness=\"10\"/>", ""), "5:1:", "nonzero `stiffness`"),
+            (&one_body("<joint stiffness=\"10\"/>", ""), "5:8:", "(a joint's spring) is not modelled"),
+            (&one_body("<joint springdamper=\"0.1 1\"/>", ""), "5:8:", "(a joint's spring-damper) is not modelled"),
+            (
+                &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"1\""),
+                "3:18:",
+                "`gravcomp=\"1\"` on `<body>` (gravity compensation) is not modelled",
+            ),
+            (&one_body(hinge, "<compiler settotalmass=\"5\"/>"), "8:11:", "masses scaled to a total"),
+            (&one_body(hinge, "<compiler balanceinertia=\"true\"/>"), "8:11:", "inertias balanced"),
+            (&one_body(hinge, "<option density=\"1.2\"/>"), "8:9:", "(fluid forces) is not modelled"),
+            (&one_body(hinge, "<option wind=\"0 1 0\"/>"), "8:9:", "fluid forces"),
+            (&one_body(hinge, "<option><flag damper=\"disable\"/></option>"), "8:15:", "joint damping switched off"),
+            (
+                &one_body(hinge, "<equality><joint joint1=\"j\" joint2=\"j\" solref=\"0.01 1\"/></equality>"),
+                "8:40:",
+                "an equality's softness is not modelled",
+            ),
+            (
+                &one_body("<joint type=\"free\"/>", "<default><joint damping=\"1\"/></default>"),
+                "5:1:",
+                "is free and has `damping` or `armature`",
+            ),
+            ("<mujoco>\n<worldbody>\n<body name=\"a\">", "3:16:", "the file ends here, cut short"),
             (&one_body("<joint ref=\"0.3\"/>", ""), "5:1:", "nonzero `ref`"),
             (
                 &one_body(&format!("{hinge}{}", second.replace("hand", "arm")), ""),
@@ -683,11 +830,21 @@ mod tests {
             ),
             (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" mocap=\"true\""), "3:1:", "mocap body"),
             (&one_body("<joint range=\"1\"/>", ""), "5:1:", "`range=\"1\"`: expected two numbers"),
+            (&one_body("<joint type=\"ball\" damping=\"15 5\"/>", ""), "5:1:", "a value per freedom is not read yet"),
             (&one_body("<joint axis=\"0 0 0\"/>", ""), "5:1:", "zero axis"),
         ];
         for (text, at, expected) in cases {
             let message = error(text);
             assert!(message.starts_with(at) && message.contains(expected), "{text}\n{message}");
+        }
+        // What leaves the dynamics as they are is no error.
+        for neutral in [
+            one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"0\""),
+            one_body(hinge, "<compiler settotalmass=\"-1\"/><option density=\"0\" wind=\"0 0 0\"/>"),
+            one_body(hinge, "<option><flag damper=\"enable\" gravity=\"enable\"/></option>"),
+            one_body("<joint stiffness=\"0\" springdamper=\"0 0\"/>", ""),
+        ] {
+            assert!(from_text(&neutral, "f.xml", proc_macro2::Span::call_site()).is_ok(), "{neutral}");
         }
         // A body with geoms and no `<inertial>` on the ground is no error:
         // its mass would not move.

@@ -168,6 +168,22 @@ pub fn rust_name(name: &str, index: usize) -> String {
 
 pub type Fail<'f> = dyn Fn(roxmltree::TextPos, String) -> syn::Error + 'f;
 
+/// `text` parsed, or the error at its place: a file cut short at its last
+/// line and column (where the reader ran out), not at `1:1`.
+pub fn parse_xml<'i>(text: &'i str, fail: &Fail) -> syn::Result<roxmltree::Document<'i>> {
+    roxmltree::Document::parse(text).map_err(|e| {
+        let cut = matches!(e, roxmltree::Error::UnexpectedEndOfStream | roxmltree::Error::UnclosedRootNode);
+        if !cut {
+            return fail(e.pos(), format!("malformed XML: {e}"));
+        }
+        let row = text.lines().count().max(1);
+        let col = text.lines().last().map_or(0, |l| l.chars().count()) + 1;
+        let end =
+            roxmltree::TextPos::new(u32::try_from(row).unwrap_or(u32::MAX), u32::try_from(col).unwrap_or(u32::MAX));
+        fail(end, format!("malformed XML: {e} (the file ends here, cut short)"))
+    })
+}
+
 /// The bodies (links welded by fixed joints), the moving joints and the
 /// closures. With `floating`, the root link (and the links fixed to it) is
 /// a body that floats, not the ground.

@@ -3,7 +3,7 @@
 //! `#[derive(Joint)]`.
 //!
 //! ```text
-//! #[scene(gravity = [0, 0, -9.81])]                               (optional; default zero)
+//! #[scene(gravity = [0, 0, -9.81])]          (optional; default zero, a robot file's own, 9.81 down z for URDF)
 //! #[body(NAME, mass = 1.0 | FIELD, inertia = [ixx, iyy, izz] | [ixx, iyy, izz, ixy, ixz, iyz] | FIELD)]
 //! #[joint(NAME = KIND(BODY | ground, BODY | ground), PARAM = [x, y, z] | number | FIELD, ...)]
 //! struct S<F> { FIELD: Vector3<f64> | f64 | AxisFrame<f64> | F (a time function), ... }
@@ -353,22 +353,30 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
     }
     // Bodies beyond the tree joints float (exact unless a tree joint closes a loop).
     let floating = bodies.len().saturating_sub(tree_joints);
-    let coordinates = coordinates(input);
-    let relative = matches!(coordinates.as_deref(), Some("relative" | "both"));
+    let coordinates = scene_word(input, "coordinates");
+    // A robot's file runs in relative coordinates unless the scene says
+    // otherwise; one that failed to read gives a stub of no bodies, so that
+    // the scene's uses type-check and the file's error stands alone.
+    let file = scene_word(input, "urdf").or_else(|| scene_word(input, "mjcf")).is_some();
+    let relative = match coordinates.as_deref() {
+        Some(word) => matches!(word, "relative" | "both"),
+        None => file,
+    };
     let tree = relative.then_some((tree.0 + 7 * floating, tree.1 + 6 * floating));
-    let absolute = coordinates.as_deref() != Some("relative");
-    (!bodies.is_empty()).then_some(SceneShape { bodies, rows, tree, absolute })
+    let absolute = coordinates.as_deref().map_or(!file, |word| word != "relative");
+    (!bodies.is_empty() || file).then_some(SceneShape { bodies, rows, tree, absolute })
 }
 
-/// The word of `#[scene(.., coordinates = WORD, ..)]`, if written (read
-/// leniently, for the stub).
-fn coordinates(input: &syn::DeriveInput) -> Option<String> {
+/// The value of `#[scene(.., KEY = VALUE, ..)]` as a word (an identifier's
+/// or a string's), if written (read leniently, for the stub).
+fn scene_word(input: &syn::DeriveInput, key: &str) -> Option<String> {
     let parser = syn::punctuated::Punctuated::<syn::Meta, syn::Token![,]>::parse_terminated;
     let metas =
         input.attrs.iter().filter(|a| a.path().is_ident("scene")).filter_map(|a| a.parse_args_with(parser).ok());
     metas.flatten().find_map(|m| match m {
-        syn::Meta::NameValue(nv) if nv.path.is_ident("coordinates") => match &nv.value {
+        syn::Meta::NameValue(nv) if nv.path.is_ident(key) => match &nv.value {
             syn::Expr::Path(p) => p.path.get_ident().map(ToString::to_string),
+            syn::Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) => Some(s.value()),
             _ => None,
         },
         _ => None,

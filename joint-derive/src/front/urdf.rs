@@ -19,7 +19,10 @@ use super::robot::{
 pub fn read(path: &syn::LitStr, floating: bool) -> syn::Result<Robot> {
     let (text, shown) = super::robot::read_text(path, "a URDF")?;
     let robot = from_text(&text, &shown, path.span(), floating)?;
-    Ok(Robot { path: shown, ..robot })
+    // URDF states no gravity; robot people's tools (Pinocchio, MuJoCo, the
+    // MJCF reader here) take 9.81 down `z`, and so does a URDF scene unless
+    // it says `gravity = [..]`.
+    Ok(Robot { path: shown, gravity: Some([0.0, 0.0, -9.81]), ..robot })
 }
 
 /// The robot of a file's `text` (`shown` names it in errors, at `span`).
@@ -27,7 +30,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, floating: bool) -
     let fail = |at: roxmltree::TextPos, message: String| {
         syn::Error::new(span, format!("{shown}:{}:{}: {message}", at.row, at.col))
     };
-    let doc = roxmltree::Document::parse(text).map_err(|e| fail(e.pos(), format!("malformed XML: {e}")))?;
+    let doc = super::robot::parse_xml(text, &fail)?;
     let (links, joints) = elements(&doc, &fail)?;
     if links.is_empty() {
         let at = doc.text_pos_at(doc.root_element().range().start);

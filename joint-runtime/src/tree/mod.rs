@@ -102,7 +102,7 @@ pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives}
 pub use dynamics::TreeEnergy;
 pub use simulation::TreeSimulation;
 pub use step_jacobian::{StepJacobian, StepWork};
-pub use topology::{Tree, TreeError};
+pub use topology::{JointLayout, Tree, TreeError};
 
 use nalgebra::{SMatrix, SVector, Vector3};
 

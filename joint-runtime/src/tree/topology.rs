@@ -152,6 +152,24 @@ impl fmt::Display for TreeError {
 
 impl core::error::Error for TreeError {}
 
+/// Where one joint's numbers sit in a tree's `q` and `v`
+/// ([`Tree::layout`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct JointLayout {
+    /// The joint's name (a robot file's own).
+    pub name: &'static str,
+    /// Its kind.
+    pub kind: TreeJointKind,
+    /// Its first coordinate in `q`.
+    pub q_at: usize,
+    /// How many coordinates it has (a quaternion's four, a free joint's seven).
+    pub nq: usize,
+    /// Its first freedom in `v`.
+    pub v_at: usize,
+    /// How many freedoms it has.
+    pub nv: usize,
+}
+
 /// A tree of `NB` bodies with `NQ` coordinates and `NV` freedoms, checked and
 /// prepared for the recursions. Joint `k` moves body `joints()[k].child`.
 #[derive(Clone, Debug)]
@@ -282,6 +300,41 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The joints, in tree order.
     pub fn joints(&self) -> &[TreeJoint; NB] {
         &self.joints
+    }
+
+    /// Where each joint's numbers sit in `q` and `v`, in tree order: what
+    /// Pinocchio calls `idx_q`, `nq`, `idx_v`, `nv` and MuJoCo
+    /// `jnt_qposadr`, `jnt_dofadr`. A robot file's joints keep their names.
+    ///
+    /// ```
+    /// use joint_runtime::Scene;
+    /// use joint_runtime::tree::{TreeJointKind, TreeSimulation};
+    ///
+    /// /// An arm on a ball joint with a hand on a hinge.
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[body(arm, mass = 1.0, inertia = [0.08, 0.08, 0.01])]
+    /// #[body(hand, mass = 0.2, inertia = [0.001, 0.001, 0.001])]
+    /// #[joint(shoulder = spherical(ground, arm), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
+    /// #[joint(wrist = revolute(arm, hand), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.1])]
+    /// struct Arm;
+    ///
+    /// let sim = TreeSimulation::new(&Arm).unwrap();
+    /// let wrist = sim.tree().joint_layout("wrist").unwrap();
+    /// // After the ball joint's quaternion (four numbers) and its three freedoms:
+    /// assert_eq!((wrist.kind, wrist.q_at, wrist.nq, wrist.v_at, wrist.nv), (TreeJointKind::Revolute, 4, 1, 3, 1));
+    /// assert!(sim.tree().joint_layout("elbow").is_none());
+    /// ```
+    pub fn layout(&self) -> [JointLayout; NB] {
+        core::array::from_fn(|k| {
+            let (j, q_at, v_at) = (&self.joints[k], self.q_at[k], self.v_at[k]);
+            JointLayout { name: j.name, kind: j.kind, q_at, nq: j.kind.coordinates(), v_at, nv: j.kind.freedoms() }
+        })
+    }
+
+    /// The [`layout`](Self::layout) of the joint named `name`.
+    pub fn joint_layout(&self, name: &str) -> Option<JointLayout> {
+        self.layout().into_iter().find(|l| l.name == name)
     }
 
     /// Gravity, inertial components.

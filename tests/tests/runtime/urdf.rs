@@ -85,6 +85,55 @@ robots_against_pinocchio!(
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/panda.urdf")]
 struct PandaCoupled;
 
+/// The UR5 with no `gravity` in its scene: a URDF states none, and the
+/// reader takes 9.81 down `z`, as Pinocchio and MuJoCo do.
+#[derive(Scene)]
+#[scene(urdf = "data/robots/ur5.urdf")]
+struct Ur5DefaultGravity;
+
+#[test]
+fn a_urdf_scene_falls_down_z_unless_it_says_otherwise() {
+    let said = TreeSimulation::new(&Ur5).unwrap();
+    let default = TreeSimulation::new(&Ur5DefaultGravity).unwrap();
+    assert_eq!(default.tree().gravity(), joint_runtime::nalgebra::Vector3::new(0.0, 0.0, -9.81));
+    let mut state = said.tree().zero_state();
+    state.q[1] = -1.2;
+    let zero = joint_runtime::nalgebra::SVector::zeros();
+    assert_eq!(default.inverse_dynamics(&state, &zero), said.inverse_dynamics(&state, &zero));
+    assert!(said.inverse_dynamics(&state, &zero).amax() > 1.0, "gravity holds the arm");
+}
+
+/// Pinocchio's `q` copied into ours joint by joint through
+/// `Tree::layout` (names and offsets) is what the hand-written map gives.
+fn copied_by_layout<S: TreeScene<NB, NQ, NV>, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    robot: &str,
+) {
+    let data = reference(robot);
+    let sim = TreeSimulation::new(scene).unwrap();
+    let (mut theirs, mut at) = (std::collections::HashMap::new(), 0);
+    for j in data["joints"].as_array().unwrap() {
+        let n = j["nq"].as_u64().unwrap() as usize;
+        theirs.insert(j["name"].as_str().unwrap().to_string(), (at, n));
+        at += n;
+    }
+    let q = numbers(&data["samples"][0]["q"]);
+    let mut ours = SVector::<f64, NQ>::zeros();
+    for l in sim.tree().layout().iter().filter(|l| l.nq > 0) {
+        let (at, n) = theirs[l.name];
+        assert_eq!(n, l.nq, "{robot}: joint `{}`", l.name);
+        ours.rows_mut(l.q_at, n).copy_from_slice(&q[at..at + n]);
+    }
+    assert_eq!(ours, our_q::<NQ>(&joint_map(&sim, &data), &q), "{robot}");
+}
+
+#[test]
+fn layouts_copy_pinocchio_states_by_name() {
+    copied_by_layout(&Ur5, "ur5");
+    copied_by_layout(&Panda, "panda");
+    copied_by_layout(&Solo12, "solo12");
+}
+
 /// Pinocchio's values for `robot`.
 pub(crate) fn reference(robot: &str) -> Value {
     let path = format!("{}/data/robots/{robot}.json", env!("CARGO_MANIFEST_DIR"));

@@ -1,0 +1,23 @@
+use joint_runtime::Scene;
+use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+use joint_runtime::tree::TreeSimulation;
+
+// An attribute that would change the dynamics without being modelled: one
+// error, at the attribute's line and column, and the scene's uses still
+// type-check (a stub of no bodies stands in).
+#[derive(Scene)]
+#[scene(mjcf = "../../../../tests/data/robots/broken/gravcomp.xml")]
+struct Refused;
+
+// A file cut short: one error, where the file ends.
+#[derive(Scene)]
+#[scene(urdf = "../../../../tests/data/robots/broken/cut.urdf")]
+struct Cut;
+
+fn main() {
+    let sim = TreeSimulation::new(&Refused).unwrap();
+    let mut state: RefusedTreeState = sim.tree().zero_state();
+    let _ = sim.inverse_dynamics(&state, &state.v);
+    let mut cut = Simulation::new(&Cut, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let _ = cut.step(&mut state, 1e-3);
+}
