@@ -109,6 +109,7 @@
 pub(crate) mod adaptive;
 #[cfg(feature = "__dense_reference")]
 mod dense;
+mod engine;
 mod force_derivatives;
 mod generalised_alpha;
 #[cfg(feature = "alloc")]
@@ -119,6 +120,7 @@ mod simulation;
 
 pub use crate::sparse::AbsoluteSimulation;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
+pub use engine::Engine;
 #[cfg(feature = "__dense_reference")]
 #[doc(hidden)]
 pub use dense::DenseSimulation;
