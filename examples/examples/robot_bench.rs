@@ -6,7 +6,8 @@
 //! `∂τ/∂v`, `M`), `linearise` on them (`linearise_us`), one step's exact
 //! Jacobian (`rk4_jacobian_us`, `euler_jacobian_us`; NaN for a floating
 //! base, which has none yet) beside the differenced RK4 one
-//! (`transition_us`), and an RK4 step at h = 1 ms (`rk4_us`) at one fixed state,
+//! (`transition_us`), a linearly implicit Euler step under stiff PD gains
+//! (`implicit_us`), and an RK4 step at h = 1 ms (`rk4_us`) at one fixed state,
 //! each the median of 15 calibrated batches (`report::variants::median_ns`);
 //! one JSON line.
 //!
@@ -25,7 +26,7 @@ use joint_examples::report::variants::median_ns;
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
 use joint_runtime::tree::{
-    ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeScene, TreeSimulation, TreeState,
+    ForceGains, ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeScene, TreeSimulation, TreeState,
 };
 
 #[derive(Scene)]
@@ -135,6 +136,12 @@ where
     let linearise = median_ns(1, || {
         black_box(sim.linearise(black_box(&start), &tau).ok());
     }) / 1e3;
+    // The linearly implicit Euler step under a stiff PD law's gains.
+    let gains = ForceGains::pd(&SVector::repeat(1e4), &SVector::repeat(1e2));
+    let implicit = median_ns(1, || {
+        let mut s = start;
+        black_box(sim.implicit_step_with(&mut s, 1e-3, black_box(&tau), &gains, &mut work).ok());
+    }) / 1e3;
     let mut steps = 0_usize;
     let rk4 = median_ns(1, || {
         if steps.is_multiple_of(1000) {
@@ -149,7 +156,7 @@ where
          \"rnea_ns\":{rnea:.1},\
          \"aba_derivatives_ns\":{aba_derivatives:.1},\"rnea_derivatives_ns\":{rnea_derivatives:.1},\
          \"linearise_us\":{linearise:.3},\"rk4_jacobian_us\":{rk4_jacobian:.3},\"euler_jacobian_us\":{euler_jacobian:.3},\
-         \"transition_us\":{transition:.3},\"rk4_us\":{:.4},\"q0\":{:.6}}}",
+         \"transition_us\":{transition:.3},\"implicit_us\":{implicit:.3},\"rk4_us\":{:.4},\"q0\":{:.6}}}",
         rk4 / 1e3,
         end.q[0]
     );

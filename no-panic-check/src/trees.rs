@@ -7,7 +7,7 @@
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::SVector;
 use joint_runtime::tree::{
-    ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeError, TreeSimulation, TreeState,
+    ForceGains, ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeError, TreeSimulation, TreeState,
 };
 
 /// Three links on hinges about `y`, `x`, `y`, damped.
@@ -57,6 +57,16 @@ checked! {
         out: &mut InverseDerivatives<3>,
     ) -> Result<(), TreeError> {
         sim.inverse_dynamics_derivatives(state, vdot, out)
+    }
+    fn implicit_step(
+        sim: &Sim<'_>,
+        state: &mut State,
+        h: f64,
+        tau: &SVector<f64, 3>,
+        gains: &ForceGains<3>,
+        work: &mut StepWork<3, 3>,
+    ) -> Result<(), TreeError> {
+        sim.implicit_step_with(state, h, tau, gains, work)
     }
     fn rk4_step_jacobian(
         sim: &Sim<'_>,

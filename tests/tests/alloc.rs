@@ -14,7 +14,7 @@ use joint_runtime::analysis::{Analyses, AssemblyOptions};
 use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, Tolerance};
 use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
-use joint_runtime::tree::{ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeSimulation};
+use joint_runtime::tree::{ForceGains, ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeSimulation};
 use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
 
 /// A double pendulum in relative coordinates with its derivatives.
@@ -238,7 +238,9 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
         let b = recursion.forward_dynamics_derivatives(&start, &tau, &mut inverse, &mut forward).is_ok();
         let mut end = start;
         let c = recursion.rk4_step_jacobian(&mut end, 1e-3, &tau, &mut work, &mut jacobian).is_ok();
-        ok = a && b && c;
+        let gains = ForceGains::pd(&SVector::repeat(1e4), &SVector::repeat(1e2));
+        let d = recursion.implicit_step_with(&mut end, 1e-3, &tau, &gains, &mut work).is_ok();
+        ok = a && b && c && d;
     });
     assert_eq!(n, 0, "the recursion's derivatives allocated");
     assert!(ok, "the recursion's derivatives ran");

@@ -120,10 +120,10 @@ mod simulation;
 
 pub use crate::sparse::AbsoluteSimulation;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
-pub use engine::Engine;
 #[cfg(feature = "__dense_reference")]
 #[doc(hidden)]
 pub use dense::DenseSimulation;
+pub use engine::Engine;
 pub use force_derivatives::Direction;
 #[cfg(feature = "alloc")]
 pub(crate) use force_derivatives::force_column;

@@ -88,6 +88,7 @@
 
 mod derivatives;
 mod dynamics;
+mod implicit;
 mod kinematics;
 #[cfg(feature = "alloc")]
 mod linear;
@@ -100,6 +101,7 @@ mod topology;
 
 pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives};
 pub use dynamics::TreeEnergy;
+pub use implicit::ForceGains;
 pub use simulation::TreeSimulation;
 pub use step_jacobian::{StepJacobian, StepWork};
 pub use topology::{JointLayout, Tree, TreeError};

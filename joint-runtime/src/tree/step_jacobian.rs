@@ -111,8 +111,8 @@ impl<const NQ: usize, const NV: usize> Chain<NQ, NV> {
 /// stack per call).
 #[derive(Clone, Copy, Debug)]
 pub struct StepWork<const NQ: usize, const NV: usize> {
-    inverse: InverseDerivatives<NV>,
-    forward: ForwardDerivatives<NV>,
+    pub(super) inverse: InverseDerivatives<NV>,
+    pub(super) forward: ForwardDerivatives<NV>,
     start: Chain<NQ, NV>,
     stage: Chain<NQ, NV>,
     rate: Chain<NQ, NV>,
@@ -162,7 +162,12 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
     TreeSimulation<'_, S, NB, NQ, NV, 0, L>
 {
     /// Refuses what the chain rule here does not cover.
-    fn check_step(&self, state: &TreeState<NQ, NV>, h: f64, tau: &SVector<f64, NV>) -> Result<(), TreeError> {
+    pub(super) fn check_step(
+        &self,
+        state: &TreeState<NQ, NV>,
+        h: f64,
+        tau: &SVector<f64, NV>,
+    ) -> Result<(), TreeError> {
         if self.loaded() {
             return Err(TreeError::Loaded);
         }

@@ -8,6 +8,7 @@
 //! * `record`: trajectories as CSV and SVG.
 //! * `serde_io`: the types through serde.
 //! * `tree`: relative coordinates (`coordinates = relative`).
+//! * `tree_implicit`: a stiff arm at its own step (the linearly implicit Euler step).
 
 #![allow(missing_docs)]
 
@@ -25,6 +26,7 @@ mod serde_io;
 mod tree;
 mod tree_adaptive;
 mod tree_derivatives;
+mod tree_implicit;
 mod tree_joints;
 mod tree_linear;
 mod tree_reactions;

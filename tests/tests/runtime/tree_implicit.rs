@@ -1,0 +1,77 @@
+//! A stiff robot at its own step: the UR5 from its URDF file held by a PD
+//! law of 1e4 N·m/rad and 1e2 N·m·s/rad on every joint, stepped at h = 2 ms.
+//! RK4 with the law's forces held over each step blows up there; the
+//! linearly implicit Euler step (`TreeSimulation::implicit_step_with`)
+//! settles, and converges to a fine RK4 run at first order.
+
+use joint_runtime::Scene;
+use joint_runtime::nalgebra::SVector;
+use joint_runtime::tree::{ForceGains, StepWork, TreeSimulation, TreeState};
+
+#[derive(Scene)]
+#[scene(urdf = "data/robots/ur5.urdf")]
+struct Ur5;
+
+const KP: f64 = 1e4;
+const KD: f64 = 1e2;
+
+/// The target pose, and the PD law's forces at `state`.
+fn target() -> SVector<f64, 6> {
+    SVector::from([0.3, -1.2, 1.4, -0.8, 0.5, 0.2])
+}
+
+fn pd(state: &TreeState<6, 6>) -> SVector<f64, 6> {
+    (target() - state.q) * KP - state.v * KD
+}
+
+/// The start: 0.2 rad off the target on every joint, at rest.
+fn start() -> TreeState<6, 6> {
+    TreeState { q: target().add_scalar(0.2), v: SVector::zeros(), t: 0.0 }
+}
+
+/// `t_end` of implicit steps of `h`.
+fn implicit(sim: &TreeSimulation<'_, Ur5, 6, 6, 6>, h: f64, t_end: f64) -> TreeState<6, 6> {
+    let gains = ForceGains::pd(&SVector::repeat(KP), &SVector::repeat(KD));
+    let (mut state, mut work) = (start(), StepWork::new());
+    for _ in 0..(t_end / h).round() as usize {
+        let tau = pd(&state);
+        sim.implicit_step_with(&mut state, h, &tau, &gains, &mut work).unwrap();
+    }
+    state
+}
+
+#[test]
+fn a_stiff_arm_settles_at_its_own_step() {
+    let mut sim = TreeSimulation::new(&Ur5).unwrap();
+    let t_end: f64 = 0.5;
+    // RK4 at 2 ms, the law's forces held over each step: the wrist's damping
+    // alone (1e2 over its ~0.01 kg m²) is far past its stability limit.
+    let mut rk4 = start();
+    let blew_up = (0..100).any(|_| {
+        let tau = pd(&rk4);
+        sim.step_with(&mut rk4, 2e-3, &tau).is_err()
+            || !(rk4.q - target()).amax().is_finite()
+            || (rk4.q - target()).amax() > 1e3
+    });
+    assert!(blew_up, "RK4 at 2 ms stayed bounded: the test's arm is not stiff");
+    // A fine reference: RK4 at 20 µs, the forces held over each (tiny) step.
+    let mut fine = start();
+    for _ in 0..(t_end / 2e-5).round() as usize {
+        let tau = pd(&fine);
+        sim.step_with(&mut fine, 2e-5, &tau).unwrap();
+    }
+    let coarse = implicit(&sim, 2e-3, t_end);
+    let half = implicit(&sim, 1e-3, t_end);
+    let (e_coarse, e_half) = ((coarse.q - fine.q).amax(), (half.q - fine.q).amax());
+    eprintln!(
+        "stiff UR5, 0.5 s: implicit Euler off a 20 µs RK4 run by {e_coarse:.1e} rad (h = 2 ms), {e_half:.1e} rad (1 ms); \
+         off its target by {:.1e} rad",
+        (coarse.q - target()).amax()
+    );
+    assert!(e_coarse < 2e-2 && e_half < e_coarse, "{e_coarse:e}, {e_half:e}");
+    // First order: halving the step about halves the error.
+    let order = (e_coarse / e_half).log2();
+    assert!((0.7..1.5).contains(&order), "order {order}");
+    // Settled: at rest near the target (gravity's pull over Kp leaves an offset).
+    assert!(coarse.v.amax() < 0.1 && (coarse.q - target()).amax() < 5e-3, "{coarse:?}");
+}
