@@ -32,12 +32,12 @@ pub(super) struct FromFile {
     pub couplings: Vec<Coupling>,
 }
 
-/// Reads the scene's `file` (none: nothing), with `floating_base`,
+/// Reads the scene's `file` (none: nothing), with `floating_base`, `file_damping`,
 /// `mimic = independent` and whether the absolute impls are wanted; every
 /// mistake into `errors`.
 pub(super) fn read(
     file: Option<&(RobotFormat, syn::LitStr)>,
-    (floating_base, independent, absolute): (Option<Span>, Option<Span>, bool),
+    (floating_base, independent, file_damping, absolute): (Option<Span>, Option<Span>, Option<Span>, bool),
     errors: &mut Errors,
 ) -> FromFile {
     if let (Some(at), None) = (independent, file) {
@@ -51,11 +51,21 @@ pub(super) fn read(
              body without joints floats already",
         ),
     }
+    match (file_damping, file) {
+        (Some(_), Some((RobotFormat::Urdf, _))) | (None, _) => {}
+        (Some(at), _) => errors.at(
+            at,
+            "`file_damping` is for a URDF file (`urdf = \"..\"`): an MJCF joint's `damping` is in the dynamics already",
+        ),
+    }
+    if let (Some(at), true) = (file_damping, absolute) {
+        errors.at(at, "`file_damping` is modelled in relative coordinates only; expected `coordinates = relative`");
+    }
     let Some((format, lit)) = file else { return FromFile::default() };
     // MJCF's armature and damping enter the dynamics (MuJoCo's do) where the
-    // scene is relative only; URDF's `<dynamics>` stays data (Pinocchio's
-    // algorithms leave it out too).
-    let dynamics = *format == RobotFormat::Mjcf && !absolute;
+    // scene is relative only; URDF's `<dynamics damping>` is data (Pinocchio's
+    // algorithms leave it out too) unless the scene asks (`file_damping`).
+    let dynamics = (*format == RobotFormat::Mjcf || file_damping.is_some()) && !absolute;
     let Some(mut read) = robot(*format, lit, (floating_base.is_some(), dynamics), errors) else {
         return FromFile::default();
     };

@@ -448,9 +448,9 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let Options { gravity, second_order, relative, absolute, file, floating_base, independent } =
+    let Options { gravity, second_order, relative, absolute, file, floating_base, independent, file_damping } =
         scene_options(input, &fields, &mut errors);
-    let read = super::files::read(file.as_ref(), (floating_base, independent, absolute), &mut errors);
+    let read = super::files::read(file.as_ref(), (floating_base, independent, file_damping, absolute), &mut errors);
     let FromFile { mut bodies, joints: file_joints, files, gravity: file_gravity, data: file_data, couplings } = read;
     let known = |g: [f64; 3]| Quantity::Const(g.iter().map(|&x| Number::Known(x)).collect());
     let gravity = gravity.unwrap_or_else(|| known(file_gravity.unwrap_or([0.0; 3])));
@@ -511,6 +511,8 @@ struct Options {
     floating_base: Option<Span>,
     /// `mimic = independent`: a file's couplings read as independent joints.
     independent: Option<Span>,
+    /// `file_damping`: a URDF's `<dynamics damping>` in the dynamics.
+    file_damping: Option<Span>,
 }
 
 /// `armature` and `damping` only on a tree's moving joints, in relative
@@ -572,6 +574,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     let mut coordinates = Slot::new("`coordinates`", "it once");
     let mut file = Slot::new("a robot's file", "one `urdf` or `mjcf`");
     let mut floating_base = Slot::new("`floating_base`", "it once");
+    let mut file_damping = Slot::new("`file_damping`", "it once");
     let mut mimic = Slot::new("`mimic`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
@@ -587,6 +590,10 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
             "floating_base" => match a.value {
                 None => floating_base.set(a.key.span(), (), errors),
                 Some(v) => errors.at(v.span(), "`floating_base` takes no value; expected `floating_base` alone"),
+            },
+            "file_damping" => match a.value {
+                None => file_damping.set(a.key.span(), (), errors),
+                Some(v) => errors.at(v.span(), "`file_damping` takes no value; expected `file_damping` alone"),
             },
             key @ ("urdf" | "mjcf") => {
                 let format = if key == "urdf" { RobotFormat::Urdf } else { RobotFormat::Mjcf };
@@ -628,13 +635,22 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
             other => {
                 let hint = did_you_mean(
                     other,
-                    ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base", "mimic"],
+                    [
+                        "gravity",
+                        "second_order",
+                        "coordinates",
+                        "urdf",
+                        "mjcf",
+                        "floating_base",
+                        "mimic",
+                        "file_damping",
+                    ],
                 );
                 errors.at(
                     a.key.span(),
                     format!(
                         "unknown scene option `{other}`{hint}; expected `gravity`, `second_order`, `coordinates`, \
-                         `urdf`, `mjcf`, `floating_base` or `mimic`"
+                         `urdf`, `mjcf`, `floating_base`, `mimic` or `file_damping`"
                     ),
                 )
             }
@@ -653,6 +669,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
         },
     };
     let floating_base = floating_base.take().map(|(_, span)| span);
+    let file_damping = file_damping.take().map(|(_, span)| span);
     let independent = mimic.take().and_then(|(independent, span)| independent.then_some(span));
     Options {
         gravity,
@@ -662,6 +679,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
         file,
         floating_base,
         independent,
+        file_damping,
     }
 }
 

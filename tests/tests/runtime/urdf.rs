@@ -134,6 +134,24 @@ fn layouts_copy_pinocchio_states_by_name() {
     copied_by_layout(&Solo12, "solo12");
 }
 
+/// The double pendulum with its file's `<dynamics damping="0.05">` in the
+/// dynamics (`file_damping`): the joint forces gain `0.05 q̇` each.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/double_pendulum.urdf", file_damping)]
+struct DampedPendulum;
+
+#[test]
+fn file_damping_puts_the_urdf_damping_in_the_dynamics() {
+    let (plain, damped) =
+        (TreeSimulation::new(&DoublePendulum).unwrap(), TreeSimulation::new(&DampedPendulum).unwrap());
+    let mut state = plain.tree().zero_state();
+    state.q[0] = 0.4;
+    state.v = SVector::from([1.0, -2.0]);
+    let zero = SVector::zeros();
+    let gained = damped.inverse_dynamics(&state, &zero) - plain.inverse_dynamics(&state, &zero);
+    assert!((gained - state.v * 0.05).amax() < 1e-15, "{gained}");
+}
+
 /// Pinocchio's values for `robot`.
 pub(crate) fn reference(robot: &str) -> Value {
     let path = format!("{}/data/robots/{robot}.json", env!("CARGO_MANIFEST_DIR"));
