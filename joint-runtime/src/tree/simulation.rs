@@ -109,13 +109,18 @@ impl<
     /// implicit integrators' Newton options are not used.
     ///
     /// # Errors
-    /// [`TreeError::BadOption`] naming the option: another integrator, a
+    /// [`TreeError::NotOffered`] for another integrator (with where it is
+    /// offered); [`TreeError::BadOption`] naming the option: a
     /// non-finite or negative Baumgarte coefficient, a projection
     /// tolerance or rank tolerance that is not positive and finite.
     pub fn with_options(mut self, options: SimulationOptions) -> Result<Self, TreeError> {
         let positive = |x: f64| x.is_finite() && x > 0.0;
         if options.integrator != Integrator::Rk4 {
-            return Err(TreeError::BadOption { name: "integrator" });
+            return Err(TreeError::NotOffered {
+                what: "an implicit `integrator` (its steps are RK4)",
+                instead: "step a stiff tree with `implicit_step_with`, or declare `coordinates = absolute` for the \
+                          implicit midpoint, generalised-α and Radau IIA",
+            });
         }
         if let Stabilisation::Baumgarte { alpha, beta } = options.stabilisation
             && !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0)
@@ -514,7 +519,7 @@ impl<
     /// step's quaternions renormalised and its loops closed as
     /// [`TreeSimulation::step`] does. `method` is
     /// [`Adaptive::DormandPrince`] (the implicit ones are the absolute
-    /// path's so far: [`TreeError::BadOption`] names `method`). No joint
+    /// path's so far: [`TreeError::NotOffered`] says so). No joint
     /// forces: a controller's act through
     /// [`with_loads`](TreeSimulation::with_loads) or
     /// [`step_with`](TreeSimulation::step_with). The state is left at the
@@ -545,7 +550,11 @@ impl<
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, TreeError> {
         if method != Adaptive::DormandPrince {
-            return Err(TreeError::BadOption { name: "method" });
+            return Err(TreeError::NotOffered {
+                what: "this adaptive method (Dormand–Prince only)",
+                instead: "use `Adaptive::DormandPrince`, or declare `coordinates = absolute` for generalised-α and \
+                          Radau IIA with error control",
+            });
         }
         integrate(self, state, t_end, method, tolerance)
     }

@@ -81,6 +81,14 @@ pub enum TreeError {
         /// The option's name.
         name: &'static str,
     },
+    /// Something the relative-coordinate engine does not offer (an
+    /// integrator, an adaptive method), with where it is offered.
+    NotOffered {
+        /// What was asked for.
+        what: &'static str,
+        /// What to use instead.
+        instead: &'static str,
+    },
     /// No exact derivatives for this: the inverse dynamics' second
     /// derivatives of a scene that did not ask for them
     /// (`#[scene(second_order)]`) or whose tree is past the derive's
@@ -130,6 +138,9 @@ impl fmt::Display for TreeError {
                 write!(f, "the projection did not close the loop of joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::BadOption { name } => write!(f, "option `{name}` is out of range"),
+            TreeError::NotOffered { what, instead } => {
+                write!(f, "the relative-coordinate engine does not offer {what}: {instead}")
+            }
             TreeError::NotAssembled { joint, misfit } => write!(
                 f,
                 "the step's start has the loop of joint `{joint}` open by {misfit:e}: close it first \
