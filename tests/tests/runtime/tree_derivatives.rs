@@ -14,31 +14,37 @@ use joint_runtime::tree::{
 
 use super::tree::quaternion;
 
-/// Every kind of tree joint at once: a floating drone (free) with a
+/// `menagerie!(Name, options..)`: every kind of tree joint at once: a floating drone (free) with a
 /// gripper on a ball joint (damped) and a finger on a hinge (armature,
 /// damping); a cylindrical shaft from the ground with a wheel, a universal
 /// arm, a slider on the arm and a plate welded to it; a puck on a planar
 /// joint.
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], coordinates = relative, second_order)]
-#[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
-#[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
-#[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
-#[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
-#[body(wheel, mass = 0.4, inertia = [0.008, 0.005, 0.005, 0.001, 0.0, 0.0])]
-#[body(arm, mass = 0.7, inertia = [0.03, 0.02, 0.012])]
-#[body(block, mass = 0.3, inertia = [0.002, 0.003, 0.004])]
-#[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
-#[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
-#[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
-#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
-#[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
-#[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
-#[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
-#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
-#[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
-#[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
-struct Menagerie;
+macro_rules! menagerie {
+    ($name:ident $(, $option:ident)*) => {
+        #[derive(Scene)]
+        #[scene(gravity = [0, 0, -9.81], coordinates = relative $(, $option)*)]
+        #[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
+        #[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
+        #[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
+        #[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
+        #[body(wheel, mass = 0.4, inertia = [0.008, 0.005, 0.005, 0.001, 0.0, 0.0])]
+        #[body(arm, mass = 0.7, inertia = [0.03, 0.02, 0.012])]
+        #[body(block, mass = 0.3, inertia = [0.002, 0.003, 0.004])]
+        #[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
+        #[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
+        #[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
+        #[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
+        #[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
+        #[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
+        #[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
+        #[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
+        #[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
+        #[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
+        struct $name;
+    };
+}
+
+menagerie!(Menagerie, second_order);
 
 /// A small deterministic generator (xorshift), uniform in `[-1, 1]`.
 struct Draw(u64);
@@ -168,27 +174,8 @@ fn a_scene_that_did_not_ask_gets_the_recursion() {
     assert_eq!(sim.inverse_dynamics_derivatives(&bad, &SVector::zeros(), &mut d), Err(TreeError::NonFinite));
 }
 
-/// The menagerie again, without `second_order`: the recursion's.
-#[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
-#[body(drone, mass = 2.0, inertia = [0.05, 0.06, 0.09, 0.004, -0.002, 0.001])]
-#[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
-#[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
-#[body(shaft, mass = 1.0, inertia = [0.1, 0.1, 0.02])]
-#[body(wheel, mass = 0.4, inertia = [0.008, 0.005, 0.005, 0.001, 0.0, 0.0])]
-#[body(arm, mass = 0.7, inertia = [0.03, 0.02, 0.012])]
-#[body(block, mass = 0.3, inertia = [0.002, 0.003, 0.004])]
-#[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
-#[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
-#[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
-#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
-#[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
-#[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
-#[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
-#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
-#[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
-#[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
-struct MenagerieByRecursion;
+// The menagerie again, without `second_order`: the recursion's.
+menagerie!(MenagerieByRecursion);
 
 #[test]
 fn the_recursion_on_every_joint_kind() {
