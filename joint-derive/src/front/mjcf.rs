@@ -31,9 +31,10 @@ use super::robot::{
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
 /// error at the attribute, naming the file, line and column.
 pub fn read(path: &syn::LitStr) -> syn::Result<Robot> {
-    let (text, shown) = read_text(path, "an MJCF")?;
-    let robot = from_text(&text, &shown, path.span())?;
-    Ok(Robot { path: shown, ..robot })
+    let (text, full) = read_text(path, "an MJCF")?;
+    // Errors name the file as the scene wrote it; the build tracks it by its full path.
+    let robot = from_text(&text, &path.value(), path.span())?;
+    Ok(Robot { path: full, ..robot })
 }
 
 /// The robot of a file's `text` (`shown` names it in errors, at `span`).

@@ -138,7 +138,8 @@ pub struct Closure {
 }
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`): its text
-/// and its absolute name for messages.
+/// and its absolute name (what the build tracks; errors in the file name it
+/// as the scene wrote it).
 pub fn read_text(path: &syn::LitStr, what: &str) -> syn::Result<(String, String)> {
     let dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default();
     let full = std::path::Path::new(&dir).join(path.value());

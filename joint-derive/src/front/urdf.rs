@@ -17,12 +17,13 @@ use super::robot::{
 /// `floating`, the root link (and the links fixed to it) is a body that
 /// floats, not the ground.
 pub fn read(path: &syn::LitStr, floating: bool) -> syn::Result<Robot> {
-    let (text, shown) = super::robot::read_text(path, "a URDF")?;
-    let robot = from_text(&text, &shown, path.span(), floating)?;
+    let (text, full) = super::robot::read_text(path, "a URDF")?;
+    // Errors name the file as the scene wrote it; the build tracks it by its full path.
+    let robot = from_text(&text, &path.value(), path.span(), floating)?;
     // URDF states no gravity; robot people's tools (Pinocchio, MuJoCo, the
     // MJCF reader here) take 9.81 down `z`, and so does a URDF scene unless
     // it says `gravity = [..]`.
-    Ok(Robot { path: shown, gravity: Some([0.0, 0.0, -9.81]), ..robot })
+    Ok(Robot { path: full, gravity: Some([0.0, 0.0, -9.81]), ..robot })
 }
 
 /// The robot of a file's `text` (`shown` names it in errors, at `span`).
