@@ -10,8 +10,8 @@
 //! states, `REPS_LARGE` repetitions, the median.
 //!
 //! ```text
-//! cargo run --release --example batch_bench -p joint-examples
-//! RUSTFLAGS="-C target-cpu=native" cargo run --release --example batch_bench -p joint-examples
+//! cargo run --release -p joint-examples --features bench --example batch_bench
+//! RUSTFLAGS="-C target-cpu=native" cargo run --release -p joint-examples --features bench --example batch_bench
 //! ```
 //!
 //! `wide` uses the vector instructions the build enables: the default x86-64

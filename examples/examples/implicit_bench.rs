@@ -14,7 +14,7 @@
 //! pattern filled by central differences of `J`, `γ` and `Φ_t`.
 //!
 //! ```text
-//! cargo run --release --example implicit_bench
+//! cargo run --release -p joint-examples --features bench --example implicit_bench
 //! ```
 
 use std::time::Instant;

@@ -5,9 +5,9 @@
 //! so that both can be run alternately in one session.
 //!
 //! ```text
-//! cargo run --release --example peer_bench -- chain 10 [STEPS] [ROUNDS]
-//! cargo run --release --example peer_bench -- arm 6 [STEPS] [ROUNDS]
-//! cargo run --release --example peer_bench -- double-cardan 3 [STEPS] [ROUNDS]
+//! cargo run --release -p joint-examples --features bench --example peer_bench -- chain 10 [STEPS] [ROUNDS]
+//! cargo run --release -p joint-examples --features bench --example peer_bench -- arm 6 [STEPS] [ROUNDS]
+//! cargo run --release -p joint-examples --features bench --example peer_bench -- double-cardan 3 [STEPS] [ROUNDS]
 //! ```
 //!
 //! `double-cardan 3` is `step_bench`'s free double Cardan shaft (3 bodies,

@@ -12,8 +12,8 @@
 //! one JSON line.
 //!
 //! ```text
-//! cargo run --release --example robot_bench -- ur5 | panda | solo12 | solo12_floating
-//! cargo run --release --example robot_bench -- ur5_recursion | panda_recursion | solo12_floating_recursion
+//! cargo run --release -p joint-examples --features bench --example robot_bench -- ur5 | panda | solo12 | solo12_floating
+//! cargo run --release -p joint-examples --features bench --example robot_bench -- ur5_recursion | panda_recursion | solo12_floating_recursion
 //! ```
 //!
 //! The `_recursion` robots are the same files without `second_order`: their

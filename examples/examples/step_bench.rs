@@ -7,7 +7,7 @@
 //! steps. `tests/tests/alloc.rs` proves that a step allocates nothing.
 //!
 //! ```text
-//! cargo run --release --example step_bench
+//! cargo run --release -p joint-examples --features bench --example step_bench
 //! ```
 
 use std::time::Instant;
