@@ -114,17 +114,13 @@ fn chained(kind: TreeJointKind) -> bool {
 }
 
 /// Each freedom's twist `S`, what its columns need (`u`, `e`, `w`), and
-/// where it sits: its joint, that joint's first freedom and freedoms, and
-/// whether they form a chain.
+/// the joint it belongs to.
 struct Freedoms<const NV: usize> {
     s: [Vector6<f64>; NV],
     u: [Vector6<f64>; NV],
     e: [Vector6<f64>; NV],
     w: [Vector6<f64>; NV],
     joint: [usize; NV],
-    first: [usize; NV],
-    count: [usize; NV],
-    chain: [bool; NV],
 }
 
 // Every access by an index the tree holds goes through `get`: the indices
@@ -172,9 +168,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let (s, e, u, w) = (at6(&fr.s, m), at6(&fr.e, m), at6(&fr.u, m), at6(&fr.w, m));
             let (ys_m, bs_m, g_m, h_m) = (at6(&ys, m), at6(&bs, m), at6(&g, m), at6(&h, m));
             let joint = fr.joint.get(m).copied().unwrap_or(NB);
-            let first = fr.first.get(m).copied().unwrap_or(NV);
-            let chain = fr.chain.get(m).copied().unwrap_or(false);
-            for k in first..first + fr.count.get(m).copied().unwrap_or(0) {
+            let chain = self.joints.get(joint).is_some_and(|j| chained(j.kind));
+            for k in self.freedoms_of(joint) {
                 // Freedom `m` of the same joint moves `k` unless the joint is a
                 // chain and `m` comes after `k`.
                 let (ys_k, bs_k) = (at6(&ys, k), at6(&bs, k));
@@ -184,9 +179,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             }
             let mut above = self.parent.get(joint).copied().flatten();
             while let Some(ja) = above {
-                let first = self.v_at.get(ja).copied().unwrap_or(NV);
-                let count = self.joints.get(ja).map_or(0, |j| j.kind.freedoms());
-                for k in first..first + count {
+                for k in self.freedoms_of(ja) {
                     let s_k = at6(&fr.s, k);
                     put(&mut out.d_q, k, m, dot6(&s_k, &g_m));
                     put(&mut out.d_v, k, m, -dot6(&s_k, &h_m));
@@ -201,6 +194,12 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         }
     }
 
+    /// Joint `k`'s freedoms, as indices into `v` (none for a `k` out of range).
+    fn freedoms_of(&self, k: usize) -> core::ops::Range<usize> {
+        let first = self.v_at.get(k).copied().unwrap_or(NV);
+        first..first + self.joints.get(k).map_or(0, |j| j.kind.freedoms())
+    }
+
     /// A freedom of joint `k`'s own force: armature times its acceleration,
     /// damping times its rate.
     fn own_force(&self, k: usize, acceleration: f64, rate: f64) -> f64 {
@@ -212,16 +211,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// root, the subtrees' sums (in one frame, a sum is all a subtree needs).
     fn ground_frame_pass(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> (Freedoms<NV>, [Composite; NB]) {
         let zero = Vector6::zeros();
-        let mut fr = Freedoms {
-            s: [zero; NV],
-            u: [zero; NV],
-            e: [zero; NV],
-            w: [zero; NV],
-            joint: [0; NV],
-            first: [0; NV],
-            count: [0; NV],
-            chain: [false; NV],
-        };
+        let mut fr = Freedoms { s: [zero; NV], u: [zero; NV], e: [zero; NV], w: [zero; NV], joint: [0; NV] };
         let mut sub = [Composite::ZERO; NB];
         // Each link frame's turn and origin, its body's velocity and acceleration.
         let ground = (Matrix3::identity(), Vector3::zeros(), zero, join(&Vector3::zeros(), &(-self.gravity)));
@@ -245,7 +235,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 v += s * qd;
                 *base = b;
                 let e = cross_motion(&u, &b) - cross_motion(&s, &cm);
-                fr.record(m, (s, u, e), (k, self.v_at[k], subspace.n, chain));
+                fr.record(m, (s, u, e), k);
             }
             for (c, b) in base.iter().enumerate().take(subspace.n) {
                 let m = self.v_at[k] + c;
@@ -306,17 +296,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
 }
 
 impl<const NV: usize> Freedoms<NV> {
-    /// Freedom `m`'s `S`, `u`, `e`, and its joint `k` (first freedom,
-    /// count, chained).
-    fn record(
-        &mut self,
-        m: usize,
-        (s, u, e): (Vector6<f64>, Vector6<f64>, Vector6<f64>),
-        (k, first, count, chain): (usize, usize, usize, bool),
-    ) {
+    /// Freedom `m`'s `S`, `u`, `e`, and its joint `k`.
+    fn record(&mut self, m: usize, (s, u, e): (Vector6<f64>, Vector6<f64>, Vector6<f64>), k: usize) {
         if m < NV {
-            (self.s[m], self.u[m], self.e[m]) = (s, u, e);
-            (self.joint[m], self.first[m], self.count[m], self.chain[m]) = (k, first, count, chain);
+            (self.s[m], self.u[m], self.e[m], self.joint[m]) = (s, u, e, k);
         }
     }
 }
