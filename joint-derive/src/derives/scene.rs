@@ -8,6 +8,7 @@ use quote::quote;
 use super::tree::Loops;
 use crate::engine::emit::ScalarTy;
 use crate::front::attr::Number;
+use crate::front::files::{FileData, FileLink, Library};
 use crate::front::resolve::Source;
 use crate::front::scene::{self, BodyName, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape};
 use crate::generate::{self, Printed, Signature, krate, lints};
@@ -330,16 +331,7 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
         Some(x) => quote!(::core::option::Option::Some(#x)),
         None => quote!(::core::option::Option::None),
     };
-    let links = data.links.iter().map(|l| {
-        let (name, body) = (&l.name, some(l.body.map(|b| quote!(#b))));
-        let r = &l.rotation;
-        let columns = (0..3).map(|c| {
-            let (x, y, z) = (r[0][c], r[1][c], r[2][c]);
-            quote!([#x, #y, #z])
-        });
-        let [x, y, z] = l.origin;
-        quote!(#k::robot::LinkFrame { name: #name, body: #body, rotation: [#(#columns),*], origin: [#x, #y, #z] })
-    });
+    let links = data.links.iter().map(link_frame);
     let limits = data.limits.iter().map(|(name, l)| {
         let range = some(l.range.map(|(a, b)| quote!((#a, #b))));
         let [effort, velocity, damping, friction, armature] =
@@ -352,6 +344,7 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
         }
     });
     let (nl, nj) = (data.links.len(), data.limits.len());
+    let library = library_layout(s, data);
     quote! {
         /// What the robot's file says beyond the dynamics, by its names.
         #lints
@@ -360,7 +353,85 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
             pub const LINKS: [#k::robot::LinkFrame; #nl] = [#(#links),*];
             /// Each moving joint's limits and friction from the file, in the file's order.
             pub const LIMITS: [#k::robot::JointLimits; #nj] = [#(#limits),*];
+            #library
         }
+    }
+}
+
+/// A link's frame on its body, as the runtime's `LinkFrame`.
+fn link_frame(l: &FileLink) -> TokenStream {
+    let k = krate();
+    let body = match l.body {
+        Some(b) => quote!(::core::option::Option::Some(#b)),
+        None => quote!(::core::option::Option::None),
+    };
+    let (name, r) = (&l.name, &l.rotation);
+    let columns = (0..3).map(|c| {
+        let (x, y, z) = (r[0][c], r[1][c], r[2][c]);
+        quote!([#x, #y, #z])
+    });
+    let [x, y, z] = l.origin;
+    quote!(#k::robot::LinkFrame { name: #name, body: #body, rotation: [#(#columns),*], origin: [#x, #y, #z] })
+}
+
+/// `MUJOCO` (an MJCF file) or `PINOCCHIO` (a URDF): the file's moving
+/// joints in the library's order, where each sits in its vectors and in the
+/// tree's. Nothing without a tree (absolute coordinates).
+fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
+    let (Some(edges), (library, joints)) = (&s.tree, &data.library) else { return TokenStream::new() };
+    let k = krate();
+    // The tree's offsets, joint by joint in its order.
+    let (mut tree_q, mut tree_v, mut placed) = (0, 0, Vec::new());
+    for e in edges {
+        placed.push((e.joint, e.ends.1, tree_q, tree_v));
+        let (nq, nv) = e.kind.sizes();
+        (tree_q, tree_v) = (tree_q + nq, tree_v + nv);
+    }
+    let (mut q_at, mut v_at, mut rows) = (0_usize, 0_usize, Vec::new());
+    for j in joints {
+        let found = placed.iter().find(|p| match j.joint {
+            Some(i) => p.0 == Some(i),
+            None => p.0.is_none() && p.1 == j.body,
+        });
+        let (Some(&(_, _, tq, tv)), Some(link)) = (found, data.links.get(j.link)) else { return TokenStream::new() };
+        let (kind, (nq, nv)) = match j.kind {
+            "free" => (quote!(Free), (7, 6)),
+            "ball" => (quote!(Ball), (4, 3)),
+            "continuous" => (quote!(Continuous), (2, 1)),
+            "slide" => (quote!(Slide), (1, 1)),
+            _ => (quote!(Hinge), (1, 1)),
+        };
+        let (name, link) = (&j.name, link_frame(link));
+        rows.push(quote! {
+            #k::robot::LibraryJoint {
+                name: #name, kind: #k::robot::LibraryJointKind::#kind, q_at: #q_at, v_at: #v_at,
+                tree_q_at: #tq, tree_v_at: #tv, link: #link,
+            }
+        });
+        (q_at, v_at) = (q_at + nq, v_at + nv);
+    }
+    // A scene that adds moving joints to its file's has freedoms no library
+    // vector holds: no layout.
+    if v_at != tree_v {
+        return TokenStream::new();
+    }
+    let (constant, variant, doc) = match library {
+        Library::MuJoCo => (
+            quote!(MUJOCO),
+            quote!(MuJoCo),
+            " The state as MuJoCo writes it (`qpos`, `qvel`, `qacc`, `qfrc_*`): converted both ways.",
+        ),
+        Library::Pinocchio => (
+            quote!(PINOCCHIO),
+            quote!(Pinocchio),
+            " The state as Pinocchio writes it (`q`, `v`, `a`, `tau`): converted both ways.",
+        ),
+    };
+    quote! {
+        #[doc = #doc]
+        pub const #constant: #k::robot::StateLayout<#tree_q, #tree_v> = #k::robot::StateLayout::__from_derive(
+            #k::robot::Library::#variant, #q_at, #v_at, &[#(#rows),*],
+        );
     }
 }
 

@@ -216,7 +216,7 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
         joints,
         files: vec![robot.path],
         gravity: robot.gravity,
-        data: Some(FileData { links: robot.links, limits }),
+        data: Some(FileData { links: robot.links, limits, library: robot.library }),
         couplings,
     })
 }
@@ -263,11 +263,37 @@ pub struct FileLimits {
     pub armature: Option<f64>,
 }
 
+/// The robot library whose state layout a file's scene converts to.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Library {
+    /// MJCF: the file's joints as written (depth first).
+    MuJoCo,
+    /// URDF: depth first from the root, a link's child joints by name
+    /// (urdfdom keeps them in a map), a floating base first.
+    Pinocchio,
+}
+
+/// A moving joint as its library writes it.
+pub struct LibraryJoint {
+    /// The file's name (`root_joint`, Pinocchio's, for a URDF's floating base).
+    pub name: String,
+    /// `free`, `ball`, `hinge`, `continuous` (Pinocchio's `cos, sin`) or `slide`.
+    pub kind: &'static str,
+    /// Its child link (an index of the file's links).
+    pub link: usize,
+    /// Its child body.
+    pub body: usize,
+    /// Its index among the moving joints (the scene's first joints); `None` for a free joint.
+    pub joint: Option<usize>,
+}
+
 /// What a robot's file says beyond its bodies and joints.
-#[derive(Default)]
 pub struct FileData {
     /// Every link's frame, in the file's order.
     pub links: Vec<FileLink>,
     /// Each moving joint's limits, by the file's name, in the file's order.
     pub limits: Vec<(String, FileLimits)>,
+    /// The moving joints as the format's library (MuJoCo, Pinocchio)
+    /// orders and writes them.
+    pub library: (Library, Vec<LibraryJoint>),
 }

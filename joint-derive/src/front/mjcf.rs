@@ -24,8 +24,8 @@
 use std::collections::HashMap;
 
 use super::robot::{
-    Closure, Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, add, apply, assemble, mul,
-    norm, number, numbers, read_text, required, transpose, triple,
+    Closure, Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Library, Link, M3, Robot, V3, add, apply, assemble,
+    mul, norm, number, numbers, read_text, required, transpose, triple,
 };
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
@@ -64,7 +64,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     let flags = option.into_iter().flat_map(|o| o.children()).filter(|n| n.has_tag_name("flag"));
     let off = flags.clone().any(|f| f.attribute("gravity") == Some("disable"));
     let gravity = if off { [0.0; 3] } else { gravity.unwrap_or([0.0, 0.0, -9.81]) };
-    let robot = assemble(&reader.links, &reader.joints, &closures, false, &fail)?;
+    let robot = assemble(&reader.links, &reader.joints, &closures, (false, Library::MuJoCo), &fail)?;
     Ok(Robot { gravity: Some(gravity), couplings, ..robot })
 }
 
@@ -162,7 +162,19 @@ impl<'a, 'i> Reader<'a, 'i> {
                     self.links.push(Link { name: name.clone(), inertial: None, unknown: false, at });
                     let child = self.links.len() - 1;
                     let (point, axis, limits) = ([0.0; 3], [0.0, 0.0, 1.0], FileLimits::default());
-                    self.joints.push(Joint { name, kind: Kind::Fixed, parent, child, origin, point, axis, limits, at });
+                    let continuous = false;
+                    self.joints.push(Joint {
+                        name,
+                        kind: Kind::Fixed,
+                        parent,
+                        child,
+                        origin,
+                        point,
+                        axis,
+                        limits,
+                        continuous,
+                        at,
+                    });
                 }
                 "joint" | "freejoint" if parent == 0 => {
                     return Err((self.fail)(at, "a joint of the world; expected joints inside a `<body>`".into()));
@@ -208,6 +220,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 point: [0.0; 3],
                 axis: [0.0, 0.0, 1.0],
                 limits: FileLimits::default(),
+                continuous: false,
                 at,
             },
             [j] => self.joint(*j, parent, child, origin, &class)?,
@@ -338,7 +351,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             ));
         }
         let limits = FileLimits { range, effort, velocity: None, damping, friction: value("frictionloss")?, armature };
-        Ok(Joint { name, kind, parent, child, origin, point, axis, limits, at })
+        Ok(Joint { name, kind, parent, child, origin, point, axis, limits, continuous: false, at })
     }
 
     /// `<inertial>`: mass, centre and inertia in the body's frame.

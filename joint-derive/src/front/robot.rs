@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use super::geometry::{eigenvalues, physical};
 
-pub use super::files::{FileLimits, FileLink};
+pub use super::files::{FileLimits, FileLink, Library, LibraryJoint};
 
 /// A robot in the scene's terms.
 pub struct Robot {
@@ -36,6 +36,9 @@ pub struct Robot {
     pub gravity: Option<V3>,
     /// Joints that follow others (URDF `<mimic>`, MJCF `<equality joint>`).
     pub couplings: Vec<FileCoupling>,
+    /// The moving joints (a floating base's included) in the library's
+    /// order: MuJoCo's for an MJCF file, Pinocchio's for a URDF.
+    pub library: (Library, Vec<LibraryJoint>),
 }
 
 /// `follower = multiplier · leader + offset`, by the joints' names.
@@ -123,6 +126,8 @@ pub struct Joint {
     /// In the child link's frame.
     pub axis: V3,
     pub limits: FileLimits,
+    /// A URDF `continuous` joint (Pinocchio writes it `cos θ, sin θ`).
+    pub continuous: bool,
     pub at: roxmltree::TextPos,
 }
 
@@ -192,7 +197,7 @@ pub fn assemble(
     links: &[Link],
     joints: &[Joint],
     closures: &[Closure],
-    floating: bool,
+    (floating, library): (bool, Library),
     fail: &Fail,
 ) -> syn::Result<Robot> {
     let (inbound, root) = tree(links, joints, fail)?;
@@ -302,6 +307,29 @@ pub fn assemble(
             FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)) }
         })
         .collect();
+    let order = match library {
+        Library::MuJoCo => (0..joints.len()).collect(),
+        Library::Pinocchio => by_name_depth_first(joints, root),
+    };
+    let mut library_joints = Vec::new();
+    if floating {
+        let (name, body) = ("root_joint".to_string(), body_of[root].unwrap_or(0));
+        library_joints.push(LibraryJoint { name, kind: "free", link: root, body, joint: None });
+    }
+    let moving = |k: usize| !matches!(joints[k].kind, Kind::Fixed | Kind::Floating);
+    for k in order.into_iter().filter(|&k| joints[k].kind != Kind::Fixed) {
+        let j = &joints[k];
+        let kind = match j.kind {
+            Kind::Floating => "free",
+            Kind::Spherical => "ball",
+            Kind::Prismatic => "slide",
+            _ if j.continuous && library == Library::Pinocchio => "continuous",
+            _ => "hinge",
+        };
+        let joint = moving(k).then(|| (0..k).filter(|&i| moving(i)).count());
+        let (name, body) = (j.name.clone(), body_of[j.child].unwrap_or(0));
+        library_joints.push(LibraryJoint { name, kind, link: j.child, body, joint });
+    }
     Ok(Robot {
         bodies,
         joints: out,
@@ -310,7 +338,16 @@ pub fn assemble(
         path: String::new(),
         gravity: None,
         couplings: Vec::new(),
+        library: (library, library_joints),
     })
+}
+
+/// The joints depth first from `link`, each link's child joints by name
+/// (Pinocchio's order for a URDF).
+fn by_name_depth_first(joints: &[Joint], link: usize) -> Vec<usize> {
+    let mut children: Vec<usize> = (0..joints.len()).filter(|&k| joints[k].parent == link).collect();
+    children.sort_by(|&a, &b| joints[a].name.cmp(&joints[b].name));
+    children.into_iter().flat_map(|k| std::iter::once(k).chain(by_name_depth_first(joints, joints[k].child))).collect()
 }
 
 fn out_of_range(name: &str, at: roxmltree::TextPos, fail: &Fail) -> syn::Error {

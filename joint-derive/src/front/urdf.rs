@@ -8,8 +8,8 @@
 //! coordinates, unless the scene says `mimic = independent`).
 
 use super::robot::{
-    Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Link, M3, Robot, V3, assemble, mul, number, required,
-    transpose, triple,
+    Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Library, Link, M3, Robot, V3, assemble, mul, number,
+    required, transpose, triple,
 };
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
@@ -37,7 +37,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, floating: bool) -
         let at = doc.text_pos_at(doc.root_element().range().start);
         return Err(fail(at, "the robot has no `<link>`; expected its links and joints".into()));
     }
-    let robot = assemble(&links, &joints, &[], floating, &fail)?;
+    let robot = assemble(&links, &joints, &[], (floating, Library::Pinocchio), &fail)?;
     Ok(Robot { couplings: mimics(&doc, &joints, &fail)?, ..robot })
 }
 
@@ -104,7 +104,8 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
         if joints.iter().any(|j| j.name == name) {
             return Err(fail(at, format!("joint `{name}` is declared twice; expected unique joint names")));
         }
-        let kind = match required(node, "type", at, fail)?.as_str() {
+        let written = required(node, "type", at, fail)?;
+        let kind = match written.as_str() {
             "revolute" | "continuous" => Kind::Revolute,
             "prismatic" => Kind::Prismatic,
             "fixed" => Kind::Fixed,
@@ -134,7 +135,8 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             None => [1.0, 0.0, 0.0],
         };
         let limits = limits(node, &pos, fail)?;
-        joints.push(Joint { name, kind, parent, child, origin, point: [0.0; 3], axis, limits, at });
+        let continuous = written == "continuous";
+        joints.push(Joint { name, kind, parent, child, origin, point: [0.0; 3], axis, limits, continuous, at });
     }
     Ok((links, joints))
 }
@@ -327,7 +329,7 @@ mod tests {
         let doc = roxmltree::Document::parse(&text).unwrap();
         let fail = |_: roxmltree::TextPos, m: String| syn::Error::new(proc_macro2::Span::call_site(), m);
         let (links, joints) = elements(&doc, &fail).unwrap();
-        let robot = assemble(&links, &joints, &[], false, &fail).unwrap();
+        let robot = assemble(&links, &joints, &[], (false, Library::Pinocchio), &fail).unwrap();
         assert_eq!(robot.bodies.len(), 1);
         let b = &robot.bodies[0];
         assert!((b.mass - 3.0).abs() < 1e-15);

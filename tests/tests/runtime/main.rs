@@ -4,6 +4,7 @@
 //! * `analysis`: assembly, velocity and acceleration analysis.
 //! * `batch`: batches scalar, in SIMD lanes and with rayon.
 //! * `dynamics`: forward dynamics and the integrators.
+//! * `library`: states copied from MuJoCo and Pinocchio (`MUJOCO`, `PINOCCHIO`).
 //! * `loops`: closed loops in relative coordinates.
 //! * `record`: trajectories as CSV and SVG.
 //! * `serde_io`: the types through serde.
@@ -16,6 +17,7 @@ mod analysis;
 mod batch;
 mod dynamics;
 mod floating;
+mod library;
 mod linear;
 mod loops;
 mod mjcf;

@@ -12,10 +12,17 @@
 //! [`SystemState`] (either coordinate choice converts to it),
 //! [`LinkFrame::point`] for the point to give a point Jacobian, such as
 //! [`Tree::point_jacobian`](crate::tree::Tree::point_jacobian).
+//!
+//! A relative-coordinate scene from a file also has `MUJOCO` (MJCF) or
+//! `PINOCCHIO` (URDF), a [`StateLayout`]: states, accelerations and forces
+//! to and from the library's vectors.
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 use crate::SystemState;
+
+mod library;
+pub use library::{Library, LibraryJoint, LibraryJointKind, StateError, StateLayout};
 
 /// A link's frame on its body: `name` as in the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
