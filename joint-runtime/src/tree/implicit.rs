@@ -55,7 +55,8 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
     ///
     /// Trees without loops, springs or user loads (as the exact
     /// derivatives: [`TreeError::Loaded`]); [`TreeError::Singular`] if the
-    /// Newton matrix is.
+    /// Newton matrix is, [`TreeError::Diverged`] if the step leaves the
+    /// finite range.
     ///
     /// ```
     /// use joint_runtime::Scene;
@@ -99,12 +100,11 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         let joint = self.tree().joints().first().map_or("", |j| j.name);
         let delta = Lu::new(&newton).map_err(|_| TreeError::Singular { joint })?.solve(&rhs);
         let v = state.v + delta;
-        if !v.iter().all(|x| x.is_finite()) {
-            return Err(TreeError::NonFinite);
-        }
         let mut q = state.q;
         self.tree().displace(&mut q, &(v * h));
-        *state = TreeState { q, v, t: state.t + h };
+        let next = TreeState { q, v, t: state.t + h };
+        super::simulation::diverged(&next)?;
+        *state = next;
         Ok(())
     }
 }

@@ -102,7 +102,7 @@ mod topology;
 pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives};
 pub use dynamics::TreeEnergy;
 pub use implicit::ForceGains;
-pub use simulation::TreeSimulation;
+pub use simulation::{DIVERGED, TreeSimulation};
 pub use step_jacobian::{StepJacobian, StepWork};
 pub use topology::{JointLayout, Tree, TreeError};
 

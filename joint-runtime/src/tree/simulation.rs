@@ -454,7 +454,10 @@ impl<
     }
 
     /// One RK4 step of length `h` under joint forces `tau`, held over the step
-    /// (a controller's zero-order hold). The state is left unchanged on error.
+    /// (a controller's zero-order hold). The state is left unchanged on error:
+    /// [`TreeError::Diverged`] when the step is too long for the dynamics'
+    /// stiffness (its end past [`DIVERGED`] or a later stage's dynamics
+    /// failing).
     pub fn step_with(
         &mut self,
         state: &mut TreeState<NQ, NV>,
@@ -477,9 +480,10 @@ impl<
             v: state.v + dv * c,
             t: state.t + c,
         };
-        let (q2, v2) = rate(&at(&q1, &v1, 0.5 * h))?;
-        let (q3, v3) = rate(&at(&q2, &v2, 0.5 * h))?;
-        let (q4, v4) = rate(&at(&q3, &v3, h))?;
+        // A later stage's failure where the first's dynamics held: divergence.
+        let (q2, v2) = rate(&at(&q1, &v1, 0.5 * h)).map_err(|e| e.at_stage(state.t + 0.5 * h))?;
+        let (q3, v3) = rate(&at(&q2, &v2, 0.5 * h)).map_err(|e| e.at_stage(state.t + 0.5 * h))?;
+        let (q4, v4) = rate(&at(&q3, &v3, h)).map_err(|e| e.at_stage(state.t + h))?;
         let mut next = TreeState {
             q: state.q + (q1 + (q2 + q3) * 2.0 + q4) * (h / 6.0),
             v: state.v + (v1 + (v2 + v3) * 2.0 + v4) * (h / 6.0),
@@ -494,11 +498,8 @@ impl<
     /// number finite.
     fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
         self.tree.normalise(&mut next.q);
-        let closed = self.project(next)?;
-        let finite = next.q.iter().chain(next.v.iter()).all(|x| x.is_finite());
-        if !finite {
-            return Err(TreeError::NonFinite);
-        }
+        let closed = self.project(next).map_err(|e| e.at_stage(next.t))?;
+        diverged(next)?;
         self.last.set(Some(*next));
         Ok(closed)
     }
@@ -604,6 +605,30 @@ impl<const NQ: usize, const NV: usize> Timed for TreeState<NQ, NV> {
     }
 }
 
+/// Beyond this, a state's number is not a robot's (rad, m, their rates):
+/// MuJoCo's `mjMAXVAL`, where it too calls a simulation unstable.
+pub const DIVERGED: f64 = 1e10;
+
+/// [`TreeError::Diverged`] for a step's end past [`DIVERGED`] or not finite.
+pub(crate) fn diverged<const NQ: usize, const NV: usize>(next: &TreeState<NQ, NV>) -> Result<(), TreeError> {
+    // `!(x <= bound)`: NaN fails too.
+    if next.q.iter().chain(next.v.iter()).all(|x| libm::fabs(*x) <= DIVERGED) {
+        Ok(())
+    } else {
+        Err(TreeError::Diverged { t: next.t })
+    }
+}
+
+impl TreeError {
+    /// A stage's failure after a start that held: the step diverged.
+    fn at_stage(self, t: f64) -> Self {
+        match self {
+            TreeError::NonFinite | TreeError::Singular { .. } => TreeError::Diverged { t },
+            other => other,
+        }
+    }
+}
+
 impl StepError for TreeError {
     fn bad_option(name: &'static str) -> Self {
         TreeError::BadOption { name }
@@ -615,7 +640,10 @@ impl StepError for TreeError {
         TreeError::NonFinite
     }
     fn retried(&self) -> bool {
-        matches!(self, TreeError::NonFinite | TreeError::Closure { .. } | TreeError::Singular { .. })
+        matches!(
+            self,
+            TreeError::NonFinite | TreeError::Closure { .. } | TreeError::Singular { .. } | TreeError::Diverged { .. }
+        )
     }
 }
 

@@ -53,6 +53,15 @@ pub enum TreeError {
     },
     /// A state or a torque that is not finite.
     NonFinite,
+    /// A step left the finite range: a number of its state past
+    /// [`DIVERGED`](crate::tree::DIVERGED) or not finite, or its stages'
+    /// dynamics failing where its start's did not. The step is too long for
+    /// the dynamics' fastest motion (stiff gains, springs or damping):
+    /// shorter steps, or `implicit_step_with`.
+    Diverged {
+        /// The time the step reached (its end, or the failing stage's).
+        t: f64,
+    },
     /// A loop that the position projection did not close: the closure's
     /// largest row after the Newton iterations.
     Closure {
@@ -131,6 +140,11 @@ impl fmt::Display for TreeError {
                 write!(f, "the state does not hold joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::NonFinite => f.write_str("a state or torque that is not finite"),
+            TreeError::Diverged { t } => write!(
+                f,
+                "the step diverged at t = {t} (a number past 1e10 or not finite): it is too long for the dynamics' \
+                 stiffness (gains, springs, damping); take shorter steps or `implicit_step_with`"
+            ),
             TreeError::Attachment { spring } => {
                 write!(f, "spring {spring} is attached to a body the scene does not have")
             }
