@@ -318,10 +318,13 @@ pub(crate) struct Joint {
     /// `Some(k)`: its points or axes are fields, so all of its geometry is
     /// read from the runtime's `TreeGeometry` at `k` (the numbers above unused).
     pub(crate) read: Option<usize>,
-    /// Inertia added to each freedom (`armature`) and viscous damping of
-    /// each (`damping`): numbers, zero unless declared.
+    /// Inertia added to each freedom (`armature`), viscous damping of each
+    /// (`damping`) and a one-freedom joint's spring: numbers, zero unless
+    /// declared.
     pub(crate) armature: f64,
     pub(crate) damping: f64,
+    pub(crate) stiffness: f64,
+    pub(crate) spring_rest: f64,
 }
 
 fn known(j: &JointDecl, name: &str) -> Option<[f64; 3]> {
@@ -415,6 +418,8 @@ impl Joint {
             read: None,
             armature: 0.0,
             damping: 0.0,
+            stiffness: 0.0,
+            spring_rest: 0.0,
         }
     }
 }
@@ -439,7 +444,8 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         // A floating body: its centre from the ground's origin.
         return Some(Joint { kind: TreeKind::Free, parent, child, ..Joint::spherical() });
     };
-    let (armature, damping) = (j.dynamics.armature, j.dynamics.damping);
+    let d = j.dynamics;
+    let (armature, damping, stiffness, spring_rest) = (d.armature, d.damping, d.stiffness, d.spring_rest);
     let (rho1, rho2) = (known(j, "rho1")?, known(j, "rho2")?);
     let (mut axis, mut rest) = ([0.0; 3], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
     let mut slide = [0.0; 3];
@@ -461,6 +467,8 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
             read: None,
             armature,
             damping,
+            stiffness,
+            spring_rest,
         });
     }
     let mut plane = [[0.0; 3]; 2];
@@ -487,7 +495,23 @@ pub(crate) fn joint(s: &SceneDecl, e: &TreeEdge, parent: Option<usize>) -> Optio
         }
     }
     let (rho_p, rho_c) = if e.reversed { (rho2, rho1) } else { (rho1, rho2) };
-    Some(Joint { kind: e.kind, parent, child, rho_p, rho_c, axis, rest, slide, plane, read: None, armature, damping })
+    let (read, kind) = (None, e.kind);
+    Some(Joint {
+        kind,
+        parent,
+        child,
+        rho_p,
+        rho_c,
+        axis,
+        rest,
+        slide,
+        plane,
+        read,
+        armature,
+        damping,
+        stiffness,
+        spring_rest,
+    })
 }
 
 /// A planar joint's in-plane unit axes `(f, g)` of the parent, `f × g = a`,
@@ -1077,6 +1101,8 @@ pub(crate) fn written(s: &SceneDecl, edges: &[TreeEdge]) -> Option<Vec<Joint>> {
             read: Some(k),
             armature: dynamics.armature,
             damping: dynamics.damping,
+            stiffness: dynamics.stiffness,
+            spring_rest: dynamics.spring_rest,
             ..Joint::spherical()
         })
     };
@@ -1092,12 +1118,10 @@ fn inline(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Toke
     let zero = b.c(0.0);
     let n = joints.len();
     let (qa, va) = offsets(joints);
-    // A damped joint's force: `τ − damping · v`.
-    for (k, j) in joints.iter().enumerate().filter(|(_, j)| j.damping != 0.0) {
-        let d = b.c(j.damping);
-        for i in va[k]..va[k] + j.kind.sizes().1 {
-            let dv = b.g.mul(d, v[i]);
-            tau[i] = b.g.sub(tau[i], dv);
+    // A damped or sprung joint's force: `τ − damping · v − stiffness · (q − q₀)`.
+    for (k, j) in joints.iter().enumerate() {
+        for (i, resist) in passive(&mut b, j, &q[qa[k]..], &v[va[k]..]).into_iter().enumerate() {
+            tau[va[k] + i] = b.g.sub(tau[va[k] + i], resist);
         }
     }
     let mut downs: Vec<Down> = Vec::with_capacity(n);
@@ -1330,7 +1354,7 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     // tree past the limit).
     // Nor with an armature or damping (the recursion carries them).
     let varying = |j: &Joint| matches!(j.kind, TreeKind::Universal | TreeKind::Planar | TreeKind::Free);
-    let own = |j: &Joint| j.armature != 0.0 || j.damping != 0.0;
+    let own = |j: &Joint| j.armature != 0.0 || j.damping != 0.0 || j.stiffness != 0.0;
     if joints.iter().any(|j| varying(j) || own(j) || j.read.is_some()) {
         return None;
     }
@@ -1597,12 +1621,30 @@ pub(crate) struct NewtonEuler {
     pub(crate) tau: Vec<Id>,
 }
 
+/// What joint `j` resists with, freedom by freedom: `damping · v` plus, on
+/// a one-freedom joint, `stiffness · (q − q₀)` (`q`, `v` from its first
+/// coordinate and freedom on). Zero nodes where it has neither.
+fn passive(b: &mut Builder, j: &Joint, q: &[Id], v: &[Id]) -> Vec<Id> {
+    let (damping, stiffness, rest) = (b.c(j.damping), b.c(j.stiffness), b.c(j.spring_rest));
+    (0..j.kind.sizes().1)
+        .map(|i| {
+            let damped = b.g.mul(damping, v[i]);
+            if i > 0 || j.stiffness == 0.0 {
+                return damped;
+            }
+            let stretch = b.g.sub(q[0], rest);
+            let sprung = b.g.mul(stiffness, stretch);
+            b.g.add(damped, sprung)
+        })
+        .collect()
+}
+
 /// `τ(q, v, a)` on `b`'s graph: `τ = Sᵀ f` with `f = I a + v ×* I v`
 /// summed from the leaves, armature and damping added.
 pub(crate) fn newton_euler(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> NewtonEuler {
     let (d, q, v) = downs(b, s, joints, nq, nv, true);
     let vdot: Vec<Id> = (0..nv).map(|i| b.g.param(format!("a_{i}"))).collect();
-    let (_, va) = offsets(joints);
+    let (qa, va) = offsets(joints);
     let ground = b.ground(s);
     let mut acc: Vec<V6> = Vec::with_capacity(joints.len());
     let mut force: Vec<V6> = Vec::with_capacity(joints.len());
@@ -1623,13 +1665,13 @@ pub(crate) fn newton_euler(b: &mut Builder, s: &SceneDecl, joints: &[Joint], nq:
     let zero = b.c(0.0);
     let mut tau = vec![zero; nv];
     for (k, j) in joints.iter().enumerate().rev() {
-        let (armature, damping) = (b.c(j.armature), b.c(j.damping));
+        let armature = b.c(j.armature);
+        let resist = passive(b, j, &q[qa[k]..], &v[va[k]..]);
         for (i, col) in d[k].s.iter().enumerate() {
             let own = b.g.mul(armature, vdot[va[k] + i]);
-            let damped = b.g.mul(damping, v[va[k] + i]);
             let t = b.dot(col, &force[k]);
             let t = b.g.add(t, own);
-            tau[va[k] + i] = b.g.add(t, damped);
+            tau[va[k] + i] = b.g.add(t, resist[i]);
         }
         if let Some(p) = j.parent {
             let back = b.force_back(&d[k].x, force[k]);

@@ -58,8 +58,9 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 /// `floating_base` (URDF: the root link floats), `file_damping` (URDF: its
 /// `<dynamics damping>` in the dynamics) and `mimic = coupled |
 /// independent` (a file's followers as rows, the default, or as free joints).
-/// A tree joint in relative coordinates may add `armature = A` and
-/// `damping = D`. See the `joint-runtime` documentation for the whole language.
+/// A tree joint in relative coordinates may add `armature = A`,
+/// `damping = D` and, on a revolute or translational joint, a spring:
+/// `stiffness = K` and `spring_rest = Q0` (its force `−K (q − Q0)`). See the `joint-runtime` documentation for the whole language.
 #[proc_macro_derive(Scene, attributes(scene, body, joint))]
 pub fn derive_scene(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
     let input = syn::parse_macro_input!(input as syn::DeriveInput);

@@ -401,11 +401,11 @@ fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
             "slide" => (quote!(Slide), (1, 1)),
             _ => (quote!(Hinge), (1, 1)),
         };
-        let (name, link) = (&j.name, link_frame(link));
+        let (name, link, offset) = (&j.name, link_frame(link), j.offset);
         rows.push(quote! {
             #k::robot::LibraryJoint {
                 name: #name, kind: #k::robot::LibraryJointKind::#kind, q_at: #q_at, v_at: #v_at,
-                tree_q_at: #tq, tree_v_at: #tv, link: #link,
+                tree_q_at: #tq, tree_v_at: #tv, offset: #offset, link: #link,
             }
         });
         (q_at, v_at) = (q_at + nq, v_at + nv);

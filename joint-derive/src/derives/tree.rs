@@ -134,6 +134,7 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
         if e.reversed { (rho2, rho1, axis2, axis1) } else { (rho1, rho2, axis1, axis2) };
     let (lock_p, lock_c) = if e.reversed { (lock2, lock1) } else { (lock1, lock2) };
     let (armature, damping) = (j.dynamics.armature, j.dynamics.damping);
+    let (stiffness, spring_rest) = (j.dynamics.stiffness, j.dynamics.spring_rest);
     let kind = match e.kind {
         TreeKind::Revolute => quote!(Revolute),
         TreeKind::Spherical => quote!(Spherical),
@@ -158,6 +159,8 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
             lock_child: #lock_c,
             armature: #armature,
             damping: #damping,
+            stiffness: #stiffness,
+            spring_rest: #spring_rest,
         }
     }
 }
@@ -183,6 +186,8 @@ fn free(s: &SceneDecl, e: &TreeEdge) -> TokenStream {
             lock_child: #z,
             armature: 0.0,
             damping: 0.0,
+            stiffness: 0.0,
+            spring_rest: 0.0,
         }
     }
 }

@@ -182,7 +182,20 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
                 "spherical" => vec![arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
                 _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
             };
-            for (key, value) in [("armature", j.limits.armature), ("damping", j.limits.damping)] {
+            let spring = j.limits.spring;
+            if spring.stiffness != 0.0 && !dynamics {
+                let message = format!(
+                    "joint `{}` has a spring (`stiffness`), modelled in relative coordinates only; expected \
+                     `coordinates = relative`",
+                    j.name
+                );
+                errors.at(span, message);
+            }
+            let sprung = (spring.stiffness != 0.0).then_some(spring);
+            let springs = [("stiffness", sprung.map(|s| s.stiffness)), ("spring_rest", sprung.map(|s| s.rest))];
+            for (key, value) in
+                [("armature", j.limits.armature), ("damping", j.limits.damping)].into_iter().chain(springs)
+            {
                 if let Some(x) = value.filter(|&x| dynamics && x != 0.0) {
                     args.push(Arg {
                         key: syn::Ident::new(key, span),
@@ -261,10 +274,24 @@ pub struct FileLimits {
     pub friction: Option<f64>,
     /// MJCF's `armature`: inertia added to the joint's own freedom.
     pub armature: Option<f64>,
+    /// MJCF's joint spring and `ref`.
+    pub spring: FileSpring,
+}
+
+/// An MJCF hinge's or slide's spring and `ref` (zero where the file has none).
+#[derive(Clone, Copy, Default, Debug, PartialEq)]
+pub struct FileSpring {
+    /// `stiffness` (N m/rad, N/m).
+    pub stiffness: f64,
+    /// Where its force is zero, in the tree's coordinate: `springref − ref`.
+    pub rest: f64,
+    /// `ref`: MuJoCo's coordinate at the file's pose, the tree's zero.
+    pub reference: f64,
 }
 
 /// The robot library whose state layout a file's scene converts to.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(not(any(feature = "urdf", feature = "mjcf")), allow(dead_code))]
 pub enum Library {
     /// MJCF: the file's joints as written (depth first).
     MuJoCo,
@@ -285,6 +312,8 @@ pub struct LibraryJoint {
     pub body: usize,
     /// Its index among the moving joints (the scene's first joints); `None` for a free joint.
     pub joint: Option<usize>,
+    /// The library's coordinate minus the tree's (MJCF's `ref`).
+    pub offset: f64,
 }
 
 /// What a robot's file says beyond its bodies and joints.

@@ -12,20 +12,23 @@
 //! `<equality>`'s `connect` (a ball joint) and `weld` (a fixed joint) as
 //! joints that close loops, at the file's reference configuration. A
 //! joint's range, damping, `frictionloss`, `armature` and
-//! `actuatorfrcrange` are data ([`FileLimits`]); `<flag gravity="disable">`
-//! switches gravity off. Refused, each by name at the attribute: what would
-//! change the dynamics without being modelled ([`UNMODELLED`]: gravity
-//! compensation, joint springs, fluid forces, the compiler's mass rescaling,
-//! switched-off passive forces or constraints; an equality's softness; a
-//! joint's `ref`, inertia computed from geoms, several joints in one body,
-//! a damped free joint, `<include>`, composites, mocap bodies).
+//! `actuatorfrcrange` are data ([`FileLimits`]); a hinge's or slide's
+//! `stiffness`, `springref` and `ref` are its spring and the coordinate's
+//! offset (the tree's zero at the file's pose, MuJoCo's `ref`);
+//! `<flag gravity="disable">` switches gravity off. Refused, each by name at
+//! the attribute: what would change the dynamics without being modelled
+//! ([`UNMODELLED`]: gravity compensation, spring-dampers, fluid forces, the
+//! compiler's mass rescaling, switched-off passive forces or constraints; an
+//! equality's softness; a ball or free joint's spring, inertia computed
+//! from geoms, several joints in one body, a damped free joint,
+//! `<include>`, composites, mocap bodies).
 //! Geoms, meshes, actuators, sensors and contacts are not read.
 
 use std::collections::HashMap;
 
 use super::robot::{
-    Closure, Fail, FileCoupling, FileLimits, IDENTITY, Joint, Kind, Library, Link, M3, Robot, V3, add, apply, assemble,
-    mul, norm, number, numbers, read_text, required, transpose, triple,
+    Closure, Fail, FileCoupling, FileLimits, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3, Robot, V3, add,
+    apply, assemble, mul, norm, number, numbers, read_text, required, transpose, triple,
 };
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
@@ -291,14 +294,6 @@ impl<'a, 'i> Reader<'a, 'i> {
                 ));
             }
         };
-        for key in ["stiffness", "ref"] {
-            if value(key)?.is_some_and(|x| x != 0.0) && !free {
-                return Err(fail(
-                    at,
-                    format!("{label} has a nonzero `{key}`, which is not modelled; expected `{key}=\"0\"` or none"),
-                ));
-            }
-        }
         let vector = |key: &str, default: V3| -> syn::Result<V3> {
             let Some(text) = get(key) else { return Ok(default) };
             let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
@@ -335,6 +330,10 @@ impl<'a, 'i> Reader<'a, 'i> {
             None => None,
         };
         let (damping, armature) = (value("damping")?, value("armature")?);
+        let spring = spring(&value, (kind, scale), &label, &|m| fail(at, m))?;
+        // MuJoCo's coordinate is `ref` at the file's pose, the tree's zero:
+        // its range in the tree's coordinate.
+        let range = range.map(|(a, b)| (a - spring.reference, b - spring.reference));
         if kind == Kind::Floating && [damping, armature].iter().flatten().any(|&x| x != 0.0) {
             return Err(fail(
                 at,
@@ -350,7 +349,8 @@ impl<'a, 'i> Reader<'a, 'i> {
                 format!("{label} has a negative `damping` or `armature`; expected numbers at least zero"),
             ));
         }
-        let limits = FileLimits { range, effort, velocity: None, damping, friction: value("frictionloss")?, armature };
+        let friction = value("frictionloss")?;
+        let limits = FileLimits { range, effort, velocity: None, damping, friction, armature, spring };
         Ok(Joint { name, kind, parent, child, origin, point, axis, limits, continuous: false, at })
     }
 
@@ -607,6 +607,34 @@ impl Neutral {
     }
 }
 
+/// A hinge's or slide's `stiffness`, `springref` and `ref` (angles in the
+/// compiler's unit, `scale` to radians): the spring in the tree's coordinate
+/// (MuJoCo's minus `ref`). A ball or free joint's spring is refused; their
+/// `ref` MuJoCo does not use.
+fn spring(
+    value: &dyn Fn(&str) -> syn::Result<Option<f64>>,
+    (kind, scale): (Kind, f64),
+    label: &str,
+    fail: &dyn Fn(String) -> syn::Error,
+) -> syn::Result<FileSpring> {
+    let stiffness = value("stiffness")?.unwrap_or(0.0);
+    if stiffness < 0.0 {
+        return Err(fail(format!("{label} has a negative `stiffness`; expected a number at least zero")));
+    }
+    if !matches!(kind, Kind::Revolute | Kind::Prismatic) {
+        if stiffness != 0.0 {
+            return Err(fail(format!(
+                "{label} is a ball or free joint with a `stiffness` (its own or its class's): such a joint's spring \
+                 is not modelled; expected `stiffness=\"0\"` or none"
+            )));
+        }
+        return Ok(FileSpring::default());
+    }
+    let reference = value("ref")?.unwrap_or(0.0) * scale;
+    let rest = value("springref")?.unwrap_or(0.0) * scale - reference;
+    Ok(FileSpring { stiffness, rest, reference })
+}
+
 /// What changes MuJoCo's dynamics and is not modelled here, refused
 /// wherever the file states it (a `<default>` class included), at the
 /// attribute: `(element, attribute, what leaves it neutral, what it is)`.
@@ -616,7 +644,6 @@ impl Neutral {
 const UNMODELLED: &[(&str, &str, Neutral, &str)] = &[
     ("body", "gravcomp", Neutral::Zero, "gravity compensation"),
     ("joint", "springdamper", Neutral::Zero, "a joint's spring-damper"),
-    ("joint", "stiffness", Neutral::Zero, "a joint's spring"),
     ("compiler", "settotalmass", Neutral::NotPositive, "masses scaled to a total"),
     ("compiler", "boundmass", Neutral::Zero, "a lower bound on the masses"),
     ("compiler", "boundinertia", Neutral::Zero, "a lower bound on the inertias"),
@@ -768,7 +795,8 @@ mod tests {
             (&one_body("<joint type=\"cylinder\"/>", ""), "5:1:", "has type `cylinder`; expected `hinge`"),
             (&one_body("<joint/><joint name=\"k\"/>", ""), "5:9:", "has a second joint"),
             (&one_body(&format!("{hinge}<body><geom size=\"1\"/></body>"), ""), "5:18:", "inertia from geoms"),
-            (&one_body("<joint stiffness=\"10\"/>", ""), "5:8:", "(a joint's spring) is not modelled"),
+            (&one_body("<joint type=\"ball\" stiffness=\"10\"/>", ""), "5:1:", "such a joint's spring is not modelled"),
+            (&one_body("<joint stiffness=\"-1\"/>", ""), "5:1:", "negative `stiffness`"),
             (&one_body("<joint springdamper=\"0.1 1\"/>", ""), "5:8:", "(a joint's spring-damper) is not modelled"),
             (
                 &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"1\""),
@@ -791,7 +819,6 @@ mod tests {
                 "is free and has `damping` or `armature`",
             ),
             ("<mujoco>\n<worldbody>\n<body name=\"a\">", "3:16:", "the file ends here, cut short"),
-            (&one_body("<joint ref=\"0.3\"/>", ""), "5:1:", "nonzero `ref`"),
             (
                 &one_body(&format!("{hinge}{}", second.replace("hand", "arm")), ""),
                 "5:18:",

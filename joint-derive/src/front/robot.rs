@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use super::geometry::{eigenvalues, physical};
 
-pub use super::files::{FileLimits, FileLink, Library, LibraryJoint};
+pub use super::files::{FileLimits, FileLink, FileSpring, Library, LibraryJoint};
 
 /// A robot in the scene's terms.
 pub struct Robot {
@@ -314,7 +314,7 @@ pub fn assemble(
     let mut library_joints = Vec::new();
     if floating {
         let (name, body) = ("root_joint".to_string(), body_of[root].unwrap_or(0));
-        library_joints.push(LibraryJoint { name, kind: "free", link: root, body, joint: None });
+        library_joints.push(LibraryJoint { name, kind: "free", link: root, body, joint: None, offset: 0.0 });
     }
     let moving = |k: usize| !matches!(joints[k].kind, Kind::Fixed | Kind::Floating);
     for k in order.into_iter().filter(|&k| joints[k].kind != Kind::Fixed) {
@@ -327,8 +327,8 @@ pub fn assemble(
             _ => "hinge",
         };
         let joint = moving(k).then(|| (0..k).filter(|&i| moving(i)).count());
-        let (name, body) = (j.name.clone(), body_of[j.child].unwrap_or(0));
-        library_joints.push(LibraryJoint { name, kind, link: j.child, body, joint });
+        let (name, body, offset) = (j.name.clone(), body_of[j.child].unwrap_or(0), j.limits.spring.reference);
+        library_joints.push(LibraryJoint { name, kind, link: j.child, body, joint, offset });
     }
     Ok(Robot {
         bodies,

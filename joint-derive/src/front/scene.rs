@@ -227,11 +227,12 @@ pub struct JointDecl {
     pub bodies: [Option<usize>; 2],
     /// Its parameters in the joint's order.
     pub params: Vec<Parameter>,
-    /// `armature = ..`, `damping = ..` (zero unless given).
+    /// `armature = ..`, `damping = ..`, `stiffness = ..`, `spring_rest = ..`
+    /// (zero unless given).
     pub dynamics: JointDynamics,
 }
 
-/// A tree joint's own inertia and damping, per freedom (relative
+/// A tree joint's own inertia, damping and spring, per freedom (relative
 /// coordinates only).
 #[derive(Clone, Copy, Default, Debug)]
 pub struct JointDynamics {
@@ -239,9 +240,18 @@ pub struct JointDynamics {
     pub armature: f64,
     /// Viscous damping of each freedom.
     pub damping: f64,
-    /// Where the first was written (`None`: neither).
+    /// A revolute or translational joint's spring: its force `−k (q − q₀)`.
+    pub stiffness: f64,
+    /// `q₀`, where the spring's force is zero (any number).
+    pub spring_rest: f64,
+    /// Where the first was written (`None`: none).
     pub span: Option<Span>,
+    /// Where `stiffness` or `spring_rest` was written.
+    pub spring: Option<Span>,
 }
+
+/// The keys [`joint_dynamics`] takes out of a joint's arguments.
+const DYNAMICS_KEYS: [&str; 4] = ["armature", "damping", "stiffness", "spring_rest"];
 
 impl JointDecl {
     /// `hinge` or `hinge[3]`.
@@ -515,22 +525,32 @@ struct Options {
     file_damping: Option<Span>,
 }
 
-/// `armature` and `damping` only on a tree's moving joints, in relative
-/// coordinates alone (the absolute engine does not model them).
+/// `armature`, `damping` and springs only on a tree's moving joints, in
+/// relative coordinates alone (the absolute engine does not model them);
+/// springs on revolute and translational joints.
 fn check_dynamics(scene: &SceneDecl, errors: &mut Errors) {
+    use super::tree::TreeKind;
     for (i, j) in scene.joints.iter().enumerate() {
         let Some(span) = j.dynamics.span else { continue };
         let edge = scene.tree.as_ref().and_then(|edges| edges.iter().find(|e| e.joint == Some(i)));
         let message = match edge {
-            _ if scene.absolute => {
-                "`armature` and `damping` are modelled in relative coordinates only; expected `coordinates = \
-                 relative`"
-                    .to_string()
-            }
+            _ if scene.absolute => "`armature`, `damping` and joint springs are modelled in relative coordinates \
+                                    only; expected `coordinates = relative`"
+                .to_string(),
             None if scene.tree.is_some() => {
-                format!("joint `{}` closes a loop; `armature` and `damping` are for the tree's joints", j.label())
+                format!(
+                    "joint `{}` closes a loop; `armature`, `damping` and springs are for the tree's joints",
+                    j.label()
+                )
             }
-            Some(e) if e.kind == super::tree::TreeKind::Fixed => "a fixed joint has no freedom to damp".to_string(),
+            Some(e) if e.kind == TreeKind::Fixed => "a fixed joint has no freedom to damp or spring".to_string(),
+            Some(e) if j.dynamics.spring.is_some() && !matches!(e.kind, TreeKind::Revolute | TreeKind::Prismatic) => {
+                errors.at(
+                    j.dynamics.spring.unwrap_or(span),
+                    "a joint spring is for `revolute` and `translational` joints (one freedom)",
+                );
+                continue;
+            }
             _ => continue,
         };
         errors.at(span, message);
@@ -544,21 +564,31 @@ fn joint_dynamics(args: Vec<Arg>, errors: &mut Errors) -> (JointDynamics, Vec<Ar
     let mut rest = Vec::new();
     for a in args {
         let key = a.key.to_string();
-        if key != "armature" && key != "damping" {
+        if !DYNAMICS_KEYS.contains(&key.as_str()) {
             rest.push(a);
             continue;
         }
+        // Every one a number at least zero but the spring's rest, any number.
+        let signed = key == "spring_rest";
         let value = match &a.value {
-            Some(Value::Number(Number::Known(x), _)) if x.is_finite() && *x >= 0.0 => *x,
+            Some(Value::Number(Number::Known(x), _)) if x.is_finite() && (signed || *x >= 0.0) => *x,
+            _ if signed => {
+                errors.at(a.key.span(), format!("expected `{key} = NUMBER`"));
+                continue;
+            }
             _ => {
                 errors.at(a.key.span(), format!("expected `{key} = NUMBER`, a number at least zero"));
                 continue;
             }
         };
-        if key == "armature" {
-            out.armature = value
-        } else {
-            out.damping = value
+        match key.as_str() {
+            "armature" => out.armature = value,
+            "damping" => out.damping = value,
+            "stiffness" => out.stiffness = value,
+            _ => out.spring_rest = value,
+        }
+        if matches!(key.as_str(), "stiffness" | "spring_rest") {
+            out.spring.get_or_insert(a.key.span());
         }
         out.span.get_or_insert(a.key.span());
     }

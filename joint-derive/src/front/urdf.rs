@@ -164,6 +164,7 @@ fn limits(
         damping: optional("dynamics", "damping")?,
         friction: optional("dynamics", "friction")?,
         armature: None,
+        spring: Default::default(),
     })
 }
 

@@ -83,6 +83,10 @@ pub struct LibraryJoint {
     pub tree_q_at: usize,
     /// Its first velocity in the tree's `v`.
     pub tree_v_at: usize,
+    /// A hinge's or slide's coordinate in the library minus the tree's
+    /// (MJCF's `ref`: MuJoCo's coordinate at the file's pose, where the
+    /// tree's is zero); zero elsewhere.
+    pub offset: f64,
     /// The child link's frame on its body: what a free joint's position and
     /// a free or ball joint's quaternion refer to in the library.
     pub link: LinkFrame,
@@ -176,7 +180,7 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
             let (tq, tv) = (j.tree_q_at, j.tree_v_at);
             match j.kind {
                 LibraryJointKind::Hinge | LibraryJointKind::Slide => {
-                    state.q[tq] = q[0];
+                    state.q[tq] = q[0] - j.offset;
                     state.v[tv] = v[0];
                 }
                 LibraryJointKind::Continuous => {
@@ -218,7 +222,7 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
             let (q, v) = (&mut q[j.q_at..], &mut v[j.v_at..]);
             match j.kind {
                 LibraryJointKind::Hinge | LibraryJointKind::Slide => {
-                    q[0] = state.q[tq];
+                    q[0] = state.q[tq] + j.offset;
                     v[0] = state.v[tv];
                 }
                 LibraryJointKind::Continuous => {

@@ -91,7 +91,8 @@ impl LinkFrame {
 pub struct JointLimits {
     /// The joint's name in the file.
     pub name: &'static str,
-    /// Lowest and highest coordinate (rad, or m for a slide).
+    /// Lowest and highest coordinate (rad, or m for a slide), in the
+    /// tree's coordinate (an MJCF joint's `ref` subtracted).
     pub range: Option<(f64, f64)>,
     /// Largest force or torque magnitude.
     pub effort: Option<f64>,

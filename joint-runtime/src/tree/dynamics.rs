@@ -21,12 +21,14 @@ pub struct TreeEnergy {
     pub kinetic: f64,
     /// `−Σ m g · r`.
     pub gravity: f64,
+    /// `½ Σ k (q − q₀)²`: the joints' springs.
+    pub elastic: f64,
 }
 
 impl TreeEnergy {
     /// Kinetic plus potential.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.gravity
+        self.kinetic + self.gravity + self.elastic
     }
 }
 
@@ -143,7 +145,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut free = [Vector6::zeros(); NB];
         for k in (0..NB).rev() {
             let s = &kin.s[k];
-            let t = self.joint_forces(k, tau) - self.joint_forces(k, &state.v) * self.joints[k].damping;
+            let t = self.joint_forces(k, tau) - self.passive_forces(k, state);
             let singular = TreeError::Singular { joint: self.joints[k].name };
             if self.joints[k].kind == TreeJointKind::Free {
                 // S is a permutation, so U D⁻¹ Uᵀ = Iᴬ: nothing of the
@@ -203,7 +205,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut tau = SVector::<f64, NV>::zeros();
         for (k, (s, f)) in kin.s.iter().zip(&f).enumerate() {
             let j = &self.joints[k];
-            let own = self.joint_forces(k, vdot) * j.armature + self.joint_forces(k, &state.v) * j.damping;
+            let own = self.joint_forces(k, vdot) * j.armature + self.passive_forces(k, state);
             self.put(k, &(project(s, f) + own), &mut tau);
         }
         tau
@@ -311,7 +313,28 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             (0..NB).map(|k| 0.5 * kin.vel[k].dot(&(self.inertia[k] * kin.vel[k]))).sum::<f64>() + rotors.sum::<f64>();
         let system = self.system_state(state);
         let gravity = system.bodies.iter().zip(&self.mass).map(|(b, m)| -m.mass * self.gravity.dot(&b.r)).sum();
-        TreeEnergy { kinetic, gravity }
+        TreeEnergy { kinetic, gravity, elastic: self.spring_energy(&state.q) }
+    }
+
+    /// `½ Σ k (q − q₀)²` over the joints' springs.
+    pub(crate) fn spring_energy(&self, q: &SVector<f64, NQ>) -> f64 {
+        let spring = |(j, at): (&super::TreeJoint, &usize)| {
+            let x = q.get(*at).map_or(0.0, |x| x - j.spring_rest);
+            0.5 * j.stiffness * x * x
+        };
+        self.joints.iter().zip(&self.q_at).filter(|(j, _)| j.stiffness != 0.0).map(spring).sum()
+    }
+
+    /// Joint `k`'s damping and spring forces, `d v + k (q − q₀)`, padded: what
+    /// the joint resists with (subtracted from the applied forces).
+    fn passive_forces(&self, k: usize, state: &TreeState<NQ, NV>) -> Vector6<f64> {
+        let j = &self.joints[k];
+        let mut out = self.joint_forces(k, &state.v) * j.damping;
+        if j.stiffness != 0.0 {
+            let position = self.q_at.get(k).and_then(|&at| state.q.get(at)).copied().unwrap_or(0.0);
+            out[0] += j.stiffness * (position - j.spring_rest);
+        }
+        out
     }
 
     /// Joint `k`'s entries of `tau`, padded.

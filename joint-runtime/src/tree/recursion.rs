@@ -160,7 +160,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             *bs = c.b_transposed(&s);
             *g = cross_force(&s, &c.force) + c.y(&at6(&fr.e, m)) + c.b(&at6(&fr.u, m));
             *h = c.b(&s) + c.y(&at6(&fr.w, m));
-            *tau = dot6(&s, &c.force) + self.own_force(joint, get(vdot, m), get(&state.v, m));
+            let position = self.q_at.get(joint).map_or(0.0, |&at| get(&state.q, at));
+            *tau = dot6(&s, &c.force) + self.own_force(joint, get(vdot, m), get(&state.v, m), position);
         }
         out.d_q.fill(0.0);
         out.d_v.fill(0.0);
@@ -188,9 +189,12 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 }
                 above = self.parent.get(ja).copied().flatten();
             }
-            let damping = self.joints.get(joint).map_or(0.0, |j| j.damping);
+            let (damping, stiffness) = self.joints.get(joint).map_or((0.0, 0.0), |j| (j.damping, j.stiffness));
             let diagonal = at(&out.d_v, m, m) + damping;
             put(&mut out.d_v, m, m, diagonal);
+            // A spring's joint has one freedom, its tangent the coordinate.
+            let diagonal = at(&out.d_q, m, m) + stiffness;
+            put(&mut out.d_q, m, m, diagonal);
         }
     }
 
@@ -201,9 +205,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     }
 
     /// A freedom of joint `k`'s own force: armature times its acceleration,
-    /// damping times its rate.
-    fn own_force(&self, k: usize, acceleration: f64, rate: f64) -> f64 {
-        self.joints.get(k).map_or(0.0, |j| j.armature * acceleration + j.damping * rate)
+    /// damping times its rate, stiffness times its stretch (`position`, the
+    /// joint's first coordinate: a spring's joint has only that one).
+    fn own_force(&self, k: usize, acceleration: f64, rate: f64, position: f64) -> f64 {
+        self.joints.get(k).map_or(0.0, |j| {
+            let spring = if j.stiffness != 0.0 { j.stiffness * (position - j.spring_rest) } else { 0.0 };
+            j.armature * acceleration + j.damping * rate + spring
+        })
     }
 
     /// Root to leaves, each freedom's twist and frames in the ground's

@@ -181,7 +181,8 @@ impl<
     /// `Simulation`'s [`Energy`], the springs' included).
     pub fn energy(&self, state: &TreeState<NQ, NV>) -> Energy {
         let system = self.tree.system_state(state);
-        crate::dynamics::energy(&self.tree.mass, &self.tree.gravity, self.springs, &system)
+        let energy = crate::dynamics::energy(&self.tree.mass, &self.tree.gravity, self.springs, &system);
+        Energy { elastic: energy.elastic + self.tree.spring_energy(&state.q), ..energy }
     }
 
     /// The step's projection: the options' tolerance and iterations, or

@@ -53,6 +53,12 @@ pub enum TreeError {
     },
     /// A state or a torque that is not finite.
     NonFinite,
+    /// A joint's spring is negative or not finite, or on a joint with other
+    /// than one freedom (revolute and prismatic joints carry springs).
+    Spring {
+        /// The joint's name.
+        joint: &'static str,
+    },
     /// A step left the finite range: a number of its state past
     /// [`DIVERGED`](crate::tree::DIVERGED) or not finite, or its stages'
     /// dynamics failing where its start's did not. The step is too long for
@@ -140,6 +146,11 @@ impl fmt::Display for TreeError {
                 write!(f, "the state does not hold joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::NonFinite => f.write_str("a state or torque that is not finite"),
+            TreeError::Spring { joint } => write!(
+                f,
+                "joint `{joint}`'s spring is negative or not finite, or on a joint without exactly one freedom \
+                 (revolute and prismatic joints carry springs)"
+            ),
             TreeError::Diverged { t } => write!(
                 f,
                 "the step diverged at t = {t} (a number past 1e10 or not finite): it is too long for the dynamics' \
@@ -296,6 +307,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 if j.kind == TreeJointKind::Planar {
                     tree.geometry.plane[k] = in_plane(&a, &j.lock_parent);
                 }
+            }
+            let one_freedom = matches!(j.kind, TreeJointKind::Revolute | TreeJointKind::Prismatic);
+            let spring = j.stiffness >= 0.0 && j.stiffness.is_finite() && j.spring_rest.is_finite();
+            if !(spring && (one_freedom || j.stiffness == 0.0)) {
+                return Err(TreeError::Spring { joint: j.name });
             }
             tree.subspace[k] = tree.make_subspace(k);
             let rest = tree.rest[k].to_rotation_matrix().into_inner();

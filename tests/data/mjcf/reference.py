@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""MuJoCo's own numbers for joints with armature and damping, which the MJCF reader puts in the
+"""MuJoCo's own numbers for joints with armature, damping and springs, which the MJCF reader puts in the
 dynamics as MuJoCo does.
 
 Run by hand, like tests/data/robots/reference.py, with a Python that has MuJoCo:
@@ -11,7 +11,11 @@ It writes, next to itself:
   * panda_damped.xml: ../robots/panda.xml with an armature and a damping on every joint, each
     joint's own (0.01 (k + 1) and 0.1 (k + 1) for the k-th), so that a value put on the wrong
     joint shows;
-  * reference.json: for panda_damped.xml and ball_pendulum.xml (a ball joint: armature and
+  * panda_springs.xml: the same with a spring on every joint, each its own stiffness 10 (k + 1),
+    springref 0.1 k - 0.3 and ref 0.05 k (radians: the file's compiler says so);
+  * reference.json: for panda_damped.xml, ball_pendulum.xml, panda_springs.xml and springs.xml
+    (hand-written: springs in degrees, from a class, on a slide; qpos is MuJoCo's, `ref` at the
+    file's pose, so the tests convert it through the scene's MUJOCO layout), (a ball joint: armature and
     damping on each of its three freedoms), at 20 random states each (q, v, tau; quaternions
     w x y z, a ball's velocity and torque in the child's frame, as MuJoCo and the scenes have
     them): M (mj_fullM: armature on the diagonal), qacc = mj_forward with qfrc_applied = tau
@@ -41,6 +45,21 @@ def damped_panda():
     with open(path, "w") as fh:
         fh.write("<!-- Written by reference.py from ../robots/panda.xml: every joint its own armature "
                  "and damping. -->\n")
+        fh.write(ET.tostring(root, encoding="unicode") + "\n")
+    return path
+
+
+def sprung_panda():
+    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
+    root.find("compiler").set("angle", "radian") if root.find("compiler") is not None else None
+    for k, j in enumerate(root.iter("joint")):
+        j.set("stiffness", repr(10.0 * (k + 1)))
+        j.set("springref", repr(0.1 * k - 0.3))
+        j.set("ref", repr(0.05 * k))
+    path = os.path.join(HERE, "panda_springs.xml")
+    with open(path, "w") as fh:
+        fh.write("<!-- Written by reference.py from ../robots/panda.xml: every joint its own stiffness, "
+                 "springref and ref. -->\n")
         fh.write(ET.tostring(root, encoding="unicode") + "\n")
     return path
 
@@ -78,6 +97,9 @@ def main():
     out = {"generator": f"reference.py, MuJoCo {mujoco.__version__}",
            "panda_damped": samples(os.path.join(HERE, "panda_damped.xml"), rng),
            "ball_pendulum": samples(os.path.join(HERE, "ball_pendulum.xml"), rng)}
+    sprung_panda()
+    out["panda_springs"] = samples(os.path.join(HERE, "panda_springs.xml"), rng)
+    out["springs"] = samples(os.path.join(HERE, "springs.xml"), rng)
     with open(os.path.join(HERE, "reference.json"), "w") as fh:
         json.dump(out, fh, indent=1)
         fh.write("\n")

@@ -4,7 +4,7 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3, Vector4};
-use joint_runtime::robot::LinkFrame;
+use joint_runtime::robot::{LinkFrame, StateLayout};
 use joint_runtime::tree::{TreeSimulation, TreeState};
 
 super::urdf::robots_against_pinocchio!(
@@ -136,7 +136,16 @@ fn weld_makes_two_bodies_one() {
 #[scene(mjcf = "data/mjcf/panda_damped.xml")]
 struct PandaDamped;
 
-fn against_mujoco<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, key: &str) -> [f64; 3]
+/// Every sample of `key` through the scene's `MUJOCO` layout (MuJoCo's
+/// `qpos` has a joint's `ref` at the file's pose; a ball joint on a turned
+/// body turns the link's frame): `M` as `Tᵀ M T`, the forward dynamics'
+/// `qacc` and the inverse dynamics' `qfrc_inverse`, each to 1e-12 of its
+/// largest entry.
+fn against_mujoco<S, const NB: usize, const NQ: usize, const NV: usize>(
+    scene: &S,
+    layout: &StateLayout<NQ, NV>,
+    key: &str,
+) -> [f64; 3]
 where
     S: joint_runtime::tree::TreeScene<NB, NQ, NV>,
 {
@@ -147,22 +156,33 @@ where
     let mut sim = TreeSimulation::new(scene).unwrap();
     let mut worst = [0.0_f64; 3];
     for s in data[key].as_array().unwrap() {
-        let state = TreeState::<NQ, NV> {
-            q: SVector::from_iterator(numbers(&s["q"])),
-            v: SVector::from_iterator(numbers(&s["v"])),
-            t: 0.0,
-        };
-        let vector = |k: &str| SVector::<f64, NV>::from_iterator(numbers(&s[k]));
+        let (q, v) = (numbers(&s["q"]), numbers(&s["v"]));
+        let state = layout.state_from(&q, &v).unwrap();
+        let theirs = |k: &str| SVector::<f64, NV>::from_iterator(numbers(&s[k]));
         let scale = |x: &SVector<f64, NV>| x.amax().max(f64::MIN_POSITIVE);
         let mut m = SMatrix::<f64, NV, NV>::zeros();
         sim.mass_matrix_into(&state.q, &mut m);
-        let theirs =
+        let mut theirs_m = SMatrix::<f64, NV, NV>::zeros();
+        for i in 0..NV {
+            let mut unit = vec![0.0; NV];
+            unit[i] = 1.0;
+            let mut column = [0.0; NV];
+            layout.write_forces(&state, &(m * layout.state_from(&q, &unit).unwrap().v), &mut column).unwrap();
+            theirs_m.set_column(i, &SVector::<f64, NV>::from(column));
+        }
+        let given =
             SMatrix::<f64, NV, NV>::from_iterator(s["mass_matrix"].as_array().unwrap().iter().flat_map(numbers));
-        worst[0] = worst[0].max((m - theirs).amax() / theirs.amax());
-        let qacc = sim.forward_dynamics(&state, &vector("tau")).unwrap();
-        worst[1] = worst[1].max((qacc - vector("qacc")).amax() / scale(&vector("qacc")));
-        let tau = sim.inverse_dynamics(&state, &vector("a"));
-        worst[2] = worst[2].max((tau - vector("inverse")).amax() / scale(&vector("inverse")));
+        worst[0] = worst[0].max((theirs_m - given).amax() / given.amax());
+        let tau = layout.forces_from(&state, theirs("tau").as_slice()).unwrap();
+        let mut qacc = [0.0; NV];
+        layout.write_accelerations(&state, &sim.forward_dynamics(&state, &tau).unwrap(), &mut qacc).unwrap();
+        let qacc = SVector::<f64, NV>::from(qacc);
+        worst[1] = worst[1].max((qacc - theirs("qacc")).amax() / scale(&theirs("qacc")));
+        let a = layout.accelerations_from(&state, theirs("a").as_slice()).unwrap();
+        let mut inverse = [0.0; NV];
+        layout.write_forces(&state, &sim.inverse_dynamics(&state, &a), &mut inverse).unwrap();
+        let inverse = SVector::<f64, NV>::from(inverse);
+        worst[2] = worst[2].max((inverse - theirs("inverse")).amax() / scale(&theirs("inverse")));
     }
     eprintln!(
         "{key} against MuJoCo: M {:.1e}, forward {:.1e}, inverse {:.1e} of the largest entry",
@@ -174,10 +194,40 @@ where
     worst
 }
 
+/// Joint springs as MuJoCo 4.0 has them (`stiffness`, `springref`, `ref`;
+/// `tests/data/mjcf/reference.py`): the Panda with every joint's own, and
+/// a hand-written file with a spring in degrees, one from a class, one on a
+/// slide, beside a damped joint and a ball joint on a turned body.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/panda_springs.xml")]
+struct PandaSprings;
+
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/springs.xml")]
+struct Springs;
+
+#[test]
+fn joint_springs_as_mujoco_has_them() {
+    against_mujoco(&PandaSprings, &PandaSprings::MUJOCO, "panda_springs");
+    against_mujoco(&Springs, &Springs::MUJOCO, "springs");
+    // `ref` is MuJoCo's coordinate at the file's pose, the tree's zero.
+    let shoulder = Springs::MUJOCO.joints()[0];
+    assert_eq!((shoulder.name, shoulder.offset), ("shoulder", 10f64.to_radians()));
+    // The range is in the tree's coordinate; the spring's energy is ½ k x².
+    let sim = TreeSimulation::new(&Springs).unwrap();
+    let mut state = sim.tree().zero_state();
+    state.q[0] = 0.3;
+    let stretch = 0.3 - (15f64 - 10.0).to_radians();
+    let rail = 0.0 - (0.05 + 0.02);
+    let wrist = 0.0 - (-20f64).to_radians();
+    let elastic = 0.5 * (30.0 * stretch * stretch + 200.0 * rail * rail + 4.0 * wrist * wrist);
+    assert!((sim.energy(&state).elastic - elastic).abs() < 1e-14, "{}", sim.energy(&state).elastic);
+}
+
 #[test]
 fn armature_and_damping_as_mujoco_has_them() {
-    against_mujoco(&PandaDamped, "panda_damped");
-    against_mujoco(&BallFromFile, "ball_pendulum");
+    against_mujoco(&PandaDamped, &PandaDamped::MUJOCO, "panda_damped");
+    against_mujoco(&BallFromFile, &BallFromFile::MUJOCO, "ball_pendulum");
     // The file's values are also data.
     let j3 = PandaDamped::LIMITS[2];
     assert_eq!((j3.name, j3.armature), ("panda_joint3", Some(0.03)));

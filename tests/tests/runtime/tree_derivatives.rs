@@ -16,9 +16,9 @@ use super::tree::quaternion;
 
 /// `menagerie!(Name, options..)`: every kind of tree joint at once: a floating drone (free) with a
 /// gripper on a ball joint (damped) and a finger on a hinge (armature,
-/// damping); a cylindrical shaft from the ground with a wheel, a universal
-/// arm, a slider on the arm and a plate welded to it; a puck on a planar
-/// joint.
+/// damping, a spring); a cylindrical shaft from the ground with a wheel, a
+/// universal arm, a slider on the arm (a spring) and a plate welded to it; a
+/// puck on a planar joint.
 macro_rules! menagerie {
     ($name:ident $(, $option:ident)*) => {
         #[derive(Scene)]
@@ -33,11 +33,11 @@ macro_rules! menagerie {
         #[body(plate, mass = 0.2, inertia = [0.001, 0.002, 0.0025])]
         #[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
         #[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
-        #[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
+        #[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1, stiffness = 2.0, spring_rest = 0.3)]
         #[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
         #[joint(hub = revolute(shaft, wheel), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0.3], rho2 = [0, 0, 0])]
         #[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
-        #[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
+        #[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0], stiffness = 40.0, spring_rest = -0.1)]
         #[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
         #[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
         struct $name;
@@ -202,6 +202,8 @@ fn the_recursion_on_every_joint_kind() {
         gap[0] = gap[0].max(relative(&b.tau, &a.tau));
         gap[1] = gap[1].max(relative(&b.d_q, &a.d_q));
         gap[2] = gap[2].max(relative(&b.d_v, &a.d_v));
+        // The runtime's own recursions (springs, damping, armature) against the written ones.
+        crate::tree::generated_against_recursion(&Menagerie, &state, true);
     }
     eprintln!(
         "every kind, recursion against the straight line: τ {:.1e}, ∂τ/∂q {:.1e}, ∂τ/∂v {:.1e}",
@@ -563,7 +565,7 @@ where
 #[body(gripper, mass = 0.5, inertia = [0.004, 0.004, 0.001])]
 #[body(finger, mass = 0.1, inertia = [0.0005, 0.0005, 0.0001])]
 #[joint(claw = spherical(drone, gripper), rho1 = [0.1, 0, -0.1], rho2 = [0, 0, 0.15], damping = 0.05)]
-#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1)]
+#[joint(knuckle = revolute(gripper, finger), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, -0.15], rho2 = [0, 0, 0.05], armature = 0.01, damping = 0.1, stiffness = 2.0, spring_rest = 0.3)]
 struct Drone;
 
 /// The other kinds: a cylindrical shaft, a universal arm, a slider, a
@@ -577,7 +579,7 @@ struct Drone;
 #[body(puck, mass = 1.0, inertia = [0.02, 0.02, 0.04])]
 #[joint(bush = cylindrical(ground, shaft), axis1 = [0.3, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 1], rho2 = [0, 0, 0])]
 #[joint(gimbal = universal(shaft, arm), s = [1, 0, 0], h = [0.2, 1, 0], rho1 = [0, 0, 0.4], rho2 = [0, 0, 0.5])]
-#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0])]
+#[joint(rail = translational(arm, block), axis1 = [1, 0, 0.5], axis2 = [0, 1, 0], rho1 = [0, 0, -0.5], rho2 = [0.1, 0, 0], stiffness = 40.0, spring_rest = -0.1)]
 #[joint(weld = fixed(block, plate), axis1 = [0, 0, 1], axis2 = [1, 0, 0], rho1 = [0.2, 0, 0], rho2 = [0, 0, 0])]
 #[joint(table = planar(ground, puck), axis1 = [0, -0.4, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0.5], rho2 = [0, 0, 0])]
 struct Linkage;

@@ -76,3 +76,38 @@ fn a_stiff_arm_settles_at_its_own_step() {
     // Settled: at rest near the target (gravity's pull over Kp leaves an offset).
     assert!(coarse.v.amax() < 0.1 && (coarse.q - target()).amax() < 5e-3, "{coarse:?}");
 }
+
+/// A joint spring of 1e4 N·m/rad on a rotor of 0.01 kg·m² (no gravity),
+/// stretched 0.2 rad from its rest at 0.1: `θ = 0.1 + 0.2 cos(ω t)`,
+/// `ω = √(k / I) = 1000 rad/s`, and its energy `½ I θ̇² + ½ k (θ − 0.1)²`
+/// stays 200 J.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, 0], coordinates = relative)]
+#[body(rotor, mass = 1.0, inertia = [0.01, 0.01, 0.01])]
+#[joint(pin = revolute(ground, rotor), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, 0, 0], stiffness = 1e4, spring_rest = 0.1)]
+struct Rotor;
+
+#[test]
+fn a_stiff_joint_spring_in_closed_form_and_at_its_own_step() {
+    let mut sim = TreeSimulation::new(&Rotor).unwrap();
+    let start = TreeState { q: SVector::from([0.3]), v: SVector::zeros(), t: 0.0 };
+    let mut fine = start;
+    for _ in 0..1000 {
+        sim.step(&mut fine, 1e-5).unwrap();
+    }
+    let exact = 0.1 + 0.2 * (1000.0_f64 * 0.01).cos();
+    assert!((fine.q[0] - exact).abs() < 1e-9, "{} against {exact}", fine.q[0]);
+    let energy = sim.energy(&fine);
+    assert!((energy.total() - 200.0).abs() < 1e-6 && energy.kinetic > 1.0, "{energy:?}");
+    // At h = 4 ms (h ω = 4, past RK4's 2.8) RK4 diverges; the implicit
+    // step, its Newton matrix from the spring's exact derivative, decays.
+    let mut rk4 = start;
+    let error = (0..200).find_map(|_| sim.step(&mut rk4, 4e-3).err());
+    assert!(matches!(error, Some(TreeError::Diverged { .. })), "{error:?}");
+    let (mut implicit, mut work) = (start, StepWork::new());
+    let none = ForceGains::pd(&SVector::zeros(), &SVector::zeros());
+    for _ in 0..250 {
+        sim.implicit_step_with(&mut implicit, 4e-3, &SVector::zeros(), &none, &mut work).unwrap();
+    }
+    assert!((implicit.q[0] - 0.1).abs() < 1e-3 && implicit.v[0].abs() < 1.0, "{implicit:?}");
+}
