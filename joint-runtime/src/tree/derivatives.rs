@@ -218,7 +218,7 @@ impl<
     }
 
     /// `τ`, `∂τ/∂q`, `∂τ/∂v` into `out` (its `d_a` untouched).
-    fn derivatives_at(
+    pub(super) fn derivatives_at(
         &self,
         state: &TreeState<NQ, NV>,
         vdot: &SVector<f64, NV>,

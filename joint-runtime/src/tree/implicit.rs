@@ -4,9 +4,14 @@
 //!
 //! Backward Euler, `v₁ = v₀ + h f(q₁, v₁)`, `q₁ = q₀ ⊕ h v₁`, with `f` the
 //! accelerations under the joint forces `τ(q, v)`, linearised about the
-//! step's start (`A_q = ∂q̈/∂q + M⁻¹ ∂τ/∂q`, `A_v = ∂q̈/∂v + M⁻¹ ∂τ/∂v`),
-//! gives one linear solve:
-//! `(I − h A_v − h² A_q) Δv = h (q̈₀ + h A_q v₀)`, `v₁ = v₀ + Δv`. It is
+//! step's start, gives one linear solve. Written with the mass matrix
+//! rather than its inverse (differentiating `ID(q, v, q̈) = τ(q, v)`:
+//! `M δq̈ = −K_q δq − K_v δv`, `K = ∂ID/∂x − ∂τ/∂x` at `q̈₀`), it is
+//! `(M + h K_v + h² K_q) Δv = h M q̈₀ − h² K_q v₀`, `v₁ = v₀ + Δv`: no
+//! `M⁻¹` and no `n × n` products, only the inverse dynamics' derivatives,
+//! the mass matrix and one LU factor (the same step as
+//! `(I − h A_v − h² A_q) Δv = h (q̈₀ + h A_q v₀)` with the forward
+//! dynamics' `A = ∂q̈/∂x + M⁻¹ ∂τ/∂x`, multiplied through by `M`). It is
 //! exact for linear dynamics and stable for every `h` where they are
 //! (L-stable: a stiff mode is damped out, not amplified), first order in
 //! `h`; MuJoCo's `implicit` integrator is the same idea for its damping.
@@ -91,12 +96,15 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         work: &mut StepWork<NQ, NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
-        self.forward_dynamics_derivatives(state, tau, &mut work.inverse, &mut work.forward)?;
-        let f = &work.forward;
-        let a_q = f.d_q + f.d_tau * gains.d_q;
-        let a_v = f.d_v + f.d_tau * gains.d_v;
-        let newton = SMatrix::<f64, NV, NV>::identity() - a_v * h - a_q * (h * h);
-        let rhs = (f.qdd + a_q * state.v * h) * h;
+        let qdd = self.tree_dynamics(state, tau)?;
+        let d = &mut work.inverse;
+        self.derivatives_at(state, &qdd, d)?;
+        self.mass_matrix_into(&state.q, &mut d.d_a);
+        // K = ∂ID/∂x − ∂τ/∂x, formed in place of the inverse dynamics' own.
+        d.d_q -= gains.d_q;
+        d.d_v -= gains.d_v;
+        let newton: SMatrix<f64, NV, NV> = d.d_a + d.d_v * h + d.d_q * (h * h);
+        let rhs = d.d_a * qdd * h - d.d_q * state.v * (h * h);
         let joint = self.tree().joints().first().map_or("", |j| j.name);
         let delta = Lu::new(&newton).map_err(|_| TreeError::Singular { joint })?.solve(&rhs);
         let v = state.v + delta;
