@@ -275,6 +275,7 @@ pub struct FileLimits {
     /// MJCF's `armature`: inertia added to the joint's own freedom.
     pub armature: Option<f64>,
     /// MJCF's joint spring and `ref`.
+    #[cfg_attr(not(any(feature = "urdf", feature = "mjcf")), allow(dead_code))]
     pub spring: FileSpring,
 }
 
