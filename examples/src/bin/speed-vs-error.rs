@@ -203,7 +203,9 @@ fn run(o: &Options) -> Result<(), String> {
     progress("robot level: the dynamics' derivatives");
     let robots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/robots");
     let derivative_rows = joint_examples::report::derivatives::measure(&robots)?;
-    let derivatives = joint_examples::report::derivatives::section(&derivative_rows);
+    let mut derivatives = joint_examples::report::derivatives::section(&derivative_rows);
+    progress("robot level: a stiff arm at its own step");
+    derivatives += &joint_examples::report::stiff_robot::section(&joint_examples::report::stiff_robot::measure());
 
     let simulation = if !o.no_simulation {
         progress("simulation level: work–precision diagrams");

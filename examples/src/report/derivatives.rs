@@ -17,9 +17,10 @@ use serde_json::Value;
 
 use super::variants::median_ns;
 
+/// The UR5 (also the stiff run's robot, `stiff_robot`).
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/ur5.urdf", second_order)]
-struct Ur5;
+pub(crate) struct Ur5;
 
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base, second_order)]

@@ -3,7 +3,8 @@
 //! automatic differentiation (num-dual) and central finite differences — timed
 //! and checked against the 60-digit conformance vectors in one run, plus
 //! work–precision diagrams of the simulations and, at the robot level, the
-//! dynamics' derivatives exact and by differences.
+//! dynamics' derivatives exact and by differences and a stiff arm's
+//! implicit step beside RK4.
 //!
 //! `cargo run --release -p joint-examples --bin speed-vs-error` writes `report/`.
 
@@ -12,4 +13,5 @@ pub mod derivatives;
 pub mod handwritten;
 pub mod simulation;
 pub mod stiff;
+pub mod stiff_robot;
 pub mod variants;
