@@ -15,10 +15,11 @@
 //! `actuatorfrcrange` are data ([`FileLimits`]); a hinge's or slide's
 //! `stiffness`, `springref` and `ref` are its spring and the coordinate's
 //! offset (the tree's zero at the file's pose, MuJoCo's `ref`);
+//! `<compiler settotalmass>` scales every body's mass and inertia;
 //! `<flag gravity="disable">` switches gravity off. Refused, each by name at
 //! the attribute: what would change the dynamics without being modelled
 //! ([`UNMODELLED`]: gravity compensation, spring-dampers, fluid forces, the
-//! compiler's mass rescaling, switched-off passive forces or constraints; an
+//! compiler's mass bounds, switched-off passive forces or constraints; an
 //! equality's softness; a ball or free joint's spring, inertia computed
 //! from geoms, several joints in one body, a damped free joint,
 //! `<include>`, composites, mocap bodies).
@@ -57,6 +58,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     if reader.links.len() == 1 {
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
     }
+    total_mass(root, &mut reader.links, &fail)?;
     let (closures, couplings) = reader.equalities(root)?;
     let option = root.children().find(|n| n.has_tag_name("option"));
     let gravity = match option {
@@ -267,8 +269,9 @@ impl<'a, 'i> Reader<'a, 'i> {
                     _ if text.split_whitespace().filter(|t| t.parse::<f64>().is_ok()).count() > 1 => Err(fail(
                         at,
                         format!(
-                            "`{key}=\"{text}\"`: a value per freedom is not read yet; expected one number for the \
-                             whole joint"
+                            "`{key}=\"{text}\"`: MuJoCo reads the numbers after the first as a polynomial (damping \
+                             `d₀ v + d₁ v|v| + d₂ v³`, stiffness likewise in the stretch), which is not modelled; \
+                             expected one number"
                         ),
                     )),
                     _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
@@ -584,8 +587,6 @@ impl<'a, 'i> Reader<'a, 'i> {
 enum Neutral {
     /// Numbers, all zero.
     Zero,
-    /// A number at most zero (MuJoCo's "off").
-    NotPositive,
     /// `false`.
     False,
     /// `enable`: a `<flag>` left on.
@@ -599,12 +600,48 @@ impl Neutral {
         let numbers = || value.split_whitespace().map(str::parse::<f64>);
         match self {
             Neutral::Zero => numbers().all(|x| x == Ok(0.0)),
-            Neutral::NotPositive => numbers().all(|x| x.is_ok_and(|x| x <= 0.0)),
             Neutral::False => value == "false",
             Neutral::Enable => value == "enable",
             Neutral::Absent => false,
         }
     }
+}
+
+/// `<compiler settotalmass="m">` (positive): every body's mass and inertia
+/// scaled by one factor so that the masses sum to `m`, as MuJoCo's compiler
+/// does. Refused where a body's mass would come from its geoms (not
+/// computed here, yet part of MuJoCo's sum) or the bodies have no mass.
+fn total_mass(root: roxmltree::Node, links: &mut [Link], fail: &Fail) -> syn::Result<()> {
+    for c in root.children().filter(|n| n.has_tag_name("compiler")) {
+        let Some(text) = c.attribute("settotalmass") else { continue };
+        let at = c.attribute_node("settotalmass").map_or(c.range().start, |a| a.range().start);
+        let at = c.document().text_pos_at(at);
+        let total = text.trim().parse::<f64>().ok().filter(|x| x.is_finite());
+        let Some(total) = total else {
+            return Err(fail(at, format!("`settotalmass=\"{text}\"`: expected a number")));
+        };
+        if total <= 0.0 {
+            continue;
+        }
+        if let Some(l) = links.iter().find(|l| l.unknown) {
+            let message = format!(
+                "`settotalmass` scales every body's mass, and body `{}`'s comes from its geoms, which is not \
+                 computed; expected `<inertial>` in every body with geoms",
+                l.name
+            );
+            return Err(fail(at, message));
+        }
+        let sum: f64 = links.iter().filter_map(|l| l.inertial.map(|(m, _, _)| m)).sum();
+        if sum <= 0.0 {
+            return Err(fail(at, "`settotalmass` with no body of positive mass to scale".into()));
+        }
+        let scale = total / sum;
+        for (m, _, inertia) in links.iter_mut().filter_map(|l| l.inertial.as_mut()) {
+            *m *= scale;
+            *inertia = inertia.map(|row| row.map(|x| x * scale));
+        }
+    }
+    Ok(())
 }
 
 /// A hinge's or slide's `stiffness`, `springref` and `ref` (angles in the
@@ -644,7 +681,6 @@ fn spring(
 const UNMODELLED: &[(&str, &str, Neutral, &str)] = &[
     ("body", "gravcomp", Neutral::Zero, "gravity compensation"),
     ("joint", "springdamper", Neutral::Zero, "a joint's spring-damper"),
-    ("compiler", "settotalmass", Neutral::NotPositive, "masses scaled to a total"),
     ("compiler", "boundmass", Neutral::Zero, "a lower bound on the masses"),
     ("compiler", "boundinertia", Neutral::Zero, "a lower bound on the inertias"),
     ("compiler", "balanceinertia", Neutral::False, "inertias balanced by the compiler"),
@@ -803,7 +839,12 @@ mod tests {
                 "3:18:",
                 "`gravcomp=\"1\"` on `<body>` (gravity compensation) is not modelled",
             ),
-            (&one_body(hinge, "<compiler settotalmass=\"5\"/>"), "8:11:", "masses scaled to a total"),
+            (
+                &one_body(hinge, "<compiler settotalmass=\"5\"/>")
+                    .replace("<worldbody>", "<worldbody><body name=\"g\"><geom size=\"1\"/></body>"),
+                "8:11:",
+                "body `g`'s comes from its geoms",
+            ),
             (&one_body(hinge, "<compiler balanceinertia=\"true\"/>"), "8:11:", "inertias balanced"),
             (&one_body(hinge, "<option density=\"1.2\"/>"), "8:9:", "(fluid forces) is not modelled"),
             (&one_body(hinge, "<option wind=\"0 1 0\"/>"), "8:9:", "fluid forces"),
@@ -871,7 +912,7 @@ mod tests {
             ),
             (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" mocap=\"true\""), "3:1:", "mocap body"),
             (&one_body("<joint range=\"1\"/>", ""), "5:1:", "`range=\"1\"`: expected two numbers"),
-            (&one_body("<joint type=\"ball\" damping=\"15 5\"/>", ""), "5:1:", "a value per freedom is not read yet"),
+            (&one_body("<joint type=\"ball\" damping=\"15 5\"/>", ""), "5:1:", "as a polynomial"),
             (&one_body("<joint axis=\"0 0 0\"/>", ""), "5:1:", "zero axis"),
         ];
         for (text, at, expected) in cases {

@@ -13,7 +13,9 @@ It writes, next to itself:
     joint shows;
   * panda_springs.xml: the same with a spring on every joint, each its own stiffness 10 (k + 1),
     springref 0.1 k - 0.3 and ref 0.05 k (radians: the file's compiler says so);
-  * reference.json: for panda_damped.xml, ball_pendulum.xml, panda_springs.xml and springs.xml
+  * panda_total.xml: the Panda with <compiler settotalmass="30">;
+  * reference.json: for panda_damped.xml, ball_pendulum.xml, panda_springs.xml, springs.xml and
+    panda_total.xml
     (hand-written: springs in degrees, from a class, on a slide; qpos is MuJoCo's, `ref` at the
     file's pose, so the tests convert it through the scene's MUJOCO layout), (a ball joint: armature and
     damping on each of its three freedoms), at 20 random states each (q, v, tau; quaternions
@@ -64,6 +66,17 @@ def sprung_panda():
     return path
 
 
+def heavy_panda():
+    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
+    root.find("compiler").set("settotalmass", "30")
+    path = os.path.join(HERE, "panda_total.xml")
+    with open(path, "w") as fh:
+        fh.write("<!-- Written by reference.py from ../robots/panda.xml: the compiler scales its masses and "
+                 "inertias to 30 kg in all. -->\n")
+        fh.write(ET.tostring(root, encoding="unicode") + "\n")
+    return path
+
+
 def samples(path, rng):
     m = mujoco.MjModel.from_xml_path(path)
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
@@ -100,6 +113,8 @@ def main():
     sprung_panda()
     out["panda_springs"] = samples(os.path.join(HERE, "panda_springs.xml"), rng)
     out["springs"] = samples(os.path.join(HERE, "springs.xml"), rng)
+    heavy_panda()
+    out["panda_total"] = samples(os.path.join(HERE, "panda_total.xml"), rng)
     with open(os.path.join(HERE, "reference.json"), "w") as fh:
         json.dump(out, fh, indent=1)
         fh.write("\n")

@@ -206,6 +206,25 @@ struct PandaSprings;
 #[scene(mjcf = "data/mjcf/springs.xml")]
 struct Springs;
 
+/// `<compiler settotalmass="30">`: every mass and inertia scaled by one
+/// factor, as MuJoCo 4.0's compiler does (it calls the attribute deprecated,
+/// and still applies it).
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/panda_total.xml")]
+struct PandaTotal;
+
+#[test]
+fn a_total_mass_scales_every_body_as_mujoco_does() {
+    against_mujoco(&PandaTotal, &PandaTotal::MUJOCO, "panda_total");
+    let (plain, total) = (TreeSimulation::new(&Panda).unwrap(), TreeSimulation::new(&PandaTotal).unwrap());
+    let (mut m, mut n) = (SMatrix::<f64, 9, 9>::zeros(), SMatrix::<f64, 9, 9>::zeros());
+    let q = SVector::from([0.1, -0.4, 0.3, -1.8, 0.2, 1.1, 0.5, 0.02, 0.02]);
+    plain.mass_matrix_into(&q, &mut m);
+    total.mass_matrix_into(&q, &mut n);
+    let factor = n[(0, 0)] / m[(0, 0)];
+    assert!((n - m * factor).amax() < 1e-12 * n.amax() && factor > 1.0, "{factor}");
+}
+
 #[test]
 fn joint_springs_as_mujoco_has_them() {
     against_mujoco(&PandaSprings, &PandaSprings::MUJOCO, "panda_springs");
