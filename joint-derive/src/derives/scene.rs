@@ -345,6 +345,16 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
     });
     let (nl, nj) = (data.links.len(), data.limits.len());
     let library = library_layout(s, data);
+    let timestep = some(data.options.timestep.map(|h| quote!(#h)));
+    let integrator = some(data.options.integrator.as_deref().map(|name| {
+        let variant = match name {
+            "Euler" => quote!(Euler),
+            "RK4" => quote!(Rk4),
+            "implicit" => quote!(Implicit),
+            _ => quote!(ImplicitFast),
+        };
+        quote!(#k::robot::FileIntegrator::#variant)
+    }));
     quote! {
         /// What the robot's file says beyond the dynamics, by its names.
         #lints
@@ -353,6 +363,9 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
             pub const LINKS: [#k::robot::LinkFrame; #nl] = [#(#links),*];
             /// Each moving joint's limits and friction from the file, in the file's order.
             pub const LIMITS: [#k::robot::JointLimits; #nj] = [#(#limits),*];
+            /// What the file asks of the step (MJCF's `<option timestep integrator>`): data.
+            pub const OPTIONS: #k::robot::FileOptions =
+                #k::robot::FileOptions { timestep: #timestep, integrator: #integrator };
             #library
         }
     }

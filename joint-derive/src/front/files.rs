@@ -229,7 +229,7 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
         joints,
         files: vec![robot.path],
         gravity: robot.gravity,
-        data: Some(FileData { links: robot.links, limits, library: robot.library }),
+        data: Some(FileData { links: robot.links, limits, library: robot.library, options: robot.options }),
         couplings,
     })
 }
@@ -326,4 +326,16 @@ pub struct FileData {
     /// The moving joints as the format's library (MuJoCo, Pinocchio)
     /// orders and writes them.
     pub library: (Library, Vec<LibraryJoint>),
+    /// MJCF's `<option timestep integrator>`.
+    pub options: FileOptions,
+}
+
+/// MJCF's `<option timestep integrator>`, where given: the file's step,
+/// data for the caller (the step is the caller's choice here).
+#[derive(Clone, Default, Debug, PartialEq)]
+pub struct FileOptions {
+    /// `timestep` (s).
+    pub timestep: Option<f64>,
+    /// `integrator`: `Euler`, `RK4`, `implicit` or `implicitfast`.
+    pub integrator: Option<String>,
 }

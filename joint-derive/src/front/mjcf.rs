@@ -28,8 +28,8 @@
 use std::collections::HashMap;
 
 use super::robot::{
-    Closure, Fail, FileCoupling, FileLimits, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3, Robot, V3, add,
-    apply, assemble, mul, norm, number, numbers, read_text, required, transpose, triple,
+    Closure, Fail, FileCoupling, FileLimits, FileOptions, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3, Robot,
+    V3, add, apply, assemble, mul, norm, number, numbers, read_text, required, transpose, triple,
 };
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
@@ -69,8 +69,12 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     let flags = option.into_iter().flat_map(|o| o.children()).filter(|n| n.has_tag_name("flag"));
     let off = flags.clone().any(|f| f.attribute("gravity") == Some("disable"));
     let gravity = if off { [0.0; 3] } else { gravity.unwrap_or([0.0, 0.0, -9.81]) };
+    let options = match option {
+        Some(o) => step_options(o, reader.pos(o), &fail)?,
+        None => FileOptions::default(),
+    };
     let robot = assemble(&reader.links, &reader.joints, &closures, (false, Library::MuJoCo), &fail)?;
-    Ok(Robot { gravity: Some(gravity), couplings, ..robot })
+    Ok(Robot { gravity: Some(gravity), couplings, options, ..robot })
 }
 
 /// What `<compiler>` says that changes numbers.
@@ -607,6 +611,29 @@ impl Neutral {
     }
 }
 
+/// `<option timestep integrator>`: a positive step, one of MuJoCo's four
+/// integrators (its names), each checked at the element.
+fn step_options(o: roxmltree::Node, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<FileOptions> {
+    let timestep = match o.attribute("timestep") {
+        None => None,
+        Some(text) => match text.trim().parse::<f64>() {
+            Ok(h) if h.is_finite() && h > 0.0 => Some(h),
+            _ => return Err(fail(at, format!("`timestep=\"{text}\"`: expected a positive number (s)"))),
+        },
+    };
+    let integrator = match o.attribute("integrator") {
+        None => None,
+        Some(name @ ("Euler" | "RK4" | "implicit" | "implicitfast")) => Some(name.to_string()),
+        Some(other) => {
+            return Err(fail(
+                at,
+                format!("`integrator=\"{other}\"`: expected `Euler`, `RK4`, `implicit` or `implicitfast`"),
+            ));
+        }
+    };
+    Ok(FileOptions { timestep, integrator })
+}
+
 /// `<compiler settotalmass="m">` (positive): every body's mass and inertia
 /// scaled by one factor so that the masses sum to `m`, as MuJoCo's compiler
 /// does. Refused where a body's mass would come from its geoms (not
@@ -912,6 +939,8 @@ mod tests {
             ),
             (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" mocap=\"true\""), "3:1:", "mocap body"),
             (&one_body("<joint range=\"1\"/>", ""), "5:1:", "`range=\"1\"`: expected two numbers"),
+            (&one_body(hinge, "<option integrator=\"RK45\"/>"), "8:1:", "expected `Euler`, `RK4`, `implicit`"),
+            (&one_body(hinge, "<option timestep=\"0\"/>"), "8:1:", "expected a positive number"),
             (&one_body("<joint type=\"ball\" damping=\"15 5\"/>", ""), "5:1:", "as a polynomial"),
             (&one_body("<joint axis=\"0 0 0\"/>", ""), "5:1:", "zero axis"),
         ];

@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use super::geometry::{eigenvalues, physical};
 
-pub use super::files::{FileLimits, FileLink, FileSpring, Library, LibraryJoint};
+pub use super::files::{FileLimits, FileLink, FileOptions, FileSpring, Library, LibraryJoint};
 
 /// A robot in the scene's terms.
 pub struct Robot {
@@ -34,6 +34,8 @@ pub struct Robot {
     pub path: String,
     /// The file's gravity, if the format has one (MJCF's `<option gravity>`).
     pub gravity: Option<V3>,
+    /// MJCF's `<option timestep integrator>`: data for the caller's step.
+    pub options: FileOptions,
     /// Joints that follow others (URDF `<mimic>`, MJCF `<equality joint>`).
     pub couplings: Vec<FileCoupling>,
     /// The moving joints (a floating base's included) in the library's
@@ -337,6 +339,7 @@ pub fn assemble(
         links: frames,
         path: String::new(),
         gravity: None,
+        options: FileOptions::default(),
         couplings: Vec::new(),
         library: (library, library_joints),
     })

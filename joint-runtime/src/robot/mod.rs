@@ -107,3 +107,35 @@ pub struct JointLimits {
     /// relative-coordinate scene's dynamics too).
     pub armature: Option<f64>,
 }
+
+/// What a robot's file asks of the step (MJCF's `<option timestep
+/// integrator>`; a URDF has none): data, the scene's `OPTIONS`. The step is
+/// the caller's here: MuJoCo's `RK4` is [`TreeSimulation::step`]'s, its
+/// `implicit` and `implicitfast` (damping, and for `implicit` the forces'
+/// derivatives, in the Newton matrix) what
+/// [`TreeSimulation::implicit_step_with`] does with the exact derivatives,
+/// its `Euler` (semi-implicit, damping implicit) a first-order step that
+/// `implicit_step_with` with zero gains covers.
+///
+/// [`TreeSimulation::step`]: crate::tree::TreeSimulation::step
+/// [`TreeSimulation::implicit_step_with`]: crate::tree::TreeSimulation::implicit_step_with
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FileOptions {
+    /// The file's step (s), where given.
+    pub timestep: Option<f64>,
+    /// The file's integrator, where given.
+    pub integrator: Option<FileIntegrator>,
+}
+
+/// MuJoCo's integrators, by its names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileIntegrator {
+    /// `Euler`: semi-implicit Euler, damping implicit.
+    Euler,
+    /// `RK4`: the classical Runge–Kutta method.
+    Rk4,
+    /// `implicit`: implicit in the velocity, every force's derivative.
+    Implicit,
+    /// `implicitfast`: the same without the Coriolis terms' derivatives.
+    ImplicitFast,
+}

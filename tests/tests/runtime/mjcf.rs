@@ -4,7 +4,7 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3, Vector4};
-use joint_runtime::robot::{LinkFrame, StateLayout};
+use joint_runtime::robot::{FileIntegrator, FileOptions, LinkFrame, StateLayout};
 use joint_runtime::tree::{TreeSimulation, TreeState};
 
 super::urdf::robots_against_pinocchio!(
@@ -229,6 +229,9 @@ fn a_total_mass_scales_every_body_as_mujoco_does() {
 fn joint_springs_as_mujoco_has_them() {
     against_mujoco(&PandaSprings, &PandaSprings::MUJOCO, "panda_springs");
     against_mujoco(&Springs, &Springs::MUJOCO, "springs");
+    // The file's `<option timestep integrator>`, as data; none in the Panda's.
+    let asked = FileOptions { timestep: Some(0.002), integrator: Some(FileIntegrator::ImplicitFast) };
+    assert_eq!((Springs::OPTIONS, PandaSprings::OPTIONS), (asked, FileOptions { timestep: None, integrator: None }));
     // `ref` is MuJoCo's coordinate at the file's pose, the tree's zero.
     let shoulder = Springs::MUJOCO.joints()[0];
     assert_eq!((shoulder.name, shoulder.offset), ("shoulder", 10f64.to_radians()));
