@@ -62,10 +62,17 @@ pub fn print(
     };
     let (closure, nc) =
         loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
+    // A file's gravity compensation (MJCF `gravcomp`), its bodies first.
+    let held = s.file.as_ref().map(|f| f.compensation.clone()).unwrap_or_default();
+    let compensation = held.iter().any(|&c| c != 0.0).then(|| {
+        let all = (0..s.bodies.len()).map(|b| held.get(b).copied().unwrap_or(0.0));
+        quote!(fn tree_compensation(&self) -> [f64; #nb] { [#(#all),*] })
+    });
     let body = quote! {
         fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
+        #compensation
         #aba
         #controller
         #derivatives

@@ -145,6 +145,14 @@ fn missing_feature(format: RobotFormat, lit: &syn::LitStr, errors: &mut Errors) 
 /// and damping when `dynamics`).
 #[cfg(any(feature = "urdf", feature = "mjcf"))]
 fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mut Errors) -> Option<FromFile> {
+    if let Some(b) = robot.bodies.iter().find(|b| b.gravcomp != 0.0 && !dynamics) {
+        let message = format!(
+            "body `{}` has gravity compensation (`gravcomp`), modelled in relative coordinates only; expected \
+             `coordinates = relative`",
+            b.name
+        );
+        errors.at(span, message);
+    }
     // Links and joints are named apart, as in the file.
     let (mut body_names, mut joint_names) = (Vec::new(), Vec::new());
     let ident = |name: &str, taken: &mut Vec<String>, errors: &mut Errors| -> syn::Ident {
@@ -229,7 +237,13 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
         joints,
         files: vec![robot.path],
         gravity: robot.gravity,
-        data: Some(FileData { links: robot.links, limits, library: robot.library, options: robot.options }),
+        data: Some(FileData {
+            links: robot.links,
+            limits,
+            library: robot.library,
+            options: robot.options,
+            compensation: robot.bodies.iter().map(|b| b.gravcomp).collect(),
+        }),
         couplings,
     })
 }
@@ -328,6 +342,9 @@ pub struct FileData {
     pub library: (Library, Vec<LibraryJoint>),
     /// MJCF's `<option timestep integrator>`.
     pub options: FileOptions,
+    /// Each file body's gravity compensation (MJCF `gravcomp`), the scene's
+    /// first bodies, in its order.
+    pub compensation: Vec<f64>,
 }
 
 /// MJCF's `<option timestep integrator>`, where given: the file's step,

@@ -15,10 +15,11 @@
 //! `actuatorfrcrange` are data ([`FileLimits`]); a hinge's or slide's
 //! `stiffness`, `springref` and `ref` are its spring and the coordinate's
 //! offset (the tree's zero at the file's pose, MuJoCo's `ref`);
-//! `<compiler settotalmass>` scales every body's mass and inertia;
+//! `<compiler settotalmass>` scales every body's mass and inertia; a body's
+//! `gravcomp` holds that fraction of its weight up;
 //! `<flag gravity="disable">` switches gravity off. Refused, each by name at
 //! the attribute: what would change the dynamics without being modelled
-//! ([`UNMODELLED`]: gravity compensation, spring-dampers, fluid forces, the
+//! ([`UNMODELLED`]: compensation through actuators, spring-dampers, fluid forces, the
 //! compiler's mass bounds, switched-off passive forces or constraints; an
 //! equality's softness; a ball or free joint's spring, inertia computed
 //! from geoms, several joints in one body, a damped free joint,
@@ -53,7 +54,13 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     let world = world.ok_or_else(|| {
         fail(reader.pos(root), "the file has no `<worldbody>`; expected the robot's bodies in it".into())
     })?;
-    reader.links.push(Link { name: "world".into(), inertial: None, unknown: false, at: reader.pos(world) });
+    reader.links.push(Link {
+        name: "world".into(),
+        inertial: None,
+        unknown: false,
+        gravcomp: 0.0,
+        at: reader.pos(world),
+    });
     reader.children(world, 0, "main", (IDENTITY, [0.0; 3]))?;
     if reader.links.len() == 1 {
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
@@ -168,7 +175,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 "site" => {
                     let name = self.name(c, "site")?;
                     let origin = compose(&offset, &self.frame(c)?);
-                    self.links.push(Link { name: name.clone(), inertial: None, unknown: false, at });
+                    self.links.push(Link { name: name.clone(), inertial: None, unknown: false, gravcomp: 0.0, at });
                     let child = self.links.len() - 1;
                     let (point, axis, limits) = ([0.0; 3], [0.0, 0.0, 1.0], FileLimits::default());
                     let continuous = false;
@@ -215,7 +222,14 @@ impl<'a, 'i> Reader<'a, 'i> {
         // them: an error if the body moves (`assemble` knows), not if the
         // ground holds it.
         let unknown = inertial.is_none() && b.children().any(|n| n.has_tag_name("geom"));
-        self.links.push(Link { name: name.clone(), inertial, unknown, at });
+        let gravcomp = match b.attribute("gravcomp") {
+            None => 0.0,
+            Some(text) => match text.trim().parse::<f64>() {
+                Ok(c) if c.is_finite() => c,
+                _ => return Err((self.fail)(at, format!("`gravcomp=\"{text}\"`: expected a number"))),
+            },
+        };
+        self.links.push(Link { name: name.clone(), inertial, unknown, gravcomp, at });
         let child = self.links.len() - 1;
         let declared: Vec<roxmltree::Node> =
             b.children().filter(|n| n.has_tag_name("joint") || n.has_tag_name("freejoint")).collect();
@@ -706,7 +720,7 @@ fn spring(
 /// `armature` and `damping`; data: `<option timestep integrator>`, ranges,
 /// `frictionloss`, actuators (the `README`'s table).
 const UNMODELLED: &[(&str, &str, Neutral, &str)] = &[
-    ("body", "gravcomp", Neutral::Zero, "gravity compensation"),
+    ("joint", "actuatorgravcomp", Neutral::False, "gravity compensation through the actuators"),
     ("joint", "springdamper", Neutral::Zero, "a joint's spring-damper"),
     ("compiler", "boundmass", Neutral::Zero, "a lower bound on the masses"),
     ("compiler", "boundinertia", Neutral::Zero, "a lower bound on the inertias"),
@@ -862,9 +876,17 @@ mod tests {
             (&one_body("<joint stiffness=\"-1\"/>", ""), "5:1:", "negative `stiffness`"),
             (&one_body("<joint springdamper=\"0.1 1\"/>", ""), "5:8:", "(a joint's spring-damper) is not modelled"),
             (
-                &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"1\""),
-                "3:18:",
-                "`gravcomp=\"1\"` on `<body>` (gravity compensation) is not modelled",
+                &one_body("<joint actuatorgravcomp=\"true\"/>", ""),
+                "5:8:",
+                "(gravity compensation through the actuators) is not modelled",
+            ),
+            (
+                &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"1\"").replace(
+                    "</body>",
+                    "<body name=\"w\" gravcomp=\"0.5\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/></body></body>",
+                ),
+                "6:1:",
+                "welded into one body with different `gravcomp`s",
             ),
             (
                 &one_body(hinge, "<compiler settotalmass=\"5\"/>")

@@ -61,6 +61,8 @@ pub struct RobotBody {
     /// Inertia about the centre of mass, world axes at the zero
     /// configuration: `[ixx, iyy, izz, ixy, ixz, iyz]` (tensor entries).
     pub inertia: [f64; 6],
+    /// The fraction of its weight held up at its centre (MJCF `gravcomp`).
+    pub gravcomp: f64,
 }
 
 /// One joint between two bodies (`None`: the ground).
@@ -113,6 +115,8 @@ pub struct Link {
     /// Its mass is the file's but not stated (an MJCF body with geoms and
     /// no `<inertial>`): an error on a moving body.
     pub unknown: bool,
+    /// MJCF's `gravcomp`: the fraction of its weight held up (zero elsewhere).
+    pub gravcomp: f64,
     pub at: roxmltree::TextPos,
 }
 
@@ -243,6 +247,7 @@ pub fn assemble(
         }
         let (mass, centre, inertia) = combine(&members, links, &pose);
         check_inertia(&links[head], mass, &inertia, fail)?;
+        let gravcomp = compensation(&members, links, fail)?;
         centres.push(centre);
         bodies.push(RobotBody {
             name: links[head].name.clone(),
@@ -255,6 +260,7 @@ pub fn assemble(
                 inertia[0][2],
                 inertia[1][2],
             ]),
+            gravcomp,
         });
     }
     let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
@@ -459,6 +465,25 @@ fn combine(members: &[usize], links: &[Link], pose: &[(M3, V3)]) -> (f64, V3, M3
         }
     }
     (mass, centre, inertia)
+}
+
+/// The gravity compensation of welded links: one fraction for all with
+/// mass (the body's force then acts at its centre), else an error at the
+/// second link.
+fn compensation(members: &[usize], links: &[Link], fail: &Fail) -> syn::Result<f64> {
+    let massive = || members.iter().filter(|&&l| links[l].inertial.is_some_and(|(m, _, _)| m > 0.0));
+    let Some(&first) = massive().next() else { return Ok(0.0) };
+    match massive().find(|&&l| links[l].gravcomp != links[first].gravcomp) {
+        None => Ok(links[first].gravcomp),
+        Some(&other) => Err(fail(
+            links[other].at,
+            format!(
+                "links `{}` and `{}` are welded into one body with different `gravcomp`s; expected one value for \
+                 the links a body without joints joins",
+                links[first].name, links[other].name
+            ),
+        )),
+    }
 }
 
 /// A moving body needs a positive mass and the inertia of a real body:

@@ -90,7 +90,7 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             Some(i) => Some(inertial(i, &name, &pos, fail)?),
             None => None,
         };
-        links.push(Link { name, inertial, unknown: false, at: pos(node) });
+        links.push(Link { name, inertial, unknown: false, gravcomp: 0.0, at: pos(node) });
     }
     let index = |name: &str, at, what: &str| {
         links.iter().position(|l| l.name == name).ok_or_else(|| {

@@ -229,11 +229,20 @@ impl<
         }
         if !S::DERIVATIVES {
             self.tree().recursive_derivatives(state, vdot, out);
-            return Ok(());
+        } else {
+            let (q, v, a) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0]);
+            if !self.scene.inverse_dynamics_derivatives_into(self.tree().geometry(), q, v, a, out) {
+                return Err(TreeError::NotDerived);
+            }
         }
-        let (q, v, a) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0]);
-        if !self.scene.inverse_dynamics_derivatives_into(self.tree().geometry(), q, v, a, out) {
-            return Err(TreeError::NotDerived);
+        // Gravity compensation's joint forces `Gᶜ(q)` are the compensated
+        // point masses' inverse dynamics at rest: their derivatives subtract.
+        if let Some(ghost) = self.tree().compensated_masses() {
+            let mut held = InverseDerivatives::<NV>::zeros();
+            let rest = TreeState { q: state.q, v: SVector::zeros(), t: state.t };
+            ghost.recursive_derivatives(&rest, &SVector::zeros(), &mut held);
+            out.tau -= held.tau;
+            out.d_q -= held.d_q;
         }
         Ok(())
     }

@@ -12,6 +12,7 @@ use super::TreeState;
 use super::kinematics::{Kinematics, Subspace};
 use super::spatial::{cross_force, cross_motion, join, split};
 use super::topology::{Tree, TreeError};
+use crate::BodyInertia;
 
 /// The energy of a tree's state.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -312,7 +313,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let kinetic =
             (0..NB).map(|k| 0.5 * kin.vel[k].dot(&(self.inertia[k] * kin.vel[k]))).sum::<f64>() + rotors.sum::<f64>();
         let system = self.system_state(state);
-        let gravity = system.bodies.iter().zip(&self.mass).map(|(b, m)| -m.mass * self.gravity.dot(&b.r)).sum();
+        let gravity = system.bodies.iter().zip(&self.mass).map(|(b, m)| -m.mass * self.gravity.dot(&b.r)).sum::<f64>()
+            + self.compensation_energy(&system);
         TreeEnergy { kinetic, gravity, elastic: self.spring_energy(&state.q) }
     }
 
@@ -335,6 +337,57 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             out[0] += j.stiffness * (position - j.spring_rest);
         }
         out
+    }
+
+    /// The joint forces of the bodies' gravity compensation (each body's
+    /// fraction `c` of its weight held up at its centre of mass): `c m`
+    /// point masses' gravity torques, `Gᶜ(q)`, by one Newton–Euler pass at
+    /// rest. `None` without compensation.
+    pub(crate) fn compensation_forces(&self, q: &SVector<f64, NQ>) -> Option<SVector<f64, NV>> {
+        let c = self.compensation.as_ref()?;
+        let kin = self.kinematics(q, &SVector::zeros());
+        let (mut acc, mut f) = ([Vector6::zeros(); NB], [Vector6::zeros(); NB]);
+        for k in 0..NB {
+            acc[k] = self.parent_acceleration(&kin, k, &acc);
+            let body = self.joints[k].child;
+            let m = c.get(body).copied().unwrap_or(0.0) * self.mass.get(body).map_or(0.0, |b| b.mass);
+            f[k] = super::spatial::link_inertia(m, &Matrix3::zeros(), &(-self.joints[k].rho_child)) * acc[k];
+        }
+        let mut tau = SVector::<f64, NV>::zeros();
+        for k in (0..NB).rev() {
+            self.put(k, &project(&kin.s[k], &f[k]), &mut tau);
+            if let Some(p) = self.parent[k] {
+                let back = kin.x[k].force_back(&f[k]);
+                f[p] += back;
+            }
+        }
+        Some(tau)
+    }
+
+    /// The tree of the compensated point masses alone (`c m` at each
+    /// body's centre, no inertia, no armature, damping or spring): its
+    /// inverse dynamics at rest are [`compensation_forces`](Self::compensation_forces),
+    /// its recursion's derivatives theirs. `None` without compensation.
+    pub(crate) fn compensated_masses(&self) -> Option<Self> {
+        let c = self.compensation?;
+        let mut ghost = self.clone();
+        for (b, m) in ghost.mass.iter_mut().enumerate() {
+            *m = BodyInertia { mass: c.get(b).copied().unwrap_or(0.0) * m.mass, inertia: Matrix3::zeros() };
+        }
+        for (k, j) in ghost.joints.iter_mut().enumerate() {
+            (j.armature, j.damping, j.stiffness) = (0.0, 0.0, 0.0);
+            let m = ghost.mass.get(j.child).map_or(0.0, |b| b.mass);
+            ghost.inertia[k] = super::spatial::link_inertia(m, &Matrix3::zeros(), &(-j.rho_child));
+        }
+        ghost.compensation = None;
+        Some(ghost)
+    }
+
+    /// The compensated masses' potential, `Σ c m g · r` (what their upward
+    /// forces store): zero without compensation.
+    pub(crate) fn compensation_energy(&self, system: &crate::SystemState<NB>) -> f64 {
+        let Some(c) = &self.compensation else { return 0.0 };
+        system.bodies.iter().zip(&self.mass).zip(c).map(|((b, m), c)| c * m.mass * self.gravity.dot(&b.r)).sum()
     }
 
     /// Joint `k`'s entries of `tau`, padded.

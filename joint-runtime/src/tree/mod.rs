@@ -250,6 +250,12 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     fn tree_inertias(&self) -> [BodyInertia; NB];
     /// Gravity, inertial components.
     fn tree_gravity(&self) -> Vector3<f64>;
+    /// Each body's gravity compensation, in the scene's body order (MuJoCo's
+    /// `gravcomp`): the fraction of its weight an upward force at its
+    /// centre of mass holds. None unless the scene's file says so.
+    fn tree_compensation(&self) -> [f64; NB] {
+        [0.0; NB]
+    }
     /// The articulated-body algorithm written out for this tree by the
     /// derive (every axis and point that is a number folded with the
     /// structural zeros; the others read from `geometry`, the tree's

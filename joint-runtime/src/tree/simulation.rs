@@ -182,7 +182,8 @@ impl<
     pub fn energy(&self, state: &TreeState<NQ, NV>) -> Energy {
         let system = self.tree.system_state(state);
         let energy = crate::dynamics::energy(&self.tree.mass, &self.tree.gravity, self.springs, &system);
-        Energy { elastic: energy.elastic + self.tree.spring_energy(&state.q), ..energy }
+        let gravity = energy.gravity + self.tree.compensation_energy(&system);
+        Energy { gravity, elastic: energy.elastic + self.tree.spring_energy(&state.q), ..energy }
     }
 
     /// The step's projection: the options' tolerance and iterations, or
@@ -411,6 +412,9 @@ impl<
         tau: &SVector<f64, NV>,
     ) -> Result<SVector<f64, NV>, TreeError> {
         let mut out = SVector::<f64, NV>::zeros();
+        // Gravity compensation is a joint force like the applied ones.
+        let held = self.tree.compensation_forces(&state.q).map(|g| tau + g);
+        let tau = held.as_ref().unwrap_or(tau);
         let (q, v, t) = (&state.q.data.0[0], &state.v.data.0[0], &tau.data.0[0]);
         if self.scene.forward_dynamics_into(self.tree.geometry(), q, v, t, &mut out.data.0[0])
             && out.iter().all(|x| x.is_finite())
@@ -432,10 +436,12 @@ impl<
     pub fn inverse_dynamics(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> SVector<f64, NV> {
         let mut out = SVector::<f64, NV>::zeros();
         let (q, v, a) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0]);
-        if self.scene.inverse_dynamics_into(self.tree.geometry(), q, v, a, &mut out.data.0[0]) {
-            out
-        } else {
-            self.tree.inverse_dynamics(state, vdot)
+        if !self.scene.inverse_dynamics_into(self.tree.geometry(), q, v, a, &mut out.data.0[0]) {
+            out = self.tree.inverse_dynamics(state, vdot);
+        }
+        match self.tree.compensation_forces(&state.q) {
+            Some(held) => out - held,
+            None => out,
         }
     }
 

@@ -233,6 +233,9 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     pub(crate) q_at: [usize; NB],
     pub(crate) v_at: [usize; NB],
     pub(crate) gravity: Vector3<f64>,
+    /// Each body's gravity compensation (`TreeScene::tree_compensation`),
+    /// in the scene's body order; `None` when every one is zero.
+    pub(crate) compensation: Option<[f64; NB]>,
     /// The joints' geometry as the generated closure rows read it.
     pub(crate) geometry: TreeGeometry<NB>,
 }
@@ -240,7 +243,13 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The tree of a scene.
     pub fn of<S: TreeScene<NB, NQ, NV, NC>, const NC: usize>(scene: &S) -> Result<Self, TreeError> {
-        Tree::new(scene.tree_joints(), scene.tree_inertias(), scene.tree_gravity())
+        let mut tree = Tree::new(scene.tree_joints(), scene.tree_inertias(), scene.tree_gravity())?;
+        let compensation = scene.tree_compensation();
+        if !compensation.iter().all(|c| c.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        tree.compensation = compensation.iter().any(|&c| c != 0.0).then_some(compensation);
+        Ok(tree)
     }
 
     /// Checks and prepares a tree: joints parents first, bodies' inertias in
@@ -259,6 +268,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             q_at: [0; NB],
             v_at: [0; NB],
             gravity,
+            compensation: None,
             geometry: TreeGeometry {
                 rest: [[Vector3::zeros(); 3]; NB],
                 axis: [Vector3::zeros(); NB],

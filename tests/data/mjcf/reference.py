@@ -14,8 +14,11 @@ It writes, next to itself:
   * panda_springs.xml: the same with a spring on every joint, each its own stiffness 10 (k + 1),
     springref 0.1 k - 0.3 and ref 0.05 k (radians: the file's compiler says so);
   * panda_total.xml: the Panda with <compiler settotalmass="30">;
+  * panda_gravcomp.xml: the Panda with gravcomp on some bodies, each its own fraction (1 on the
+    links welded into its hand: one body's links share one), qfrc_gravcomp in MuJoCo's passive
+    forces;
   * reference.json: for panda_damped.xml, ball_pendulum.xml, panda_springs.xml, springs.xml and
-    panda_total.xml
+    panda_total.xml and panda_gravcomp.xml
     (hand-written: springs in degrees, from a class, on a slide; qpos is MuJoCo's, `ref` at the
     file's pose, so the tests convert it through the scene's MUJOCO layout), (a ball joint: armature and
     damping on each of its three freedoms), at 20 random states each (q, v, tau; quaternions
@@ -77,6 +80,22 @@ def heavy_panda():
     return path
 
 
+def held_panda():
+    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
+    held = {"panda_link1": "1", "panda_link2": "1", "panda_link3": "0.5", "panda_link5": "0.25",
+            "panda_link7": "1", "panda_link8": "1", "panda_hand": "1", "panda_hand_tcp": "1",
+            "panda_leftfinger": "0.7"}
+    for b in root.iter("body"):
+        if b.get("name") in held:
+            b.set("gravcomp", held[b.get("name")])
+    path = os.path.join(HERE, "panda_gravcomp.xml")
+    with open(path, "w") as fh:
+        fh.write("<!-- Written by reference.py from ../robots/panda.xml: gravity compensation on some bodies, "
+                 "each its own fraction (the hand's welded links all 1). -->\n")
+        fh.write(ET.tostring(root, encoding="unicode") + "\n")
+    return path
+
+
 def samples(path, rng):
     m = mujoco.MjModel.from_xml_path(path)
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
@@ -115,6 +134,8 @@ def main():
     out["springs"] = samples(os.path.join(HERE, "springs.xml"), rng)
     heavy_panda()
     out["panda_total"] = samples(os.path.join(HERE, "panda_total.xml"), rng)
+    held_panda()
+    out["panda_gravcomp"] = samples(os.path.join(HERE, "panda_gravcomp.xml"), rng)
     with open(os.path.join(HERE, "reference.json"), "w") as fh:
         json.dump(out, fh, indent=1)
         fh.write("\n")

@@ -225,6 +225,50 @@ fn a_total_mass_scales_every_body_as_mujoco_does() {
     assert!((n - m * factor).amax() < 1e-12 * n.amax() && factor > 1.0, "{factor}");
 }
 
+/// Gravity compensation (`gravcomp`) on some of the Panda's bodies, each its
+/// own fraction, as MuJoCo 4.0 has it (`qfrc_gravcomp` among its passive
+/// forces); the derivatives carry it (against central differences).
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/panda_gravcomp.xml")]
+struct PandaHeld;
+
+#[test]
+fn gravity_compensation_as_mujoco_has_it() {
+    against_mujoco(&PandaHeld, &PandaHeld::MUJOCO, "panda_gravcomp");
+    let sim = TreeSimulation::new(&PandaHeld).unwrap();
+    let mut state = sim.tree().zero_state();
+    state.q = SVector::from([0.3, -0.7, 0.4, -1.9, 0.5, 1.3, -0.2, 0.01, 0.03]);
+    state.v = SVector::from([0.2, -0.1, 0.3, 0.1, -0.4, 0.2, 0.5, 0.01, -0.02]);
+    let mut d = joint_runtime::tree::InverseDerivatives::zeros();
+    let a = SVector::from([0.1, 0.2, -0.3, 0.4, -0.5, 0.6, -0.7, 0.1, 0.2]);
+    sim.inverse_dynamics_derivatives(&state, &a, &mut d).unwrap();
+    assert!((d.tau - sim.inverse_dynamics(&state, &a)).amax() < 1e-12);
+    let eps = 1e-6;
+    for i in 0..9 {
+        let (mut up, mut down) = (state, state);
+        up.q[i] += eps;
+        down.q[i] -= eps;
+        let column = (sim.inverse_dynamics(&up, &a) - sim.inverse_dynamics(&down, &a)) / (2.0 * eps);
+        assert!((column - d.d_q.column(i)).amax() < 1e-7 * d.d_q.amax(), "column {i}");
+    }
+    // Its energy: the held fraction of the weight stores none, and the total
+    // stays put along a motion.
+    let mut moving = TreeSimulation::new(&PandaHeld).unwrap();
+    let (start, mut end) = (moving.energy(&state).total(), state);
+    for _ in 0..200 {
+        moving.step(&mut end, 1e-3).unwrap();
+    }
+    let drift = (moving.energy(&end).total() - start).abs() / moving.energy(&state).kinetic;
+    assert!(drift < 1e-8, "{drift:e}");
+    let rest = |c: &TreeState<9, 9>| sim.energy(c).gravity;
+    let mut lifted = state;
+    lifted.q[1] += 0.3;
+    let plain = TreeSimulation::new(&Panda).unwrap();
+    assert!(
+        (rest(&lifted) - rest(&state)).abs() < (plain.energy(&lifted).gravity - plain.energy(&state).gravity).abs()
+    );
+}
+
 #[test]
 fn joint_springs_as_mujoco_has_them() {
     against_mujoco(&PandaSprings, &PandaSprings::MUJOCO, "panda_springs");
