@@ -339,11 +339,11 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         out
     }
 
-    /// The joint forces of the bodies' gravity compensation (each body's
-    /// fraction `c` of its weight held up at its centre of mass): `c m`
-    /// point masses' gravity torques, `Gᶜ(q)`, by one Newton–Euler pass at
-    /// rest. `None` without compensation.
-    pub(crate) fn compensation_forces(&self, q: &SVector<f64, NQ>) -> Option<SVector<f64, NV>> {
+    /// The bodies' gravity compensation (each body's fraction `c` of its
+    /// weight held up at its centre of mass) as wrenches on the joints'
+    /// children (link frames, moment about the joint point): what `c m`
+    /// point masses at rest need against gravity. `None` without compensation.
+    pub(crate) fn compensation_wrenches(&self, q: &SVector<f64, NQ>) -> Option<[Vector6<f64>; NB]> {
         let c = self.compensation.as_ref()?;
         let kin = self.kinematics(q, &SVector::zeros());
         let (mut acc, mut f) = ([Vector6::zeros(); NB], [Vector6::zeros(); NB]);
@@ -353,15 +353,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let m = c.get(body).copied().unwrap_or(0.0) * self.mass.get(body).map_or(0.0, |b| b.mass);
             f[k] = super::spatial::link_inertia(m, &Matrix3::zeros(), &(-self.joints[k].rho_child)) * acc[k];
         }
-        let mut tau = SVector::<f64, NV>::zeros();
-        for k in (0..NB).rev() {
-            self.put(k, &project(&kin.s[k], &f[k]), &mut tau);
-            if let Some(p) = self.parent[k] {
-                let back = kin.x[k].force_back(&f[k]);
-                f[p] += back;
-            }
-        }
-        Some(tau)
+        Some(f)
+    }
+
+    /// Their joint forces, `Gᶜ(q)`: the compensated point masses' gravity
+    /// torques. `None` without compensation.
+    pub(crate) fn compensation_forces(&self, q: &SVector<f64, NQ>) -> Option<SVector<f64, NV>> {
+        Some(self.wrench_forces(q, &self.compensation_wrenches(q)?))
     }
 
     /// The tree of the compensated point masses alone (`c m` at each

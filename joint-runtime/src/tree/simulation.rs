@@ -589,7 +589,10 @@ impl<'a, S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const N
         tau: &SVector<f64, NV>,
     ) -> Result<[Reaction; NB], TreeError> {
         let vdot = self.forward_dynamics(state, tau)?;
-        let external = self.body_wrenches(state);
+        let mut external = self.body_wrenches(state);
+        if let Some(held) = self.tree.compensation_wrenches(&state.q) {
+            external.iter_mut().zip(held).for_each(|(e, h)| *e += h);
+        }
         let (_, f) = self.tree.joint_wrenches(state, &vdot, Some(&external));
         let poses = self.tree.link_poses(&state.q);
         let mut out = [Reaction::default(); NB];

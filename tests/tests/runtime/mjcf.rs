@@ -269,6 +269,23 @@ fn gravity_compensation_as_mujoco_has_it() {
     );
 }
 
+/// A pendulum held up in full (`gravcomp="1"`): at rest anywhere, its
+/// joint carrying nothing.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/held_pendulum.xml")]
+struct HeldPendulum;
+
+#[test]
+fn a_fully_held_pendulum_floats_and_its_joint_carries_nothing() {
+    let mut sim = TreeSimulation::new(&HeldPendulum).unwrap();
+    let state = TreeState { q: SVector::from([0.8]), v: SVector::zeros(), t: 0.0 };
+    let qdd = sim.forward_dynamics(&state, &SVector::zeros()).unwrap();
+    assert!(qdd.amax() < 1e-14, "{qdd}");
+    let reaction = sim.reactions(&state, &SVector::zeros()).unwrap()[0];
+    assert!(reaction.force.amax() < 1e-14 && reaction.torque.amax() < 1e-14, "{reaction:?}");
+    assert!(sim.inverse_dynamics(&state, &SVector::zeros()).amax() < 1e-15);
+}
+
 #[test]
 fn joint_springs_as_mujoco_has_them() {
     against_mujoco(&PandaSprings, &PandaSprings::MUJOCO, "panda_springs");
