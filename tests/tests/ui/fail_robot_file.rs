@@ -6,7 +6,7 @@ use joint_runtime::tree::TreeSimulation;
 // error, at the attribute's line and column, and the scene's uses still
 // type-check (a stub of no bodies stands in).
 #[derive(Scene)]
-#[scene(mjcf = "../../../../tests/data/robots/broken/gravcomp.xml")]
+#[scene(mjcf = "../../../../tests/data/robots/broken/springdamper.xml")]
 struct Refused;
 
 // A file cut short: one error, where the file ends.
