@@ -235,15 +235,7 @@ impl<
                 return Err(TreeError::NotDerived);
             }
         }
-        // Gravity compensation's joint forces `Gᶜ(q)` are the compensated
-        // point masses' inverse dynamics at rest: their derivatives subtract.
-        if let Some(ghost) = self.tree().compensated_masses() {
-            let mut held = InverseDerivatives::<NV>::zeros();
-            let rest = TreeState { q: state.q, v: SVector::zeros(), t: state.t };
-            ghost.recursive_derivatives(&rest, &SVector::zeros(), &mut held);
-            out.tau -= held.tau;
-            out.d_q -= held.d_q;
-        }
+        self.tree().subtract_compensation(&state.q, out);
         Ok(())
     }
 

@@ -12,7 +12,6 @@ use super::TreeState;
 use super::kinematics::{Kinematics, Subspace};
 use super::spatial::{cross_force, cross_motion, join, split};
 use super::topology::{Tree, TreeError};
-use crate::BodyInertia;
 
 /// The energy of a tree's state.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -342,13 +341,16 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The bodies' gravity compensation (each body's fraction `c` of its
     /// weight held up at its centre of mass) as wrenches on the joints'
     /// children (link frames, moment about the joint point): what `c m`
-    /// point masses at rest need against gravity. `None` without compensation.
+    /// point masses at rest need against gravity. `None` without
+    /// compensation. Every data index through `get` (the steps that call it
+    /// are proved panic-free).
     pub(crate) fn compensation_wrenches(&self, q: &SVector<f64, NQ>) -> Option<[Vector6<f64>; NB]> {
         let c = self.compensation.as_ref()?;
-        let kin = self.kinematics(q, &SVector::zeros());
+        let ground = join(&Vector3::zeros(), &(-self.gravity));
         let (mut acc, mut f) = ([Vector6::zeros(); NB], [Vector6::zeros(); NB]);
         for k in 0..NB {
-            acc[k] = self.parent_acceleration(&kin, k, &acc);
+            let parent = self.parent[k].and_then(|p| acc.get(p).copied()).unwrap_or(ground);
+            acc[k] = self.transform(k, q).motion(&parent);
             let body = self.joints[k].child;
             let m = c.get(body).copied().unwrap_or(0.0) * self.mass.get(body).map_or(0.0, |b| b.mass);
             f[k] = super::spatial::link_inertia(m, &Matrix3::zeros(), &(-self.joints[k].rho_child)) * acc[k];
@@ -357,28 +359,42 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     }
 
     /// Their joint forces, `Gᶜ(q)`: the compensated point masses' gravity
-    /// torques. `None` without compensation.
+    /// torques, each wrench carried to the root and projected on the joints
+    /// it passes. `None` without compensation.
     pub(crate) fn compensation_forces(&self, q: &SVector<f64, NQ>) -> Option<SVector<f64, NV>> {
-        Some(self.wrench_forces(q, &self.compensation_wrenches(q)?))
+        let mut f = self.compensation_wrenches(q)?;
+        let mut tau = SVector::<f64, NV>::zeros();
+        for k in (0..NB).rev() {
+            let own = project(&self.subspace_at(k, q), &f[k]);
+            let at = self.v_at[k];
+            for (i, x) in own.iter().enumerate().take(self.joints[k].kind.freedoms()) {
+                if let Some(slot) = tau.get_mut(at + i) {
+                    *slot = *x;
+                }
+            }
+            if let Some(p) = self.parent[k] {
+                let back = self.transform(k, q).force_back(&f[k]);
+                if let Some(up) = f.get_mut(p) {
+                    *up += back;
+                }
+            }
+        }
+        Some(tau)
     }
 
-    /// The tree of the compensated point masses alone (`c m` at each
-    /// body's centre, no inertia, no armature, damping or spring): its
-    /// inverse dynamics at rest are [`compensation_forces`](Self::compensation_forces),
-    /// its recursion's derivatives theirs. `None` without compensation.
-    pub(crate) fn compensated_masses(&self) -> Option<Self> {
-        let c = self.compensation?;
-        let mut ghost = self.clone();
-        for (b, m) in ghost.mass.iter_mut().enumerate() {
-            *m = BodyInertia { mass: c.get(b).copied().unwrap_or(0.0) * m.mass, inertia: Matrix3::zeros() };
+    /// Gravity compensation's share of the inverse dynamics' derivatives
+    /// taken out of `out`: its joint forces `Gᶜ(q)` are the compensated
+    /// point masses' inverse dynamics at rest, so their `τ` and `∂/∂q`
+    /// subtract (nothing without compensation).
+    #[inline(always)]
+    pub(crate) fn subtract_compensation(&self, q: &SVector<f64, NQ>, out: &mut super::InverseDerivatives<NV>) {
+        if self.compensation.is_none() {
+            return;
         }
-        for (k, j) in ghost.joints.iter_mut().enumerate() {
-            (j.armature, j.damping, j.stiffness) = (0.0, 0.0, 0.0);
-            let m = ghost.mass.get(j.child).map_or(0.0, |b| b.mass);
-            ghost.inertia[k] = super::spatial::link_inertia(m, &Matrix3::zeros(), &(-j.rho_child));
-        }
-        ghost.compensation = None;
-        Some(ghost)
+        let mut held = super::InverseDerivatives::<NV>::zeros();
+        self.compensation_derivatives(q, &mut held);
+        out.tau -= held.tau;
+        out.d_q -= held.d_q;
     }
 
     /// The compensated masses' potential, `Σ c m g · r` (what their upward

@@ -96,10 +96,10 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         work: &mut StepWork<NQ, NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
-        let qdd = self.tree_dynamics(state, tau)?;
         let d = &mut work.inverse;
-        self.derivatives_at(state, &qdd, d)?;
         self.mass_matrix_into(&state.q, &mut d.d_a);
+        let qdd = self.start_accelerations(state, tau, &d.d_a)?;
+        self.derivatives_at(state, &qdd, d)?;
         // K = ∂ID/∂x − ∂τ/∂x, formed in place of the inverse dynamics' own.
         d.d_q -= gains.d_q;
         d.d_v -= gains.d_v;
@@ -114,5 +114,28 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         super::simulation::diverged(&next)?;
         *state = next;
         Ok(())
+    }
+
+    /// The start's `q̈₀` (where the derivatives are taken): the derive's
+    /// articulated-body code where it wrote one, else `M⁻¹ (τ − b)` by an LU
+    /// factor of `m`, the mass matrix (the tree's own recursion stays out of
+    /// the step: its indices are data, the step is proved panic-free).
+    fn start_accelerations(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        m: &SMatrix<f64, NV, NV>,
+    ) -> Result<SVector<f64, NV>, TreeError> {
+        let held = self.tree().compensation_forces(&state.q).map(|g| tau + g);
+        let (mut out, t) = (SVector::<f64, NV>::zeros(), held.as_ref().unwrap_or(tau));
+        let (q, v) = (&state.q.data.0[0], &state.v.data.0[0]);
+        if self.scene.forward_dynamics_into(self.tree().geometry(), q, v, &t.data.0[0], &mut out.data.0[0])
+            && out.iter().all(|x| x.is_finite())
+        {
+            return Ok(out);
+        }
+        let joint = self.tree().joints().first().map_or("", |j| j.name);
+        let bias = self.inverse_dynamics(state, &SVector::zeros());
+        Ok(Lu::new(m).map_err(|_| TreeError::Singular { joint })?.solve(&(tau - bias)))
     }
 }

@@ -43,6 +43,7 @@ use super::{TreeJointKind, TreeState};
 use crate::BodyInertia;
 
 /// `m`, a motion at a link frame (turn `r`, origin `o`), in the ground's frame.
+#[inline(always)]
 fn motion_in_ground(r: &Matrix3<f64>, o: &Vector3<f64>, m: &Vector6<f64>) -> Vector6<f64> {
     let (w, v) = split(m);
     let w = r * w;
@@ -127,6 +128,11 @@ struct Freedoms<const NV: usize> {
 // are checked by `Tree::new`, and an access that cannot go out of range
 // leaves no panic path for the no-panic proof to find.
 
+/// The ground's frame: no turn, at the origin.
+fn frames_root() -> (Matrix3<f64>, Vector3<f64>) {
+    (Matrix3::identity(), Vector3::zeros())
+}
+
 /// `a · b`, as a sum the no-panic proof reads through.
 fn dot6(a: &Vector6<f64>, b: &Vector6<f64>) -> f64 {
     a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
@@ -204,6 +210,85 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         first..first + self.joints.get(k).map_or(0, |j| j.kind.freedoms())
     }
 
+    /// `τ` and `∂τ/∂q` (tangent columns) of the gravity compensation's joint
+    /// forces `Gᶜ(q)` into `out` (nothing without compensation), in closed
+    /// form: with `μ = c m` held at each centre `x`, a subtree's wrench about
+    /// the ground's origin is `W = (−X × g, −M g)` (`M = Σ μ`, `X = Σ μ x`),
+    /// `Gᶜᵢ = sᵢᵀ W`, and freedom `j` moves `sᵢ` by `sⱼ × sᵢ` (when it moves
+    /// the axis) and the centres it carries by `ω × x + v`, so
+    /// `∂W = (−(ω × X + v M) × g, 0)` over those. O(NV²), every index
+    /// through `get`.
+    #[inline(always)]
+    pub(crate) fn compensation_derivatives(&self, q: &SVector<f64, NQ>, out: &mut InverseDerivatives<NV>) {
+        let Some(held) = &self.compensation else { return };
+        let g = self.gravity;
+        let (mut frames, mut s, mut of) =
+            ([(Matrix3::identity(), Vector3::zeros()); NB], [Vector6::zeros(); NV], [NB; NV]);
+        let (mut mass, mut moment) = ([0.0; NB], [Vector3::zeros(); NB]);
+        for k in 0..NB {
+            let x = self.transform(k, q);
+            let (rp, op) = self.parent[k].and_then(|p| frames.get(p).copied()).unwrap_or(frames_root());
+            let (r, o) = (rp * x.e.transpose(), op + rp * x.r);
+            frames[k] = (r, o);
+            let subspace = self.subspace_at(k, q);
+            for (c, col) in subspace.cols.iter().enumerate().take(subspace.n) {
+                let m = self.v_at[k] + c;
+                if let (Some(slot), Some(joint)) = (s.get_mut(m), of.get_mut(m)) {
+                    (*slot, *joint) = (motion_in_ground(&r, &o, col), k);
+                }
+            }
+            let child = self.joints[k].child;
+            let mu = held.get(child).copied().unwrap_or(0.0) * self.mass.get(child).map_or(0.0, |b| b.mass);
+            (mass[k], moment[k]) = (mu, (o - r * self.joints[k].rho_child) * mu);
+        }
+        for k in (0..NB).rev() {
+            let (m, x) = (mass[k], moment[k]);
+            let p = self.parent[k].unwrap_or(NB);
+            if let (Some(pm), Some(px)) = (mass.get_mut(p), moment.get_mut(p)) {
+                (*pm, *px) = (*pm + m, *px + x);
+            }
+        }
+        // Whether joint `a` is joint `b` or one of its ancestors.
+        let above = |a: usize, b: usize| {
+            let mut at = Some(b);
+            while let Some(j) = at {
+                if j == a {
+                    return true;
+                }
+                at = self.parent.get(j).copied().flatten();
+            }
+            false
+        };
+        let subtree =
+            |k: usize| (mass.get(k).copied().unwrap_or(0.0), moment.get(k).copied().unwrap_or_else(Vector3::zeros));
+        for (i, (&ki, si)) in of.iter().zip(&s).enumerate() {
+            let (m_i, x_i) = subtree(ki);
+            let w = join(&(-x_i.cross(&g)), &(-g * m_i));
+            if let Some(tau) = out.tau.get_mut(i) {
+                *tau = dot6(si, &w);
+            }
+            let chain = self.joints.get(ki).is_some_and(|j| chained(j.kind));
+            for (j, (&kj, sj)) in of.iter().zip(&s).enumerate() {
+                let moves_axis = if kj == ki { !chain || j < i } else { above(kj, ki) };
+                let mut d = if moves_axis { dot6(&cross_motion(sj, si), &w) } else { 0.0 };
+                // The centres freedom `j` carries among those under `i`.
+                let carried = if above(kj, ki) {
+                    Some(ki)
+                } else if above(ki, kj) {
+                    Some(kj)
+                } else {
+                    None
+                };
+                if let Some(set) = carried {
+                    let ((m_s, x_s), (omega, v)) = (subtree(set), split(sj));
+                    let dx = omega.cross(&x_s) + v * m_s;
+                    d += dot6(si, &join(&(-dx.cross(&g)), &Vector3::zeros()));
+                }
+                put(&mut out.d_q, i, j, d);
+            }
+        }
+    }
+
     /// A freedom of joint `k`'s own force: armature times its acceleration,
     /// damping times its rate, stiffness times its stretch (`position`, the
     /// joint's first coordinate: a spring's joint has only that one).
@@ -253,7 +338,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     *w = cross_motion(&s, &(b + after));
                 }
             }
-            sub[k] = self.composite(k, &r, &o, &v, &a);
+            sub[k] = self.composite(k, (&r, &o), (&v, &a));
             frames[k] = (r, o, v, a);
         }
         for k in (0..NB).rev() {
@@ -274,12 +359,14 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// `T = A [ω]× − [ω]× A + m ([c]× [ν]× + [ν]× [c]×) + [n]×` for
     /// `Y v = (n, ·)`, `v = (ω, ν)`.
     #[inline(always)]
-    fn composite(&self, k: usize, r: &Matrix3<f64>, o: &Vector3<f64>, v: &Vector6<f64>, a: &Vector6<f64>) -> Composite {
-        let body = self
-            .mass
-            .get(self.joints[k].child)
-            .copied()
-            .unwrap_or(BodyInertia { mass: 0.0, inertia: Matrix3::zeros() });
+    fn composite(
+        &self,
+        k: usize,
+        (r, o): (&Matrix3<f64>, &Vector3<f64>),
+        (v, a): (&Vector6<f64>, &Vector6<f64>),
+    ) -> Composite {
+        let child = self.joints[k].child;
+        let body = self.mass.get(child).copied().unwrap_or(BodyInertia { mass: 0.0, inertia: Matrix3::zeros() });
         let m = body.mass;
         let centre = o - r * self.joints[k].rho_child;
         let c = centre.cross_matrix();
