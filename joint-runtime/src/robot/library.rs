@@ -251,24 +251,10 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
     /// The tree's generalised forces from the library's (`qfrc_applied`,
     /// Pinocchio's `tau`) at `state`: the same power on every velocity.
     pub fn forces_from(&self, state: &TreeState<NQ, NV>, tau: &[f64]) -> Result<SVector<f64, NV>, StateError> {
-        check("tau", self.nv, tau.len())?;
-        let mut out = SVector::zeros();
-        for j in self.joints {
-            let (turn, origin) = frame(j);
-            let (tau, tv) = (&tau[j.v_at..], j.tree_v_at);
-            match j.kind {
-                LibraryJointKind::Ball => put3(&mut out, tv, &(turn * Vector3::new(tau[0], tau[1], tau[2]))),
-                LibraryJointKind::Free => {
-                    let body = tree_quaternion(&state.q, j.tree_q_at + 3);
-                    let force = self.origin_in_body(&body, &turn, &Vector3::new(tau[0], tau[1], tau[2]));
-                    let moment = turn * Vector3::new(tau[3], tau[4], tau[5]) + origin.cross(&force);
-                    put3(&mut out, tv, &force);
-                    put3(&mut out, tv + 3, &moment);
-                }
-                _ => out[tv] = tau[0],
-            }
-        }
-        Ok(out)
+        self.vector_from("tau", tau, |j, (turn, origin), [f, m]| {
+            let force = self.origin_in_body(&tree_quaternion(&state.q, j.tree_q_at + 3), turn, &f);
+            (force, turn * m + origin.cross(&force))
+        })
     }
 
     /// Writes the tree's generalised forces `tau` at `state` as the library's.
@@ -278,50 +264,25 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
         tau: &SVector<f64, NV>,
         out: &mut [f64],
     ) -> Result<(), StateError> {
-        check("out", self.nv, out.len())?;
-        for j in self.joints {
-            let (turn, origin) = frame(j);
-            let (out, tv) = (&mut out[j.v_at..], j.tree_v_at);
-            match j.kind {
-                LibraryJointKind::Ball => out[..3].copy_from_slice((turn.inverse() * vector3(tau, tv)).as_slice()),
-                LibraryJointKind::Free => {
-                    let body = tree_quaternion(&state.q, j.tree_q_at + 3);
-                    let (force, moment) = (vector3(tau, tv), vector3(tau, tv + 3));
-                    out[..3].copy_from_slice(self.origin_from_body(&body, &turn, &force).as_slice());
-                    out[3..6].copy_from_slice((turn.inverse() * (moment - origin.cross(&force))).as_slice());
-                }
-                _ => out[0] = tau[tv],
-            }
-        }
-        Ok(())
+        self.vector_into(tau, out, |j, (turn, origin), [force, moment]| {
+            let body = tree_quaternion(&state.q, j.tree_q_at + 3);
+            (self.origin_from_body(&body, turn, &force), turn.inverse() * (moment - origin.cross(&force)))
+        })
     }
 
     /// The tree's accelerations (`v̇`) from the library's (`qacc`, `a`) at
     /// `state`.
     pub fn accelerations_from(&self, state: &TreeState<NQ, NV>, a: &[f64]) -> Result<SVector<f64, NV>, StateError> {
-        check("a", self.nv, a.len())?;
-        let mut out = SVector::zeros();
-        for j in self.joints {
-            let (turn, origin) = frame(j);
-            let (a, tv) = (&a[j.v_at..], j.tree_v_at);
-            match j.kind {
-                LibraryJointKind::Ball => put3(&mut out, tv, &(turn * Vector3::new(a[0], a[1], a[2]))),
-                LibraryJointKind::Free => {
-                    let body = tree_quaternion(&state.q, j.tree_q_at + 3);
-                    let (omega, alpha) = (vector3(&state.v, tv + 3), turn * Vector3::new(a[3], a[4], a[5]));
-                    let u = vector3(&state.v, tv) + omega.cross(&origin);
-                    let mut du = self.origin_in_body(&body, &turn, &Vector3::new(a[0], a[1], a[2]));
-                    if self.library == Library::MuJoCo {
-                        // u̇ (world) = A (u̇_B + ω × u_B): the body's components turn.
-                        du -= omega.cross(&u);
-                    }
-                    put3(&mut out, tv, &(du - alpha.cross(&origin)));
-                    put3(&mut out, tv + 3, &alpha);
-                }
-                _ => out[tv] = a[0],
+        self.vector_from("a", a, |j, (turn, origin), [linear, angular]| {
+            let tv = j.tree_v_at;
+            let (omega, alpha) = (vector3(&state.v, tv + 3), turn * angular);
+            let mut du = self.origin_in_body(&tree_quaternion(&state.q, j.tree_q_at + 3), turn, &linear);
+            if self.library == Library::MuJoCo {
+                // u̇ (world) = A (u̇_B + ω × u_B): the body's components turn.
+                du -= omega.cross(&(vector3(&state.v, tv) + omega.cross(origin)));
             }
-        }
-        Ok(out)
+            (du - alpha.cross(origin), alpha)
+        })
     }
 
     /// Writes the tree's accelerations `a` (`v̇`) at `state` as the library's.
@@ -331,23 +292,74 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
         a: &SVector<f64, NV>,
         out: &mut [f64],
     ) -> Result<(), StateError> {
+        self.vector_into(a, out, |j, (turn, origin), [dv, alpha]| {
+            let tv = j.tree_v_at;
+            let omega = vector3(&state.v, tv + 3);
+            let mut du = dv + alpha.cross(origin);
+            if self.library == Library::MuJoCo {
+                du += omega.cross(&(vector3(&state.v, tv) + omega.cross(origin)));
+            }
+            (self.origin_from_body(&tree_quaternion(&state.q, j.tree_q_at + 3), turn, &du), turn.inverse() * alpha)
+        })
+    }
+
+    /// The tree's vector from the library's velocity-like `x` (`what` names
+    /// it in errors), joint by joint: a hinge's or slide's number as it is,
+    /// a ball's three turned into the child's frame, a free joint's six by
+    /// `free` (its link frame, its two triples → the tree's two).
+    fn vector_from(
+        &self,
+        what: &'static str,
+        x: &[f64],
+        free: impl Fn(
+            &LibraryJoint,
+            (&UnitQuaternion<f64>, &Vector3<f64>),
+            [Vector3<f64>; 2],
+        ) -> (Vector3<f64>, Vector3<f64>),
+    ) -> Result<SVector<f64, NV>, StateError> {
+        check(what, self.nv, x.len())?;
+        let mut out = SVector::zeros();
+        for j in self.joints {
+            let (turn, origin) = frame(j);
+            let (x, tv) = (&x[j.v_at..], j.tree_v_at);
+            let triple = |at: usize| Vector3::new(x[at], x[at + 1], x[at + 2]);
+            match j.kind {
+                LibraryJointKind::Ball => put3(&mut out, tv, &(turn * triple(0))),
+                LibraryJointKind::Free => {
+                    let (first, second) = free(j, (&turn, &origin), [triple(0), triple(3)]);
+                    put3(&mut out, tv, &first);
+                    put3(&mut out, tv + 3, &second);
+                }
+                _ => out[tv] = x[0],
+            }
+        }
+        Ok(out)
+    }
+
+    /// The inverse of [`vector_from`](Self::vector_from): the tree's `x`
+    /// written as the library's into `out`, a free joint's by `free`.
+    fn vector_into(
+        &self,
+        x: &SVector<f64, NV>,
+        out: &mut [f64],
+        free: impl Fn(
+            &LibraryJoint,
+            (&UnitQuaternion<f64>, &Vector3<f64>),
+            [Vector3<f64>; 2],
+        ) -> (Vector3<f64>, Vector3<f64>),
+    ) -> Result<(), StateError> {
         check("out", self.nv, out.len())?;
         for j in self.joints {
             let (turn, origin) = frame(j);
             let (out, tv) = (&mut out[j.v_at..], j.tree_v_at);
             match j.kind {
-                LibraryJointKind::Ball => out[..3].copy_from_slice((turn.inverse() * vector3(a, tv)).as_slice()),
+                LibraryJointKind::Ball => out[..3].copy_from_slice((turn.inverse() * vector3(x, tv)).as_slice()),
                 LibraryJointKind::Free => {
-                    let body = tree_quaternion(&state.q, j.tree_q_at + 3);
-                    let (omega, alpha) = (vector3(&state.v, tv + 3), vector3(a, tv + 3));
-                    let mut du = vector3(a, tv) + alpha.cross(&origin);
-                    if self.library == Library::MuJoCo {
-                        du += omega.cross(&(vector3(&state.v, tv) + omega.cross(&origin)));
-                    }
-                    out[..3].copy_from_slice(self.origin_from_body(&body, &turn, &du).as_slice());
-                    out[3..6].copy_from_slice((turn.inverse() * alpha).as_slice());
+                    let (first, second) = free(j, (&turn, &origin), [vector3(x, tv), vector3(x, tv + 3)]);
+                    out[..3].copy_from_slice(first.as_slice());
+                    out[3..6].copy_from_slice(second.as_slice());
                 }
-                _ => out[0] = a[tv],
+                _ => out[0] = x[tv],
             }
         }
         Ok(())

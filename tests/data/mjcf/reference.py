@@ -41,59 +41,43 @@ SEED = 2026
 N = 20
 
 
-def damped_panda():
+def panda_variant(name, what, edit):
+    """../robots/panda.xml changed by `edit(root)`, written next to this script as `name`."""
     root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
-    for k, j in enumerate(root.iter("joint")):
-        j.set("armature", repr(0.01 * (k + 1)))
-        j.set("damping", repr(0.1 * (k + 1)))
-    path = os.path.join(HERE, "panda_damped.xml")
+    edit(root)
+    path = os.path.join(HERE, name)
     with open(path, "w") as fh:
-        fh.write("<!-- Written by reference.py from ../robots/panda.xml: every joint its own armature "
-                 "and damping. -->\n")
+        fh.write(f"<!-- Written by reference.py from ../robots/panda.xml: {what}. -->\n")
         fh.write(ET.tostring(root, encoding="unicode") + "\n")
     return path
 
 
-def sprung_panda():
-    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
-    root.find("compiler").set("angle", "radian") if root.find("compiler") is not None else None
+def damped(root):
+    for k, j in enumerate(root.iter("joint")):
+        j.set("armature", repr(0.01 * (k + 1)))
+        j.set("damping", repr(0.1 * (k + 1)))
+
+
+def sprung(root):
     for k, j in enumerate(root.iter("joint")):
         j.set("stiffness", repr(10.0 * (k + 1)))
         j.set("springref", repr(0.1 * k - 0.3))
         j.set("ref", repr(0.05 * k))
-    path = os.path.join(HERE, "panda_springs.xml")
-    with open(path, "w") as fh:
-        fh.write("<!-- Written by reference.py from ../robots/panda.xml: every joint its own stiffness, "
-                 "springref and ref. -->\n")
-        fh.write(ET.tostring(root, encoding="unicode") + "\n")
-    return path
 
 
-def heavy_panda():
-    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
+def heavy(root):
     root.find("compiler").set("settotalmass", "30")
-    path = os.path.join(HERE, "panda_total.xml")
-    with open(path, "w") as fh:
-        fh.write("<!-- Written by reference.py from ../robots/panda.xml: the compiler scales its masses and "
-                 "inertias to 30 kg in all. -->\n")
-        fh.write(ET.tostring(root, encoding="unicode") + "\n")
-    return path
 
 
-def held_panda():
-    root = ET.parse(os.path.join(HERE, "../robots/panda.xml")).getroot()
-    held = {"panda_link1": "1", "panda_link2": "1", "panda_link3": "0.5", "panda_link5": "0.25",
-            "panda_link7": "1", "panda_link8": "1", "panda_hand": "1", "panda_hand_tcp": "1",
-            "panda_leftfinger": "0.7"}
+HELD = {"panda_link1": "1", "panda_link2": "1", "panda_link3": "0.5", "panda_link5": "0.25",
+        "panda_link7": "1", "panda_link8": "1", "panda_hand": "1", "panda_hand_tcp": "1",
+        "panda_leftfinger": "0.7"}
+
+
+def held(root):
     for b in root.iter("body"):
-        if b.get("name") in held:
-            b.set("gravcomp", held[b.get("name")])
-    path = os.path.join(HERE, "panda_gravcomp.xml")
-    with open(path, "w") as fh:
-        fh.write("<!-- Written by reference.py from ../robots/panda.xml: gravity compensation on some bodies, "
-                 "each its own fraction (the hand's welded links all 1). -->\n")
-        fh.write(ET.tostring(root, encoding="unicode") + "\n")
-    return path
+        if b.get("name") in HELD:
+            b.set("gravcomp", HELD[b.get("name")])
 
 
 def samples(path, rng):
@@ -125,16 +109,17 @@ def samples(path, rng):
 
 def main():
     rng = np.random.default_rng(SEED)
-    damped_panda()
+    panda_variant("panda_damped.xml", "every joint its own armature and damping", damped)
     out = {"generator": f"reference.py, MuJoCo {mujoco.__version__}",
            "panda_damped": samples(os.path.join(HERE, "panda_damped.xml"), rng),
            "ball_pendulum": samples(os.path.join(HERE, "ball_pendulum.xml"), rng)}
-    sprung_panda()
+    panda_variant("panda_springs.xml", "every joint its own stiffness, springref and ref", sprung)
     out["panda_springs"] = samples(os.path.join(HERE, "panda_springs.xml"), rng)
     out["springs"] = samples(os.path.join(HERE, "springs.xml"), rng)
-    heavy_panda()
+    panda_variant("panda_total.xml", "the compiler scales its masses and inertias to 30 kg in all", heavy)
     out["panda_total"] = samples(os.path.join(HERE, "panda_total.xml"), rng)
-    held_panda()
+    panda_variant("panda_gravcomp.xml", "gravity compensation on some bodies, each its own fraction (the hand's "
+                  "welded links all 1)", held)
     out["panda_gravcomp"] = samples(os.path.join(HERE, "panda_gravcomp.xml"), rng)
     with open(os.path.join(HERE, "reference.json"), "w") as fh:
         json.dump(out, fh, indent=1)
