@@ -185,10 +185,10 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
                 }
                 LibraryJointKind::Continuous => {
                     let (c, s) = (q[0], q[1]);
-                    if !(c.hypot(s) > 0.0 && c.is_finite() && s.is_finite()) {
+                    if !(libm::hypot(c, s) > 0.0 && c.is_finite() && s.is_finite()) {
                         return Err(StateError::NotUnit { joint: j.name });
                     }
-                    state.q[tq] = s.atan2(c);
+                    state.q[tq] = libm::atan2(s, c);
                     state.v[tv] = v[0];
                 }
                 LibraryJointKind::Ball => {
@@ -226,7 +226,7 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
                     v[0] = state.v[tv];
                 }
                 LibraryJointKind::Continuous => {
-                    (q[0], q[1]) = (state.q[tq].cos(), state.q[tq].sin());
+                    (q[0], q[1]) = (libm::cos(state.q[tq]), libm::sin(state.q[tq]));
                     v[0] = state.v[tv];
                 }
                 LibraryJointKind::Ball => {
