@@ -24,7 +24,7 @@
 
 use core::fmt;
 
-use nalgebra::{Matrix3, Quaternion, Rotation3, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, Rotation3, SVector, UnitQuaternion, Vector3};
 
 use super::LinkFrame;
 use crate::tree::TreeState;
@@ -414,9 +414,8 @@ impl<const NQ: usize, const NV: usize> StateLayout<NQ, NV> {
 /// The joint's child link on its body: its rotation (link components to
 /// body components) and its origin from the body's centre.
 fn frame(j: &LibraryJoint) -> (UnitQuaternion<f64>, Vector3<f64>) {
-    let [x, y, z] = j.link.rotation;
-    let m = Matrix3::from_columns(&[Vector3::from(x), Vector3::from(y), Vector3::from(z)]);
-    (UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m)), Vector3::from(j.link.origin))
+    let turn = Rotation3::from_matrix_unchecked(j.link.turn());
+    (UnitQuaternion::from_rotation_matrix(&turn), Vector3::from(j.link.origin))
 }
 
 fn check(what: &'static str, expected: usize, found: usize) -> Result<(), StateError> {

@@ -126,12 +126,7 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         tau: &SVector<f64, NV>,
         m: &SMatrix<f64, NV, NV>,
     ) -> Result<SVector<f64, NV>, TreeError> {
-        let held = self.tree().compensation_forces(&state.q).map(|g| tau + g);
-        let (mut out, t) = (SVector::<f64, NV>::zeros(), held.as_ref().unwrap_or(tau));
-        let (q, v) = (&state.q.data.0[0], &state.v.data.0[0]);
-        if self.scene.forward_dynamics_into(self.tree().geometry(), q, v, &t.data.0[0], &mut out.data.0[0])
-            && out.iter().all(|x| x.is_finite())
-        {
+        if let (_, Some(out)) = self.generated_dynamics(state, tau) {
             return Ok(out);
         }
         let joint = self.tree().joints().first().map_or("", |j| j.name);

@@ -411,18 +411,26 @@ impl<
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
     ) -> Result<SVector<f64, NV>, TreeError> {
-        let mut out = SVector::<f64, NV>::zeros();
-        // Gravity compensation is a joint force like the applied ones.
-        let held = self.tree.compensation_forces(&state.q).map(|g| tau + g);
-        let tau = held.as_ref().unwrap_or(tau);
-        let (q, v, t) = (&state.q.data.0[0], &state.v.data.0[0], &tau.data.0[0]);
-        if self.scene.forward_dynamics_into(self.tree.geometry(), q, v, t, &mut out.data.0[0])
-            && out.iter().all(|x| x.is_finite())
-        {
-            Ok(out)
-        } else {
-            self.tree.forward_dynamics(state, tau)
+        match self.generated_dynamics(state, tau) {
+            (_, Some(out)) => Ok(out),
+            (held, None) => self.tree.forward_dynamics(state, &held),
         }
+    }
+
+    /// `tau` with the gravity compensation's joint forces added (a joint
+    /// force like the applied ones), and the derive's articulated-body
+    /// algorithm's `v̇` under them where it wrote one and it is finite.
+    pub(super) fn generated_dynamics(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+    ) -> (SVector<f64, NV>, Option<SVector<f64, NV>>) {
+        let held = self.tree.compensation_forces(&state.q).map_or(*tau, |g| tau + g);
+        let mut out = SVector::<f64, NV>::zeros();
+        let (q, v, t) = (&state.q.data.0[0], &state.v.data.0[0], &held.data.0[0]);
+        let written = self.scene.forward_dynamics_into(self.tree.geometry(), q, v, t, &mut out.data.0[0])
+            && out.iter().all(|x| x.is_finite());
+        (held, written.then_some(out))
     }
 
     /// The tree: its recursions, energy and conversions.
