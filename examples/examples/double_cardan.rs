@@ -33,6 +33,45 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("Closed forms: in phase φ_o = φ₁, ω_o = ω₁; a quarter turn out of phase");
     println!("ω_o/ω₁ = [cos β/(1 − sin²β cos²φ₁)]·[cos β/(1 − sin²β cos²φ_m)] = cos²β/(1 − (1 − cos⁴β) cos²φ₁).");
     println!("Errors cover both the intermediate and the output shaft.\n");
+    print_table(&sweeps);
+    let worst_formula = sweeps.iter().map(|s| s.max_formula_difference).fold(0.0, f64::max);
+    println!("\nProduct of the two single-joint ratios vs the one-line formula: max difference {worst_formula:.1e}.");
+    let sizes: std::collections::BTreeSet<usize> =
+        sweeps.iter().flat_map(|s| s.redundant_variants.iter().map(Vec::len)).collect();
+    println!(
+        "Redundant rows: 19 rows, 18 columns, no freedom: one redundant row in every sweep (sizes seen: {sizes:?}).\n\
+         The bearings fix both joint centres, and the crosses' spherical rows pin the intermediate\n\
+         shaft's ends to them: its length |AB| is imposed twice. The pivoted Cholesky drops one\n\
+         translational (spherical) row (joint#row above; which one depends on the pivoting).\n\
+         A real double Cardan shaft has a sliding spline in its intermediate shaft for this reason."
+    );
+
+    // The plot: Z arrangement as lines, W as markers on top (the kinematics is the same).
+    let curves = speed_curves(&sweeps);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots/double-cardan-speed.svg");
+    plot_speed_ratios(&path, "Double Cardan shaft: output speed over one input turn", &curves)?;
+    println!("\nplot: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
+    // The Z arrangement bent by 30°, yokes in phase, its yokes marked.
+    let shown = sweeps
+        .iter()
+        .find(|s| {
+            let g = s.geometry;
+            (g.arrangement, g.phasing) == (Arrangement::Z, Phasing::InPhase)
+                && (g.bend.to_degrees() - 30.0).abs() < 1e-9
+        })
+        .ok_or("no Z, in-phase, 30° sweep")?;
+    let mut run = shown.trajectory.clone();
+    joint_examples::cardan::mark_yokes(&mut run, 0, &[1, 2]);
+    let path = path.with_file_name("double-cardan.svg");
+    let options = SvgOptions::default().with_title("Double Cardan shaft (Z, in phase, 30°), one input turn per second");
+    write_animation(&path, &run, &options)?;
+    println!("animation: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
+    Ok(())
+}
+
+/// One row per sweep: the errors against the closed forms, the extreme speed
+/// ratios beside theirs, and the redundant rows.
+fn print_table(sweeps: &[Sweep]) {
     println!(
         "{:>3} {:>8} {:>4}  {:>11}  {:>11}  {:>11}  {:>10}  {:>10}  {:>10}  {:>10}  {:>9}",
         "arr",
@@ -47,7 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "closed",
         "redundant"
     );
-    for s in &sweeps {
+    for s in sweeps {
         let g = &s.geometry;
         let c2 = g.bend.cos().powi(2);
         let (lo, hi) = match g.phasing {
@@ -72,21 +111,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.redundant.iter().map(|r| format!("{}#{}", r.joint, r.joint_row)).collect::<Vec<_>>().join(",")
         );
     }
-    let worst_formula = sweeps.iter().map(|s| s.max_formula_difference).fold(0.0, f64::max);
-    println!("\nProduct of the two single-joint ratios vs the one-line formula: max difference {worst_formula:.1e}.");
-    let sizes: std::collections::BTreeSet<usize> =
-        sweeps.iter().flat_map(|s| s.redundant_variants.iter().map(Vec::len)).collect();
-    println!(
-        "Redundant rows: 19 rows, 18 columns, no freedom: one redundant row in every sweep (sizes seen: {sizes:?}).\n\
-         The bearings fix both joint centres, and the crosses' spherical rows pin the intermediate\n\
-         shaft's ends to them: its length |AB| is imposed twice. The pivoted Cholesky drops one\n\
-         translational (spherical) row (joint#row above; which one depends on the pivoting).\n\
-         A real double Cardan shaft has a sliding spline in its intermediate shaft for this reason."
-    );
+}
 
-    // The plot: Z arrangement as lines, W as markers on top (the kinematics is the same).
+/// The speed ratio over one input turn: one in-phase curve of each
+/// arrangement (they are all ω_o/ω₁ = 1), every out-of-phase one.
+fn speed_curves(sweeps: &[Sweep]) -> Vec<Curve> {
     let mut curves = Vec::new();
-    for s in &sweeps {
+    for s in sweeps {
         let g = &s.geometry;
         let label = format!(
             "{:?}, {}, β = {:.0}°",
@@ -107,23 +138,5 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             markers: g.arrangement == Arrangement::W,
         });
     }
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots/double-cardan-speed.svg");
-    plot_speed_ratios(&path, "Double Cardan shaft: output speed over one input turn", &curves)?;
-    println!("\nplot: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
-    // The Z arrangement bent by 30°, yokes in phase, its yokes marked.
-    let shown = sweeps
-        .iter()
-        .find(|s| {
-            let g = s.geometry;
-            (g.arrangement, g.phasing) == (Arrangement::Z, Phasing::InPhase)
-                && (g.bend.to_degrees() - 30.0).abs() < 1e-9
-        })
-        .ok_or("no Z, in-phase, 30° sweep")?;
-    let mut run = shown.trajectory.clone();
-    joint_examples::cardan::mark_yokes(&mut run, 0, &[1, 2]);
-    let path = path.with_file_name("double-cardan.svg");
-    let options = SvgOptions::default().with_title("Double Cardan shaft (Z, in phase, 30°), one input turn per second");
-    write_animation(&path, &run, &options)?;
-    println!("animation: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
-    Ok(())
+    curves
 }

@@ -58,12 +58,14 @@ struct PandaRecursion;
 #[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base)]
 struct Solo12FloatingRecursion;
 
-fn bench<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str)
+/// A fixed state off every symmetry: angles 0.3 k − 1, rates and forces ±;
+/// a floating base's quaternion turned.
+fn fixed_state<S, const NB: usize, const NQ: usize, const NV: usize>(
+    sim: &TreeSimulation<'_, S, NB, NQ, NV>,
+) -> TreeState<NQ, NV>
 where
     S: TreeScene<NB, NQ, NV>,
 {
-    let mut sim = TreeSimulation::new(scene).expect("a valid tree");
-    // A fixed state off every symmetry: angles 0.3 k − 1, rates and forces ±.
     let mut state = sim.tree().zero_state();
     for k in 0..NV {
         let x = 0.3 * k as f64 - 1.0;
@@ -86,6 +88,15 @@ where
             state.q[k] = 0.3 * k as f64 - 1.0;
         }
     }
+    state
+}
+
+fn bench<S, const NB: usize, const NQ: usize, const NV: usize>(scene: &S, robot: &str)
+where
+    S: TreeScene<NB, NQ, NV>,
+{
+    let mut sim = TreeSimulation::new(scene).expect("a valid tree");
+    let mut state = fixed_state(&sim);
     let tau = SVector::<f64, NV>::from_fn(|k, _| (1.3 * k as f64).cos());
     let start = state;
     let aba = median_ns(1, || {

@@ -1360,103 +1360,12 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     }
     let (qa, va) = offsets(joints);
     let mut ks = Kernels { items: Vec::new(), by_text: Default::default(), ops: 0 };
-    let var = |name: &str, k: usize| format_ident!("{name}_{k}");
     let (mut decls, mut down_calls, mut up_calls, mut out_calls) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (k, j) in joints.iter().enumerate() {
-        let (nqk, nvk) = j.kind.sizes();
-        let keep_len = 6 * nvk + nvk * nvk + nvk;
-        let (e, vel, c, pa, ia, keep, acc, qdd) = (
-            var("e", k),
-            var("vel", k),
-            var("c", k),
-            var("pa", k),
-            var("ia", k),
-            var("keep", k),
-            var("acc", k),
-            var("qdd", k),
-        );
-        let (nvk_l, keep_l) = (lit(nvk), lit(keep_len));
-        decls.push(quote! {
-            let (mut #e, mut #vel, mut #c, mut #pa) = ([0.0f64; 9], [0.0f64; 6], [0.0f64; 6], [0.0f64; 6]);
-            let (mut #ia, mut #keep, mut #acc, mut #qdd) = ([0.0f64; 21], [0.0f64; #keep_l], [0.0f64; 6], [0.0f64; #nvk_l]);
-        });
-        let qs = (qa[k]..qa[k] + nqk).map(|i| format_ident!("q_{i}"));
-        let vs = (va[k]..va[k] + nvk).map(|i| format_ident!("v_{i}"));
-        let taus = (va[k]..va[k] + nvk).map(|i| format_ident!("tau_{i}"));
-        // Pass 1.
-        let mut kd = Kernel::new();
-        let (q_in, v_in) = (kd.input("q", nqk), kd.input("v", nvk));
-        let parent = j.parent.map(|_| Kernel::v6(&kd.input("parent", 6)));
-        let inbound = kd.b.inbound(joints, j);
-        let d = kd.b.down(s, j, inbound, &q_in, &v_in, parent);
-        kd.output("e", d.x.e.iter().flatten().copied().collect());
-        kd.output("vel", d.vel.to_vec());
-        kd.output("c", d.c.to_vec());
-        kd.output("pa", d.pa.to_vec());
-        kd.output("ia", Kernel::pack(&d.inertia));
-        let name = ks.name("down", kd)?;
-        let parent_arg = j.parent.map(|p| {
-            let pv = var("vel", p);
-            quote!(&#pv,)
-        });
-        down_calls.push(
-            quote!(#name(&[#(#qs),*], &[#(#vs),*], #parent_arg &mut #e, &mut #vel, &mut #c, &mut #pa, &mut #ia);),
-        );
-        // Pass 2.
-        let mut ku = Kernel::new();
-        let ia_in = Kernel::m6(&ku.input("ia", 21));
-        let pa_in = Kernel::v6(&ku.input("pa", 6));
-        let c_in = Kernel::v6(&ku.input("c", 6));
-        let e_in = Kernel::m3(&ku.input("e", 9));
-        let tau_in = ku.input("tau", nvk);
-        let inbound = j.parent.map_or([0.0; 3], |p| joints[p].rho_c);
-        let r = [0, 1, 2].map(|i| j.rho_p[i] - inbound[i]);
-        let x = Transform { e: e_in, r: ku.b.consts3(r) };
-        let parent_io = j.parent.map(|_| (Kernel::m6(&ku.input("ia_p", 21)), Kernel::v6(&ku.input("pa_p", 6))));
-        let columns = ku.b.columns(j, &[]);
-        let (kept, back) = ku.b.up(j, (&columns, &x), &ia_in, pa_in, c_in, &tau_in);
-        let mut kept_ids: Vec<Id> = kept.u_cols.iter().flat_map(|col| col.iter().copied()).collect();
-        kept_ids.extend(kept.dinv.iter().flatten().copied());
-        kept_ids.extend(kept.u.iter().copied());
-        ku.output("keep", kept_ids);
-        if let (Some((ia_p, pa_p)), Some((ib, fb))) = (parent_io, back) {
-            let sum = ku.b.add6(&ia_p, &ib);
-            ku.output("ia_p", Kernel::pack(&sum));
-            let pa_next: Vec<Id> = (0..6).map(|r| ku.b.g.add(pa_p[r], fb[r])).collect();
-            ku.output("pa_p", pa_next);
-        }
-        let name = ks.name("up", ku)?;
-        let to_parent = j.parent.map(|p| {
-            let (iap, pap) = (var("ia", p), var("pa", p));
-            quote!(, &mut #iap, &mut #pap)
-        });
-        up_calls.push(quote!(#name(&#ia, &#pa, &#c, &#e, &[#(#taus),*], &mut #keep #to_parent);));
-        // Pass 3.
-        let mut ko = Kernel::new();
-        let from = match j.parent {
-            Some(_) => Kernel::v6(&ko.input("from", 6)),
-            None => ko.b.ground(s),
-        };
-        let e_in = Kernel::m3(&ko.input("e", 9));
-        let c_in = Kernel::v6(&ko.input("c", 6));
-        let keep_in = ko.input("keep", keep_len);
-        let x = Transform { e: e_in, r: ko.b.consts3(r) };
-        let kept = Keep {
-            u_cols: (0..nvk).map(|i| Kernel::v6(&keep_in[6 * i..6 * i + 6])).collect(),
-            dinv: (0..nvk).map(|r| keep_in[6 * nvk + nvk * r..6 * nvk + nvk * r + nvk].to_vec()).collect(),
-            u: keep_in[6 * nvk + nvk * nvk..].to_vec(),
-            free: None,
-        };
-        let columns = ko.b.columns(j, &[]);
-        let (a, qdd_ids) = ko.b.out(&columns, &x, from, c_in, &kept);
-        ko.output("acc", a.to_vec());
-        ko.output("qdd", qdd_ids);
-        let name = ks.name("out", ko)?;
-        let from_arg = j.parent.map(|p| {
-            let ap = var("acc", p);
-            quote!(&#ap,)
-        });
-        out_calls.push(quote!(#name(#from_arg &#e, &#c, &#keep, &mut #acc, &mut #qdd);));
+        decls.push(kernel_decls(k, j));
+        down_calls.push(down_call(&mut ks, s, joints, k, (qa[k], va[k]))?);
+        up_calls.push(up_call(&mut ks, joints, k, va[k])?);
+        out_calls.push(out_call(&mut ks, s, joints, k)?);
     }
     up_calls.reverse();
     let outputs = joints.iter().enumerate().flat_map(|(k, j)| {
@@ -1495,6 +1404,134 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
         }
     };
     Some((method, ops))
+}
+
+/// Joint `k`'s per-joint array of a kernel's output.
+fn var(name: &str, k: usize) -> proc_macro2::Ident {
+    format_ident!("{name}_{k}")
+}
+
+/// What pass 2 keeps for pass 3 of a joint with `nv` freedoms: `U`'s
+/// columns, `D⁻¹` and `u`.
+fn keep_len(nv: usize) -> usize {
+    6 * nv + nv * nv + nv
+}
+
+/// Joint `j`'s origin in its parent's frame, from the parent's joint point.
+fn joint_offset(joints: &[Joint], j: &Joint) -> [f64; 3] {
+    let inbound = j.parent.map_or([0.0; 3], |p| joints[p].rho_c);
+    [0, 1, 2].map(|i| j.rho_p[i] - inbound[i])
+}
+
+/// Joint `k`'s arrays: its frame, velocity, bias, articulated force and
+/// inertia, what pass 2 keeps, its acceleration and `q̈`.
+fn kernel_decls(k: usize, j: &Joint) -> TokenStream {
+    let nvk = j.kind.sizes().1;
+    let [e, vel, c, pa, ia, keep, acc, qdd] = ["e", "vel", "c", "pa", "ia", "keep", "acc", "qdd"].map(|n| var(n, k));
+    let (nvk_l, keep_l) = (lit(nvk), lit(keep_len(nvk)));
+    quote! {
+        let (mut #e, mut #vel, mut #c, mut #pa) = ([0.0f64; 9], [0.0f64; 6], [0.0f64; 6], [0.0f64; 6]);
+        let (mut #ia, mut #keep, mut #acc, mut #qdd) = ([0.0f64; 21], [0.0f64; #keep_l], [0.0f64; 6], [0.0f64; #nvk_l]);
+    }
+}
+
+/// Pass 1 (root to tips) of joint `k`: its kernel and the call.
+fn down_call(
+    ks: &mut Kernels,
+    s: &SceneDecl,
+    joints: &[Joint],
+    k: usize,
+    (qa, va): (usize, usize),
+) -> Option<TokenStream> {
+    let j = &joints[k];
+    let (nqk, nvk) = j.kind.sizes();
+    let qs = (qa..qa + nqk).map(|i| format_ident!("q_{i}"));
+    let vs = (va..va + nvk).map(|i| format_ident!("v_{i}"));
+    let mut kd = Kernel::new();
+    let (q_in, v_in) = (kd.input("q", nqk), kd.input("v", nvk));
+    let parent = j.parent.map(|_| Kernel::v6(&kd.input("parent", 6)));
+    let inbound = kd.b.inbound(joints, j);
+    let d = kd.b.down(s, j, inbound, &q_in, &v_in, parent);
+    kd.output("e", d.x.e.iter().flatten().copied().collect());
+    kd.output("vel", d.vel.to_vec());
+    kd.output("c", d.c.to_vec());
+    kd.output("pa", d.pa.to_vec());
+    kd.output("ia", Kernel::pack(&d.inertia));
+    let name = ks.name("down", kd)?;
+    let parent_arg = j.parent.map(|p| {
+        let pv = var("vel", p);
+        quote!(&#pv,)
+    });
+    let [e, vel, c, pa, ia] = ["e", "vel", "c", "pa", "ia"].map(|n| var(n, k));
+    Some(quote!(#name(&[#(#qs),*], &[#(#vs),*], #parent_arg &mut #e, &mut #vel, &mut #c, &mut #pa, &mut #ia);))
+}
+
+/// Pass 2 (tips to root) of joint `k`: its kernel and the call, which
+/// adds the joint's articulated inertia and force to its parent's.
+fn up_call(ks: &mut Kernels, joints: &[Joint], k: usize, va: usize) -> Option<TokenStream> {
+    let j = &joints[k];
+    let nvk = j.kind.sizes().1;
+    let taus = (va..va + nvk).map(|i| format_ident!("tau_{i}"));
+    let mut ku = Kernel::new();
+    let ia_in = Kernel::m6(&ku.input("ia", 21));
+    let pa_in = Kernel::v6(&ku.input("pa", 6));
+    let c_in = Kernel::v6(&ku.input("c", 6));
+    let e_in = Kernel::m3(&ku.input("e", 9));
+    let tau_in = ku.input("tau", nvk);
+    let x = Transform { e: e_in, r: ku.b.consts3(joint_offset(joints, j)) };
+    let parent_io = j.parent.map(|_| (Kernel::m6(&ku.input("ia_p", 21)), Kernel::v6(&ku.input("pa_p", 6))));
+    let columns = ku.b.columns(j, &[]);
+    let (kept, back) = ku.b.up(j, (&columns, &x), &ia_in, pa_in, c_in, &tau_in);
+    let mut kept_ids: Vec<Id> = kept.u_cols.iter().flat_map(|col| col.iter().copied()).collect();
+    kept_ids.extend(kept.dinv.iter().flatten().copied());
+    kept_ids.extend(kept.u.iter().copied());
+    ku.output("keep", kept_ids);
+    if let (Some((ia_p, pa_p)), Some((ib, fb))) = (parent_io, back) {
+        let sum = ku.b.add6(&ia_p, &ib);
+        ku.output("ia_p", Kernel::pack(&sum));
+        let pa_next: Vec<Id> = (0..6).map(|r| ku.b.g.add(pa_p[r], fb[r])).collect();
+        ku.output("pa_p", pa_next);
+    }
+    let name = ks.name("up", ku)?;
+    let to_parent = j.parent.map(|p| {
+        let (iap, pap) = (var("ia", p), var("pa", p));
+        quote!(, &mut #iap, &mut #pap)
+    });
+    let [ia, pa, c, e, keep] = ["ia", "pa", "c", "e", "keep"].map(|n| var(n, k));
+    Some(quote!(#name(&#ia, &#pa, &#c, &#e, &[#(#taus),*], &mut #keep #to_parent);))
+}
+
+/// Pass 3 (root to tips) of joint `k`: its kernel and the call, which
+/// gives its acceleration and `q̈`.
+fn out_call(ks: &mut Kernels, s: &SceneDecl, joints: &[Joint], k: usize) -> Option<TokenStream> {
+    let j = &joints[k];
+    let nvk = j.kind.sizes().1;
+    let mut ko = Kernel::new();
+    let from = match j.parent {
+        Some(_) => Kernel::v6(&ko.input("from", 6)),
+        None => ko.b.ground(s),
+    };
+    let e_in = Kernel::m3(&ko.input("e", 9));
+    let c_in = Kernel::v6(&ko.input("c", 6));
+    let keep_in = ko.input("keep", keep_len(nvk));
+    let x = Transform { e: e_in, r: ko.b.consts3(joint_offset(joints, j)) };
+    let kept = Keep {
+        u_cols: (0..nvk).map(|i| Kernel::v6(&keep_in[6 * i..6 * i + 6])).collect(),
+        dinv: (0..nvk).map(|r| keep_in[6 * nvk + nvk * r..6 * nvk + nvk * r + nvk].to_vec()).collect(),
+        u: keep_in[6 * nvk + nvk * nvk..].to_vec(),
+        free: None,
+    };
+    let columns = ko.b.columns(j, &[]);
+    let (a, qdd_ids) = ko.b.out(&columns, &x, from, c_in, &kept);
+    ko.output("acc", a.to_vec());
+    ko.output("qdd", qdd_ids);
+    let name = ks.name("out", ko)?;
+    let from_arg = j.parent.map(|p| {
+        let ap = var("acc", p);
+        quote!(&#ap,)
+    });
+    let [e, c, keep, acc, qdd] = ["e", "c", "keep", "acc", "qdd"].map(|n| var(n, k));
+    Some(quote!(#name(#from_arg &#e, &#c, &#keep, &mut #acc, &mut #qdd);))
 }
 
 impl Builder {

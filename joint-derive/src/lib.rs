@@ -54,7 +54,7 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 ///
 /// `#[scene(..)]` options: `gravity = [x, y, z]`, `coordinates = absolute |
 /// relative | both`, `second_order`, and for a robot's file (features `urdf`,
-/// `mjcf`) `urdf = "path"` or `mjcf = "path"` (relative to the crate),
+/// `mjcf`) `urdf = "path"` or `mjcf = "path"` (relative to the crate, or else to the source file),
 /// `floating_base` (URDF: the root link floats), `file_damping` (URDF: its
 /// `<dynamics damping>` in the dynamics) and `mimic = coupled |
 /// independent` (a file's followers as rows, the default, or as free joints).

@@ -146,22 +146,7 @@ pub fn method(
         jb.push(sides);
         jw.push(products);
     }
-    let (mut outputs, mut places, mut slot) = (Vec::new(), Vec::new(), 0usize);
-    for (k, below) in e.below.iter().enumerate() {
-        for i in std::iter::once(k).chain(below.iter().copied()) {
-            let (bi, bk) = (e.order[i], e.order[k]);
-            let (ji, jk) = (&joints[bi], &joints[bk]);
-            for x in 0..ji.rows {
-                // A diagonal block's upper triangle, mirrored.
-                for y in (if i == k { x } else { 0 })..jk.rows {
-                    let rows = [jw[bi].map(|side| side[x]), jb[bk].map(|side| side[y])];
-                    outputs.push(n.shared_dot(&rows, [ji.bodies, jk.bodies]));
-                    places.push((slot, x, y, i == k && x != y));
-                }
-            }
-            slot += 1;
-        }
-    }
+    let (outputs, places) = n.blocks(e, joints, (&jb, &jw));
     let ops = emit::count_ops(&n.g, &outputs);
     if ops > LIMIT {
         return None;
@@ -220,4 +205,37 @@ pub fn method(
         }
     };
     Some((method, ops))
+}
+
+/// Where an output goes: the factor's slot, row, column, and whether the
+/// entry is mirrored across a diagonal block.
+type Place = (usize, usize, usize, bool);
+
+impl Normal {
+    /// Every block `J_i W J_kᵀ` of the factor's pattern as outputs, each
+    /// with its place: slot, row, column, and whether to mirror it.
+    fn blocks(
+        &mut self,
+        e: &Elimination,
+        joints: &[JointRows],
+        (jb, jw): (&[[Block; 2]], &[[Block; 2]]),
+    ) -> (Vec<Id>, Vec<Place>) {
+        let (mut outputs, mut places, mut slot) = (Vec::new(), Vec::new(), 0usize);
+        for (k, below) in e.below.iter().enumerate() {
+            for i in std::iter::once(k).chain(below.iter().copied()) {
+                let (bi, bk) = (e.order[i], e.order[k]);
+                let (ji, jk) = (&joints[bi], &joints[bk]);
+                for x in 0..ji.rows {
+                    // A diagonal block's upper triangle, mirrored.
+                    for y in (if i == k { x } else { 0 })..jk.rows {
+                        let rows = [jw[bi].map(|side| side[x]), jb[bk].map(|side| side[y])];
+                        outputs.push(self.shared_dot(&rows, [ji.bodies, jk.bodies]));
+                        places.push((slot, x, y, i == k && x != y));
+                    }
+                }
+                slot += 1;
+            }
+        }
+        (outputs, places)
+    }
 }

@@ -226,6 +226,59 @@ fn build_time(n: usize, second: bool) -> Result<(f64, Option<f64>), String> {
     Ok((seconds, memory))
 }
 
+/// The release build time and peak memory of a crate holding one chain
+/// scene, with and without `second_order`, over N.
+fn build_times() -> Result<String, String> {
+    let mut md = String::from(
+        "\n### Release build time of a crate holding one chain scene (the derive, then rustc)\n\n\
+           With `second_order`, the crate also runs a generalised-α step, so that the terms are compiled.\n\n\
+           | N | build s | peak rustc memory MB | with `second_order`: build s | peak MB |\n|---|---|---|---|---|\n",
+    );
+    let (mut points, mut second) = (Vec::new(), Vec::new());
+    let mb = |m: Option<f64>| m.map_or("—".into(), |m| format!("{m:.0}"));
+    for n in [10, 20, 40, 80, 160, 200] {
+        let (s, m) = build_time(n, false)?;
+        let (s2, m2) = build_time(n, true)?;
+        eprintln!("build N={n}: {s:.2} s {m:?} MB; second order {s2:.2} s {m2:?} MB");
+        md += &format!("| {n} | {s:.2} | {} | {s2:.2} | {} |\n", mb(m), mb(m2));
+        points.push((n as f64, s));
+        second.push((n as f64, s2));
+    }
+    md += &format!(
+        "\nBuild-time exponents over N = 40 … 200: {:.2}, with `second_order` {:.2}.\n",
+        exponent(&points[2..]),
+        exponent(&second[2..])
+    );
+    Ok(md)
+}
+
+/// `report/scaling.svg`: µs per step against bodies, log-log, with the peers.
+fn plot(chain: &[Row], ladder: &[Row], tree: &[Row]) -> Result<(), String> {
+    let log = |rows: &[Row], f: &dyn Fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
+        rows.iter().filter_map(|r| f(r).map(|y| ((r.bodies as f64).log10(), y.log10()))).collect()
+    };
+    let mut curves: Vec<Curve> = vec![
+        ("chain, sparse".into(), log(chain, &|r| Some(r.sparse))),
+        ("chain, dense".into(), log(chain, &|r| r.dense)),
+        ("chain, generalised-α, sparse".into(), log(chain, &|r| r.alpha)),
+        ("ladder, sparse".into(), log(ladder, &|r| Some(r.sparse))),
+        ("tree, sparse".into(), log(tree, &|r| Some(r.sparse))),
+        ("ladder, generalised-α, sparse".into(), log(ladder, &|r| r.alpha)),
+        ("tree, generalised-α, sparse".into(), log(tree, &|r| r.alpha)),
+    ];
+    for (name, p) in PEERS {
+        let pts = chain.iter().zip(p).map(|(r, y)| ((r.bodies as f64).log10(), y.log10())).collect();
+        curves.push((format!("chain, {name}"), pts));
+    }
+    plot_lines(
+        std::path::Path::new("report/scaling.svg"),
+        "µs per step against bodies (log10-log10)",
+        ("log10 bodies", "log10 µs per step"),
+        &curves,
+    )?;
+    Ok(())
+}
+
 fn run() -> Result<(), String> {
     let quick = std::env::args().any(|a| a == "--quick");
     let builds = std::env::args().any(|a| a == "--build-times");
@@ -292,49 +345,11 @@ fn run() -> Result<(), String> {
         md += "\n";
     }
     if builds {
-        md += "\n### Release build time of a crate holding one chain scene (the derive, then rustc)\n\n\
-               With `second_order`, the crate also runs a generalised-α step, so that the terms are compiled.\n\n\
-               | N | build s | peak rustc memory MB | with `second_order`: build s | peak MB |\n|---|---|---|---|---|\n";
-        let (mut points, mut second) = (Vec::new(), Vec::new());
-        let mb = |m: Option<f64>| m.map_or("—".into(), |m| format!("{m:.0}"));
-        for n in [10, 20, 40, 80, 160, 200] {
-            let (s, m) = build_time(n, false)?;
-            let (s2, m2) = build_time(n, true)?;
-            eprintln!("build N={n}: {s:.2} s {m:?} MB; second order {s2:.2} s {m2:?} MB");
-            md += &format!("| {n} | {s:.2} | {} | {s2:.2} | {} |\n", mb(m), mb(m2));
-            points.push((n as f64, s));
-            second.push((n as f64, s2));
-        }
-        md += &format!(
-            "\nBuild-time exponents over N = 40 … 200: {:.2}, with `second_order` {:.2}.\n",
-            exponent(&points[2..]),
-            exponent(&second[2..])
-        );
+        md += &build_times()?;
     }
     std::fs::create_dir_all("report").map_err(|e| e.to_string())?;
     std::fs::write("report/scaling.md", md).map_err(|e| e.to_string())?;
-    let log = |rows: &[Row], f: &dyn Fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
-        rows.iter().filter_map(|r| f(r).map(|y| ((r.bodies as f64).log10(), y.log10()))).collect()
-    };
-    let mut curves: Vec<Curve> = vec![
-        ("chain, sparse".into(), log(&chain, &|r| Some(r.sparse))),
-        ("chain, dense".into(), log(&chain, &|r| r.dense)),
-        ("chain, generalised-α, sparse".into(), log(&chain, &|r| r.alpha)),
-        ("ladder, sparse".into(), log(&ladder, &|r| Some(r.sparse))),
-        ("tree, sparse".into(), log(&tree, &|r| Some(r.sparse))),
-        ("ladder, generalised-α, sparse".into(), log(&ladder, &|r| r.alpha)),
-        ("tree, generalised-α, sparse".into(), log(&tree, &|r| r.alpha)),
-    ];
-    for (name, p) in PEERS {
-        let pts = chain.iter().zip(p).map(|(r, y)| ((r.bodies as f64).log10(), y.log10())).collect();
-        curves.push((format!("chain, {name}"), pts));
-    }
-    plot_lines(
-        std::path::Path::new("report/scaling.svg"),
-        "µs per step against bodies (log10-log10)",
-        ("log10 bodies", "log10 µs per step"),
-        &curves,
-    )?;
+    plot(&chain, &ladder, &tree)?;
     println!("wrote report/scaling.md and report/scaling.svg");
     Ok(())
 }

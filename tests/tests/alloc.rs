@@ -1,8 +1,8 @@
 //! Generated code, batches and a fixed-size scene step allocate nothing: counted by a
 //! global allocator around the calls.
 //!
-//! The counter is thread-local (tests run in parallel threads) and this file
-//! holds a single test. `unsafe` is allowed here only, for `GlobalAlloc`; the
+//! The counter is thread-local: the tests run in parallel threads, each
+//! counting its own. `unsafe` is allowed here only, for `GlobalAlloc`; the
 //! package denies it everywhere else.
 
 #![allow(unsafe_code, missing_docs)]
@@ -66,6 +66,16 @@ fn allocations(f: impl FnOnce()) -> usize {
     COUNT.with(Cell::get) - before
 }
 
+/// A Cardan joint with its axes along `y` and `z`, points half a unit out.
+fn cardan() -> Cardan<f64> {
+    Cardan {
+        s: Vector3::new(0.0, 1.0, 0.0),
+        h: Vector3::new(0.0, 0.0, 1.0),
+        rho1: Vector3::new(0.5, 0.0, 0.0),
+        rho2: Vector3::new(-0.5, 0.0, 0.0),
+    }
+}
+
 #[derive(Joint)]
 #[joint(universal, formulation = omega_body)]
 struct Cardan<T> {
@@ -92,14 +102,8 @@ struct Motor<F> {
 struct DoublePendulum;
 
 #[test]
-fn generated_functions_and_scene_steps_allocate_nothing() {
-    // Joints.
-    let cardan = Cardan {
-        s: Vector3::new(0.0, 1.0, 0.0),
-        h: Vector3::new(0.0, 0.0, 1.0),
-        rho1: Vector3::new(0.5, 0.0, 0.0),
-        rho2: Vector3::new(-0.5, 0.0, 0.0),
-    };
+fn joints_allocate_nothing() {
+    let cardan = cardan();
     let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.3);
     let body = |r| OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::new(1.0, 0.2, 0.0));
     let pair = TwoBodies::new(body(Vector3::zeros()), body(Vector3::x()));
@@ -131,7 +135,14 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
         0,
         "a driver allocated"
     );
+}
 
+#[test]
+fn batches_allocate_nothing() {
+    let cardan = cardan();
+    let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.3);
+    let body = |r| OmegaBody::from_rotation(r, &q, Vector3::zeros(), Vector3::new(1.0, 0.2, 0.0));
+    let pair = TwoBodies::new(body(Vector3::zeros()), body(Vector3::x()));
     // Batches into a caller's slice: scalar and SIMD lanes (a padded tail of 3).
     let wide = Cardan::<WideF64x4> {
         s: splat(&cardan.s),
@@ -148,7 +159,10 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     });
     assert_eq!(n, 0, "a batch allocated");
     assert_eq!(out[6], cardan.evaluate(&pair));
+}
 
+#[test]
+fn scene_evaluation_assembly_and_steps_allocate_nothing() {
     // A scene: system functions, assembly, one step of each integrator.
     let scene = DoublePendulum;
     let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.4);
@@ -212,6 +226,10 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     });
     assert_eq!(n, 0, "a step or integrate allocated");
     assert!(ok, "the steps ran");
+}
+
+#[test]
+fn tree_derivatives_and_step_jacobians_allocate_nothing() {
     // A tree's exact derivatives and step Jacobians: fixed-size outputs,
     // nothing allocated per call.
     let tree = TreeSimulation::new(&Pendulum).expect("a valid tree");
@@ -244,6 +262,10 @@ fn generated_functions_and_scene_steps_allocate_nothing() {
     });
     assert_eq!(n, 0, "the recursion's derivatives allocated");
     assert!(ok, "the recursion's derivatives ran");
+}
+
+#[test]
+fn the_counter_counts() {
     // The counter counts: a vector allocates.
     assert!(allocations(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
 }

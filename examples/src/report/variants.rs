@@ -677,8 +677,32 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
         }
     };
 
-    // Generated, f32.
     progress(&format!("{name}: generated f32"));
+    let generated_f32 = measure_f32::<Fa, R, C>(cases)?;
+    progress(&format!("{name}: num-dual"));
+    let num_dual = measure_num_dual::<Fa, R, C>(cases)?;
+    // Central differences: errors at every step, the time once (it does not
+    // depend on the step).
+    progress(&format!("{name}: central differences"));
+    let fd = measure_fd::<Fa, R, C>(cases)?;
+
+    Ok(GroupResult {
+        joint: Fa::JOINT.to_string(),
+        form: Fa::FORM.to_string(),
+        cases: n,
+        generated,
+        generated_f32,
+        hand,
+        num_dual,
+        fd,
+        ops: <Fa::G<f64> as Joint<f64, R, C>>::OPS,
+        hand_ops,
+    })
+}
+
+/// The generated code in `f32`: its errors in units of `f32`'s epsilon.
+fn measure_f32<Fa: Family<R, C>, const R: usize, const C: usize>(cases: &[Case]) -> Result<Measured, String> {
+    let n = cases.len();
     let g32: Vec<_> = cases
         .iter()
         .map(|c| (Fa::generated::<f32>(&c.params.lift()), <Fa::F as Form<C>>::build(&c.coords.map(lift::<f32>), 0.0)))
@@ -691,7 +715,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
             output(&c.source.id, &e.phi, &e.jacobian, &e.gamma, f64::from)
         })
         .collect();
-    let generated_f32 = Measured {
+    Ok(Measured {
         errors: worst_errors(cases, &outputs)?.scaled(EPS / EPS32),
         ns: median_ns(n, || {
             for (j, s) in &g32 {
@@ -699,10 +723,12 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
             }
         }),
         unit: EPS32,
-    };
+    })
+}
 
-    // num-dual.
-    progress(&format!("{name}: num-dual"));
+/// num-dual's derivatives of the generated Φ.
+fn measure_num_dual<Fa: Family<R, C>, const R: usize, const C: usize>(cases: &[Case]) -> Result<Measured, String> {
+    let n = cases.len();
     let duals: Vec<_> = cases
         .iter()
         .map(|c| {
@@ -717,7 +743,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
             output(&c.source.id, &p, &j, &g, |x| x)
         })
         .collect();
-    let num_dual = Measured {
+    Ok(Measured {
         errors: worst_errors(cases, &outputs)?,
         ns: median_ns(n, || {
             for (jd, j2, c0) in &duals {
@@ -725,11 +751,14 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
             }
         }),
         unit: EPS,
-    };
+    })
+}
 
-    // Central differences: errors at every step, the time once (it does not
-    // depend on the step).
-    progress(&format!("{name}: central differences"));
+/// Central differences of the generated Φ at each of [`FD_STEPS`].
+fn measure_fd<Fa: Family<R, C>, const R: usize, const C: usize>(
+    cases: &[Case],
+) -> Result<Vec<(f64, Measured)>, String> {
+    let n = cases.len();
     let plain: Vec<_> = cases.iter().map(|c| (Fa::generated::<f64>(&c.params), c.coords)).collect();
     let mut fd = Vec::new();
     let mut fd_ns = None;
@@ -752,19 +781,7 @@ pub fn measure<Fa: Family<R, C>, const R: usize, const C: usize>(
         });
         fd.push((h, Measured { ns, errors: worst_errors(cases, &outputs)?, unit: EPS }));
     }
-
-    Ok(GroupResult {
-        joint: Fa::JOINT.to_string(),
-        form: Fa::FORM.to_string(),
-        cases: n,
-        generated,
-        generated_f32,
-        hand,
-        num_dual,
-        fd,
-        ops: <Fa::G<f64> as Joint<f64, R, C>>::OPS,
-        hand_ops,
-    })
+    Ok(fd)
 }
 
 /// Measures every group of [`GROUPS`] over the cases of `docs` (the vectors

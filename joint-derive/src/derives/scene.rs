@@ -207,20 +207,7 @@ fn print(
     let generics = generics_of(input, s);
     let tree = s.tree.as_ref().map(|edges| super::tree::print(input, s, edges, &generics, loops));
     let (ig, tg, wc) = generics.split_for_impl();
-    let (mut second_method, second_ops) = match second.and_then(|t| t.dense.as_ref()) {
-        Some(nodes) => generate::second_order_method(&z.signature, &printed, nodes),
-        None => (TokenStream::new(), 0),
-    };
-    let (values, helpers, values_ops) = match second.and_then(|t| t.sparse.as_ref()) {
-        Some(nodes) => generate::second_order_values_method(&z.signature, &printed, nodes),
-        None => (TokenStream::new(), TokenStream::new(), 0),
-    };
-    second_method.extend(values);
-    let second_text = match second {
-        Some(t) if t.dense.is_some() => format!(", second_order {second_ops}, second_order_values {values_ops}"),
-        Some(_) => format!(", second_order_values {values_ops}"),
-        None => String::new(),
-    };
+    let (second_method, helpers, second_text) = second_order_methods(&z, &printed, second);
     let doc = format!(
         " {} bodies, {} rows, {} columns; {nnz} structurally nonzero Jacobian entries. Operations: {}, sparse jacobian {sparse_ops}{normal_text}{second_text}.",
         s.bodies.len(),
@@ -261,6 +248,30 @@ fn print(
         #lints
         impl #ig #k::SparseJacobian<#nb, #nnz> for #ident #tg #wc { #sparse }
     }
+}
+
+/// The dense `second_order` method, the sparse `second_order_values` one
+/// with its helpers, and their operation counts for the doc line.
+fn second_order_methods(
+    z: &Sizes,
+    printed: &generate::Printed<'_>,
+    second: Option<&Terms>,
+) -> (TokenStream, TokenStream, String) {
+    let (mut second_method, second_ops) = match second.and_then(|t| t.dense.as_ref()) {
+        Some(nodes) => generate::second_order_method(&z.signature, printed, nodes),
+        None => (TokenStream::new(), 0),
+    };
+    let (values, helpers, values_ops) = match second.and_then(|t| t.sparse.as_ref()) {
+        Some(nodes) => generate::second_order_values_method(&z.signature, printed, nodes),
+        None => (TokenStream::new(), TokenStream::new(), 0),
+    };
+    second_method.extend(values);
+    let second_text = match second {
+        Some(t) if t.dense.is_some() => format!(", second_order {second_ops}, second_order_values {values_ops}"),
+        Some(_) => format!(", second_order_values {values_ops}"),
+        None => String::new(),
+    };
+    (second_method, helpers, second_text)
 }
 
 /// The engine the one `Simulation` runs for a scene: absolute coordinates

@@ -190,27 +190,7 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
                 "spherical" => vec![arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
                 _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
             };
-            let spring = j.limits.spring;
-            if spring.stiffness != 0.0 && !dynamics {
-                let message = format!(
-                    "joint `{}` has a spring (`stiffness`), modelled in relative coordinates only; expected \
-                     `coordinates = relative`",
-                    j.name
-                );
-                errors.at(span, message);
-            }
-            let sprung = (spring.stiffness != 0.0).then_some(spring);
-            let springs = [("stiffness", sprung.map(|s| s.stiffness)), ("spring_rest", sprung.map(|s| s.rest))];
-            for (key, value) in
-                [("armature", j.limits.armature), ("damping", j.limits.damping)].into_iter().chain(springs)
-            {
-                if let Some(x) = value.filter(|&x| dynamics && x != 0.0) {
-                    args.push(Arg {
-                        key: syn::Ident::new(key, span),
-                        value: Some(Value::Number(Number::Known(x), span)),
-                    });
-                }
-            }
+            args.extend(dynamics_args(j, dynamics, span, errors));
             JointAttr {
                 name: ident(&j.name, &mut joint_names, errors),
                 repeat: None,
@@ -246,6 +226,29 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
         }),
         couplings,
     })
+}
+
+/// A joint's armature, damping and spring as the derive's attributes, in
+/// relative coordinates (`dynamics`); a spring is refused otherwise.
+fn dynamics_args(j: &super::robot::RobotJoint, dynamics: bool, span: Span, errors: &mut Errors) -> Vec<Arg> {
+    let mut args = Vec::new();
+    let spring = j.limits.spring;
+    if spring.stiffness != 0.0 && !dynamics {
+        let message = format!(
+            "joint `{}` has a spring (`stiffness`), modelled in relative coordinates only; expected \
+             `coordinates = relative`",
+            j.name
+        );
+        errors.at(span, message);
+    }
+    let sprung = (spring.stiffness != 0.0).then_some(spring);
+    let springs = [("stiffness", sprung.map(|s| s.stiffness)), ("spring_rest", sprung.map(|s| s.rest))];
+    for (key, value) in [("armature", j.limits.armature), ("damping", j.limits.damping)].into_iter().chain(springs) {
+        if let Some(x) = value.filter(|&x| dynamics && x != 0.0) {
+            args.push(Arg { key: syn::Ident::new(key, span), value: Some(Value::Number(Number::Known(x), span)) });
+        }
+    }
+    args
 }
 
 /// `follower = multiplier · leader + offset`: joints by their index.

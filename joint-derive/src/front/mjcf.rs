@@ -326,23 +326,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         let (point, axis) = (vector("pos", [0.0; 3])?, vector("axis", [0.0, 0.0, 1.0])?);
         let angular = matches!(kind, Kind::Revolute | Kind::Spherical);
         let scale = if angular && self.compiler.degrees { std::f64::consts::PI / 180.0 } else { 1.0 };
-        let range = match get("range") {
-            Some(text) if get("limited") != Some("false") => {
-                let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
-                match parsed.as_slice() {
-                    [a, b] if text.split_whitespace().count() == 2 && a.is_finite() && b.is_finite() => {
-                        Some((a * scale, b * scale))
-                    }
-                    _ => {
-                        return Err(fail(
-                            at,
-                            format!("`range=\"{text}\"`: expected two numbers, as in `range=\"-1 1\"`"),
-                        ));
-                    }
-                }
-            }
-            _ => None,
-        };
+        let range = range(get("range"), get("limited"), scale, &|m| fail(at, m))?;
         let effort = match get("actuatorfrcrange") {
             Some(text) => {
                 let parsed: Vec<f64> = text.split_whitespace().filter_map(|t| t.parse().ok()).collect();
@@ -826,6 +810,23 @@ pub fn cross(u: &V3, v: &V3) -> V3 {
     [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
 }
 
+/// A joint's `range` (unless `limited="false"`), in radians or metres.
+fn range(
+    text: Option<&str>,
+    limited: Option<&str>,
+    scale: f64,
+    fail: &dyn Fn(String) -> syn::Error,
+) -> syn::Result<Option<(f64, f64)>> {
+    let Some(text) = text.filter(|_| limited != Some("false")) else { return Ok(None) };
+    let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
+    match parsed.as_slice() {
+        [a, b] if text.split_whitespace().count() == 2 && a.is_finite() && b.is_finite() => {
+            Ok(Some((a * scale, b * scale)))
+        }
+        _ => Err(fail(format!("`range=\"{text}\"`: expected two numbers, as in `range=\"-1 1\"`"))),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::robot::tests::{cut_and_mutated, test_file};
@@ -915,26 +916,6 @@ mod tests {
                 "body `arm` is declared twice",
             ),
             (&one_body("<joint class=\"big\"/>", ""), "5:1:", "`class=\"big\"` names no `<default class=\"big\">`"),
-            (&one_body(hinge, "<equality><connect body1=\"arm\"/></equality>"), "8:11:", "has no `anchor`"),
-            (
-                &one_body(hinge, "<equality><connect body1=\"leg\" anchor=\"0 0 0\"/></equality>"),
-                "8:11:",
-                "`body1=\"leg\"` is not a body",
-            ),
-            (&one_body(hinge, "<equality><joint joint1=\"j\"/></equality>"), "8:11:", "without `joint2`"),
-            (
-                &one_body(hinge, "<equality><weld body1=\"arm\" body2=\"arm\"/></equality>"),
-                "8:11:",
-                "joins a body to itself",
-            ),
-            (
-                &one_body(
-                    &format!("{hinge}{second}"),
-                    "<equality><weld body1=\"arm\" body2=\"hand\" relpose=\"0 0 0 1 0 0 0\"/></equality>",
-                ),
-                "8:11:",
-                "`relpose` is not read yet",
-            ),
             (&one_body(hinge, "<include file=\"more.xml\"/>"), "8:1:", "`<include>` is not read"),
             (
                 &one_body(&format!("{hinge}{}", second.replace("<joint/>", "<freejoint/>")), ""),
@@ -970,6 +951,43 @@ mod tests {
             let message = error(text);
             assert!(message.starts_with(at) && message.contains(expected), "{text}\n{message}");
         }
+    }
+
+    #[test]
+    fn bad_equalities_one_message_each_at_line_and_column() {
+        let hinge = "<joint name=\"j\"/>";
+        let second = "<body name=\"hand\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint/></body>";
+        let cases = [
+            (&one_body(hinge, "<equality><connect body1=\"arm\"/></equality>"), "8:11:", "has no `anchor`"),
+            (
+                &one_body(hinge, "<equality><connect body1=\"leg\" anchor=\"0 0 0\"/></equality>"),
+                "8:11:",
+                "`body1=\"leg\"` is not a body",
+            ),
+            (&one_body(hinge, "<equality><joint joint1=\"j\"/></equality>"), "8:11:", "without `joint2`"),
+            (
+                &one_body(hinge, "<equality><weld body1=\"arm\" body2=\"arm\"/></equality>"),
+                "8:11:",
+                "joins a body to itself",
+            ),
+            (
+                &one_body(
+                    &format!("{hinge}{second}"),
+                    "<equality><weld body1=\"arm\" body2=\"hand\" relpose=\"0 0 0 1 0 0 0\"/></equality>",
+                ),
+                "8:11:",
+                "`relpose` is not read yet",
+            ),
+        ];
+        for (text, at, expected) in cases {
+            let message = error(text);
+            assert!(message.starts_with(at) && message.contains(expected), "{text}\n{message}");
+        }
+    }
+
+    #[test]
+    fn neutral_attributes_and_ground_geoms_are_no_error() {
+        let hinge = "<joint name=\"j\"/>";
         // What leaves the dynamics as they are is no error.
         for neutral in [
             one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"0\""),

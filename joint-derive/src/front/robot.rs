@@ -148,17 +148,33 @@ pub struct Closure {
     pub at: roxmltree::TextPos,
 }
 
-/// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`): its text
-/// and its absolute name (what the build tracks; errors in the file name it
-/// as the scene wrote it).
+/// Reads `path`: relative to the crate's `CARGO_MANIFEST_DIR`, or, where
+/// the crate's directory has no such file, to the folder of the source file
+/// that holds the derive (as `include_str!` reads). The second place is what
+/// lets a file beside its module, or a test harness's generated crate (whose
+/// directory is inside the target folder), name its robot the same way
+/// wherever the target folder is. Returns the text and its absolute name
+/// (what the build tracks; errors in the file name it as the scene wrote it).
 pub fn read_text(path: &syn::LitStr, what: &str) -> syn::Result<(String, String)> {
+    let wanted = std::path::PathBuf::from(path.value());
     let dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default();
-    let full = std::path::Path::new(&dir).join(path.value());
+    let in_crate = std::path::Path::new(&dir).join(&wanted);
+    // The compiler's span (`local_file` is the compiler's, stable since 1.88);
+    // outside a macro (the front end's unit tests) there is no source file.
+    let source = proc_macro::is_available().then(|| path.span().unwrap().local_file()).flatten();
+    let beside = source.and_then(|f| f.parent().map(|d| d.join(&wanted)));
+    let full = match beside {
+        Some(b) if !in_crate.exists() && b.exists() => b,
+        _ => in_crate,
+    };
     let shown = full.display().to_string();
     let text = std::fs::read_to_string(&full).map_err(|e| {
         syn::Error::new(
             path.span(),
-            format!("cannot read `{shown}`: {e}; expected {what} file's path relative to the crate's directory"),
+            format!(
+                "cannot read `{shown}`: {e}; expected {what} file's path relative to the crate's directory \
+                 (or to the folder of this source file)"
+            ),
         )
     })?;
     Ok((text, shown))
@@ -208,29 +224,7 @@ pub fn assemble(
 ) -> syn::Result<Robot> {
     let (inbound, root) = tree(links, joints, fail)?;
     let (pose, order) = poses(links, joints, root, fail)?;
-    // Bodies: each moving joint's child starts one; a fixed joint's child
-    // joins its parent's (the root's: the ground, or a floating base).
-    let mut body_of: Vec<Option<usize>> = vec![None; links.len()];
-    let mut heads: Vec<usize> = Vec::new();
-    if floating {
-        heads.push(root);
-        body_of[root] = Some(0);
-    }
-    for &l in &order[1..] {
-        let j = &joints[inbound[l].unwrap_or(0)];
-        body_of[l] = if j.kind == Kind::Fixed {
-            body_of[j.parent]
-        } else {
-            heads.push(l);
-            Some(heads.len() - 1)
-        };
-    }
-    // The file's link order for the bodies.
-    let mut by_file: Vec<usize> = (0..heads.len()).collect();
-    by_file.sort_by_key(|&b| heads[b]);
-    let renumber: HashMap<usize, usize> = by_file.iter().enumerate().map(|(new, &old)| (old, new)).collect();
-    let body_of: Vec<Option<usize>> = body_of.iter().map(|b| b.map(|b| renumber[&b])).collect();
-    let heads: Vec<usize> = by_file.iter().map(|&b| heads[b]).collect();
+    let (body_of, heads) = welded_bodies(joints, &inbound, (root, &order), floating);
     let mut centres = Vec::new();
     let mut bodies = Vec::new();
     for (b, &head) in heads.iter().enumerate() {
@@ -249,31 +243,87 @@ pub fn assemble(
         check_inertia(&links[head], mass, &inertia, fail)?;
         let gravcomp = compensation(&members, links, fail)?;
         centres.push(centre);
-        bodies.push(RobotBody {
-            name: links[head].name.clone(),
-            mass,
-            inertia: round_off([
-                inertia[0][0],
-                inertia[1][1],
-                inertia[2][2],
-                inertia[0][1],
-                inertia[0][2],
-                inertia[1][2],
-            ]),
-            gravcomp,
-        });
+        let inertia =
+            round_off([inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2], inertia[1][2]]);
+        bodies.push(RobotBody { name: links[head].name.clone(), mass, inertia, gravcomp });
     }
     let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
+    let placed = Placed { pose: &pose, body_of: &body_of, from: &from };
+    let out = moving_joints(joints, &placed, fail)?;
+    let loops = closure_joints(closures, &placed, fail)?;
+    // Every link's frame: the body's axes are the world's at zero.
+    let frames = (0..links.len())
+        .map(|l| {
+            let (r, p) = pose[l];
+            let body = body_of[l];
+            FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)) }
+        })
+        .collect();
+    let library_joints = library_joints(joints, (library, root, floating), &body_of);
+    Ok(Robot {
+        bodies,
+        joints: out,
+        closures: loops,
+        links: frames,
+        path: String::new(),
+        gravity: None,
+        options: FileOptions::default(),
+        couplings: Vec::new(),
+        library: (library, library_joints),
+    })
+}
+
+/// Where the links are: each link's pose, its body, and a body's centre
+/// (the ground's: the origin).
+struct Placed<'a> {
+    pose: &'a [Pose],
+    body_of: &'a [Option<usize>],
+    from: &'a dyn Fn(Option<usize>) -> V3,
+}
+
+/// Each link's body and each body's head link: a moving joint's child
+/// starts a body, a fixed joint's child joins its parent's (the root's: the
+/// ground, or a floating base); bodies in the file's link order.
+fn welded_bodies(
+    joints: &[Joint],
+    inbound: &[Option<usize>],
+    (root, order): (usize, &[usize]),
+    floating: bool,
+) -> (Vec<Option<usize>>, Vec<usize>) {
+    let mut body_of: Vec<Option<usize>> = vec![None; inbound.len()];
+    let mut heads: Vec<usize> = Vec::new();
+    if floating {
+        heads.push(root);
+        body_of[root] = Some(0);
+    }
+    for &l in &order[1..] {
+        let j = &joints[inbound[l].unwrap_or(0)];
+        body_of[l] = if j.kind == Kind::Fixed {
+            body_of[j.parent]
+        } else {
+            heads.push(l);
+            Some(heads.len() - 1)
+        };
+    }
+    let mut by_file: Vec<usize> = (0..heads.len()).collect();
+    by_file.sort_by_key(|&b| heads[b]);
+    let renumber: HashMap<usize, usize> = by_file.iter().enumerate().map(|(new, &old)| (old, new)).collect();
+    let body_of = body_of.iter().map(|b| b.map(|b| renumber[&b])).collect();
+    (body_of, by_file.iter().map(|&b| heads[b]).collect())
+}
+
+/// The moving joints between bodies: kind, unit axis and joint points.
+fn moving_joints(joints: &[Joint], at: &Placed, fail: &Fail) -> syn::Result<Vec<RobotJoint>> {
     let mut out = Vec::new();
     for j in joints.iter().filter(|j| !matches!(j.kind, Kind::Fixed | Kind::Floating)) {
-        let (r, o) = pose[j.child];
+        let (r, o) = at.pose[j.child];
         let length = norm(&j.axis);
         if j.kind != Kind::Spherical && (length.is_nan() || length <= 1e-12) {
             return Err(fail(j.at, format!("joint `{}` has a zero axis; expected an axis such as `0 0 1`", j.name)));
         }
-        let (parent, child) = (body_of[j.parent], body_of[j.child].unwrap_or(0));
-        let at = add(&o, &apply(&r, &j.point));
-        let (rho1, rho2) = points(&at, from, (parent, child)).ok_or_else(|| out_of_range(&j.name, j.at, fail))?;
+        let (parent, child) = (at.body_of[j.parent], at.body_of[j.child].unwrap_or(0));
+        let point = add(&o, &apply(&r, &j.point));
+        let (rho1, rho2) = points(&point, at.from, (parent, child)).ok_or_else(|| out_of_range(&j.name, j.at, fail))?;
         let kind = match j.kind {
             Kind::Prismatic => "translational",
             Kind::Spherical => "spherical",
@@ -289,11 +339,16 @@ pub fn assemble(
         let name = j.name.clone();
         out.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits: j.limits });
     }
+    Ok(out)
+}
+
+/// The joints that close loops: a ball or a weld at its anchor.
+fn closure_joints(closures: &[Closure], at: &Placed, fail: &Fail) -> syn::Result<Vec<RobotJoint>> {
     let mut loops = Vec::new();
     for c in closures {
-        let (r, o) = pose[c.anchor_on];
-        let at = add(&o, &apply(&r, &c.anchor));
-        let [a, b] = c.links.map(|l| body_of[l]);
+        let (r, o) = at.pose[c.anchor_on];
+        let point = add(&o, &apply(&r, &c.anchor));
+        let [a, b] = c.links.map(|l| at.body_of[l]);
         let (parent, child) = match (a, b) {
             (_, Some(b)) if a != Some(b) => (a, b),
             (Some(a), None) => (None, a),
@@ -302,19 +357,21 @@ pub fn assemble(
                 return Err(fail(c.at, message));
             }
         };
-        let (rho1, rho2) = points(&at, from, (parent, child)).ok_or_else(|| out_of_range(&c.name, c.at, fail))?;
+        let (rho1, rho2) = points(&point, at.from, (parent, child)).ok_or_else(|| out_of_range(&c.name, c.at, fail))?;
         let (name, kind, axis) = (c.name.clone(), if c.weld { "fixed" } else { "spherical" }, [0.0, 0.0, 1.0]);
         let limits = FileLimits::default();
         loops.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits });
     }
-    // Every link's frame: the body's axes are the world's at zero.
-    let frames = (0..links.len())
-        .map(|l| {
-            let (r, p) = pose[l];
-            let body = body_of[l];
-            FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)) }
-        })
-        .collect();
+    Ok(loops)
+}
+
+/// The joints in the library's order (MuJoCo: the file's; Pinocchio: depth
+/// first, siblings by name), a floating base first as `root_joint`.
+fn library_joints(
+    joints: &[Joint],
+    (library, root, floating): (Library, usize, bool),
+    body_of: &[Option<usize>],
+) -> Vec<LibraryJoint> {
     let order = match library {
         Library::MuJoCo => (0..joints.len()).collect(),
         Library::Pinocchio => by_name_depth_first(joints, root),
@@ -338,17 +395,7 @@ pub fn assemble(
         let (name, body, offset) = (j.name.clone(), body_of[j.child].unwrap_or(0), j.limits.spring.reference);
         library_joints.push(LibraryJoint { name, kind, link: j.child, body, joint, offset });
     }
-    Ok(Robot {
-        bodies,
-        joints: out,
-        closures: loops,
-        links: frames,
-        path: String::new(),
-        gravity: None,
-        options: FileOptions::default(),
-        couplings: Vec::new(),
-        library: (library, library_joints),
-    })
+    library_joints
 }
 
 /// The joints depth first from `link`, each link's child joints by name

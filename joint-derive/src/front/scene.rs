@@ -595,6 +595,21 @@ fn joint_dynamics(args: Vec<Arg>, errors: &mut Errors) -> (JointDynamics, Vec<Ar
     (out, rest)
 }
 
+/// The options `#[scene(..)]` takes (the did-you-mean candidates).
+const SCENE_OPTIONS: [&str; 8] =
+    ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base", "mimic", "file_damping"];
+
+/// A scene option that takes no value (`second_order`, `floating_base`).
+fn flag(a: attr::Arg, slot: &mut Slot<()>, errors: &mut Errors) {
+    match a.value {
+        None => slot.set(a.key.span(), (), errors),
+        Some(v) => {
+            let key = &a.key;
+            errors.at(v.span(), format!("`{key}` takes no value; expected `{key}` alone"))
+        }
+    }
+}
+
 /// `#[scene(gravity = .., formulation = omega_body, second_order, coordinates
 /// = relative)]`: the gravity, whether the second-order terms are wanted, and
 /// the coordinates.
@@ -617,14 +632,8 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                     "expected `mimic = coupled` (a file's followers as rows, the default) or `mimic = independent`",
                 ),
             },
-            "floating_base" => match a.value {
-                None => floating_base.set(a.key.span(), (), errors),
-                Some(v) => errors.at(v.span(), "`floating_base` takes no value; expected `floating_base` alone"),
-            },
-            "file_damping" => match a.value {
-                None => file_damping.set(a.key.span(), (), errors),
-                Some(v) => errors.at(v.span(), "`file_damping` takes no value; expected `file_damping` alone"),
-            },
+            "floating_base" => flag(a, &mut floating_base, errors),
+            "file_damping" => flag(a, &mut file_damping, errors),
             key @ ("urdf" | "mjcf") => {
                 let format = if key == "urdf" { RobotFormat::Urdf } else { RobotFormat::Mjcf };
                 match a.value {
@@ -648,10 +657,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                      omega_body` or nothing",
                 ),
             },
-            "second_order" => match a.value {
-                None => second_order.set(a.key.span(), (), errors),
-                Some(v) => errors.at(v.span(), "`second_order` takes no value; expected `second_order` alone"),
-            },
+            "second_order" => flag(a, &mut second_order, errors),
             "coordinates" => match &a.value {
                 Some(Value::Ident(c)) if c == "relative" || c == "absolute" || c == "both" => {
                     coordinates.set(a.key.span(), c.to_string(), errors)
@@ -663,19 +669,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 ),
             },
             other => {
-                let hint = did_you_mean(
-                    other,
-                    [
-                        "gravity",
-                        "second_order",
-                        "coordinates",
-                        "urdf",
-                        "mjcf",
-                        "floating_base",
-                        "mimic",
-                        "file_damping",
-                    ],
-                );
+                let hint = did_you_mean(other, SCENE_OPTIONS);
                 errors.at(
                     a.key.span(),
                     format!(

@@ -6,12 +6,12 @@ use joint_runtime::tree::TreeSimulation;
 // error, at the attribute's line and column, and the scene's uses still
 // type-check (a stub of no bodies stands in).
 #[derive(Scene)]
-#[scene(mjcf = "../../../../tests/data/robots/broken/springdamper.xml")]
+#[scene(mjcf = "../../data/robots/broken/springdamper.xml")]
 struct Refused;
 
 // A file cut short: one error, where the file ends.
 #[derive(Scene)]
-#[scene(urdf = "../../../../tests/data/robots/broken/cut.urdf")]
+#[scene(urdf = "../../data/robots/broken/cut.urdf")]
 struct Cut;
 
 fn main() {

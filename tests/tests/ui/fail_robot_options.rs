@@ -3,12 +3,12 @@ use joint_runtime::Scene;
 // A file's `<mimic>` is a row of relative coordinates: not with the
 // absolute engine as well (unless read as independent).
 #[derive(Scene)]
-#[scene(urdf = "../../../../tests/data/robots/panda.urdf", coordinates = both)]
+#[scene(urdf = "../../data/robots/panda.urdf", coordinates = both)]
 struct Both;
 
 // `mimic` and `floating_base` are for files, `floating_base` for URDF ones.
 #[derive(Scene)]
-#[scene(mjcf = "../../../../tests/data/robots/ur5.xml", floating_base)]
+#[scene(mjcf = "../../data/robots/ur5.xml", floating_base)]
 struct Floating;
 
 #[derive(Scene)]
