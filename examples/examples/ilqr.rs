@@ -15,7 +15,7 @@ use std::path::Path;
 use joint_examples::ilqr::{self, Acrobot, Derivatives, PandaArm, Solution};
 use joint_runtime::nalgebra::Vector3;
 use joint_runtime::record::{SvgOptions, Trajectory, View};
-use joint_runtime::tree::TreeSimulation;
+use joint_runtime::relative::TreeSimulation;
 
 fn report<const NV: usize>(name: &str, exact: &Solution<NV>, differenced: &Solution<NV>) {
     println!("{name}: cost {:.4e} at the first guess", exact.initial_cost);
@@ -67,7 +67,7 @@ fn plot(path: &Path, runs: &[(&str, Vec<f64>)]) -> Result<(), Box<dyn Error>> {
 fn main() -> Result<(), Box<dyn Error>> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots");
     std::fs::create_dir_all(&dir)?;
-    let err = |e: joint_runtime::tree::TreeError| e.to_string();
+    let err = |e: joint_runtime::relative::TreeError| e.to_string();
 
     let mut sim = TreeSimulation::new(&PandaArm)?;
     let problem = ilqr::panda_problem(&sim);

@@ -20,7 +20,7 @@
 //! `INTEGRATOR=alpha`, `midpoint` or `radau` the steps are that implicit
 //! integrator's (RK4 otherwise), so that their stack can be measured too.
 //! With `COORDINATES=relative` the chains, arms and loops run in relative
-//! coordinates (`joint_runtime::tree`, RK4, the same start converted); with
+//! coordinates (`joint_runtime::relative`, RK4, the same start converted); with
 //! `MEASURE=dynamics` as well, `STEPS` calls of inverse dynamics and of the
 //! mass matrix are timed instead (ns per call, at the state a MuJoCo harness
 //! can time `mj_inverse` and `mj_fullM` at).
@@ -40,7 +40,7 @@ use joint_examples::scaling::chain_start;
 use joint_examples::{bricard, four_bar};
 use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
-use joint_runtime::tree::{TreeScene, TreeSimulation};
+use joint_runtime::relative::{TreeScene, TreeSimulation};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
 joint_examples::chain_scene!(Chain3, 3, coordinates = both);

@@ -25,7 +25,7 @@ use std::hint::black_box;
 use joint_examples::report::variants::median_ns;
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
-use joint_runtime::tree::{
+use joint_runtime::relative::{
     ForceGains, ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeScene, TreeSimulation, TreeState,
 };
 

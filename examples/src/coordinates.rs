@@ -3,7 +3,7 @@
 //! relative [`TreeSimulation`], RK4 at one step size, compared body by body.
 
 use joint_runtime::dynamics::{AbsoluteSimulation, NoLoads, SimulationOptions, SpringDamper};
-use joint_runtime::tree::{TreeScene, TreeSimulation};
+use joint_runtime::relative::{TreeScene, TreeSimulation};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 /// What [`both`] measured.

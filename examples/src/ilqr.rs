@@ -3,9 +3,9 @@
 //!
 //! The plant is one RK4 step of the scene under joint forces held over the
 //! step; its Jacobian `[A B]` is
-//! [`TreeSimulation::rk4_step_jacobian`](joint_runtime::tree::TreeSimulation::rk4_step_jacobian)
+//! [`TreeSimulation::rk4_step_jacobian`](joint_runtime::relative::TreeSimulation::rk4_step_jacobian)
 //! (exact, by the chain rule through the stages), or, for comparison, central
-//! differences of [`step_with`](joint_runtime::tree::TreeSimulation::step_with)
+//! differences of [`step_with`](joint_runtime::relative::TreeSimulation::step_with)
 //! (`2 (2 NV + NU)` more steps per knot). The cost is quadratic about a
 //! target state: `Σ ½ (xₖ − x*)ᵀ Q (xₖ − x*) + ½ uₖᵀ R uₖ` and a terminal
 //! `½ (x_N − x*)ᵀ Q_f (x_N − x*)`. Each iteration linearises the trajectory,
@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use joint_runtime::nalgebra::{DMatrix, DVector, SVector};
-use joint_runtime::tree::{StepJacobian, StepWork, TreeError, TreeScene, TreeSimulation, TreeState};
+use joint_runtime::relative::{StepJacobian, StepWork, TreeError, TreeScene, TreeSimulation, TreeState};
 
 /// How the step's Jacobian is obtained.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -15,7 +15,7 @@
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
 use joint_runtime::record::{Column, Trajectory};
-use joint_runtime::tree::{TreeError, TreeSimulation, TreeState};
+use joint_runtime::relative::{TreeError, TreeSimulation, TreeState};
 
 /// The Panda: seven revolute joints and the two fingers' slides, each
 /// finger its own joint (`mimic = independent`: the controller holds both;

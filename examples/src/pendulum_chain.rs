@@ -34,7 +34,7 @@ pub const WHIRL: f64 = 2.0;
 
 /// The chain: `pivot` hangs `bar1` from the ground, `ball{i}` hangs `bar{i+1}`
 /// from `bar{i}`. Bar inertia as [`bar_inertia`]. In both coordinate choices:
-/// absolute (`Simulation`) and relative (`joint_runtime::tree::TreeSimulation`,
+/// absolute (`Simulation`) and relative (`joint_runtime::relative::TreeSimulation`,
 /// fifteen coordinates of five quaternions, fifteen velocities, no rows).
 #[derive(joint_runtime::Scene)]
 #[scene(gravity = [0, 0, -9.81], coordinates = both)]

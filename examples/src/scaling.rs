@@ -1,6 +1,6 @@
 //! Scenes that scale: µs per step against the number of bodies for a chain, a
 //! ladder of closed loops and a branched tree, on the sparse path
-//! ([`joint_runtime::sparse`]) and, where it still fits, the dense one; the
+//! ([`joint_runtime::absolute`]) and, where it still fits, the dense one; the
 //! program `cargo run --release -p joint-scaling` writes
 //! `report/scaling.md` and `report/scaling.svg`.
 //!

@@ -3,7 +3,7 @@
 //! the step lead the same iterations to the same costs.
 
 use joint_examples::ilqr::{self, Acrobot, Derivatives, PandaArm};
-use joint_runtime::tree::TreeSimulation;
+use joint_runtime::relative::TreeSimulation;
 
 #[test]
 fn the_panda_reaches_its_target() {

@@ -67,7 +67,7 @@ impl<S: SparseJacobian<NB, NNZ>, const NB: usize, const NNZ: usize, const NORMAL
     const KKT_ORDER: &'static [usize] = S::KKT_ORDER;
     const KKT_STARTS: &'static [usize] = S::KKT_STARTS;
     const KKT_BELOW: &'static [usize] = S::KKT_BELOW;
-    type Kkt<T: joint_runtime::sparse::KktEntry> = S::Kkt<T>;
+    type Kkt<T: joint_runtime::absolute::KktEntry> = S::Kkt<T>;
     type Terms = S::Terms;
     fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]) {
         self.0.jacobian_values_into(state, out);

@@ -1,15 +1,15 @@
-//! The sparse path (`joint_runtime::sparse`) against the dense one on every
+//! The sparse path (`joint_runtime::absolute`) against the dense one on every
 //! example scene: the same accelerations and the same steps to round-off, the
 //! same number of redundant rows (Bricard's one, the Cardan shafts' bearings).
 
 use joint_examples::{bricard, cardan, double_cardan, four_bar, pendulum_chain, press, scaling, steering};
+use joint_runtime::absolute::{RowTerm, SecondOrderLayout};
 use joint_runtime::analysis::{Analyses, AssemblyOptions, assemble, velocities};
 use joint_runtime::dynamics::{
     AbsoluteSimulation, Adaptive, DenseSimulation, Integrator, Loads, NoLoads, Simulation, SimulationOptions,
     SpringDamper, Stabilisation, Tolerance,
 };
 use joint_runtime::nalgebra::{DMatrix, SVector};
-use joint_runtime::sparse::{RowTerm, SecondOrderLayout};
 use joint_runtime::{Ramp, Scene, SparseJacobian, SystemState};
 
 /// `|a − b| ≤ tol (1 + |b|)` entry by entry.

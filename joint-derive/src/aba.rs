@@ -1,7 +1,7 @@
 //! The articulated-body algorithm written out for a relative-coordinate
 //! scene's fixed tree (`TreeScene::forward_dynamics_into`), on the engine's
 //! graph: the same three passes as the runtime's recursion
-//! (`joint_runtime::tree`), but every axis, joint point, motion subspace and
+//! (`joint_runtime::relative`), but every axis, joint point, motion subspace and
 //! rest rotation given as a number is one here, so the structural zeros of the spatial
 //! algebra fold away (a revolute joint about `z` moves three of six
 //! components; a diagonal inertia has three of nine entries) and equal
@@ -1182,7 +1182,7 @@ fn vector_method(
     let method = quote! {
         fn #name(
             &self,
-            geometry: &#k::tree::TreeGeometry<#nb>,
+            geometry: &#k::relative::TreeGeometry<#nb>,
             q: &[f64; #nq],
             v: &[f64; #nv],
             #third: &[f64; #nv],
@@ -1385,7 +1385,7 @@ fn kernels(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<(Tok
     let method = quote! {
         fn forward_dynamics_into(
             &self,
-            geometry: &#k::tree::TreeGeometry<#nb>,
+            geometry: &#k::relative::TreeGeometry<#nb>,
             q: &[f64; #nq],
             v: &[f64; #nv],
             tau: &[f64; #nv],
@@ -1774,7 +1774,7 @@ fn mass_matrix(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> Option<
     Some(quote! {
         #[doc = #doc]
         #[inline]
-        fn mass_matrix_into(&self, geometry: &#k::tree::TreeGeometry<#nb>, q: &[f64; #nq], out: &mut [[f64; #nv]; #nv]) -> bool {
+        fn mass_matrix_into(&self, geometry: &#k::relative::TreeGeometry<#nb>, q: &[f64; #nq], out: &mut [[f64; #nv]; #nv]) -> bool {
             let #qp = *q;
             #(#binds)*
             #body

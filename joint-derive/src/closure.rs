@@ -304,11 +304,11 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
         #[inline]
         fn closure_rows(
             &self,
-            state: &#k::tree::TreeState<#nq, #nv>,
-            geometry: &#k::tree::TreeGeometry<#nb>,
-        ) -> #k::tree::ClosureRows<#nc, #nv> {
+            state: &#k::relative::TreeState<#nq, #nv>,
+            geometry: &#k::relative::TreeGeometry<#nb>,
+        ) -> #k::relative::ClosureRows<#nc, #nv> {
             #body
-            #k::tree::ClosureRows { phi: #phi, jacobian: #jac, gamma: #gamma, phi_t: #phi_t }
+            #k::relative::ClosureRows { phi: #phi, jacobian: #jac, gamma: #gamma, phi_t: #phi_t }
         }
     };
     (method, rows)

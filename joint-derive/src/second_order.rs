@@ -146,7 +146,7 @@ fn column_major(rows: &[Vec<Id>], cols: usize) -> Vec<Id> {
 }
 
 /// The second-order terms of a scene in its sparse layout (the runtime's
-/// `sparse::SecondOrderLayout`): each joint's stiffness block over the columns
+/// `absolute::SecondOrderLayout`): each joint's stiffness block over the columns
 /// of the bodies it connects (row-major, `6n × 6n` for `n` bodies), then, row
 /// by row, `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v` and `∂Φ_t/∂q` over the columns of the
 /// row's joint. A row touches only its joint's bodies, so nothing outside these

@@ -179,11 +179,11 @@ pub fn method(s: &SceneDecl, joints: &[Joint], nq: usize, nv: usize) -> (Option<
         #[inline]
         fn inverse_dynamics_derivatives_into(
             &self,
-            geometry: &#k::tree::TreeGeometry<#nb>,
+            geometry: &#k::relative::TreeGeometry<#nb>,
             q: &[f64; #nq],
             v: &[f64; #nv],
             vdot: &[f64; #nv],
-            out: &mut #k::tree::InverseDerivatives<#nv>,
+            out: &mut #k::relative::InverseDerivatives<#nv>,
         ) -> bool {
             #prelude
             out.tau = #p::SVector::from_data(#p::ArrayStorage([[#(#tau),*]]));
@@ -247,12 +247,12 @@ pub fn second_method(s: &SceneDecl, joints: &[Joint], (nq, nv): (usize, usize), 
         #[inline]
         fn inverse_dynamics_second_derivatives_into(
             &self,
-            geometry: &#k::tree::TreeGeometry<#nb>,
+            geometry: &#k::relative::TreeGeometry<#nb>,
             q: &[f64; #nq],
             v: &[f64; #nv],
             vdot: &[f64; #nv],
             lambda: &[f64; #nv],
-            out: &mut #k::tree::SecondDerivatives<#nv>,
+            out: &mut #k::relative::SecondDerivatives<#nv>,
         ) -> bool {
             #prelude
             out.d_qq = #qq;

@@ -10,6 +10,7 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+pub mod absolute;
 pub mod analysis;
 pub mod conventions {
     #![doc = include_str!("../CONVENTIONS.md")]
@@ -22,20 +23,45 @@ mod joint;
 pub mod linalg;
 #[cfg(feature = "record")]
 pub mod record;
+pub mod relative;
 pub mod robot;
 pub mod scene;
 #[cfg(feature = "serde")]
 mod serde_array;
-pub mod sparse;
 mod state;
 mod time;
-pub mod tree;
 
 pub use geometry::{AxisFrame, SlidingFrame, perpendicular_pair, rotation_matrix};
 pub use joint::{Evaluation, Formulation, Joint, Ops, ParseFormulationError, SecondOrder, Singularity};
 pub use scene::{BodyInertia, JointPoint, RowBlock, Scene, SparseJacobian, SystemState};
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};
+
+/// The absolute-coordinate engine's former name (renamed in 0.2: a scene
+/// that declares `coordinates = absolute` finds it under [`absolute`]).
+#[deprecated(since = "0.2.0", note = "renamed `joint_runtime::absolute` (CHANGELOG.md)")]
+pub mod sparse {
+    pub use crate::absolute::*;
+}
+/// The relative-coordinate engine's former name (renamed in 0.2: a scene
+/// that declares `coordinates = relative` finds it under [`relative`]).
+/// Old paths still compile, with a deprecation warning:
+///
+/// ```
+/// #[allow(deprecated)]
+/// use joint_runtime::tree::TreeState;
+/// use joint_runtime::nalgebra::SVector;
+/// let _: TreeState<1, 1> = joint_runtime::relative::TreeState { q: SVector::zeros(), v: SVector::zeros(), t: 0.0 };
+/// ```
+///
+/// ```compile_fail
+/// #![deny(deprecated)]
+/// use joint_runtime::tree::TreeState;
+/// ```
+#[deprecated(since = "0.2.0", note = "renamed `joint_runtime::relative` (CHANGELOG.md)")]
+pub mod tree {
+    pub use crate::relative::*;
+}
 
 /// Re-exported so that users need one dependency.
 pub use joint_derive::{Joint, Scene};

@@ -148,7 +148,7 @@ pub trait Scene<const NB: usize, const NV: usize, const M: usize> {
         None
     }
     /// The second-order terms at `state` in the sparse layout of
-    /// [`SecondOrderLayout`](crate::sparse::SecondOrderLayout) (each joint's
+    /// [`SecondOrderLayout`](crate::absolute::SecondOrderLayout) (each joint's
     /// stiffness block over its bodies' columns, then each row's `∂(J u)/∂q`,
     /// `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q` over them), written into `out`: what the
     /// sparse path's implicit integrator needs, in entries that grow with the
@@ -203,9 +203,9 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     /// column reaches, fill included.
     const FACTOR_BELOW: &'static [usize];
     /// Where the block factor of `J M⁻¹ Jᵀ` lives: arrays sized by the derive
-    /// from the pattern above ([`FactorArrays`](crate::sparse::FactorArrays)),
+    /// from the pattern above ([`FactorArrays`](crate::absolute::FactorArrays)),
     /// so that the sparse solves need no allocator.
-    type Factor: crate::sparse::FactorStorage;
+    type Factor: crate::absolute::FactorStorage;
     /// The implicit integrators' saddle-point matrix `[S Jᵀ; J T 0]` over
     /// bodies (nodes `0..NB`) and joints (node `NB + j`, in
     /// [`Scene::BLOCKS`] order), bodies coupled where a joint joins them:
@@ -221,12 +221,12 @@ pub trait SparseJacobian<const NB: usize, const NNZ: usize> {
     const KKT_BELOW: &'static [usize];
     /// Where that matrix lives, with entries `T` (`f64`, or Radau IIA's
     /// `Complex<f64>`): arrays sized by the derive from the pattern above
-    /// ([`KktArrays`](crate::sparse::KktArrays)).
-    type Kkt<T: crate::sparse::KktEntry>: crate::sparse::KktStorage<T>;
+    /// ([`KktArrays`](crate::absolute::KktArrays)).
+    type Kkt<T: crate::absolute::KktEntry>: crate::absolute::KktStorage<T>;
     /// Where the implicit integrators keep the scene's second-order terms:
-    /// [`TermArray`](crate::sparse::TermArray) of the length of its
-    /// [`SecondOrderLayout`](crate::sparse::SecondOrderLayout).
-    type Terms: crate::sparse::TermStorage;
+    /// [`TermArray`](crate::absolute::TermArray) of the length of its
+    /// [`SecondOrderLayout`](crate::absolute::SecondOrderLayout).
+    type Terms: crate::absolute::TermStorage;
     /// The entries' values at `state`, written into `out` (the derive writes
     /// them in place: no array of the scene's size in the caller's frame).
     fn jacobian_values_into(&self, state: &SystemState<NB>, out: &mut [f64; NNZ]);

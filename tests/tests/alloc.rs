@@ -14,7 +14,9 @@ use joint_runtime::analysis::{Analyses, AssemblyOptions};
 use joint_runtime::batch::{WideF64x4, evaluate_batch, evaluate_batch_simd, splat};
 use joint_runtime::dynamics::{Adaptive, Integrator, Loads, NoLoads, Simulation, SimulationOptions, Tolerance};
 use joint_runtime::nalgebra::{SVector, UnitQuaternion, Vector3};
-use joint_runtime::tree::{ForceGains, ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeSimulation};
+use joint_runtime::relative::{
+    ForceGains, ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeSimulation,
+};
 use joint_runtime::{Joint, OmegaBody, Ramp, Scene, SparseJacobian, SystemState, TwoBodies};
 
 /// A double pendulum in relative coordinates with its derivatives.

@@ -10,7 +10,7 @@ use std::path::Path;
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
-use joint_runtime::tree::{
+use joint_runtime::relative::{
     ForwardDerivatives, InverseDerivatives, TreeJointKind, TreeScene, TreeSimulation, TreeState,
 };
 use serde_json::Value;

@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use joint_runtime::nalgebra::SVector;
-use joint_runtime::tree::{ForceGains, StepWork, TreeSimulation, TreeState};
+use joint_runtime::relative::{ForceGains, StepWork, TreeSimulation, TreeState};
 
 use super::derivatives::Ur5;
 

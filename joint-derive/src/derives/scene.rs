@@ -309,9 +309,9 @@ fn simulate(input: &syn::DeriveInput, generics: &syn::Generics, engine: Engine) 
         Engine::Tree(n) => {
             let [nb, nq, nv, nc] = lit(n);
             (
-                quote!(#k::tree::TreeSimulation<'__a, Self, #nb, #nq, #nv, #nc, __L>),
-                quote!(#k::tree::TreeError),
-                quote!(#k::tree::TreeSimulation::new(self)?.with_springs(springs)?.with_loads(loads).with_options(options)),
+                quote!(#k::relative::TreeSimulation<'__a, Self, #nb, #nq, #nv, #nc, __L>),
+                quote!(#k::relative::TreeError),
+                quote!(#k::relative::TreeSimulation::new(self)?.with_springs(springs)?.with_loads(loads).with_options(options)),
             )
         }
     };
@@ -614,7 +614,7 @@ fn block_structure(s: &SceneDecl, e: &crate::engine::order::Elimination, nnz: &L
         const FACTOR_BELOW: &'static [usize] = #below;
         /// Joint blocks, factor slots, scheduled updates, shared-body terms,
         /// Jacobian entries, rows.
-        type Factor = #k::sparse::FactorArrays<#n, #slots, #updates, #shared, #nnz, #m>;
+        type Factor = #k::absolute::FactorArrays<#n, #slots, #updates, #shared, #nnz, #m>;
     }
 }
 
@@ -655,7 +655,7 @@ fn kkt_structure(s: &SceneDecl) -> TokenStream {
         const KKT_STARTS: &'static [usize] = #starts;
         const KKT_BELOW: &'static [usize] = #below;
         /// Nodes, block pairs below the diagonal, Schur updates.
-        type Kkt<__Entry: #k::sparse::KktEntry> = #k::sparse::KktArrays<__Entry, #n, #a, #u>;
+        type Kkt<__Entry: #k::absolute::KktEntry> = #k::absolute::KktArrays<__Entry, #n, #a, #u>;
     }
 }
 
@@ -678,7 +678,7 @@ fn terms_type(rows: &[crate::normal::JointRows]) -> TokenStream {
     let (len, k) = (Literal::usize_unsuffixed(len), krate());
     quote! {
         /// The second-order terms' count.
-        type Terms = #k::sparse::TermArray<#len>;
+        type Terms = #k::absolute::TermArray<#len>;
     }
 }
 
@@ -802,7 +802,7 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
     let simulate = simulate(input, &input.generics, engine);
     let tree = tree.map(|sizes| {
         let body = quote! {
-            fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { loop {} }
+            fn tree_joints(&self) -> [#k::relative::TreeJoint; #nb] { loop {} }
             fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { loop {} }
             fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { loop {} }
         };
@@ -832,12 +832,12 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
             const ELIMINATION: &'static [usize] = &[];
             const FACTOR_STARTS: &'static [usize] = &[];
             const FACTOR_BELOW: &'static [usize] = &[];
-            type Factor = #k::sparse::FactorArrays<0, 0, 0, 0, 0, 0>;
+            type Factor = #k::absolute::FactorArrays<0, 0, 0, 0, 0, 0>;
             const KKT_ORDER: &'static [usize] = &[];
             const KKT_STARTS: &'static [usize] = &[];
             const KKT_BELOW: &'static [usize] = &[];
-            type Kkt<__Entry: #k::sparse::KktEntry> = #k::sparse::KktArrays<__Entry, 0, 0, 0>;
-            type Terms = #k::sparse::TermArray<0>;
+            type Kkt<__Entry: #k::absolute::KktEntry> = #k::absolute::KktArrays<__Entry, 0, 0, 0>;
+            type Terms = #k::absolute::TermArray<0>;
             fn jacobian_values_into(&self, _: &#k::SystemState<#nb>, _: &mut [f64; 0]) { loop {} }
         }
     }

@@ -69,7 +69,7 @@ pub fn print(
         quote!(fn tree_compensation(&self) -> [f64; #nb] { [#(#all),*] })
     });
     let body = quote! {
-        fn tree_joints(&self) -> [#k::tree::TreeJoint; #nb] { [#(#joints),*] }
+        fn tree_joints(&self) -> [#k::relative::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
         #compensation
@@ -100,10 +100,10 @@ pub fn wrap(
     );
     quote! {
         #[doc = #doc]
-        #vis type #alias = #k::tree::TreeState<#nq, #nv>;
+        #vis type #alias = #k::relative::TreeState<#nq, #nv>;
 
         #lints
-        impl #ig #k::tree::TreeScene<#nb, #nq, #nv, #nc> for #ident #tg #wc {
+        impl #ig #k::relative::TreeScene<#nb, #nq, #nv, #nc> for #ident #tg #wc {
             #body
         }
     }
@@ -153,9 +153,9 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
         TreeKind::Free => quote!(Free),
     };
     quote! {
-        #k::tree::TreeJoint {
+        #k::relative::TreeJoint {
             name: #name,
-            kind: #k::tree::TreeJointKind::#kind,
+            kind: #k::relative::TreeJointKind::#kind,
             parent: #parent,
             child: #child,
             rho_parent: #rho_p,
@@ -180,9 +180,9 @@ fn free(s: &SceneDecl, e: &TreeEdge) -> TokenStream {
     let child = Literal::usize_unsuffixed(e.ends.1);
     let z = zero();
     quote! {
-        #k::tree::TreeJoint {
+        #k::relative::TreeJoint {
             name: #name,
-            kind: #k::tree::TreeJointKind::Free,
+            kind: #k::relative::TreeJointKind::Free,
             parent: ::core::option::Option::None,
             child: #child,
             rho_parent: #z,

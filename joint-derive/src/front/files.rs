@@ -230,6 +230,7 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
 
 /// A joint's armature, damping and spring as the derive's attributes, in
 /// relative coordinates (`dynamics`); a spring is refused otherwise.
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
 fn dynamics_args(j: &super::robot::RobotJoint, dynamics: bool, span: Span, errors: &mut Errors) -> Vec<Arg> {
     let mut args = Vec::new();
     let spring = j.limits.spring;

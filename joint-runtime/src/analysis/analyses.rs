@@ -6,9 +6,9 @@ use super::{
     AccelerationAnalysis, Analysis, AnalysisError, Assembly, AssemblyOptions, InverseMass, NewtonWork,
     VelocityAnalysis, check_output, check_state, check_values, set_velocities,
 };
+use crate::absolute::solver::{Solver, unit_metric};
 use crate::linalg::DEFAULT_RANK_TOLERANCE;
 use crate::scene::{Scene, SparseJacobian, SystemState};
-use crate::sparse::solver::{Solver, unit_metric};
 
 /// The kinematic analyses of one scene: assembly, velocity and acceleration
 /// analysis on the scene's block factor, whose storage the derive sized

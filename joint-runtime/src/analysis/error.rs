@@ -98,8 +98,10 @@ pub enum AnalysisError {
     /// integrator's, `AbsoluteSimulation::prepare` another's (a step never builds
     /// one, so it never allocates).
     NotPrepared {
-        /// The integrator.
+        /// The integrator, in words ("Radau IIA").
         integrator: &'static str,
+        /// Its option, as Rust writes it (`Integrator::RadauIIA`).
+        option: &'static str,
     },
     /// The implicit integrator's Newton iteration did not converge.
     ImplicitNotConverged {
@@ -187,8 +189,13 @@ impl fmt::Display for AnalysisError {
                 )
             }
             AnalysisError::BadOption { name } => write!(f, "option `{name}` is out of range"),
-            AnalysisError::NotPrepared { integrator } => {
-                write!(f, "no workspace for {integrator}: call `prepare` first (a step never allocates)")
+            AnalysisError::NotPrepared { integrator, option } => {
+                write!(
+                    f,
+                    "no workspace for {integrator}: this simulation was made for another integrator; make it with \
+                     `SimulationOptions::default().with_integrator({option})`, or call `prepare({option})` once \
+                     before (a step never allocates, so it never builds one)"
+                )
             }
             AnalysisError::ImplicitNotConverged { iterations, correction } => write!(
                 f,

@@ -3,7 +3,7 @@
 //!
 //! All three solve underdetermined or redundant linear systems `J x = b` in the
 //! minimum-norm sense, `x = Jᵀ y` with `(J Jᵀ) y = b`, factorising the Gram
-//! matrix on the scene's block pattern ([`BlockFactor`](crate::sparse::BlockFactor):
+//! matrix on the scene's block pattern ([`BlockFactor`](crate::absolute::BlockFactor):
 //! the derive's elimination order, each diagonal block by a rank-revealing
 //! pivoted Cholesky), in time and memory proportional to the scene. Rows it
 //! drops as dependent are *redundant* and are reported by joint name (via

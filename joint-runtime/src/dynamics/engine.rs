@@ -8,9 +8,9 @@
 //! [`Simulation`] implements it by its engine's.
 
 use super::{Adaptive, AppliedLoads, Energy, IntegrationReport, Simulate, Simulation, StepReport, Tolerance};
+use crate::absolute::AbsoluteSimulation;
 use crate::analysis::AnalysisError;
-use crate::sparse::AbsoluteSimulation;
-use crate::tree::{TreeError, TreeScene, TreeSimulation, TreeState};
+use crate::relative::{TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::{Scene, SparseJacobian, SystemState};
 
 /// A simulation of `NB` bodies, whichever engine runs it.

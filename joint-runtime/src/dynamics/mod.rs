@@ -7,7 +7,7 @@
 //! [`Simulation`] is the one simulation for every scene: it solves the
 //! equations below on the scene's compile-time block pattern (the block factor
 //! of `J M⁻¹ Jᵀ` in arrays the derive sizes, the implicit integrators'
-//! saddle-point matrices; see [`sparse`](crate::sparse)), in time and memory
+//! saddle-point matrices; see [`sparse`](crate::absolute)), in time and memory
 //! proportional to the scene. (The same equations on dense matrices are kept
 //! as the tests' independent reference, behind a feature that is not part of
 //! the API.)
@@ -31,7 +31,7 @@
 //! the bodies is therefore `−Jᵀ λ`; a joint's reaction on each body is its rows'
 //! share, `−J_kᵀ λ_k`, split into the body's `[force (inertial), torque (body)]`
 //! ([`AbsoluteSimulation::reactions`]). `J M⁻¹ Jᵀ` is factorised on its block pattern
-//! ([`BlockFactor`](crate::sparse::BlockFactor)), each diagonal block by a
+//! ([`BlockFactor`](crate::absolute::BlockFactor)), each diagonal block by a
 //! rank-revealing pivoted Cholesky: for redundant
 //! constraints λ is not unique (the dropped rows get λ = 0), but every λ gives
 //! the same `v̇`.
@@ -118,7 +118,7 @@ mod newton_matrix;
 pub(crate) mod radau;
 mod simulation;
 
-pub use crate::sparse::AbsoluteSimulation;
+pub use crate::absolute::AbsoluteSimulation;
 pub use adaptive::{Adaptive, IntegrationReport, Tolerance};
 #[cfg(feature = "__dense_reference")]
 #[doc(hidden)]
@@ -337,7 +337,7 @@ pub enum NewtonMatrix {
     /// forces' derivatives stay exact). On the sparse path, for both, the
     /// second-order terms by central differences of the generated `J`, `γ`
     /// and `Φ_t`, several bodies at a time
-    /// ([`DifferenceTerms`](crate::sparse::DifferenceTerms)), in the same
+    /// ([`DifferenceTerms`](crate::absolute::DifferenceTerms)), in the same
     /// saddle-point Newton matrix.
     FiniteDifferences,
 }

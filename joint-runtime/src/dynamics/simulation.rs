@@ -18,19 +18,19 @@
 //! group against joint coordinates), and each is generated for its scene at
 //! compile time; what a user should not have to know is which one to name.
 //!
-//! [`TreeSimulation`]: crate::tree::TreeSimulation
+//! [`TreeSimulation`]: crate::relative::TreeSimulation
 
 use core::ops::{Deref, DerefMut};
 
 use super::{NoLoads, SimulationOptions, SpringDamper};
 #[cfg(doc)]
-use crate::sparse::AbsoluteSimulation;
+use crate::absolute::AbsoluteSimulation;
 
 /// How a scene is simulated: the engine its coordinates call for, made
 /// from the scene, the user's loads `L`, springs and options. The derive
 /// implements it for every scene (absolute coordinates:
 /// [`AbsoluteSimulation`]; `coordinates = relative`:
-/// [`TreeSimulation`](crate::tree::TreeSimulation)); a hand-written
+/// [`TreeSimulation`](crate::relative::TreeSimulation)); a hand-written
 /// [`Scene`](crate::Scene) implements it in one line through
 /// [`AbsoluteSimulation::new`].
 pub trait Simulate<'a, L>: Sized {
@@ -103,7 +103,7 @@ impl<'a, S: Simulate<'a, L>, L> Simulation<'a, S, L> {
     ///
     /// # Errors
     /// The engine's: [`AnalysisError`](crate::analysis::AnalysisError) for
-    /// absolute coordinates, [`TreeError`](crate::tree::TreeError) for
+    /// absolute coordinates, [`TreeError`](crate::relative::TreeError) for
     /// relative ones (a bad inertia, spring or option, by name).
     pub fn new(
         scene: &'a S,

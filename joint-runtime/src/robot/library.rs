@@ -27,7 +27,7 @@ use core::fmt;
 use nalgebra::{Quaternion, Rotation3, SVector, UnitQuaternion, Vector3};
 
 use super::LinkFrame;
-use crate::tree::TreeState;
+use crate::relative::TreeState;
 
 /// The library whose state layout a [`StateLayout`] reads and writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

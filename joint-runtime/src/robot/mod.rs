@@ -11,7 +11,7 @@
 //! [`LinkFrame::pose`] and [`LinkFrame::velocity`] from the bodies'
 //! [`SystemState`] (either coordinate choice converts to it),
 //! [`LinkFrame::point`] for the point to give a point Jacobian, such as
-//! [`Tree::point_jacobian`](crate::tree::Tree::point_jacobian).
+//! [`Tree::point_jacobian`](crate::relative::Tree::point_jacobian).
 //!
 //! A relative-coordinate scene from a file also has `MUJOCO` (MJCF) or
 //! `PINOCCHIO` (URDF), a [`StateLayout`]: states, accelerations and forces
@@ -117,8 +117,8 @@ pub struct JointLimits {
 /// its `Euler` (semi-implicit, damping implicit) a first-order step that
 /// `implicit_step_with` with zero gains covers.
 ///
-/// [`TreeSimulation::step`]: crate::tree::TreeSimulation::step
-/// [`TreeSimulation::implicit_step_with`]: crate::tree::TreeSimulation::implicit_step_with
+/// [`TreeSimulation::step`]: crate::relative::TreeSimulation::step
+/// [`TreeSimulation::implicit_step_with`]: crate::relative::TreeSimulation::implicit_step_with
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FileOptions {
     /// The file's step (s), where given.

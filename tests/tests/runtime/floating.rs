@@ -10,8 +10,8 @@ use joint_runtime::Scene;
 use joint_runtime::SystemState;
 use joint_runtime::dynamics::{Loads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{SVector, Vector3};
-use joint_runtime::tree::TreeScene;
-use joint_runtime::tree::{Tree, TreeJointKind, TreeSimulation, TreeState};
+use joint_runtime::relative::TreeScene;
+use joint_runtime::relative::{Tree, TreeJointKind, TreeSimulation, TreeState};
 
 use crate::tree::{generated_against_recursion, mass_matrix_against_energy, quaternion, same_motion};
 

@@ -8,8 +8,8 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{DMatrix, DVector, SMatrix};
+use joint_runtime::relative::{TreeScene, TreeSimulation};
 use joint_runtime::robot::{Library, StateError, StateLayout};
-use joint_runtime::tree::{TreeScene, TreeSimulation};
 use serde_json::Value;
 
 use crate::urdf::numbers;

@@ -6,7 +6,7 @@
 use super::tree::same_motion;
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::SVector;
-use joint_runtime::tree::{TreeError, TreeScene, TreeSimulation, TreeState};
+use joint_runtime::relative::{TreeError, TreeScene, TreeSimulation, TreeState};
 
 /// A parallelogram four-bar, upright at zero: crank and rocker 1 m, coupler
 /// 1 m; `d` closes the loop. Planar, so three of its five rows are kept by

@@ -4,8 +4,8 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3, Vector4};
+use joint_runtime::relative::{TreeSimulation, TreeState};
 use joint_runtime::robot::{FileIntegrator, FileOptions, LinkFrame, StateLayout};
-use joint_runtime::tree::{TreeSimulation, TreeState};
 
 super::urdf::robots_against_pinocchio!(
     mjcf: "data/robots/double_pendulum.xml", "data/robots/ur5.xml", "data/robots/panda.xml", "data/robots/solo12.xml",
@@ -17,7 +17,7 @@ super::urdf::robots_against_pinocchio!(
 #[test]
 #[allow(clippy::approx_constant)] // the file's digits, not 2π
 fn gravity_and_limits_from_the_file() {
-    let sim = joint_runtime::tree::TreeSimulation::new(&Ur5).unwrap();
+    let sim = joint_runtime::relative::TreeSimulation::new(&Ur5).unwrap();
     assert_eq!(sim.tree().gravity(), joint_runtime::nalgebra::Vector3::new(0.0, 0.0, -9.81));
     let pan = Ur5::LIMITS[0];
     assert_eq!((pan.name, pan.range, pan.effort), ("shoulder_pan_joint", Some((-6.28319, 6.28319)), Some(150.0)));
@@ -147,7 +147,7 @@ fn against_mujoco<S, const NB: usize, const NQ: usize, const NV: usize>(
     key: &str,
 ) -> [f64; 3]
 where
-    S: joint_runtime::tree::TreeScene<NB, NQ, NV>,
+    S: joint_runtime::relative::TreeScene<NB, NQ, NV>,
 {
     let path = format!("{}/data/mjcf/reference.json", env!("CARGO_MANIFEST_DIR"));
     let data: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
@@ -239,7 +239,7 @@ fn gravity_compensation_as_mujoco_has_it() {
     let mut state = sim.tree().zero_state();
     state.q = SVector::from([0.3, -0.7, 0.4, -1.9, 0.5, 1.3, -0.2, 0.01, 0.03]);
     state.v = SVector::from([0.2, -0.1, 0.3, 0.1, -0.4, 0.2, 0.5, 0.01, -0.02]);
-    let mut d = joint_runtime::tree::InverseDerivatives::zeros();
+    let mut d = joint_runtime::relative::InverseDerivatives::zeros();
     let a = SVector::from([0.1, 0.2, -0.3, 0.4, -0.5, 0.6, -0.7, 0.1, 0.2]);
     sim.inverse_dynamics_derivatives(&state, &a, &mut d).unwrap();
     assert!((d.tau - sim.inverse_dynamics(&state, &a)).amax() < 1e-12);

@@ -6,7 +6,7 @@ use joint_runtime::dynamics::{
     Attachment, Integrator, Loads, NoLoads, Simulation, SimulationOptions, SpringDamper, Stabilisation,
 };
 use joint_runtime::nalgebra::{SVector, Vector3};
-use joint_runtime::tree::{TreeError, TreeSimulation, TreeState};
+use joint_runtime::relative::{TreeError, TreeSimulation, TreeState};
 
 use super::loops::Spatial;
 use joint_runtime::{Scene, SystemState};

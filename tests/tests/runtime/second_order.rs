@@ -65,7 +65,7 @@ fn scenes_without_the_option_give_none() {
 #[test]
 fn difference_terms_match_the_generated_ones() {
     use joint_runtime::SparseJacobian;
-    use joint_runtime::sparse::{DifferenceTerms, SecondOrderLayout};
+    use joint_runtime::absolute::{DifferenceTerms, SecondOrderLayout};
     let rig = Rig { theta: Sinusoid { amplitude: 0.7, frequency: 1.3, phase: 0.2, offset: 0.1 } };
     let layout = SecondOrderLayout::new(Rig::BLOCKS, Rig::BLOCK_BODIES);
     let terms = DifferenceTerms::<4>::new(Rig::BLOCK_BODIES);

@@ -1,11 +1,11 @@
-//! Relative coordinates (`joint_runtime::tree`) on `#[scene(coordinates =
+//! Relative coordinates (`joint_runtime::relative`) on `#[scene(coordinates =
 //! relative)]` scenes: the recursions against closed forms, against the
 //! kinetic energy computed from the bodies, against each other, and the motion
 //! against the same declaration in absolute coordinates (`coordinates = both`).
 
 use joint_runtime::dynamics::{AbsoluteSimulation, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
-use joint_runtime::tree::{Tree, TreeError, TreeScene, TreeSimulation, TreeState};
+use joint_runtime::relative::{Tree, TreeError, TreeScene, TreeSimulation, TreeState};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 /// One bar of 1 m, pinned at its end about y.

@@ -6,7 +6,7 @@
 use joint_runtime::Scene;
 use joint_runtime::dynamics::{Adaptive, NoLoads, Simulation, SimulationOptions, Tolerance};
 use joint_runtime::nalgebra::SVector;
-use joint_runtime::tree::{TreeError, TreeSimulation, TreeState};
+use joint_runtime::relative::{TreeError, TreeSimulation, TreeState};
 
 use crate::tree::same_bodies;
 

@@ -7,7 +7,7 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector};
-use joint_runtime::tree::{
+use joint_runtime::relative::{
     ForwardDerivatives, InverseDerivatives, SecondDerivatives, StepJacobian, StepWork, TreeError, TreeScene,
     TreeSimulation, TreeState,
 };

@@ -6,7 +6,7 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::SVector;
-use joint_runtime::tree::{DIVERGED, ForceGains, StepWork, TreeError, TreeSimulation, TreeState};
+use joint_runtime::relative::{DIVERGED, ForceGains, StepWork, TreeError, TreeSimulation, TreeState};
 
 #[derive(Scene)]
 #[scene(urdf = "data/robots/ur5.urdf")]

@@ -9,7 +9,7 @@
 use joint_runtime::Scene;
 use joint_runtime::SystemState;
 use joint_runtime::nalgebra::{SVector, Vector3};
-use joint_runtime::tree::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
+use joint_runtime::relative::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
 
 use crate::floating::momenta;
 use crate::tree::{generated_against_recursion, mass_matrix_against_energy, same_motion};
@@ -131,7 +131,7 @@ fn slides_beside_turns_in_the_recursions() {
     generated_against_recursion(&Bush, &bush_state(), true);
     mass_matrix_against_energy(&Puck, &puck_state());
     generated_against_recursion(&Puck, &puck_state(), true);
-    let tree = joint_runtime::tree::Tree::of(&Puck).unwrap();
+    let tree = joint_runtime::relative::Tree::of(&Puck).unwrap();
     let tau = SVector::<f64, 4>::from([0.3, -0.6, 0.2, 0.1]);
     let vdot = tree.forward_dynamics(&puck_state(), &tau).unwrap();
     let back = tree.inverse_dynamics(&puck_state(), &vdot);

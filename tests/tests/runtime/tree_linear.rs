@@ -5,7 +5,7 @@
 
 use joint_runtime::dynamics::{AbsoluteSimulation, Loads, NoLoads, SimulationOptions};
 use joint_runtime::nalgebra::{Complex, DMatrix, SVector, Vector3};
-use joint_runtime::tree::{TreeScene, TreeSimulation};
+use joint_runtime::relative::{TreeScene, TreeSimulation};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 /// A double pendulum hanging at rest: a ball-joint shoulder, a hinged elbow.
@@ -194,8 +194,11 @@ struct Pendulum;
 #[test]
 fn tree_transitions_are_the_linear_flow() {
     let mut sim = TreeSimulation::new(&Pendulum).unwrap();
-    let mut state =
-        joint_runtime::tree::TreeState { q: SVector::from([std::f64::consts::FRAC_PI_2]), v: SVector::zeros(), t: 0.0 };
+    let mut state = joint_runtime::relative::TreeState {
+        q: SVector::from([std::f64::consts::FRAC_PI_2]),
+        v: SVector::zeros(),
+        t: 0.0,
+    };
     // (RK4's own error in Φ is (ωh)⁵/120 ≈ 7e-15 at this step.)
     let h = 1e-3;
     let phi = sim.transition(&mut state, h, &SVector::zeros()).unwrap();

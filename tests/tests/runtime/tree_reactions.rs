@@ -8,7 +8,7 @@ use joint_runtime::dynamics::{
     AbsoluteSimulation, AppliedLoads, Attachment, Loads, Reaction, SimulationOptions, SpringDamper,
 };
 use joint_runtime::nalgebra::{SVector, Vector3};
-use joint_runtime::tree::{TreeScene, TreeSimulation, TreeState};
+use joint_runtime::relative::{TreeScene, TreeSimulation, TreeState};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 use crate::floating::Drone;

@@ -7,8 +7,8 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{SMatrix, SVector, Vector3};
+use joint_runtime::relative::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
 use joint_runtime::robot::{JointLimits, LinkFrame};
-use joint_runtime::tree::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
 use serde_json::Value;
 
 /// The five robots of `tests/data/robots`, read from files of one format

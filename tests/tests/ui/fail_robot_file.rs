@@ -1,6 +1,6 @@
 use joint_runtime::Scene;
 use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
-use joint_runtime::tree::TreeSimulation;
+use joint_runtime::relative::TreeSimulation;
 
 // An attribute that would change the dynamics without being modelled: one
 // error, at the attribute's line and column, and the scene's uses still

@@ -1,5 +1,5 @@
 use joint_runtime::Scene;
-use joint_runtime::tree::TreeSimulation;
+use joint_runtime::relative::TreeSimulation;
 
 // A four-bar whose closing joint `d` sits 0.1 m off the plane of the others:
 // the tree keeps every body in that plane, so the joint's z row is the
