@@ -17,7 +17,7 @@
 //! ```
 //!
 //! The `_recursion` robots are the same files without `second_order`: their
-//! derivatives are the runtime's recursion (`tree/recursion.rs`), not the
+//! derivatives are the runtime's recursion (`relative/recursion.rs`), not the
 //! generated straight line.
 
 use std::hint::black_box;

@@ -7,7 +7,12 @@
 //! expressions of the joint coordinates with `θ̇ = v` and
 //! `ṗ = ½ p ⊗ (0, ω')`. The engine then differentiates them in the tree's
 //! own coordinates: `Φ(q, t)`, `J = ∂Φ̇/∂v`, `γ = −dΦ̇/dt` (v held) and `Φ_t`
-//! (`TreeScene::closure_rows`). No derivative is written by hand.
+//! (`TreeScene::closure_rows`). No derivative is written by hand. A tree
+//! joint's points and axes are folded into the rows where they are numbers and
+//! read from the runtime's `TreeGeometry` where they are fields (`read_joint`,
+//! which `aba` shares). A robot file's couplings (a follower joint, URDF's
+//! `<mimic>`) join the same rows as `q_f − (m q_l + o)`, linear in the
+//! coordinates.
 //!
 //! A row that the tree keeps by construction folds to a constant: a planar
 //! loop's out-of-plane rows, when every joint's axis is normal to the

@@ -2,6 +2,16 @@
 //! ([`METHODS`]) drives the `Joint` impl, the `Scene` impl and both fallback
 //! stubs, and [`lints`] is the one place for hygiene attributes. Adding a
 //! generated function is one row of the table (and the trait method it implements).
+//!
+//! Generated code names every item by its absolute path from `::joint_runtime`
+//! (`krate`) or `::core`: the traits and types by their public paths, helpers
+//! that are not API only through the runtime's hidden `__private`, nalgebra
+//! through its re-export, so that a user needs one dependency and no import.
+//! The lints deny panics, `unwrap` and indexing in what is generated. A scene's
+//! second-order terms past about 8 000 operations are split, joint by joint,
+//! into `#[inline(never)]` helpers that each rebuild only their own bodies'
+//! rotation matrices (`PART_OPS`): a 160-body tree's terms took rustc 104 s
+//! and 3 GB in one function, 34 s and 0.8 GB in parts.
 
 use std::collections::BTreeSet;
 

@@ -2,6 +2,9 @@
 //! every row an expression over the four primitives of `CONVENTIONS.md` (and, for
 //! drivers, a time function). This table is the only place joints are described;
 //! no derivative appears here. User-written rows use the same [`Expr`] language.
+//! Beside its rows a joint lists the person-friendly axes that may stand for
+//! some of its parameters (`axis1 → f, g`), the vectors that must be
+//! perpendicular, and its singularity measure, if it has one.
 
 use std::borrow::Cow;
 use std::sync::OnceLock;

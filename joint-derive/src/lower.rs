@@ -1,6 +1,16 @@
 //! Lowering: a checked declaration's rows onto the symbolic graph, and the
 //! derivatives of every row (Φ_t, J, γ), checked. Printing comes after, in
 //! the code generator; the front end never sees the graph.
+//!
+//! A parameter given as a number becomes a constant node (folded wherever it
+//! meets another); one read from a field becomes a variable bound once to
+//! `self.field`, shared by every joint of a scene that reads it; a number that
+//! names constants (`-RA`) becomes a variable bound to
+//! `{ let value: f64 = -RA; value }`, which the compiler folds. The checks
+//! are the ones only the graph can make, each an error at the row's span: a
+//! row that folds to a constant, a row that repeats another (or its negation),
+//! and a row whose J depends on the velocities. A scene's joints are lowered
+//! one after another onto one graph (`derive_scene`), then derived together.
 
 use proc_macro2::Span;
 

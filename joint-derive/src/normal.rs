@@ -5,7 +5,9 @@
 //! the engine sees which entries of `J` are structurally zero or constant, so
 //! the products with them are never written, and it shares each `J W` row
 //! between the blocks that read it. A diagonal block is symmetric: its upper
-//! triangle is computed and mirrored.
+//! triangle is computed and mirrored. Not written above 5 000 operations
+//! (`LIMIT`: rustc's time on one long function grows faster than its length);
+//! the runtime forms the blocks there.
 
 use std::collections::BTreeSet;
 

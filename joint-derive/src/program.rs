@@ -4,8 +4,9 @@
 //! block, a dispatch on each block's sizes); here the derive, which fixed the
 //! elimination order and the pattern, writes one call per block operation
 //! with the block sizes as const generics and the slots as constants
-//! (`FactorArrays`'s steps in `sparse/factor/program.rs`). The calls are in
-//! the interpreter's order, so both give the same bits.
+//! (`FactorArrays`'s steps in the runtime's `absolute/factor/program.rs`). The
+//! calls are in the interpreter's order, so both give the same bits. Not
+//! written above 1 500 block operations (`LIMIT`): the interpreter runs there.
 
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;

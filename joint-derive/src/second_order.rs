@@ -10,6 +10,15 @@
 //! an iteration matrix needs all of their columns: one evaluation shares the
 //! rotation matrices and the rows' intermediates across the columns, where
 //! `NV` products would rebuild them `NV` times.
+//!
+//! Only a declaration that asks for them gets them (the traits' defaults
+//! return nothing), so nobody else compiles them. A scene also gets them in a
+//! sparse layout (`second_order_values`): each joint's stiffness block over its
+//! bodies' columns and each row's terms over its joint's columns, the
+//! gradients taken along those directions only, so that the derivation and
+//! the code grow with the rows rather than with `M × NV`. Above 20 000
+//! Jacobian entries only that layout is written, and past 8 000 operations
+//! `generate` splits its code into parts, joint by joint.
 
 use std::ops::Range;
 

@@ -14,7 +14,16 @@
 //! (its subtree on the way down, its path to the root on the way up):
 //! the sparsity Carpentier and Mansard's recursion exploits by hand.
 //! The forward dynamics' derivatives follow in the runtime as
-//! `∂q̈/∂x = −M⁻¹ ∂τ/∂x` at `v̇ = q̈` (`tree/derivatives.rs`).
+//! `∂q̈/∂x = −M⁻¹ ∂τ/∂x` at `v̇ = q̈` (`relative/derivatives.rs`).
+//!
+//! The same again, forward mode twice, gives the second derivatives of
+//! `λᵀ τ` that a DDP backward pass contracts
+//! (`inverse_dynamics_second_derivatives_into`), each direction's rules and
+//! memo shared by every column it takes. The first derivatives are written up
+//! to 8 000 operations (`FIRST_LIMIT`), where they beat the runtime's
+//! recursion, which serves every other tree; the second up to 40 000
+//! (`LIMIT`), and their graph is not even built where the first took more
+//! than a quarter of that (they cost at least four times as much).
 
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
@@ -28,7 +37,7 @@ use crate::front::tree::TreeKind;
 use crate::generate::krate;
 
 /// Operations above which the first derivatives are not written and the
-/// runtime's recursion (`tree/recursion.rs`) runs instead: measured on three
+/// runtime's recursion (`relative/recursion.rs`) runs instead: measured on three
 /// robots (same run, medians), the straight line took 0.79 of the
 /// recursion's time on the UR5 (4 609 operations), 1.05 on the floating
 /// Solo12 (16 961) and 1.59 on the Panda (12 860), whose nine freedoms in

@@ -18,6 +18,9 @@ pub trait Guard {
 }
 
 /// Runs `f` under the guard `G` (see the module documentation).
+// The joints' wrappers call it; the no-alloc check includes this file and
+// does not.
+#[allow(dead_code)]
 #[inline(always)]
 pub fn guarded<G: Guard, R>(f: impl FnOnce() -> R) -> R {
     let guard = G::arm();
@@ -73,7 +76,16 @@ macro_rules! checked {
             #[inline(never)]
             fn $name $(<$lt>)? ($($arg: $t),*) -> $ret {
                 guard_type!(G, concat!("`", module_path!(), "::", stringify!($name), "`"));
-                $crate::guard::guarded::<G, _>(move || $body)
+                // The body in the wrapper itself, not in a closure: a large
+                // closure stays out of line, and LTO infers `nounwind` before
+                // inlining, so a closure whose panic paths vanish only once
+                // its callees are inlined would keep a landing pad (a robot's
+                // RK4 step did). What is checked is the same: every call left
+                // in the body must be known not to unwind.
+                let guard = <G as $crate::guard::Guard>::arm();
+                let out: $ret = $body;
+                core::mem::forget(guard);
+                out
             }
         )*
 

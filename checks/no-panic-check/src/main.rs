@@ -74,6 +74,7 @@
 mod guard;
 mod batch;
 mod joints;
+mod robots;
 mod scenes;
 mod trees;
 
@@ -89,14 +90,18 @@ mod canary {
 fn main() {
     let joints = joints::keep();
     let scenes = scenes::driven::keep() + scenes::free::keep() + scenes::block::keep() + trees::keep();
+    let robots = robots::keep();
     let batches = batch::keep();
     #[cfg(feature = "canary")]
     let scenes = scenes + canary::keep();
     if cfg!(all(feature = "prove", not(debug_assertions))) {
-        println!("{joints} joint, {scenes} scene and {batches} batch functions linked without a panic path");
+        println!(
+            "{joints} joint, {scenes} scene, {robots} robot (relative coordinates) and {batches} batch functions \
+             linked without a panic path"
+        );
     } else {
         println!(
-            "{joints} joint, {scenes} scene and {batches} batch wrappers built with inert guards: \
+            "{joints} joint, {scenes} scene, {robots} robot and {batches} batch wrappers built with inert guards: \
              the check needs a release build with the feature `prove` (see src/main.rs)"
         );
     }

@@ -45,6 +45,48 @@ struct Cardan<T> {
 #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 struct Pendulum;
 
+/// Two links on hinges, in relative coordinates: the robots' engine.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(upper, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
+#[body(lower, mass = 0.5, inertia = [0.0005, 0.04, 0.04])]
+#[joint(shoulder = revolute(ground, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(elbow = revolute(upper, lower), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+struct Arm;
+
+/// The relative engine without std: the arm's forward and inverse dynamics
+/// at the shoulder angle `angle`, `steps` RK4 steps of 1 ms, then its mass
+/// matrix and bodies' frames at the end. Returns the energy plus three
+/// residuals that are 0 up to rounding (inverse after forward dynamics,
+/// `½ vᵀ M v` against the kinetic energy, `Σ m g z` of the frames against
+/// the gravitational), or NaN.
+#[unsafe(no_mangle)]
+pub extern "C" fn joint_arm_relative(angle: f64, steps: u32) -> f64 {
+    use joint_runtime::nalgebra::{SMatrix, SVector};
+    let Ok(mut sim) = Simulation::new(&Arm, NoLoads, &[], SimulationOptions::default()) else {
+        return f64::NAN;
+    };
+    let mut state = sim.tree().zero_state();
+    state.q[0] = angle;
+    let tau = SVector::<f64, 2>::new(0.1, -0.2);
+    let Ok(vdot) = sim.forward_dynamics(&state, &tau) else {
+        return f64::NAN;
+    };
+    let inverse = (sim.inverse_dynamics(&state, &vdot) - tau).norm();
+    for _ in 0..steps {
+        if sim.step(&mut state, 1e-3).is_err() {
+            return f64::NAN;
+        }
+    }
+    let mut m = SMatrix::<f64, 2, 2>::zeros();
+    sim.mass_matrix_into(&state.q, &mut m);
+    let e = sim.energy(&state);
+    let kinetic = (0.5 * state.v.dot(&(m * state.v)) - e.kinetic).abs();
+    let frames = sim.system_state(&state);
+    let heights = 9.81 * (frames.bodies[0].r.z + 0.5 * frames.bodies[1].r.z);
+    e.total() + inverse + kinetic + (heights - e.gravity).abs()
+}
+
 fn cardan<T: joint_runtime::nalgebra::RealField + Copy>() -> Cardan<T> {
     let half = joint_runtime::nalgebra::convert::<f64, T>(0.5);
     Cardan { s: Vector3::y(), h: Vector3::z(), rho1: Vector3::x() * half, rho2: -Vector3::x() * half }

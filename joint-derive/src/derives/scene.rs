@@ -1,6 +1,22 @@
 //! `#[derive(Scene)]`: the `Scene` and `SparseJacobian` impls of a mechanism and
 //! its inherent constants (bodies by name, sizes), or `compile_error!` beside a
 //! stub of the same shape.
+//!
+//! Beside Φ, Φ_t, J (dense and CSR) and γ, `SparseJacobian` carries the block
+//! structure the runtime's absolute engine runs on, fixed here: each joint's
+//! bodies, the minimum-degree order and factor pattern of the joint blocks of
+//! `J M⁻¹ Jᵀ` (`ELIMINATION`, `FACTOR_STARTS`, `FACTOR_BELOW`), the implicit
+//! integrators' saddle-point order and pattern (`KKT_ORDER`, ...) and the
+//! sizes of every array (`Factor`, `Kkt`), so that the runtime needs no
+//! allocator; and, under their limits, the straight-line `normal_blocks_into`,
+//! `j_mul_into`, `jt_mul_into` and factor programs. Past 20 000 dense Jacobian
+//! entries the dense `jacobian` and `evaluate` are written over the sparse
+//! values (`__private::dense_from_csr`), so that the code grows with the
+//! nonzeros. Every scene also gets its `Simulate` impl, which names the one
+//! `Simulation`'s engine: `AbsoluteSimulation`, or `TreeSimulation` for
+//! `coordinates = relative` (`derives/tree.rs` writes the tree's impl); a scene
+//! from a robot file gets its `LINKS`, `LIMITS` and library layout
+//! (`MUJOCO` or `PINOCCHIO`).
 
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
@@ -623,7 +639,7 @@ fn block_structure(s: &SceneDecl, e: &crate::engine::order::Elimination, nnz: &L
 /// joins two, eliminated by minimum degree with each joint after its bodies
 /// (every pivot block is then a nonsingular saddle-point matrix): its order,
 /// its fill and the sizes of its arrays, fixed here so that the runtime
-/// stores it without an allocator. The runtime's `sparse/kkt/pattern.rs`
+/// stores it without an allocator. The runtime's `absolute/kkt/pattern.rs`
 /// finds the same pattern for a scene with more couplings (springs).
 fn kkt_structure(s: &SceneDecl) -> TokenStream {
     let nb = s.bodies.len();

@@ -1,6 +1,9 @@
 //! `#[scene(coordinates = relative)]`: the `TreeScene` impl (the joints in
 //! tree order, each with its parent and child, joint points and axes) and the
-//! alias of its state, `NameTreeState = TreeState<NQ, NV>`.
+//! alias of its state, `NameTreeState = TreeState<NQ, NV>`. For `relative`
+//! nothing of the absolute path is derived or compiled; `coordinates = both`
+//! writes both from one declaration. The algorithms themselves are written by
+//! `aba`, `closure` and `tree_derivatives`.
 
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};

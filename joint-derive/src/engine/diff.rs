@@ -6,12 +6,18 @@
 //! a velocity when γ is wanted), or a kinematic identity registered by the
 //! formulation for a rotated vector (`d/dt (A a') = ω × (A a')`). Rules are what
 //! make the ω formulations come out in compact vector form rather than through
-//! Euler-parameter rates.
+//! Euler-parameter rates. γ is `−dΦ̇/dt` under rules that hold the velocities
+//! (`v̇ = 0`) and move the time functions; Φ_t is the time derivative under
+//! rules in which only time moves (`CONVENTIONS.md`). The same rules taken
+//! along another direction (`TimeRules::along`) give the directional
+//! derivatives of the second-order terms.
 //!
 //! The gradient is reverse mode over the arena (children have smaller ids, so a
 //! descending sweep is a reverse topological order). Taking the Jacobian row as
 //! the gradient of Φ̇ with respect to the velocities pushes adjoints through the
-//! rotation matrices, which yields `Aᵀ g` and `a × b` directly.
+//! rotation matrices, which yields `Aᵀ g` and `a × b` directly, rather than
+//! expanded sums. A row whose Jacobian depends on a velocity is not linear in
+//! the velocities, and lowering rejects it.
 
 use std::collections::HashMap;
 

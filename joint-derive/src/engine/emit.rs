@@ -1,10 +1,20 @@
 //! From nodes to Rust: straight-line code in arena order.
 //!
-//! A node used once is written inline in its user; a node used more than once
-//! gets a `let`, named by its hint or `t<n>` in order of appearance. Parentheses
-//! are written exactly where Rust's precedence would otherwise change the
-//! evaluation order, so the printed code evaluates the graph's operations in the
-//! graph's order, bit for bit (up to the sign of a zero, see [`Ex`]).
+//! Only the nodes a function's outputs reach are printed (dead nodes are
+//! removed per function). A node used once is written inline in its user; a
+//! node used more than once gets a `let`, named by its hint from the code that
+//! made it (`a1_12`, `s_n_x`, `d_y`) or `t<n>` in order of appearance.
+//! Parentheses are written exactly where Rust's precedence would otherwise
+//! change the evaluation order, so the printed code evaluates the graph's
+//! operations in the graph's order, bit for bit (up to the sign of a zero, see
+//! [`Ex`]). Negations are pushed inward (`−(a − b)` is printed `b − a`, exact
+//! in IEEE arithmetic), and each constant's magnitude is one `let`, converted
+//! to the scalar once. The output is deterministic: arena order, never a hash
+//! map's. Past 2 000 `let`s a function binds one tuple per level of the graph
+//! instead: rustc's debug info recurses once per nested scope, and one `let`
+//! per value crashed it on a 160-body chain. `OpCount` counts operations
+//! incrementally, so that the derive can choose between alternatives and split
+//! or stop at its size limits.
 
 use std::collections::{BTreeSet, HashMap};
 

@@ -1,10 +1,13 @@
 //! The arena of scalar nodes.
 //!
 //! Nodes are created only through the smart constructors below, which fold
-//! constants, apply the 0/1 and negation rules, put commutative operands in a
-//! canonical order and hash-cons the result. A node's children always have smaller
-//! ids than the node, so the arena is already in emission order, and equal
-//! subexpressions are one node: common-subexpression sharing comes for free.
+//! constants, apply the 0/1 rules, keep signs outside (`(−a)·b → −(a·b)`,
+//! `a + (−b) → a − b`), combine like terms (`c1·x + c2·x`), put commutative
+//! operands in id order and hash-cons the result. A node's children always
+//! have smaller ids than the node, so the arena is already in emission order,
+//! and equal subexpressions are one node: common-subexpression sharing comes
+//! for free, across Φ, J and γ alike, and `x − y` and `y − x` share one node
+//! (one of them negated, which costs no operation).
 
 use std::collections::HashMap;
 

@@ -1,5 +1,7 @@
 //! The symbolic engine: an arena of scalar nodes ([`graph`]), derivatives on it
-//! ([`diff`]) and emission to Rust ([`emit`]). It knows nothing of joints.
+//! ([`diff`]), emission to Rust ([`emit`]) and fill-reducing elimination orders
+//! (`order`). It knows nothing of joints: the catalogue (`joints`) and the
+//! formulations (`kinematics`) are stated over it.
 
 pub mod diff;
 pub mod emit;

@@ -5,6 +5,11 @@
 //!
 //! On a tree (a chain, a branched mechanism) it eliminates leaves first and
 //! creates no fill; where loops close it keeps the fill of each loop local.
+//! A scene's derive orders two patterns with it: the joint blocks of
+//! `J M⁻¹ Jᵀ` (the runtime's block factor), and the implicit integrators'
+//! saddle-point matrix over bodies and joints, each joint after its bodies
+//! (the runtime's `absolute/kkt/`, which finds the same order at run time only
+//! for springs between bodies no joint joins).
 
 use std::collections::BTreeSet;
 
@@ -28,7 +33,7 @@ pub fn minimum_degree(adjacency: &[Vec<usize>]) -> Elimination {
 /// Minimum-degree elimination of `adjacency` in which node `i` is eligible
 /// only once every node of `after[i]` is eliminated (a saddle-point matrix's
 /// joint after its bodies, so that no pivot block is a zero block). The
-/// runtime's `sparse/kkt/pattern.rs` runs the same rule and tie-break.
+/// runtime's `absolute/kkt/pattern.rs` runs the same rule and tie-break.
 pub fn minimum_degree_after(adjacency: &[Vec<usize>], after: &[Vec<usize>]) -> Elimination {
     let n = adjacency.len();
     let mut graph: Vec<BTreeSet<usize>> =

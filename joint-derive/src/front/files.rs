@@ -3,6 +3,13 @@
 //! reader (each behind its feature), and its bodies and joints handed to the
 //! scene parser as attributes would give them, with the data the derive
 //! writes beside the dynamics (`LINKS`, `LIMITS`) and the couplings.
+//!
+//! The bodies and joints carry the path's span, so every check and every
+//! step after this one is the same as for attributes written by hand. The
+//! options checked here: `floating_base` and `file_damping` (URDF only) and
+//! `mimic = independent` (followers as free joints rather than rows). An MJCF
+//! file's armature, damping and springs (a URDF's damping with
+//! `file_damping`) enter the dynamics in relative coordinates only.
 
 use proc_macro2::Span;
 

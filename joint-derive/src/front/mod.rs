@@ -10,6 +10,10 @@
 //!
 //! Errors go to one [`context::Errors`], which cannot be dropped unreported. Nothing
 //! here knows the engine: the arrows run front end → lowering → code generation.
+//!
+//! A robot file (`files`, read by `urdf` or `mjcf`, put in the scene's terms by
+//! `robot`) enters `scene` as its attributes would; `tree` picks a relative
+//! scene's spanning tree; `rows` and `custom` read a joint written as rows.
 
 pub mod attr;
 pub mod context;

@@ -1,7 +1,10 @@
 //! The one parameter resolver of both derives: what was given (constants and
 //! fields, by name) against what the joint takes, with the person-friendly axes
-//! expanded (`axis1 → f, g`, ...), constant geometry checked, and unknown,
-//! repeated and missing parameters reported in one wording.
+//! expanded (`axis1 → f, g`, ...), constant geometry checked (shapes, zero
+//! axes, non-finite numbers, axes that must be perpendicular), and unknown,
+//! repeated and missing parameters reported in one wording, an unknown one
+//! with the name it most likely stands for. Both derives call it, so a mistake
+//! they share is worded once (`front/tests.rs` holds them to it).
 
 use proc_macro2::Span;
 

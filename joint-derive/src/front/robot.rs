@@ -11,7 +11,11 @@
 //! MJCF body without joints, a site) are one body (masses, centres and
 //! inertias combined: the scene models only what moves); the root link and
 //! the links fixed to it are the ground. A floating joint is left out, so
-//! its child floats (the derive gives it a free joint).
+//! its child floats (the derive gives it a free joint); with `floating_base`
+//! the root link floats too. Closures (MJCF's `<equality>`) become ball or
+//! fixed joints. The moving joints are also listed in their library's order
+//! (MuJoCo's: the file's; Pinocchio's: depth first, siblings by name), which
+//! the derive writes as the scene's `MUJOCO` or `PINOCCHIO` layout.
 
 use std::collections::HashMap;
 

@@ -1,8 +1,10 @@
 //! `#[scene(coordinates = relative)]`: the joints as a spanning tree from the
 //! ground through its tree joints (`revolute`, `spherical`, `translational`,
-//! `cylindrical`, `planar`, `universal`, `fixed`); a body no path of them reaches floats (a free joint
-//! from the ground, as a body without joints is free in absolute
-//! coordinates); the other joints close loops.
+//! `cylindrical`, `planar`, `universal`, `fixed`); a body no path of them
+//! reaches floats (a free joint from the ground, as a body without joints is
+//! free in absolute coordinates); the other joints close loops. The tree is
+//! found breadth first from the ground, in declaration order among equals, so
+//! the same declaration always gives the same tree, coordinates and closures.
 
 use super::scene::{Body, JointDecl};
 

@@ -206,14 +206,14 @@ where
     fn accelerations(&mut self, r1: &DMatrix<f64>, r2: &DMatrix<f64>) -> DMatrix<f64> {
         let mut out = DMatrix::zeros(NV, r1.ncols());
         for (k, (c1, c2)) in r1.column_iter().zip(r2.column_iter()).enumerate() {
-            let x = apply_metric::<NB, NV>(Some(&self.inverse), &SVector::from_iterator(c1.iter().copied()));
+            let x = apply_metric::<NB, NV>(Some(&*self.inverse), &SVector::from_iterator(c1.iter().copied()));
             let mut b = j_mul::<S, NB, NNZ, NV, M>(self.solved_values(), &x);
             for (bi, r) in b.iter_mut().zip(c2.iter()) {
                 *bi -= r;
             }
             self.solver.solve(b.as_mut_slice());
             let jt = jt_mul::<S, NB, NNZ, NV, M>(self.solved_values(), &b);
-            out.set_column(k, &(x - apply_metric::<NB, NV>(Some(&self.inverse), &jt)));
+            out.set_column(k, &(x - apply_metric::<NB, NV>(Some(&*self.inverse), &jt)));
         }
         out
     }

@@ -18,6 +18,13 @@
 //! [`assemble`], [`velocities`] and [`accelerations`] make one for a single
 //! call.
 //!
+//! Assembly is damped Newton on the rotation group (`α = 1, ½, ¼, …` until
+//! `‖Φ‖` decreases), written once over the linear solver that gives its
+//! directions (the block factor here, the dense reference in the tests); the
+//! dynamics' projection runs the same iteration. At convergence it
+//! factorises once more and takes no step, so the redundant rows it reports
+//! are the converged state's.
+//!
 //! Orientation updates stay on the rotation group: a velocity-level increment
 //! `Δθ'` (body components, the `ω'` columns of `J`) moves `p ← p ⊗ q(Δθ')` with
 //! `q(θ) = [cos(|θ|/2), sin(|θ|/2) θ/|θ|]` (scalar first), then `p` is renormalised.

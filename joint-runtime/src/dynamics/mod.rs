@@ -7,10 +7,25 @@
 //! [`Simulation`] is the one simulation for every scene: it solves the
 //! equations below on the scene's compile-time block pattern (the block factor
 //! of `J M⁻¹ Jᵀ` in arrays the derive sizes, the implicit integrators'
-//! saddle-point matrices; see [`sparse`](crate::absolute)), in time and memory
+//! saddle-point matrices; see [`absolute`](crate::absolute)), in time and memory
 //! proportional to the scene. (The same equations on dense matrices are kept
 //! as the tests' independent reference, behind a feature that is not part of
-//! the API.)
+//! the API.) For a scene in relative coordinates the same `Simulation::new`
+//! makes the tree's engine instead (`relative::TreeSimulation`): the scene's
+//! derived [`Simulate`] impl picks the engine, the `Simulation` dereferences
+//! to it, and [`Engine`] is the one bound over both (`simulation.rs`,
+//! `engine.rs`).
+//!
+//! This module also holds what both engines and every integrator share: the
+//! options, loads, springs and reports; the state arithmetic on the rotation
+//! group; the bookkeeping of every modified Newton iteration (midpoint and
+//! generalised-α: when the matrix is rebuilt, when the iteration stops); the
+//! forces' derivatives (`force_derivatives.rs`); generalised-α's equations and
+//! Radau IIA's driver (written once over the host that solves its stage
+//! systems); the error-controlled driver, one step-size loop over the state's
+//! and the error's types that the absolute engine, the tree's and the dense
+//! reference all run (`adaptive.rs`); and the linearisation's minimal
+//! coordinates (`linear.rs`).
 //!
 //! # Equations and sign convention
 //!
@@ -64,7 +79,7 @@
 //!   from the scene's generated second-order terms (`#[scene(second_order)]`,
 //!   [`NewtonMatrix::Generated`]), or by central differences of `J`, `γ` and
 //!   `Φ_t` for a scene without them (bodies coloured so that no joint sees
-//!   two move: two colours for a chain, `sparse/differences.rs`).
+//!   two move: two colours for a chain, `absolute/differences.rs`).
 //!
 //!   A-stable (a stiff spring at any `h ω` stays bounded) and symmetric: no
 //!   numerical damping, quadratic invariants conserved, energy bounded. Not

@@ -11,6 +11,7 @@ use super::TreeJointKind;
 use super::TreeState;
 use super::kinematics::{Kinematics, Subspace};
 use super::spatial::{cross_force, cross_motion, join, split};
+use super::tangent::{get, set};
 use super::topology::{Tree, TreeError};
 
 /// The energy of a tree's state.
@@ -42,9 +43,19 @@ fn three(x: &Vector6<f64>) -> Vector3<f64> {
     x.fixed_rows::<3>(0).into_owned()
 }
 
+/// `a[i] += x` where `i` is in range (a parent's index, which the
+/// optimiser cannot bound: every data index of the steps through `get`, so
+/// that the no-panic proof covers them).
+#[inline(always)]
+fn add_at<T: core::ops::AddAssign, const NB: usize>(a: &mut [T; NB], i: usize, x: T) {
+    if let Some(slot) = a.get_mut(i) {
+        *slot += x;
+    }
+}
+
 /// `S x` for the joint's freedoms.
 fn expand(s: &Subspace, x: &Vector6<f64>) -> Vector6<f64> {
-    (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * x[i])
+    s.cols.iter().zip(x.iter()).take(s.n).fold(Vector6::zeros(), |acc, (c, x)| acc + c * *x)
 }
 
 /// The inverse of a symmetric positive definite 3 × 3 matrix, by its
@@ -73,8 +84,15 @@ struct Articulated {
 
 impl Articulated {
     /// `armature` adds to `D`'s diagonal (the joint's own inertia).
+    // Inlined: out of line, LTO left it without `nounwind` (though it
+    // calls nothing that unwinds), which kept a landing pad in every step.
+    #[inline(always)]
     fn new(s: &Subspace, ia: &Matrix6<f64>, pa: &Vector6<f64>, tau: Vector3<f64>, armature: f64) -> Option<Self> {
-        let u_cols = [0, 1, 2].map(|i| if i < s.n { ia * s.cols[i] } else { Vector6::zeros() });
+        // `get`: the array's map runs out of line, where `i` is not bounded.
+        let u_cols: [Vector6<f64>; 3] = core::array::from_fn(|i| match s.cols.get(i) {
+            Some(col) if i < s.n => ia * col,
+            _ => Vector6::zeros(),
+        });
         let d_inv = if s.n == 1 {
             let d = s.cols[0].dot(&u_cols[0]) + armature;
             (d > 0.0).then(|| Matrix3::new(1.0 / d, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0))?
@@ -91,24 +109,32 @@ impl Articulated {
 
     /// `U x`.
     fn u_times(&self, n: usize, x: &Vector3<f64>) -> Vector6<f64> {
-        (0..n).fold(Vector6::zeros(), |acc, i| acc + self.u_cols[i] * x[i])
+        self.u_cols.iter().zip(x.iter()).take(n).fold(Vector6::zeros(), |acc, (u, x)| acc + u * *x)
     }
 
     /// `C − Bᵀ A⁻¹ B` of `Iᴬ = [A B; Bᵀ C]`, for `S = [1; 0]` (`U = [A; Bᵀ]`,
     /// `D⁻¹ = A⁻¹`).
+    // Inlined: out of line, LTO left it without `nounwind` (though it
+    // calls nothing that unwinds), which kept a landing pad in every step.
+    #[inline(always)]
     fn translational(&self, ia: &Matrix6<f64>) -> Matrix3<f64> {
-        let c = ia.fixed_view::<3, 3>(3, 3).into_owned();
-        let b = ia.fixed_view::<3, 3>(0, 3).into_owned();
+        // Entry by entry: a strided view's `into_owned` goes through an
+        // iterator whose length the optimiser cannot see (a panic path).
+        let c = Matrix3::from_fn(|r, col| ia[(r + 3, col + 3)]);
+        let b = Matrix3::from_fn(|r, col| ia[(r, col + 3)]);
         let lower = c - b.transpose() * self.d_inv * b;
         (lower + lower.transpose()) * 0.5
     }
 
     /// `Iᴬ − U D⁻¹ Uᵀ`.
+    // Inlined: out of line, LTO left it without `nounwind` (though it
+    // calls nothing that unwinds), which kept a landing pad in every step.
+    #[inline(always)]
     fn reduced(&self, n: usize, ia: &Matrix6<f64>) -> Matrix6<f64> {
         let mut out = *ia;
-        for r in 0..n {
+        for (r, u) in self.u_cols.iter().enumerate().take(n) {
             let w = self.u_times(n, &self.d_inv.column(r).into_owned());
-            out -= w * self.u_cols[r].transpose();
+            out -= w * u.transpose();
         }
         out
     }
@@ -118,13 +144,18 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The ground's acceleration in joint `k`'s child frame, through its
     /// parent (`(0, −g)` at the ground).
     fn parent_acceleration(&self, kin: &Kinematics<NB>, k: usize, acc: &[Vector6<f64>; NB]) -> Vector6<f64> {
-        let a_p = self.parent[k].map_or_else(|| join(&Vector3::zeros(), &(-self.gravity)), |p| acc[p]);
+        let ground = || join(&Vector3::zeros(), &(-self.gravity));
+        let a_p = self.parent[k].and_then(|p| acc.get(p).copied()).unwrap_or_else(ground);
         kin.x[k].motion(&a_p)
     }
 
     /// The joint accelerations `v̇` under joint forces `tau` (torques about a
     /// revolute axis; torque vectors in the child's frame at a spherical
     /// joint): the articulated-body algorithm, O(bodies).
+    // Inlined: out of line, LTO's attribute inference left it without
+    // `nounwind` although nothing in it unwinds, so every step that can fall
+    // back to it kept a landing pad the no-panic proof counts.
+    #[inline(always)]
     pub fn forward_dynamics(
         &self,
         state: &TreeState<NQ, NV>,
@@ -144,7 +175,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         // A free joint's body acceleration (it does not depend on the parent's).
         let mut free = [Vector6::zeros(); NB];
         for k in (0..NB).rev() {
-            let s = &kin.s[k];
+            // `get`: inlined into a step's stages, the reversed loop's bound
+            // was lost (a bounds check, a panic path); the arrays after this
+            // one share its length.
+            let Some(s) = kin.s.get(k) else { continue };
             let t = self.joint_forces(k, tau) - self.passive_forces(k, state);
             let singular = TreeError::Singular { joint: self.joints[k].name };
             if self.joints[k].kind == TreeJointKind::Free {
@@ -153,9 +187,15 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 // the body's acceleration is Iᴬ⁻¹ (S τ − pᴬ) whatever the
                 // parent's.
                 let f = expand(s, &t);
-                free[k] = ia[k].cholesky().ok_or(singular)?.solve(&(f - pa[k]));
-                if let Some(p) = self.parent[k] {
-                    pa[p] += kin.x[k].force_back(&f);
+                // The hand-written factor, which has no panic path
+                // (nalgebra's Cholesky has, and the step is in the proof).
+                let factor = crate::linalg::PivotedCholesky::new(&ia[k], crate::linalg::DEFAULT_RANK_TOLERANCE)
+                    .ok()
+                    .filter(|f| f.is_full_rank())
+                    .ok_or(singular)?;
+                free[k] = factor.solve(&(f - pa[k]));
+                if let Some(parent) = self.parent[k].and_then(|p| pa.get_mut(p)) {
+                    *parent += kin.x[k].force_back(&f);
                 }
                 continue;
             }
@@ -169,13 +209,13 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     let lower = a.translational(&ia[k]);
                     let (_, c_lin) = split(&c[k]);
                     let pa_k = pa[k] + join(&Vector3::zeros(), &(lower * c_lin)) + handed;
-                    ia[p] += kin.x[k].translational_back(&lower);
-                    pa[p] += kin.x[k].force_back(&pa_k);
+                    add_at(&mut ia, p, kin.x[k].translational_back(&lower));
+                    add_at(&mut pa, p, kin.x[k].force_back(&pa_k));
                 } else {
                     let reduced = a.reduced(s.n, &ia[k]);
                     let pa_k = pa[k] + reduced * c[k] + handed;
-                    ia[p] += kin.x[k].inertia_back(&reduced);
-                    pa[p] += kin.x[k].force_back(&pa_k);
+                    add_at(&mut ia, p, kin.x[k].inertia_back(&reduced));
+                    add_at(&mut pa, p, kin.x[k].force_back(&pa_k));
                 }
             }
             art[k] = a;
@@ -183,7 +223,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         let mut acc = [Vector6::zeros(); NB];
         let mut vdot = SVector::<f64, NV>::zeros();
         for k in 0..NB {
-            let s = &kin.s[k];
+            let Some(s) = kin.s.get(k) else { continue };
             let a = self.parent_acceleration(&kin, k, &acc) + c[k];
             let qdd = if self.joints[k].kind == TreeJointKind::Free {
                 project(s, &(free[k] - a))
@@ -222,7 +262,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             self.put(k, &project(&self.subspace_at(k, q), &f[k]), &mut tau);
             if let Some(p) = self.parent[k] {
                 let back = self.transform(k, q).force_back(&f[k]);
-                f[p] += back;
+                add_at(&mut f, p, back);
             }
         }
         tau
@@ -329,7 +369,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// Joint `k`'s damping and spring forces, `d v + k (q − q₀)`, padded: what
     /// the joint resists with (subtracted from the applied forces).
     fn passive_forces(&self, k: usize, state: &TreeState<NQ, NV>) -> Vector6<f64> {
-        let j = &self.joints[k];
+        let Some(j) = self.joints.get(k) else { return Vector6::zeros() };
         let mut out = self.joint_forces(k, &state.v) * j.damping;
         if j.stiffness != 0.0 {
             let position = self.q_at.get(k).and_then(|&at| state.q.get(at)).copied().unwrap_or(0.0);
@@ -406,15 +446,18 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
 
     /// Joint `k`'s entries of `tau`, padded.
     fn joint_forces(&self, k: usize, tau: &SVector<f64, NV>) -> Vector6<f64> {
-        let (at, n) = (self.v_at[k], self.joints[k].kind.freedoms());
-        Vector6::from_fn(|i, _| if i < n { tau[at + i] } else { 0.0 })
+        // `k` through `get` too: out of line, the optimiser cannot bound it.
+        let (Some(&at), Some(j)) = (self.v_at.get(k), self.joints.get(k)) else { return Vector6::zeros() };
+        let n = j.kind.freedoms();
+        Vector6::from_fn(|i, _| if i < n { get(tau, at + i) } else { 0.0 })
     }
 
     /// Writes joint `k`'s entries of `x` into `out`.
     fn put(&self, k: usize, x: &Vector6<f64>, out: &mut SVector<f64, NV>) {
-        let (at, n) = (self.v_at[k], self.joints[k].kind.freedoms());
-        for i in 0..n {
-            out[at + i] = x[i];
+        let (Some(&at), Some(j)) = (self.v_at.get(k), self.joints.get(k)) else { return };
+        let n = j.kind.freedoms();
+        for (i, x) in x.iter().enumerate().take(n) {
+            set(out, at + i, *x);
         }
     }
 }

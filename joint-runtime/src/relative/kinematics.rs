@@ -101,14 +101,14 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     fn joint_bias(&self, s: &Subspace, k: usize, v: &SVector<f64, NV>) -> Vector6<f64> {
         let at = self.v_at[k];
         if self.joints[k].kind == TreeJointKind::Planar {
-            let slide = s.cols[0].fixed_rows::<3>(3) * v[at] + s.cols[1].fixed_rows::<3>(3) * v[at + 1];
-            return sliding(&(slide.cross(&self.axis[k]) * v[at + 2]));
+            let slide = s.cols[0].fixed_rows::<3>(3) * get(v, at) + s.cols[1].fixed_rows::<3>(3) * get(v, at + 1);
+            return sliding(&(slide.cross(&self.axis[k]) * get(v, at + 2)));
         }
         if self.joints[k].kind != TreeJointKind::Universal {
             return Vector6::zeros();
         }
         let s1 = s.cols[0].fixed_rows::<3>(0).into_owned();
-        turning(&(s1.cross(&self.axis[k]) * (v[at] * v[at + 1])))
+        turning(&(s1.cross(&self.axis[k]) * (get(v, at) * get(v, at + 1))))
     }
 
     /// The child's rotation relative to its parent (`A_child = A_parent R`).
@@ -164,7 +164,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// `S q̇` of joint `k`.
     pub(crate) fn joint_motion(&self, s: &Subspace, k: usize, v: &SVector<f64, NV>) -> Vector6<f64> {
         let at = self.v_at[k];
-        (0..s.n).fold(Vector6::zeros(), |acc, i| acc + s.cols[i] * v[at + i])
+        s.cols.iter().take(s.n).enumerate().fold(Vector6::zeros(), |acc, (i, c)| acc + c * get(v, at + i))
     }
 
     /// Every joint's transform and every body's spatial velocity
@@ -180,7 +180,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             out.x[k] = self.transform(k, q);
             out.s[k] = self.subspace_at(k, q);
             out.bias[k] = self.joint_bias(&out.s[k], k, v);
-            let parent = self.parent[k].map_or_else(Vector6::zeros, |p| out.x[k].motion(&out.vel[p]));
+            let parent =
+                self.parent[k].and_then(|p| out.vel.get(p)).map_or_else(Vector6::zeros, |v| out.x[k].motion(v));
             out.vel[k] = parent + self.joint_motion(&out.s[k], k, v);
         }
         out
@@ -224,7 +225,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     pub(crate) fn link_poses(&self, q: &SVector<f64, NQ>) -> [(UnitQuaternion<f64>, Vector3<f64>); NB] {
         let mut pose = [(UnitQuaternion::identity(), Vector3::zeros()); NB];
         for k in 0..NB {
-            let (a_p, o_p) = self.parent[k].map_or((UnitQuaternion::identity(), Vector3::zeros()), |p| pose[p]);
+            let ground = (UnitQuaternion::identity(), Vector3::zeros());
+            let (a_p, o_p) = self.parent[k].and_then(|p| pose.get(p).copied()).unwrap_or(ground);
             pose[k] = (a_p * self.relative_rotation(k, q), o_p + a_p * self.transform(k, q).r);
         }
         pose

@@ -60,6 +60,25 @@
 //! derive gives it a free joint from the ground (its centre of mass from the
 //! origin, then its rotation), and the joints that reach it are closures.
 //!
+//! [`Tree::new`] checks the tree once (parents before children, unit axes,
+//! rest rotations, physical inertias). The recursions, here and as the derive
+//! writes them, work in link frames: each body's axes with the origin at its
+//! inbound joint point, so that a joint's motion subspace is constant
+//! coordinate axes (but a universal or planar joint's, which turns with its
+//! angle) and the offset between two joint points a constant of the parent;
+//! gravity enters as the ground's acceleration. A step holds the joint forces
+//! constant over it; with loops, each stage factorises `M` (a plain
+//! Cholesky) and `J M⁻¹ Jᵀ` (pivoted), the first stage's pivots kept for the
+//! step, and the projection closes `q` by simplified Newton on one factor,
+//! then `v` with it. User loads and springs are wrenches on the bodies,
+//! carried to the root as joint forces in one pass over the bodies; MJCF's
+//! gravity compensation is the joint forces of point masses `c m` at rest,
+//! their derivatives in closed form (`recursion.rs`). The derivatives'
+//! recursion and the tangent maps index only through `get`, and gravity
+//! compensation's derivative is inlined (out of line it kept a landing pad),
+//! so `no-panic-check` proves the derivatives and the step Jacobians free of
+//! panics.
+//!
 //! ```
 //! use joint_runtime::Scene;
 //! use joint_runtime::relative::TreeSimulation;

@@ -245,10 +245,14 @@ impl<
         }
         let joints = &self.tree.joints;
         let mut add = |body: usize, point: Vector3<f64>, force: Vector3<f64>, torque: Vector3<f64>| {
-            if let Some(k) = joint_of.get(body).copied().flatten() {
-                let f = poses[k].0.inverse() * force;
-                let n = (point - joints[k].rho_child).cross(&f) + torque;
-                out[k] += Vector6::new(n.x, n.y, n.z, f.x, f.y, f.z);
+            // Every index through `get`: the steps stay in the no-panic proof.
+            let k = joint_of.get(body).copied().flatten();
+            if let (Some((turn, _)), Some(joint), Some(slot)) =
+                (k.and_then(|k| poses.get(k)), k.and_then(|k| joints.get(k)), k.and_then(|k| out.get_mut(k)))
+            {
+                let f = turn.inverse() * force;
+                let n = (point - joint.rho_child).cross(&f) + torque;
+                *slot += Vector6::new(n.x, n.y, n.z, f.x, f.y, f.z);
             }
         };
         spring_ends(self.springs, &system, |body, point, force| add(body, point, force, Vector3::zeros()));
@@ -276,6 +280,7 @@ impl<
 
     /// The constrained `v̇` and the pivot order of its factor; `order` fixes
     /// which rows are dropped (the later stages of a step keep the first's).
+    #[inline(always)]
     fn constrained(
         &mut self,
         state: &TreeState<NQ, NV>,
@@ -406,6 +411,9 @@ impl<
     /// scene's generated articulated-body algorithm where the derive wrote
     /// one, the tree's recursion otherwise (and when the generated one is not
     /// finite, so that a singular articulated inertia is named by its joint).
+    // Inlined into its callers (as `Tree::forward_dynamics` is): out of line,
+    // LTO left it without `nounwind`, and the steps kept a landing pad.
+    #[inline(always)]
     pub fn tree_dynamics(
         &self,
         state: &TreeState<NQ, NV>,
@@ -473,6 +481,9 @@ impl<
     /// [`TreeError::Diverged`] when the step is too long for the dynamics'
     /// stiffness (its end past [`DIVERGED`] or a later stage's dynamics
     /// failing).
+    // Inlined into `step` and its callers: out of line, LTO left it without
+    // `nounwind` (nothing in it unwinds), a landing pad in every caller.
+    #[inline(always)]
     pub fn step_with(
         &mut self,
         state: &mut TreeState<NQ, NV>,
@@ -487,18 +498,21 @@ impl<
         // row switching between stages would break the method's order.
         let (v1, first) = self.constrained(state, tau, None)?;
         let q1 = self.tree.coordinate_rates(&state.q, &state.v);
-        let mut rate = |s: &TreeState<NQ, NV>| -> Result<(SVector<f64, NQ>, SVector<f64, NV>), TreeError> {
-            Ok((self.tree.coordinate_rates(&s.q, &s.v), self.constrained(s, tau, first.as_ref())?.0))
-        };
-        let at = |dq: &SVector<f64, NQ>, dv: &SVector<f64, NV>, c: f64| TreeState {
-            q: state.q + dq * c,
-            v: state.v + dv * c,
-            t: state.t + c,
-        };
-        // A later stage's failure where the first's dynamics held: divergence.
-        let (q2, v2) = rate(&at(&q1, &v1, 0.5 * h)).map_err(|e| e.at_stage(state.t + 0.5 * h))?;
-        let (q3, v3) = rate(&at(&q2, &v2, 0.5 * h)).map_err(|e| e.at_stage(state.t + 0.5 * h))?;
-        let (q4, v4) = rate(&at(&q3, &v3, h)).map_err(|e| e.at_stage(state.t + h))?;
+        // The later stages in one loop, so that the dynamics have one call
+        // site (a closure called three times was left without `nounwind` by
+        // LTO, a landing pad the no-panic proof counts).
+        let mut stages = [(q1, v1); 4];
+        for (i, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
+            let (Some(&(dq, dv)), t) = (stages.get(i - 1), state.t + c * h) else { break };
+            let at = TreeState { q: state.q + dq * (c * h), v: state.v + dv * (c * h), t };
+            let rates = self.tree.coordinate_rates(&at.q, &at.v);
+            // A later stage's failure where the first's dynamics held: divergence.
+            let (vdot, _) = self.constrained(&at, tau, first.as_ref()).map_err(|e| e.at_stage(t))?;
+            if let Some(slot) = stages.get_mut(i) {
+                *slot = (rates, vdot);
+            }
+        }
+        let [_, (q2, v2), (q3, v3), (q4, v4)] = stages;
         let mut next = TreeState {
             q: state.q + (q1 + (q2 + q3) * 2.0 + q4) * (h / 6.0),
             v: state.v + (v1 + (v2 + v3) * 2.0 + v4) * (h / 6.0),
@@ -866,7 +880,9 @@ fn spring_ends<const NB: usize>(
     let end = |at: &Attachment| match *at {
         Attachment::Ground(p) => (p, nalgebra::Vector3::zeros(), None),
         Attachment::Body { body, point } => {
-            let b = &system.bodies[body];
+            // `with_springs` refused bodies out of range: the default is
+            // never used, and the step keeps no panic path.
+            let b = system.bodies.get(body).copied().unwrap_or_default();
             let arm = b.rotation() * point;
             (b.r + arm, b.rdot + (b.rotation() * b.omega).cross(&arm), Some((body, point)))
         }

@@ -20,7 +20,7 @@ pub(crate) struct Transform {
 
 /// The angular and linear halves. Always inlined, as [`join`]: a call left
 /// out of line has been left as one that may unwind, which the no-panic
-/// proof of the recursions (`tree/recursion.rs`) cannot see through.
+/// proof of the recursions (`relative/recursion.rs`) cannot see through.
 #[inline(always)]
 pub(crate) fn split(m: &Vector6<f64>) -> (Vector3<f64>, Vector3<f64>) {
     (m.fixed_rows::<3>(0).into_owned(), m.fixed_rows::<3>(3).into_owned())

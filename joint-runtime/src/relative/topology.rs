@@ -415,7 +415,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let (w, v) = split(&kin.vel[k]);
             let rho = self.joints[k].rho_child;
             let r = o - a * rho;
-            bodies[self.joints[k].child] = OmegaBody::from_rotation(r, &a, a * (v - w.cross(&rho)), w);
+            if let Some(body) = bodies.get_mut(self.joints[k].child) {
+                *body = OmegaBody::from_rotation(r, &a, a * (v - w.cross(&rho)), w);
+            }
         }
         SystemState { bodies, t: state.t }
     }
