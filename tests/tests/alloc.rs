@@ -266,6 +266,41 @@ fn tree_derivatives_and_step_jacobians_allocate_nothing() {
     assert!(ok, "the recursion's derivatives ran");
 }
 
+/// The floating Solo12 from its MJCF file: a free joint's quaternion and
+/// twelve hinges, in relative coordinates.
+#[derive(Scene)]
+#[scene(mjcf = "data/robots/solo12_floating.xml")]
+struct Solo12;
+
+#[test]
+fn a_robots_step_dynamics_mass_matrix_and_frames_allocate_nothing() {
+    let mut sim = Simulation::new(&Solo12, NoLoads, &[], SimulationOptions::default()).expect("a valid robot");
+    let mut state = sim.tree().zero_state();
+    state.q[2] = 0.3;
+    for (k, x) in state.v.iter_mut().enumerate() {
+        *x = 0.1 * (k as f64).sin();
+    }
+    let tau = SVector::<f64, 18>::from_fn(|k, _| 0.2 * (k as f64).cos());
+    let mut m = joint_runtime::nalgebra::SMatrix::<f64, 18, 18>::zeros();
+    let (start, mut out) = (state, None);
+    let n = allocations(|| {
+        let vdot = sim.forward_dynamics(&state, &tau).expect("dynamics");
+        let back = sim.inverse_dynamics(&state, &vdot);
+        sim.mass_matrix_into(&state.q, &mut m);
+        let frames = sim.system_state(&state);
+        let steps = (0..3).all(|_| sim.step_with(&mut state, 1e-3, &tau).is_ok());
+        out = Some(((back - tau).amax(), frames, steps));
+    });
+    assert_eq!(n, 0, "the relative engine allocated");
+    let (inverse, frames, steps) = out.expect("ran");
+    // Inverse after forward dynamics gives the forces back; the frames give
+    // the joints' state back; M is symmetric.
+    assert!(inverse < 1e-9 && steps, "inverse dynamics off by {inverse}");
+    let again = sim.state_of(&frames).expect("on its joints");
+    assert!((again.q - start.q).amax() < 1e-12 && (again.v - start.v).amax() < 1e-12);
+    assert!((m - m.transpose()).amax() < 1e-12 && m[(0, 0)] > 0.0);
+}
+
 #[test]
 fn the_counter_counts() {
     // The counter counts: a vector allocates.
