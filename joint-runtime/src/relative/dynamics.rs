@@ -194,8 +194,8 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                     .filter(|f| f.is_full_rank())
                     .ok_or(singular)?;
                 free[k] = factor.solve(&(f - pa[k]));
-                if let Some(parent) = self.parent[k].and_then(|p| pa.get_mut(p)) {
-                    *parent += kin.x[k].force_back(&f);
+                if let Some(p) = self.parent[k] {
+                    add_at(&mut pa, p, kin.x[k].force_back(&f));
                 }
                 continue;
             }
@@ -254,7 +254,9 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// The joint forces of the wrenches `external` on the joints' children
     /// (link frames, moment about the joint point): each carried towards the
     /// root and projected onto every joint it passes, `Sᵀ Σ Xᵀ f`, what the
-    /// bodies' point Jacobians' `Jᵀ f` sum to, in O(bodies).
+    /// bodies' point Jacobians' `Jᵀ f` sum to, in O(bodies). Every data
+    /// index through `get` (`put`, `add_at`): the steps, and the gravity
+    /// compensation's forces, that call it are proved panic-free.
     pub(crate) fn wrench_forces(&self, q: &SVector<f64, NQ>, external: &[Vector6<f64>; NB]) -> SVector<f64, NV> {
         let mut f = *external;
         let mut tau = SVector::<f64, NV>::zeros();
@@ -402,24 +404,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// torques, each wrench carried to the root and projected on the joints
     /// it passes. `None` without compensation.
     pub(crate) fn compensation_forces(&self, q: &SVector<f64, NQ>) -> Option<SVector<f64, NV>> {
-        let mut f = self.compensation_wrenches(q)?;
-        let mut tau = SVector::<f64, NV>::zeros();
-        for k in (0..NB).rev() {
-            let own = project(&self.subspace_at(k, q), &f[k]);
-            let at = self.v_at[k];
-            for (i, x) in own.iter().enumerate().take(self.joints[k].kind.freedoms()) {
-                if let Some(slot) = tau.get_mut(at + i) {
-                    *slot = *x;
-                }
-            }
-            if let Some(p) = self.parent[k] {
-                let back = self.transform(k, q).force_back(&f[k]);
-                if let Some(up) = f.get_mut(p) {
-                    *up += back;
-                }
-            }
-        }
-        Some(tau)
+        self.compensation_wrenches(q).map(|f| self.wrench_forces(q, &f))
     }
 
     /// Gravity compensation's share of the inverse dynamics' derivatives
