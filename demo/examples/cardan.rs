@@ -11,7 +11,6 @@
 
 use joint_demo::cardan::{self, Curve, Sweep, plot_speed_ratios};
 use joint_demo::write_animation;
-use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;
 
@@ -82,10 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let shown = sweeps.iter().find(|s| (s.bend.to_degrees() - 60.0).abs() < 1e-9).ok_or("no 60° sweep")?;
     let mut run = shown.trajectory.clone();
     cardan::mark_yokes(&mut run, 0, &[1]);
-    let path = path.with_file_name("cardan.svg");
-    let options = SvgOptions::default().with_title("Cardan shaft bent by 60°, one input turn per second");
-    write_animation(&path, &run, &options)?;
-    println!("animation: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
+    write_animation(&path.with_file_name("cardan"), &run, "Cardan shaft bent by 60°, one input turn per second")?;
     Ok(())
 }
 

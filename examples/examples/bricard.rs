@@ -16,7 +16,6 @@ use joint_examples::bricard::{self, Run};
 use joint_examples::write_animation;
 use joint_runtime::analysis::{AssemblyOptions, assemble};
 use joint_runtime::dynamics::Integrator;
-use joint_runtime::record::SvgOptions;
 
 fn report(name: &str, run: &Run, seconds: f64) {
     let p = bricard::p3(&run.end);
@@ -83,8 +82,6 @@ fn main() -> Result<(), Box<dyn Error>> {
         &[energy(&rk4, "RK4, h = 1e-3"), energy(&mid, "implicit midpoint, h = 2e-3")],
     )?;
     println!("plots: {}", dir.join("bricard_{p3,energy}.svg").display());
-    let options = SvgOptions::default().with_title("Bricard mechanism, RK4 h = 1e-3, 10 s");
-    write_animation(&dir.join("bricard.svg"), &rk4.trajectory, &options)?;
-    println!("animation: {}", dir.join("bricard.svg").display());
+    write_animation(&dir.join("bricard"), &rk4.trajectory, "Bricard mechanism, RK4 h = 1e-3, 10 s")?;
     Ok(())
 }

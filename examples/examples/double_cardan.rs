@@ -13,7 +13,6 @@
 use joint_examples::cardan::{Curve, plot_speed_ratios};
 use joint_examples::double_cardan::{self, Arrangement, Phasing, Sweep};
 use joint_examples::write_animation;
-use joint_runtime::record::SvgOptions;
 
 const STEPS: usize = 360;
 
@@ -62,10 +61,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .ok_or("no Z, in-phase, 30° sweep")?;
     let mut run = shown.trajectory.clone();
     joint_examples::cardan::mark_yokes(&mut run, 0, &[1, 2]);
-    let path = path.with_file_name("double-cardan.svg");
-    let options = SvgOptions::default().with_title("Double Cardan shaft (Z, in phase, 30°), one input turn per second");
-    write_animation(&path, &run, &options)?;
-    println!("animation: {}", path.canonicalize().unwrap_or_else(|_| path.clone()).display());
+    let title = "Double Cardan shaft (Z, in phase, 30°), one input turn per second";
+    write_animation(&path.with_file_name("double-cardan"), &run, title)?;
     Ok(())
 }
 

@@ -16,7 +16,6 @@ use joint_examples::bricard::plot_lines;
 use joint_examples::four_bar::{self, ROWS};
 use joint_examples::write_animation;
 use joint_runtime::dynamics::Integrator;
-use joint_runtime::record::{SvgOptions, View};
 
 fn main() -> Result<(), Box<dyn Error>> {
     let scene = four_bar::scene();
@@ -69,9 +68,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             );
             plot_lines(&dir.join("four_bar_energy.svg"), "N-four-bar: energy error", ("t (s)", "relative"), &[e])?;
             println!("  plots: {}", dir.join("four_bar_{b0,energy}.svg").display());
-            let options = SvgOptions::default().with_view(View::xy()).with_title("N-four-bar (N = 4), RK4 h = 1e-3");
-            write_animation(&dir.join("four_bar.svg"), &run.trajectory, &options)?;
-            println!("  animation: {}", dir.join("four_bar.svg").display());
+            write_animation(&dir.join("four_bar"), &run.trajectory, "N-four-bar (N = 4), RK4 h = 1e-3")?;
         }
     }
     // A step that starts exactly on the singular position (16 rows dropped there).

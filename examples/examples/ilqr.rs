@@ -13,8 +13,7 @@ use std::error::Error;
 use std::path::Path;
 
 use joint_examples::ilqr::{self, Acrobot, Derivatives, PandaArm, Solution};
-use joint_runtime::nalgebra::Vector3;
-use joint_runtime::record::{SvgOptions, Trajectory, View};
+use joint_runtime::record::Trajectory;
 use joint_runtime::relative::TreeSimulation;
 
 fn report<const NV: usize>(name: &str, exact: &Solution<NV>, differenced: &Solution<NV>) {
@@ -102,25 +101,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     // The optimised motions, drawn through the scenes' absolute coordinates.
     let recorder = TreeSimulation::new(&joint_examples::panda::Panda)?;
     let mut movie = Trajectory::new(&joint_examples::panda::Panda);
-    for link in &joint_examples::panda::Panda::LINKS {
-        if let Some(body) = link.body {
-            movie.add_segment(body, Vector3::zeros(), Vector3::from(link.origin));
-        }
-    }
     for s in &panda.states {
         movie.record(&recorder.system_state(s));
     }
-    let options =
-        SvgOptions::default().with_view(View::isometric()).with_size(900, 600).with_title("Panda: iLQR reach");
-    let panda_svg = dir.join("ilqr_panda.svg");
-    joint_examples::write_animation(&panda_svg, &movie, &options)?;
+    joint_examples::write_animation(&dir.join("ilqr_panda"), &movie, "Panda: iLQR reach")?;
     let mut movie = Trajectory::new(&Acrobot);
     for s in acrobot.states.iter().step_by(2) {
         movie.record(&sim.system_state(s));
     }
-    let options = SvgOptions::default().with_view(View::xz()).with_size(600, 600).with_title("Acrobot: iLQR swing-up");
-    let acrobot_svg = dir.join("ilqr_acrobot.svg");
-    joint_examples::write_animation(&acrobot_svg, &movie, &options)?;
-    println!("cost plot: {}\nanimations: {}, {}", cost_svg.display(), panda_svg.display(), acrobot_svg.display());
+    joint_examples::write_animation(&dir.join("ilqr_acrobot"), &movie, "Acrobot: iLQR swing-up")?;
+    println!("cost plot: {}", cost_svg.display());
     Ok(())
 }

@@ -1,6 +1,8 @@
 //! The Panda from its URDF file holding a pose under a PD controller with
 //! gravity compensation (`joint_examples::panda`): the tracking error as
-//! it settles, an animation and a CSV in `target/plots/`.
+//! it settles, a CSV and a plot of the error, and the run in 3D (the arm's
+//! own meshes) as `target/plots/panda_pd.glb` with a page that plays it,
+//! whose path it prints last.
 //!
 //! ```text
 //! cargo run --release --example panda_pd
@@ -9,8 +11,8 @@
 use std::error::Error;
 use std::path::Path;
 
+use joint_examples::bricard::plot_lines;
 use joint_examples::panda;
-use joint_runtime::record::{SvgOptions, View};
 
 fn main() -> Result<(), Box<dyn Error>> {
     let timer = std::time::Instant::now();
@@ -30,19 +32,19 @@ fn main() -> Result<(), Box<dyn Error>> {
     );
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots");
     std::fs::create_dir_all(&dir)?;
-    let options = SvgOptions::default()
-        .with_view(View::isometric())
-        .with_size(1000, 640)
-        .with_title("Panda: PD + gravity compensation");
-    let svg = dir.join("panda_pd.svg");
-    joint_examples::write_animation(&svg, &run.trajectory, &options)?;
     let csv = dir.join("panda_pd.csv");
     panda::write_csv(&run, std::fs::File::create(&csv)?)?;
-    for (name, index) in [("start", 0), ("end", run.trajectory.samples().len().saturating_sub(1))] {
-        if let Some(still) = run.trajectory.svg_frame(index, &options) {
-            std::fs::write(dir.join(format!("panda_pd_{name}.svg")), still)?;
-        }
-    }
-    println!("animation: {}\nCSV: {}", svg.display(), csv.display());
+    let tracking = dir.join("panda_pd_error.svg");
+    let error = ("largest |q* − q|".to_string(), run.samples.iter().map(|s| (s.t, s.error)).collect());
+    plot_lines(&tracking, "Panda: PD + gravity compensation, tracking error", ("t (s)", "rad or m"), &[error])?;
+    println!("CSV: {}\nplot: {}", csv.display(), tracking.display());
+    let timer = std::time::Instant::now();
+    let run3d =
+        joint_examples::write_animation(&dir.join("panda_pd"), &run.trajectory, "Panda: PD + gravity compensation")?;
+    println!(
+        "  (.glb and page written in {:.0} ms, the mesh files read included)",
+        timer.elapsed().as_secs_f64() * 1e3
+    );
+    println!("{}", run3d.page.canonicalize().unwrap_or(run3d.page).display());
     Ok(())
 }

@@ -1,7 +1,12 @@
 //! Seeing a run: a [`Trajectory`] of [`SystemState`]s, from a
 //! [`Simulation`](crate::dynamics::Simulation) or the kinematic analyses, written
-//! as CSV (one row per sample) or as an animated SVG that plays in a browser by
-//! itself (SMIL animation, no script). Feature `record`.
+//! as CSV (one row per sample), in 3D ([`Trajectory::write_3d`]: a glTF 2.0
+//! file with each body's shapes, and a page that plays it offline), or as an
+//! animated SVG that plays in a browser by itself (SMIL animation, no script).
+//! Feature `record`.
+//!
+//! The rest of this page is the SVG's drawing; the 3D run's is at
+//! [`Trajectory::write_3d`].
 //!
 //! Each body is drawn from its joint points ([`Scene::joint_points`]) as a
 //! polyline through them in declaration order (from its centre of mass when it
@@ -44,14 +49,26 @@ use std::io;
 
 use nalgebra::Vector3;
 
+use crate::robot::Visual;
 use crate::rotation_matrix;
 use crate::scene::{JointPoint, Scene, SystemState};
+
+mod gltf;
+mod shapes;
+mod viewer;
+
+pub use gltf::Glb;
+pub use viewer::{GltfOptions, Written};
 
 /// The states of a run, with what is needed to draw them: the scene's body
 /// names and joint points, read once by [`Trajectory::new`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Trajectory<const NB: usize> {
     bodies: [&'static str; NB],
+    masses: [f64; NB],
+    /// Against gravity (`z` without gravity): up in pictures.
+    up: Vector3<f64>,
+    visuals: &'static [Visual],
     points: Vec<JointPoint>,
     segments: Vec<Segment>,
     samples: Vec<SystemState<NB>>,
@@ -196,7 +213,10 @@ impl<const NB: usize> Trajectory<NB> {
     pub fn new<S: Scene<NB, NV, M>, const NV: usize, const M: usize>(scene: &S) -> Self {
         let mut points = Vec::new();
         scene.joint_points(&mut |p| points.push(p));
-        Trajectory { bodies: S::BODIES, points, segments: Vec::new(), samples: Vec::new() }
+        let masses = scene.inertias().map(|i| i.mass);
+        let up = (-scene.gravity()).try_normalize(0.0).unwrap_or_else(Vector3::z);
+        let (visuals, segments, samples) = (S::VISUALS, Vec::new(), Vec::new());
+        Trajectory { bodies: S::BODIES, masses, up, visuals, points, segments, samples }
     }
 
     /// Adds a segment fixed in body `body` from `a` to `b` (body components,

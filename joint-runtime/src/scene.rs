@@ -170,6 +170,12 @@ pub trait Scene<const NB: usize, const NV: usize, const M: usize> {
     /// Gravity, inertial components.
     fn gravity(&self) -> Vector3<f64>;
 
+    /// What the scene's robot file says each body looks like (URDF
+    /// `<visual>`, MJCF `<geom>`), in the file's order: none for a scene
+    /// declared by attributes, which [`record`](crate::record) draws from its
+    /// joint points instead.
+    const VISUALS: &'static [crate::robot::Visual] = &[];
+
     /// Visits the joint points (`rho1`, `rho2` of every joint that has them) in
     /// declaration order. The derive generates it; the default visits none.
     fn joint_points(&self, visit: &mut dyn FnMut(JointPoint)) {

@@ -54,6 +54,10 @@ mod guide {
     #[doc = include_str!("../../guide/src/batches.md")]
     struct Batches;
 
+    /// A run as a 3D file and a page that plays it.
+    #[doc = include_str!("../../guide/src/seeing-a-run.md")]
+    struct SeeingARun;
+
     /// The example programs, what each checks and measured.
     #[doc = include_str!("../../guide/src/examples.md")]
     struct Examples;

@@ -24,7 +24,8 @@ use quote::quote;
 use super::tree::Loops;
 use crate::engine::emit::ScalarTy;
 use crate::front::attr::Number;
-use crate::front::files::{FileData, FileLink, Library};
+use crate::front::files::{FileData, FileLink, FileShape, Library};
+
 use crate::front::resolve::Source;
 use crate::front::scene::{self, BodyName, Quantity, SIZE_CONSTANTS, SceneDecl, SceneShape};
 use crate::generate::{self, Printed, Signature, krate, lints};
@@ -237,6 +238,7 @@ fn print(
     let engine = Engine::Absolute([s.bodies.len(), 6 * s.bodies.len(), d.phi.len(), csr.columns.len()]);
     let simulate = simulate(input, &generics, engine);
     let file = file_constants(input, &generics, s);
+    let visuals = s.file.as_ref().map(|_| quote!(const VISUALS: &'static [#k::robot::Visual] = &Self::VISUALS;));
     quote! {
         #alias
         #tree
@@ -254,6 +256,7 @@ fn print(
             fn inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
             fn gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
             fn joint_points(&self, visit: &mut dyn FnMut(#k::JointPoint)) { #(#points)* }
+            #visuals
         }
 
         /// The scene's sizes and its bodies by name, without spelling out
@@ -359,6 +362,8 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
         None => quote!(::core::option::Option::None),
     };
     let links = data.links.iter().map(link_frame);
+    let visuals: Vec<TokenStream> = data.links.iter().flat_map(visuals).collect();
+    let nv = visuals.len();
     let limits = data.limits.iter().map(|(name, l)| {
         let range = some(l.range.map(|(a, b)| quote!((#a, #b))));
         let [effort, velocity, damping, friction, armature] =
@@ -388,6 +393,8 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
         impl #ig #ident #tg #wc {
             /// Every link's frame on its body, in the file's order.
             pub const LINKS: [#k::robot::LinkFrame; #nl] = [#(#links),*];
+            /// What each link looks like (URDF `<visual>`, MJCF `<geom>`), on its body, in the file's order.
+            pub const VISUALS: [#k::robot::Visual; #nv] = [#(#visuals),*];
             /// Each moving joint's limits and friction from the file, in the file's order.
             pub const LIMITS: [#k::robot::JointLimits; #nj] = [#(#limits),*];
             /// What the file asks of the step (MJCF's `<option timestep integrator>`): data.
@@ -412,6 +419,43 @@ fn link_frame(l: &FileLink) -> TokenStream {
     });
     let [x, y, z] = l.origin;
     quote!(#k::robot::LinkFrame { name: #name, body: #body, rotation: [#(#columns),*], origin: [#x, #y, #z] })
+}
+
+/// A link's visuals, each on its body, as the runtime's `Visual`s.
+fn visuals(l: &FileLink) -> Vec<TokenStream> {
+    let k = krate();
+    let body = match l.body {
+        Some(b) => quote!(::core::option::Option::Some(#b)),
+        None => quote!(::core::option::Option::None),
+    };
+    let triple = |[x, y, z]: [f64; 3]| quote!([#x, #y, #z]);
+    let on = |v| crate::front::files::on_body(&(l.rotation, l.origin), v);
+    l.visuals
+        .iter()
+        .map(|v| {
+            let (r, origin) = on(v);
+            let columns = (0..3).map(|c| triple([r[0][c], r[1][c], r[2][c]]));
+            let origin = triple(origin);
+            let shape = match &v.shape {
+                FileShape::Box(h) => { let h = triple(*h); quote!(Box(#h)) }
+                FileShape::Sphere(r) => quote!(Sphere(#r)),
+                FileShape::Cylinder(r, h) => quote!(Cylinder(#r, #h)),
+                FileShape::Capsule(r, h) => quote!(Capsule(#r, #h)),
+                FileShape::Ellipsoid(a) => { let a = triple(*a); quote!(Ellipsoid(#a)) }
+                FileShape::Plane([x, y]) => quote!(Plane([#x, #y])),
+                FileShape::Mesh { file, scale } => { let s = triple(*scale); quote!(Mesh { file: #file, scale: #s }) }
+            };
+            let rgba = match v.rgba {
+                Some([r, g, b, a]) => quote!(::core::option::Option::Some([#r, #g, #b, #a])),
+                None => quote!(::core::option::Option::None),
+            };
+            quote! {
+                #k::robot::Visual {
+                    body: #body, rotation: [#(#columns),*], origin: #origin, shape: #k::robot::Shape::#shape, rgba: #rgba,
+                }
+            }
+        })
+        .collect()
 }
 
 /// `MUJOCO` (an MJCF file) or `PINOCCHIO` (a URDF): the file's moving

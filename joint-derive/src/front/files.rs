@@ -282,6 +282,44 @@ pub struct FileLink {
     pub rotation: [[f64; 3]; 3],
     /// The link's origin from the body's centre (the world's origin for the ground).
     pub origin: [f64; 3],
+    /// What it looks like, in its own frame.
+    pub visuals: Vec<FileVisual>,
+}
+
+/// One shape on a link, its pose in the link's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileVisual {
+    /// The shape's axes (by rows) and origin in the link's frame.
+    pub pose: ([[f64; 3]; 3], [f64; 3]),
+    pub shape: FileShape,
+    /// Red, green, blue, opacity, where the file gives them.
+    pub rgba: Option<[f64; 4]>,
+}
+
+/// The runtime's `robot::Shape`, with the mesh's file as read.
+#[cfg_attr(not(any(feature = "urdf", feature = "mjcf")), allow(dead_code))]
+#[derive(Clone, Debug, PartialEq)]
+pub enum FileShape {
+    Box([f64; 3]),
+    Sphere(f64),
+    /// Radius, half length, along `z`.
+    Cylinder(f64, f64),
+    /// Radius, half length of the cylinder, along `z`.
+    Capsule(f64, f64),
+    Ellipsoid([f64; 3]),
+    Plane([f64; 2]),
+    Mesh {
+        file: String,
+        scale: [f64; 3],
+    },
+}
+
+/// The shape `visual` gives in the frame of a link whose frame is `link` in
+/// its body's: what the runtime's `Visual` holds.
+pub fn on_body(link: &([[f64; 3]; 3], [f64; 3]), visual: &FileVisual) -> ([[f64; 3]; 3], [f64; 3]) {
+    let (a, (b, p)) = (&link.0, &visual.pose);
+    let turn = std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()));
+    (turn, std::array::from_fn(|i| link.1[i] + (0..3).map(|k| a[i][k] * p[k]).sum::<f64>()))
 }
 
 /// A joint's limits, damping and friction as its file gives them, where given.

@@ -24,7 +24,10 @@
 //! equality's softness; a ball or free joint's spring, inertia computed
 //! from geoms, several joints in one body, a damped free joint,
 //! `<include>`, composites, mocap bodies).
-//! Geoms, meshes, actuators, sensors and contacts are not read.
+//! Geoms (their classes' `<default><geom>` too) and `<asset>` meshes and
+//! materials are read for pictures only ([`super::visuals`]): geoms of
+//! `group` 3 and above, which MuJoCo's viewer hides, are left out.
+//! Actuators, sensors and contacts are not read.
 
 use std::collections::HashMap;
 
@@ -32,13 +35,15 @@ use super::robot::{
     Closure, Fail, FileCoupling, FileLimits, FileOptions, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3, Robot,
     V3, add, apply, assemble, mul, norm, number, numbers, read_text, required, transpose, triple,
 };
+use super::visuals::{FileVisual, Looks, mjcf_shape, z_turn};
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
 /// error at the attribute, naming the file, line and column.
 pub fn read(path: &syn::LitStr) -> syn::Result<Robot> {
     let (text, full) = read_text(path, "an MJCF")?;
     // Errors name the file as the scene wrote it; the build tracks it by its full path.
-    let robot = from_text(&text, &path.value(), path.span())?;
+    let mut robot = from_text(&text, &path.value(), path.span())?;
+    super::visuals::find_meshes(robot.links.iter_mut().flat_map(|l| &mut l.visuals), &full);
     Ok(Robot { path: full, ..robot })
 }
 
@@ -59,6 +64,7 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
         inertial: None,
         unknown: false,
         gravcomp: 0.0,
+        visuals: Vec::new(),
         at: reader.pos(world),
     });
     reader.children(world, 0, "main", (IDENTITY, [0.0; 3]))?;
@@ -99,6 +105,8 @@ struct Reader<'a, 'i> {
     compiler: Compiler,
     /// Each `<default>` class's joint attributes, its parents' included.
     defaults: HashMap<String, HashMap<String, String>>,
+    /// The same for geoms, and the `<asset>`s they name: pictures only.
+    looks: Looks,
     links: Vec<Link>,
     joints: Vec<Joint>,
 }
@@ -148,12 +156,14 @@ impl<'a, 'i> Reader<'a, 'i> {
             return Err(fail(pos(n), format!("`<{}>`: {what}", n.tag_name().name())));
         }
         unmodelled(doc, fail)?;
-        let mut defaults = HashMap::new();
+        let (mut defaults, mut geoms) = (HashMap::new(), HashMap::new());
         for d in root.children().filter(|n| n.has_tag_name("default")) {
-            default_class(d, "main", &HashMap::new(), &mut defaults, &pos, fail)?;
+            default_class(d, ("main", "joint"), &HashMap::new(), &mut defaults, &pos, fail)?;
+            default_class(d, ("main", "geom"), &HashMap::new(), &mut geoms, &pos, fail)?;
         }
         defaults.entry("main".to_string()).or_default();
-        Ok(Reader { doc, fail, compiler, defaults, links: Vec::new(), joints: Vec::new() })
+        let looks = Looks::read(root, geoms, &pos, fail)?;
+        Ok(Reader { doc, fail, compiler, defaults, looks, links: Vec::new(), joints: Vec::new() })
     }
 
     fn pos(&self, n: roxmltree::Node) -> roxmltree::TextPos {
@@ -175,7 +185,15 @@ impl<'a, 'i> Reader<'a, 'i> {
                 "site" => {
                     let name = self.name(c, "site")?;
                     let origin = compose(&offset, &self.frame(c)?);
-                    self.links.push(Link { name: name.clone(), inertial: None, unknown: false, gravcomp: 0.0, at });
+                    let visuals = Vec::new();
+                    self.links.push(Link {
+                        name: name.clone(),
+                        inertial: None,
+                        unknown: false,
+                        gravcomp: 0.0,
+                        visuals,
+                        at,
+                    });
                     let child = self.links.len() - 1;
                     let (point, axis, limits) = ([0.0; 3], [0.0, 0.0, 1.0], FileLimits::default());
                     let continuous = false;
@@ -191,6 +209,11 @@ impl<'a, 'i> Reader<'a, 'i> {
                         continuous,
                         at,
                     });
+                }
+                "geom" => {
+                    let class = self.class(c, "class", class)?;
+                    let visual = self.geom(c, &class, &offset)?;
+                    self.links[parent].visuals.extend(visual);
                 }
                 "joint" | "freejoint" if parent == 0 => {
                     return Err((self.fail)(at, "a joint of the world; expected joints inside a `<body>`".into()));
@@ -229,7 +252,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 _ => return Err((self.fail)(at, format!("`gravcomp=\"{text}\"`: expected a number"))),
             },
         };
-        self.links.push(Link { name: name.clone(), inertial, unknown, gravcomp, at });
+        self.links.push(Link { name: name.clone(), inertial, unknown, gravcomp, visuals: Vec::new(), at });
         let child = self.links.len() - 1;
         let declared: Vec<roxmltree::Node> =
             b.children().filter(|n| n.has_tag_name("joint") || n.has_tag_name("freejoint")).collect();
@@ -457,6 +480,54 @@ impl<'a, 'i> Reader<'a, 'i> {
             ));
         }
         Ok((turn, p))
+    }
+
+    /// A `<geom>` of class `class` placed by `offset` in its link's frame;
+    /// `None` for one MuJoCo's viewer hides (`group` 3 and above, or
+    /// transparent) or of a type not drawn.
+    fn geom(&self, g: roxmltree::Node, class: &str, offset: &(M3, V3)) -> syn::Result<Option<FileVisual>> {
+        let (at, fail) = (self.pos(g), self.fail);
+        let get = |key: &str| g.attribute(key).or_else(|| self.looks.defaults.get(class)?.get(key).map(String::as_str));
+        let list = |key: &str| -> syn::Result<Vec<f64>> {
+            let Some(text) = get(key) else { return Ok(Vec::new()) };
+            let parsed: Option<Vec<f64>> =
+                text.split_whitespace().map(|t| t.parse::<f64>().ok().filter(|x| x.is_finite())).collect();
+            parsed.ok_or_else(|| fail(at, format!("`{key}=\"{text}\"`: expected numbers")))
+        };
+        let group = list("group")?.first().copied().unwrap_or(0.0);
+        let rgba = match list("rgba")?.as_slice() {
+            [] => get("material").and_then(|m| self.looks.materials.get(m)).copied(),
+            &[r, g, b, a] => Some([r, g, b, a]),
+            _ => return Err(fail(at, "`rgba`: expected four numbers, as in `rgba=\"0.5 0.5 0.5 1\"`".into())),
+        };
+        if group >= 3.0 || rgba.is_some_and(|c| c[3] <= 0.0) {
+            return Ok(None);
+        }
+        let fromto = list("fromto")?;
+        let (pose, length) = match fromto.as_slice() {
+            [] => (compose(offset, &self.frame(g)?), None),
+            &[a, b, c, d, e, f] => {
+                let turn = z_turn([d - a, e - b, f - c])
+                    .ok_or_else(|| fail(at, "`fromto`: both ends are the same point; expected a segment".into()))?;
+                let centre = [0.5 * (a + d), 0.5 * (b + e), 0.5 * (c + f)];
+                (compose(offset, &(turn, centre)), Some(norm(&[d - a, e - b, f - c])))
+            }
+            _ => return Err(fail(at, "`fromto`: expected six numbers, as in `fromto=\"0 0 0 0 0 1\"`".into())),
+        };
+        let mesh = get("mesh").map(|name| {
+            self.looks.meshes.get(name).cloned().ok_or_else(|| {
+                fail(
+                    at,
+                    format!(
+                        "`mesh=\"{name}\"` names no `<asset><mesh name=\"{name}\">`; expected one of the file's meshes"
+                    ),
+                )
+            })
+        });
+        let mesh = mesh.transpose()?;
+        let shape =
+            mjcf_shape(get("type").unwrap_or("sphere"), &list("size")?, length, mesh).map_err(|m| fail(at, m))?;
+        Ok(shape.map(|shape| FileVisual { pose, shape, rgba }))
     }
 
     /// An element's `name` (empty if none), unique among the links.
@@ -756,11 +827,11 @@ fn unmodelled(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<()> {
 /// MuJoCo's five ways to give an orientation.
 const ORIENTATIONS: [&str; 5] = ["quat", "axisangle", "euler", "xyaxes", "zaxis"];
 
-/// One `<default>` and the classes inside it: each class's joint
-/// attributes over its parent's.
+/// One `<default>` and the classes inside it: each class's attributes of
+/// its `tag` (joint, geom) over its parent's.
 fn default_class(
     d: roxmltree::Node,
-    name: &str,
+    (name, tag): (&str, &str),
     parent: &HashMap<String, String>,
     out: &mut HashMap<String, HashMap<String, String>>,
     pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
@@ -771,14 +842,14 @@ fn default_class(
         return Err(fail(pos(d), format!("default class `{name}` is declared twice; expected unique class names")));
     }
     let mut own = parent.clone();
-    for j in d.children().filter(|n| n.has_tag_name("joint")) {
+    for j in d.children().filter(|n| n.has_tag_name(tag)) {
         own.extend(j.attributes().map(|a| (a.name().to_string(), a.value().to_string())));
     }
     for inner in d.children().filter(|n| n.has_tag_name("default")) {
         if inner.attribute("class").is_none() {
             return Err(fail(pos(inner), "a nested `<default>` has no `class`; expected `class=\"..\"`".into()));
         }
-        default_class(inner, "", &own, out, pos, fail)?;
+        default_class(inner, ("", tag), &own, out, pos, fail)?;
     }
     out.insert(name, own);
     Ok(())

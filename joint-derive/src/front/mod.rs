@@ -32,6 +32,8 @@ pub mod scene;
 pub mod tree;
 #[cfg(feature = "urdf")]
 pub mod urdf;
+#[cfg(any(feature = "urdf", feature = "mjcf"))]
+pub mod visuals;
 
 #[cfg(test)]
 mod tests;

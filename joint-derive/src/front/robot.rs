@@ -21,7 +21,7 @@ use std::collections::HashMap;
 
 use super::geometry::{eigenvalues, physical};
 
-pub use super::files::{FileLimits, FileLink, FileOptions, FileSpring, Library, LibraryJoint};
+pub use super::files::{FileLimits, FileLink, FileOptions, FileSpring, FileVisual, Library, LibraryJoint};
 
 /// A robot in the scene's terms.
 pub struct Robot {
@@ -121,6 +121,8 @@ pub struct Link {
     pub unknown: bool,
     /// MJCF's `gravcomp`: the fraction of its weight held up (zero elsewhere).
     pub gravcomp: f64,
+    /// What it looks like (URDF `<visual>`, MJCF `<geom>`), in its frame.
+    pub visuals: Vec<FileVisual>,
     pub at: roxmltree::TextPos,
 }
 
@@ -260,7 +262,8 @@ pub fn assemble(
         .map(|l| {
             let (r, p) = pose[l];
             let body = body_of[l];
-            FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)) }
+            let visuals = links[l].visuals.clone();
+            FileLink { name: links[l].name.clone(), body, rotation: r, origin: sub(&p, &from(body)), visuals }
         })
         .collect();
     let library_joints = library_joints(joints, (library, root, floating), &body_of);

@@ -5,7 +5,8 @@
 //! read by `roxmltree`, which gives every error its line and column in the
 //! file.
 //!
-//! Visuals, collisions, transmissions and Gazebo tags are not read; a
+//! `<visual>` shapes are read for pictures (`visuals`); collisions,
+//! transmissions and Gazebo tags are not read; a
 //! `<mimic joint multiplier offset>` is a coupling (a row in relative
 //! coordinates, unless the scene says `mimic = independent`).
 
@@ -21,7 +22,8 @@ use super::robot::{
 pub fn read(path: &syn::LitStr, floating: bool) -> syn::Result<Robot> {
     let (text, full) = super::robot::read_text(path, "a URDF")?;
     // Errors name the file as the scene wrote it; the build tracks it by its full path.
-    let robot = from_text(&text, &path.value(), path.span(), floating)?;
+    let mut robot = from_text(&text, &path.value(), path.span(), floating)?;
+    super::visuals::find_meshes(robot.links.iter_mut().flat_map(|l| &mut l.visuals), &full);
     // URDF states no gravity; robot people's tools (Pinocchio, MuJoCo, the
     // MJCF reader here) take 9.81 down `z`, and so does a URDF scene unless
     // it says `gravity = [..]`.
@@ -82,6 +84,12 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
     if robot.tag_name().name() != "robot" {
         return Err(fail(pos(robot), format!("expected a `<robot>` element, found `<{}>`", robot.tag_name().name())));
     }
+    let mut materials = Vec::new();
+    for m in robot.children().filter(|n| n.has_tag_name("material")) {
+        if let (Some(name), Some(rgba)) = (m.attribute("name"), super::visuals::urdf_colour(m, &pos, fail)?) {
+            materials.push((name.to_string(), rgba));
+        }
+    }
     let mut links: Vec<Link> = Vec::new();
     for node in robot.children().filter(|n| n.has_tag_name("link")) {
         let name = required(node, "name", pos(node), fail)?;
@@ -92,7 +100,8 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             Some(i) => Some(inertial(i, &name, &pos, fail)?),
             None => None,
         };
-        links.push(Link { name, inertial, unknown: false, gravcomp: 0.0, at: pos(node) });
+        let visuals = link_visuals(node, &materials, &pos, fail)?;
+        links.push(Link { name, inertial, unknown: false, gravcomp: 0.0, visuals, at: pos(node) });
     }
     let index = |name: &str, at, what: &str| {
         links.iter().position(|l| l.name == name).ok_or_else(|| {
@@ -141,6 +150,25 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
         joints.push(Joint { name, kind, parent, child, origin, point: [0.0; 3], axis, limits, continuous, at });
     }
     Ok((links, joints))
+}
+
+/// A link's `<visual>`s, each in the link's frame (`materials`: the file's
+/// named colours).
+fn link_visuals(
+    link: roxmltree::Node,
+    materials: &[(String, [f64; 4])],
+    pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
+    fail: &Fail,
+) -> syn::Result<Vec<super::visuals::FileVisual>> {
+    let mut out = Vec::new();
+    for v in link.children().filter(|n| n.has_tag_name("visual")) {
+        let at = match v.children().find(|n| n.has_tag_name("origin")) {
+            Some(o) => origin(o, pos(o), fail)?,
+            None => (IDENTITY, [0.0; 3]),
+        };
+        out.extend(super::visuals::urdf(v, at, materials, pos, fail)?);
+    }
+    Ok(out)
 }
 
 /// `<limit>` and `<dynamics>`: each number where given.
@@ -346,6 +374,34 @@ mod tests {
         let j = &robot.joints[0];
         assert_eq!((j.kind, j.parent, j.child, j.axis), ("revolute", None, 0, [0.0, 0.0, 1.0]));
         assert!((j.rho2[0] + 0.1).abs() < 1e-15 && j.rho1 == [0.0; 3]);
+    }
+
+    #[test]
+    fn visuals_with_their_origins_and_colours() {
+        use super::super::visuals::FileShape;
+        let text = r#"<robot name="r">
+          <material name="steel"><color rgba="0.5 0.5 0.6 1"/></material>
+          <link name="base">
+            <visual><origin xyz="0 0 0.1" rpy="0 0 1.5707963267948966"/><geometry><box size="0.2 0.4 0.6"/></geometry>
+              <material name="steel"/></visual>
+            <visual><geometry><cylinder radius="0.1" length="0.5"/></geometry>
+              <material name="own"><color rgba="1 0 0 1"/></material></visual>
+            <visual><geometry><sphere radius="0.3"/></geometry></visual>
+            <visual><geometry><mesh filename="m.stl" scale="2 2 2"/></geometry></visual>
+            <visual><geometry><plane/></geometry></visual>
+          </link></robot>"#;
+        let robot = from_text(text, "r.urdf", proc_macro2::Span::call_site(), false).unwrap();
+        let v = &robot.links[0].visuals;
+        assert_eq!(v.len(), 4, "a geometry not read is not drawn");
+        assert_eq!((&v[0].shape, v[0].rgba), (&FileShape::Box([0.1, 0.2, 0.3]), Some([0.5, 0.5, 0.6, 1.0])));
+        assert_eq!(v[0].pose.1, [0.0, 0.0, 0.1]);
+        assert!((apply(&v[0].pose.0, &[1.0, 0.0, 0.0])[1] - 1.0).abs() < 1e-15, "the yaw turns x to y");
+        assert_eq!((&v[1].shape, v[1].rgba), (&FileShape::Cylinder(0.1, 0.25), Some([1.0, 0.0, 0.0, 1.0])));
+        assert_eq!((&v[2].shape, v[2].rgba), (&FileShape::Sphere(0.3), None));
+        assert_eq!(v[3].shape, FileShape::Mesh { file: "m.stl".into(), scale: [2.0; 3] });
+        let bad = text.replace("radius=\"0.3\"", "radius=\"big\"");
+        let message = from_text(&bad, "r.urdf", proc_macro2::Span::call_site(), false).err().unwrap().to_string();
+        assert!(message.contains("r.urdf:8:") && message.contains("`radius=\"big\"`: expected a number"), "{message}");
     }
 
     fn origin_of(rpy: &str) -> (M3, V3) {

@@ -83,6 +83,55 @@ impl LinkFrame {
     }
 }
 
+/// A shape a robot's file draws on a body (URDF `<visual>`, MJCF `<geom>`):
+/// data for pictures ([`record`](crate::record) writes them into 3D runs);
+/// the dynamics never use it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Visual {
+    /// The body it is drawn on (its index in the scene), `None` for the
+    /// ground.
+    pub body: Option<usize>,
+    /// The shape's axes in the body's frame, by columns (in the world's for
+    /// the ground).
+    pub rotation: [[f64; 3]; 3],
+    /// The shape's origin from the body's centre of mass, in the body's
+    /// frame (from the world's origin for the ground).
+    pub origin: [f64; 3],
+    /// What is drawn, in the shape's axes.
+    pub shape: Shape,
+    /// Red, green, blue and opacity in `[0, 1]`, where the file gives them
+    /// (URDF `<material><color rgba>`, MJCF `rgba` or its material's); a
+    /// mesh file's own colours otherwise.
+    pub rgba: Option<[f64; 4]>,
+}
+
+/// A visual's shape, centred on its origin; lengths in metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// A box of these half sizes along its axes.
+    Box([f64; 3]),
+    /// A sphere of this radius.
+    Sphere(f64),
+    /// A cylinder along the shape's `z` axis: radius and half length.
+    Cylinder(f64, f64),
+    /// A capsule along the shape's `z` axis: radius and the half length of
+    /// its cylinder (MJCF's `size`).
+    Capsule(f64, f64),
+    /// An ellipsoid of these semi-axes.
+    Ellipsoid([f64; 3]),
+    /// A plane's rectangle in the shape's `x`, `y`: half sizes (MJCF gives
+    /// `0` for an infinite plane; a picture draws it finite).
+    Plane([f64; 2]),
+    /// A mesh file (STL, OBJ or Collada), scaled along its axes.
+    Mesh {
+        /// The file as found at compile time, absolute; the file's own
+        /// name (a URDF's `package://` URI) where it was not found.
+        file: &'static str,
+        /// The file's `scale`.
+        scale: [f64; 3],
+    },
+}
+
 /// A moving joint's limits and friction as its file gives them (`None`
 /// where it says nothing): data for a controller. Only an MJCF file's
 /// `armature` and `damping` are also in the dynamics (in relative

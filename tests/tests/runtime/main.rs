@@ -23,6 +23,7 @@ mod loops;
 mod mjcf;
 mod one_simulation;
 mod record;
+mod record_3d;
 mod second_order;
 mod serde_io;
 mod tree;

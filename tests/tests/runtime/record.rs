@@ -17,11 +17,11 @@ use joint_tests::scenes::hanging_rods;
 #[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 #[joint(elbow = spherical(upper, lower), rho1 = [0, 0, -0.5], rho2 = top)]
 #[joint(keep = perpendicular(upper, lower), s = [1, 0, 0], h = [0, 1, 0])]
-struct Rods {
+pub(super) struct Rods {
     top: Vector3<f64>,
 }
 
-fn rods() -> Rods {
+pub(super) fn rods() -> Rods {
     Rods { top: Vector3::new(0.0, 0.0, 0.5) }
 }
 
