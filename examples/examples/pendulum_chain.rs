@@ -1,6 +1,7 @@
 //! A spatial chain of five bars on spherical joints, whirling and swinging for
 //! 10 s: energy and constraint drift of each integrator, with and without
-//! projection; plots go to `target/plots/pendulum_chain_*.svg`.
+//! projection; plots go to `target/plots/pendulum_chain_*.svg`, the RK4 run
+//! with projection in 3D to `target/plots/pendulum_chain.html`.
 //!
 //! ```text
 //! cargo run --release --example pendulum_chain
@@ -24,6 +25,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         tip.z
     );
     let mut curves: Vec<Curve> = Vec::new();
+    let mut shown = None;
     for (integrator, projection, h) in [
         (Integrator::Rk4, true, 1e-3),
         (Integrator::Rk4, false, 1e-3),
@@ -49,6 +51,9 @@ fn main() -> Result<(), Box<dyn Error>> {
             tip.z,
             timer.elapsed().as_secs_f64()
         );
+        if (integrator, projection, h) == (Integrator::Rk4, true, 1e-3) {
+            shown = Some(run.trajectory.clone());
+        }
         if h == 1e-3 {
             let name = format!("{integrator:?}{}", if projection { " + projection" } else { "" });
             curves.push((name, run.samples.iter().map(|s| (s.t, s.energy_error / run.initial_kinetic)).collect()));
@@ -57,5 +62,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots/pendulum_chain_energy.svg");
     plot_lines(&path, "Pendulum chain: (E − E0)/T0, h = 1e-3", ("t (s)", "relative energy error"), &curves)?;
     println!("plot: {}", path.display());
+    if let Some(run) = shown {
+        let title = "Pendulum chain: five bars on spherical joints, RK4 + projection, h = 1e-3";
+        joint_examples::write_animation(&path.with_file_name("pendulum_chain"), &run, title)?;
+    }
     Ok(())
 }

@@ -86,7 +86,14 @@ fn main() -> Result<(), Box<dyn Error>> {
         c.angle, c.rate, c.accel, c.length
     );
 
-    plot(&s, Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots/steering.svg").as_path())?;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/plots/steering.svg");
+    plot(&s, &path)?;
+    // The wheel turned once: the shafts' axes bend, the intermediate shaft telescopes.
+    joint_examples::write_animation(
+        &path.with_file_name("steering"),
+        &s.trajectory,
+        "Steering column, one turn of the wheel",
+    )?;
     Ok(())
 }
 

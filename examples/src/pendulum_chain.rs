@@ -17,6 +17,7 @@
 use joint_runtime::analysis::AnalysisError;
 use joint_runtime::dynamics::{Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use joint_runtime::record::Trajectory;
 use joint_runtime::{BodyInertia, OmegaBody, Scene, SystemState};
 
 /// Number of bars.
@@ -130,6 +131,8 @@ pub struct Run {
     pub end: SystemState<BODIES>,
     /// Samples every `sample_every` steps (and the last).
     pub samples: Vec<Sample>,
+    /// The bars at the same samples, for the 3D run.
+    pub trajectory: Trajectory<BODIES>,
 }
 
 /// Runs `t_end` seconds from [`initial_state`] with step `h`, the chosen
@@ -163,7 +166,9 @@ pub fn simulate(
         newton_iterations: 0,
         end: state,
         samples: vec![Sample { t: 0.0, energy_error: 0.0, constraint: scene.phi(&state).norm(), tip: tip(&state) }],
+        trajectory: Trajectory::new(&scene),
     };
+    run.trajectory.record(&state);
     for n in 1..=steps {
         let report = sim.step(&mut state, h)?;
         let de = sim.energy(&state).total() - e0;
@@ -175,6 +180,7 @@ pub fn simulate(
         run.newton_iterations += report.newton_iterations;
         if n % sample_every.max(1) == 0 || n == steps {
             run.samples.push(Sample { t: state.t, energy_error: de, constraint: phi, tip: tip(&state) });
+            run.trajectory.record(&state);
         }
     }
     run.end = state;

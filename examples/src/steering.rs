@@ -81,6 +81,7 @@ use core::f64::consts::{PI, TAU};
 
 use joint_runtime::analysis::{AnalysisError, AssemblyOptions, RowList, accelerations, assemble, velocities};
 use joint_runtime::nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+use joint_runtime::record::Trajectory;
 use joint_runtime::{AxisFrame, Drive, OmegaBody, Ramp, SystemState, TimeFunction};
 
 /// Column bearing point in the input body frame (x).
@@ -445,6 +446,8 @@ pub struct Sweep {
     /// Redundant rows reported by assembly, velocity or acceleration analysis:
     /// the last nonempty list over the turn, or empty if none ever was.
     pub redundant: RowList<18>,
+    /// The assembled bodies at each step, for the 3D run.
+    pub trajectory: Trajectory<3>,
 }
 
 impl Sweep {
@@ -481,6 +484,7 @@ pub fn sweep(reach: f64, rate: f64, steps: usize) -> Result<Sweep, AnalysisError
     let geometry = column.closed_form(column.steer.eval(0.0));
     let mut state = column.rough_state(0.0);
     let mut samples = Vec::with_capacity(steps + 1);
+    let mut trajectory = Trajectory::new(&column);
     let mut redundant = RowList::default();
     let mut branch = None;
     let (mut previous, mut turns) = (None::<f64>, 0.0);
@@ -508,6 +512,7 @@ pub fn sweep(reach: f64, rate: f64, steps: usize) -> Result<Sweep, AnalysisError
         let rate_out = state.bodies[2].omega.x;
         let accel_out = acc.vdot[15];
         let length = intermediate_length(&state);
+        trajectory.record(&state);
         samples.push(Sample {
             input: drive.value,
             output,
@@ -524,7 +529,7 @@ pub fn sweep(reach: f64, rate: f64, steps: usize) -> Result<Sweep, AnalysisError
             iterations: assembly.iterations,
         });
     }
-    Ok(Sweep { samples, branch: branch.unwrap_or(0).rem_euclid(2), geometry, redundant })
+    Ok(Sweep { samples, branch: branch.unwrap_or(0).rem_euclid(2), geometry, redundant, trajectory })
 }
 
 /// The largest differences between [`SteeringColumn`] (UT joint) and

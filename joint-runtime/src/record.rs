@@ -58,7 +58,7 @@ mod shapes;
 mod viewer;
 
 pub use gltf::Glb;
-pub use viewer::{GltfOptions, Written};
+pub use viewer::{GltfOptions, Written, viewer_page};
 
 /// The states of a run, with what is needed to draw them: the scene's body
 /// names and joint points, read once by [`Trajectory::new`].

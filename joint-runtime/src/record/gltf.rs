@@ -175,21 +175,17 @@ fn json_string(text: &str) -> String {
     out
 }
 
-/// Mesh files read once per run, by file and scale.
-type Loaded = BTreeMap<(&'static str, [u64; 3]), Result<Vec<Mesh>, String>>;
-
 impl<const NB: usize> Trajectory<NB> {
     /// The run as a glTF 2.0 binary ([`Glb`]): see [`write_3d`](Self::write_3d).
     pub fn glb(&self, options: &GltfOptions) -> Glb {
         let mut b = Builder::default();
-        let mut loaded: Loaded = BTreeMap::new();
         let mut missing = Vec::new();
         let mut world = Vec::new();
         let frames = self.display_frames(options.fps);
         // The bodies, each with its shapes as children.
         let (mut animated, mut corners) = (Vec::new(), Vec::new());
         for body in 0..NB {
-            let mut parts = self.visual_parts(Some(body), &mut loaded, &mut missing);
+            let mut parts = self.visual_parts(Some(body), &mut missing);
             if parts.is_empty() {
                 parts = self.stand_in_parts(body);
             }
@@ -200,7 +196,7 @@ impl<const NB: usize> Trajectory<NB> {
             animated.push(node);
             world.push(node);
         }
-        let on_ground = self.visual_parts(None, &mut loaded, &mut missing);
+        let on_ground = self.visual_parts(None, &mut missing);
         world.extend(place(&mut b, on_ground));
         world.extend(self.ground_points(&mut b));
         if options.ground {
@@ -247,21 +243,18 @@ impl<const NB: usize> Trajectory<NB> {
 
     /// The file's shapes on `body` (the ground's for `None`); an
     /// unreadable mesh into `missing`, and nothing drawn for it.
-    fn visual_parts(&self, body: Option<usize>, loaded: &mut Loaded, missing: &mut Vec<String>) -> Vec<Part> {
+    fn visual_parts(&self, body: Option<usize>, missing: &mut Vec<String>) -> Vec<Part> {
         let mut out = Vec::new();
         for (k, v) in self.visuals.iter().enumerate().filter(|(_, v)| v.body == body) {
             let rgba = v.rgba.map(|c| c.map(|x| x as f32));
             let parts = match v.shape {
-                Shape::Mesh { file, scale } => {
-                    let key = (file, scale.map(f64::to_bits));
-                    match loaded.entry(key).or_insert_with(|| shapes::load(file, scale, rgba)) {
-                        Ok(parts) => parts.clone(),
-                        Err(e) => {
-                            missing.push(e.clone());
-                            continue;
-                        }
+                Shape::Mesh { file, scale } => match shapes::read(file, scale, rgba) {
+                    Ok(parts) => parts.as_ref().clone(),
+                    Err(e) => {
+                        missing.push(e);
+                        continue;
                     }
-                }
+                },
                 ref shape => shapes::primitive(shape, rgba.unwrap_or(GREY)).into_iter().collect(),
             };
             let name = match body {

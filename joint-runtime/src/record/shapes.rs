@@ -4,7 +4,9 @@
 //! when its file draws nothing: a capsule along its joint points whose
 //! radius gives it its mass at the density of water.
 
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
@@ -217,10 +219,42 @@ impl Placement {
     }
 }
 
+/// A mesh file's key in [`READ`]: path, scale and colour (their bits).
+type Key = (String, [u64; 3], Option<[u32; 4]>);
+
+/// Mesh files read in this process, each with its length and modification
+/// time when read: a run written again (a controller's developer writing
+/// each attempt) reads its meshes once, the Panda's 10.5 MB of Collada in
+/// about 80 ms. A file that changed on disk is read again.
+static READ: Mutex<BTreeMap<Key, Read>> = Mutex::new(BTreeMap::new());
+
+/// A file as read: its stamp then, its meshes.
+type Read = (Stamp, Arc<Vec<Mesh>>);
+
+/// A file's length and modification time.
+type Stamp = (u64, Option<std::time::SystemTime>);
+
+/// [`load`], read once per process while the file stays the same.
+pub(super) fn read(file: &str, scale: [f64; 3], rgba: Option<[f32; 4]>) -> Result<Arc<Vec<Mesh>>, String> {
+    let meta = std::fs::metadata(file).map_err(|e| format!("{file}: {e}"))?;
+    let stamp = (meta.len(), meta.modified().ok());
+    let key = (file.to_string(), scale.map(f64::to_bits), rgba.map(|c| c.map(f32::to_bits)));
+    // A panic elsewhere while holding the lock leaves the map as it was: still usable.
+    let cached = READ.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get(&key).cloned();
+    if let Some((at, meshes)) = cached
+        && at == stamp
+    {
+        return Ok(meshes);
+    }
+    let meshes = Arc::new(load(file, scale, rgba)?);
+    READ.lock().unwrap_or_else(std::sync::PoisonError::into_inner).insert(key, (stamp, Arc::clone(&meshes)));
+    Ok(meshes)
+}
+
 /// A mesh file's triangles scaled by `scale`, one [`Mesh`] per material
 /// (the file's colour, or `rgba` where the robot file gives one); the
 /// reader's message where it cannot be read.
-pub(super) fn load(file: &str, scale: [f64; 3], rgba: Option<[f32; 4]>) -> Result<Vec<Mesh>, String> {
+fn load(file: &str, scale: [f64; 3], rgba: Option<[f32; 4]>) -> Result<Vec<Mesh>, String> {
     let scene = mesh_loader::Loader::default().load(file).map_err(|e| format!("{file}: {e}"))?;
     let mut out = Vec::new();
     for (i, mesh) in scene.meshes.into_iter().enumerate() {

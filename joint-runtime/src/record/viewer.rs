@@ -91,13 +91,15 @@ impl<const NB: usize> Trajectory<NB> {
         let (file, page) = (path.with_extension("glb"), path.with_extension("html"));
         std::fs::write(&file, &glb.bytes)?;
         let title = if options.title.is_empty() { "joint-runtime run" } else { &options.title };
-        std::fs::write(&page, html(&glb.bytes, title))?;
+        std::fs::write(&page, viewer_page(&glb.bytes, title))?;
         Ok(Written { glb: file, page, bytes: glb.bytes.len(), frames: glb.frames, missing: glb.missing })
     }
 }
 
-/// The viewer page playing `glb`, titled `title`.
-pub fn html(glb: &[u8], title: &str) -> String {
+/// The viewer page that plays `glb` (a [`Glb`](super::Glb)'s bytes), titled
+/// `title`: what [`Trajectory::write_3d`] writes beside the `.glb`, for a
+/// caller who serves or stores the page itself.
+pub fn viewer_page(glb: &[u8], title: &str) -> String {
     const PAGE: &str = include_str!("viewer.html");
     let escaped = title.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
     PAGE.replacen("__TITLE__", &escaped, 1).replacen("__GLB_BASE64__", &base64(glb), 1)
@@ -143,7 +145,7 @@ mod tests {
 
     #[test]
     fn the_page_holds_the_run_and_its_title() {
-        let page = html(b"glTF", "a <b> & c");
+        let page = viewer_page(b"glTF", "a <b> & c");
         assert!(page.contains("<title>a &lt;b&gt; &amp; c</title>"));
         assert!(page.contains(">Z2xURg==</script>"));
         assert!(!page.contains("__GLB_BASE64__") && !page.contains("__TITLE__"));
