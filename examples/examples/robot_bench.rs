@@ -4,9 +4,10 @@
 //! (`rnea_ns`), their exact first derivatives (`aba_derivatives_ns`:
 //! `q̈`, `∂q̈/∂q`, `∂q̈/∂v`, `M⁻¹`; `rnea_derivatives_ns`: `τ`, `∂τ/∂q`,
 //! `∂τ/∂v`, `M`), `linearise` on them (`linearise_us`), one step's exact
-//! Jacobian (`rk4_jacobian_us`, `euler_jacobian_us`; NaN for a floating
-//! base, which has none yet) beside the differenced RK4 one
-//! (`transition_us`), a linearly implicit Euler step under stiff PD gains
+//! Jacobian (`rk4_jacobian_us`, `euler_jacobian_us`; a floating base's
+//! too) beside `transition` (`transition_us`: the same exact RK4 Jacobian
+//! as a dense matrix where the tree has no springs or loads, differences
+//! elsewhere), a linearly implicit Euler step under stiff PD gains
 //! (`implicit_us`), and an RK4 step at h = 1 ms (`rk4_us`) at one fixed state,
 //! each the median of 15 calibrated batches (`report::variants::median_ns`);
 //! one JSON line.
@@ -34,7 +35,7 @@ use joint_runtime::relative::{
 struct Ur5;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent, second_order)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent)]
 struct Panda;
 
 #[derive(Scene)]
@@ -42,7 +43,7 @@ struct Panda;
 struct Solo12;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base, second_order)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base)]
 struct Solo12Floating;
 
 // The same without `second_order`: derivatives by the runtime's recursion.

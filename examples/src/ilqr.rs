@@ -303,11 +303,12 @@ fn backward<const NV: usize>(
     Some(Policy { feed, gains })
 }
 
-/// The Panda from its URDF file, fingers independent, with its derivatives
-/// (`second_order`): iLQR's plant. The recording uses
-/// [`crate::panda::Panda`], the same tree in both coordinate choices.
+/// The Panda from its URDF file, fingers independent: iLQR's plant (its
+/// exact derivatives are the runtime's recursion at this size). The
+/// recording uses [`crate::panda::Panda`], the same tree in both coordinate
+/// choices.
 #[derive(joint_runtime::Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent, second_order)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/panda.urdf", mimic = independent)]
 pub struct PandaArm;
 
 /// An acrobot: a double pendulum of two 1 m bars about `y` whose shoulder

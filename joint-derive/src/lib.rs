@@ -56,8 +56,10 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 /// relative | both`, `second_order`, and for a robot's file (features `urdf`,
 /// `mjcf`) `urdf = "path"` or `mjcf = "path"` (relative to the crate, or else to the source file),
 /// `floating_base` (URDF: the root link floats), `file_damping` (URDF: its
-/// `<dynamics damping>` in the dynamics) and `mimic = coupled |
-/// independent` (a file's followers as rows, the default, or as free joints).
+/// `<dynamics damping>` in the dynamics), `mimic = coupled |
+/// independent` (a file's followers as rows, the default, or as free joints)
+/// and `equality = hard` (MJCF: its `<equality>`s as ideal constraints, which
+/// departs from MuJoCo, whose equalities are soft; without it they are refused).
 /// A tree joint in relative coordinates may add `armature = A`,
 /// `damping = D` and, on a revolute or translational joint, a spring:
 /// `stiffness = K` and `spring_rest = Q0` (its force `−K (q − Q0)`). See the `joint-runtime` documentation for the whole language.

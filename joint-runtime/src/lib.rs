@@ -37,26 +37,12 @@ pub use scene::{BodyInertia, JointPoint, RowBlock, Scene, SparseJacobian, System
 pub use state::{EulerBody, OmegaBody, OneBody, RelativeState, TwoBodies};
 pub use time::{Constant, Drive, Polynomial, Profile, Ramp, Sinusoid, SmoothStep, TimeFunction};
 
-/// The absolute-coordinate engine's former name (renamed in 0.2: a scene
-/// that declares `coordinates = absolute` finds it under [`absolute`]).
-#[deprecated(since = "0.2.0", note = "renamed `joint_runtime::absolute` (CHANGELOG.md)")]
-pub mod sparse {
-    pub use crate::absolute::*;
-}
-/// The relative-coordinate engine's former name (renamed in 0.2: a scene
-/// that declares `coordinates = relative` finds it under [`relative`]).
-/// Old paths still compile (rustc does not warn on a path through a
-/// deprecated module, only rustdoc marks it; the CHANGELOG lists the rename):
-///
-/// ```
-/// use joint_runtime::tree::TreeState;
-/// use joint_runtime::nalgebra::SVector;
-/// let _: TreeState<1, 1> = joint_runtime::relative::TreeState { q: SVector::zeros(), v: SVector::zeros(), t: 0.0 };
-/// ```
-#[deprecated(since = "0.2.0", note = "renamed `joint_runtime::relative` (CHANGELOG.md)")]
-pub mod tree {
-    pub use crate::relative::*;
-}
+/// The absolute-coordinate engine's former name: deprecated aliases of
+/// [`absolute`]'s types (renamed in 0.2).
+pub mod sparse;
+/// The relative-coordinate engine's former name: deprecated aliases of
+/// [`relative`]'s types (renamed in 0.2).
+pub mod tree;
 
 /// Re-exported so that users need one dependency.
 pub use joint_derive::{Joint, Scene};

@@ -23,7 +23,7 @@ use super::variants::median_ns;
 pub(crate) struct Ur5;
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base, second_order)]
+#[scene(gravity = [0, 0, -9.81], urdf = "../tests/data/robots/solo12.urdf", floating_base)]
 struct Solo12Floating;
 
 /// The central differences' steps compared.

@@ -376,7 +376,7 @@ fn file_constants(input: &syn::DeriveInput, generics: &syn::Generics, s: &SceneD
         }
     });
     let (nl, nj) = (data.links.len(), data.limits.len());
-    let library = library_layout(s, data);
+    let library = library_layout(s, data).map(|(_, constant)| constant);
     let timestep = some(data.options.timestep.map(|h| quote!(#h)));
     let integrator = some(data.options.integrator.as_deref().map(|name| {
         let variant = match name {
@@ -460,9 +460,10 @@ fn visuals(l: &FileLink) -> Vec<TokenStream> {
 
 /// `MUJOCO` (an MJCF file) or `PINOCCHIO` (a URDF): the file's moving
 /// joints in the library's order, where each sits in its vectors and in the
-/// tree's. Nothing without a tree (absolute coordinates).
-fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
-    let (Some(edges), (library, joints)) = (&s.tree, &data.library) else { return TokenStream::new() };
+/// tree's: the constant's name and its definition. Nothing without a tree
+/// (absolute coordinates).
+pub(super) fn library_layout(s: &SceneDecl, data: &FileData) -> Option<(TokenStream, TokenStream)> {
+    let (Some(edges), (library, joints)) = (&s.tree, &data.library) else { return None };
     let k = krate();
     // The tree's offsets, joint by joint in its order.
     let (mut tree_q, mut tree_v, mut placed) = (0, 0, Vec::new());
@@ -477,7 +478,7 @@ fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
             Some(i) => p.0 == Some(i),
             None => p.0.is_none() && p.1 == j.body,
         });
-        let (Some(&(_, _, tq, tv)), Some(link)) = (found, data.links.get(j.link)) else { return TokenStream::new() };
+        let (Some(&(_, _, tq, tv)), Some(link)) = (found, data.links.get(j.link)) else { return None };
         let (kind, (nq, nv)) = match j.kind {
             "free" => (quote!(Free), (7, 6)),
             "ball" => (quote!(Ball), (4, 3)),
@@ -485,7 +486,8 @@ fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
             "slide" => (quote!(Slide), (1, 1)),
             _ => (quote!(Hinge), (1, 1)),
         };
-        let (name, link, offset) = (&j.name, link_frame(link), j.offset);
+        let name = if j.kind == "free" { super::tree::floating_name(s, j.body) } else { j.name.clone() };
+        let (link, offset) = (link_frame(link), j.offset);
         rows.push(quote! {
             #k::robot::LibraryJoint {
                 name: #name, kind: #k::robot::LibraryJointKind::#kind, q_at: #q_at, v_at: #v_at,
@@ -497,7 +499,7 @@ fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
     // A scene that adds moving joints to its file's has freedoms no library
     // vector holds: no layout.
     if v_at != tree_v {
-        return TokenStream::new();
+        return None;
     }
     let (constant, variant, doc) = match library {
         Library::MuJoCo => (
@@ -511,12 +513,13 @@ fn library_layout(s: &SceneDecl, data: &FileData) -> TokenStream {
             " The state as Pinocchio writes it (`q`, `v`, `a`, `tau`): converted both ways.",
         ),
     };
-    quote! {
+    let definition = quote! {
         #[doc = #doc]
         pub const #constant: #k::robot::StateLayout<#tree_q, #tree_v> = #k::robot::StateLayout::__from_derive(
             #k::robot::Library::#variant, #q_at, #v_at, &[#(#rows),*],
         );
-    }
+    };
+    Some((constant, definition))
 }
 
 /// The struct's generics with a `TimeFunction` bound on each time-function field's type.
@@ -839,6 +842,34 @@ fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
     calls
 }
 
+/// A robot file's constants in a stub, empty (the file did not read): so
+/// that a program that uses them (`Robot::MUJOCO.state_from(..)`) gets the
+/// file's error alone. `tree`: the stub's tree sizes, for the layout.
+fn stub_file_constants(format: &str, tree: Option<(usize, usize)>) -> TokenStream {
+    let k = krate();
+    let layout = tree.map(|(nq, nv)| {
+        let (nq, nv) = (Literal::usize_unsuffixed(nq), Literal::usize_unsuffixed(nv));
+        let (constant, library) =
+            if format == "urdf" { (quote!(PINOCCHIO), quote!(Pinocchio)) } else { (quote!(MUJOCO), quote!(MuJoCo)) };
+        quote! {
+            /// The library's state layout (none: the file did not read).
+            pub const #constant: #k::robot::StateLayout<#nq, #nv> =
+                #k::robot::StateLayout::__from_derive(#k::robot::Library::#library, 0, 0, &[]);
+        }
+    });
+    quote! {
+        /// Every link's frame (none: the file did not read).
+        pub const LINKS: [#k::robot::LinkFrame; 0] = [];
+        /// What each link looks like (none: the file did not read).
+        pub const VISUALS: [#k::robot::Visual; 0] = [];
+        /// Each moving joint's limits (none: the file did not read).
+        pub const LIMITS: [#k::robot::JointLimits; 0] = [];
+        /// What the file asks of the step (nothing: it did not read).
+        pub const OPTIONS: #k::robot::FileOptions = #k::robot::FileOptions { timestep: ::core::option::Option::None, integrator: ::core::option::Option::None };
+        #layout
+    }
+}
+
 /// `compile_error!` for every error, plus, when the bodies and the number of
 /// rows are known, a stub `Scene` (and `SparseJacobian`) of that shape and the
 /// inherent constants, so
@@ -846,12 +877,13 @@ fn joint_points(s: &SceneDecl) -> Vec<TokenStream> {
 /// mistake gives one message.
 fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) -> TokenStream {
     let errors = error.to_compile_error();
-    let Some(SceneShape { bodies, rows, tree, absolute }) = shape else { return errors };
+    let Some(SceneShape { bodies, rows, tree, absolute, file }) = shape else { return errors };
     let (k, z, lints) = (krate(), sizes(bodies.len(), rows), lints());
     let ident = &input.ident;
     let (ig, tg, wc) = input.generics.split_for_impl();
     let names = bodies.iter().map(|b| &b.label);
     let inherent = inherent(&bodies, &z, &quote!(&[]));
+    let file = file.map(|format| stub_file_constants(format, tree.filter(|_| !absolute)));
     let (nb, nv, m) = (&z.nb, &z.nv, &z.m);
     let (ops, methods) = (generate::ops_const(None), z.signature.methods(None));
     let alias = state_alias(input, nb);
@@ -874,7 +906,7 @@ fn stub(input: &syn::DeriveInput, error: syn::Error, shape: Option<SceneShape>) 
         #tree
         #simulate
         #lints
-        impl #ig #ident #tg #wc { #inherent }
+        impl #ig #ident #tg #wc { #inherent #file }
         #lints
         impl #ig #k::Scene<#nb, #nv, #m> for #ident #tg #wc {
             const BODIES: [&'static str; #nb] = [#(#names),*];

@@ -56,12 +56,17 @@ pub fn print(
     let controller = crate::aba::controller_methods(s, edges, nq, nv);
     // `second_order`: the dynamics' derivatives, what a linearisation needs.
     let written = s.second_order.and_then(|_| crate::aba::written(s, edges));
-    let (derivatives, second) = match &written {
+    let (derivatives, second, fallback) = match &written {
         Some(joints) => {
             let (first, ops) = crate::tree_derivatives::method(s, joints, nq, nv);
-            (first, crate::tree_derivatives::second_method(s, joints, (nq, nv), ops))
+            // Past the limit `second_order` changes nothing on a tree alone: say so.
+            let fallback = match (&first, s.second_order) {
+                (None, Some(at)) if !s.absolute => Some(falls_back(at, ops)),
+                _ => None,
+            };
+            (first, crate::tree_derivatives::second_method(s, joints, (nq, nv), ops), fallback)
         }
-        None => (None, None),
+        None => (None, None, None),
     };
     let (closure, nc) =
         loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
@@ -71,7 +76,21 @@ pub fn print(
         let all = (0..s.bodies.len()).map(|b| held.get(b).copied().unwrap_or(0.0));
         quote!(fn tree_compensation(&self) -> [f64; #nb] { [#(#all),*] })
     });
+    // A file's data, reachable from generic code (`S::STATE_LAYOUT`, `S::LINKS`..).
+    let file = s.file.as_ref().map(|data| {
+        let layout = super::scene::library_layout(s, data).map(|(name, _)| {
+            quote!(const STATE_LAYOUT: ::core::option::Option<#k::robot::StateLayout<#nq, #nv>> =
+                ::core::option::Option::Some(Self::#name);)
+        });
+        quote! {
+            #layout
+            const LINKS: &'static [#k::robot::LinkFrame] = &Self::LINKS;
+            const LIMITS: &'static [#k::robot::JointLimits] = &Self::LIMITS;
+            const OPTIONS: #k::robot::FileOptions = Self::OPTIONS;
+        }
+    });
     let body = quote! {
+        #file
         fn tree_joints(&self) -> [#k::relative::TreeJoint; #nb] { [#(#joints),*] }
         fn tree_inertias(&self) -> [#k::BodyInertia; #nb] { [#(#inertias),*] }
         fn tree_gravity(&self) -> #k::nalgebra::Vector3<f64> { #gravity }
@@ -82,7 +101,31 @@ pub fn print(
         #second
         #closure
     };
-    wrap(input, generics, s.bodies.len(), (nq, nv, nc), body)
+    let mut out = wrap(input, generics, s.bodies.len(), (nq, nv, nc), body);
+    out.extend(fallback);
+    out
+}
+
+/// A warning at `second_order` (rustc's only channel for a derive's
+/// warning on stable: a deprecated item used at the option's span) where
+/// the tree's derivatives would take `ops` operations, past what the derive
+/// writes out: the runtime's recursion gives them, the same numbers, so the
+/// option does nothing on this scene.
+fn falls_back(at: proc_macro2::Span, ops: usize) -> TokenStream {
+    let limit = crate::tree_derivatives::FIRST_LIMIT;
+    let note = format!(
+        "`second_order` writes a tree's derivatives out up to {limit} operations; this tree's would take {ops}, so \
+         the runtime's recursion gives them (the same numbers, faster at this size) and the option changes \
+         nothing here: remove it"
+    );
+    quote::quote_spanned! {at=>
+        const _: () = {
+            #[deprecated(note = #note)]
+            #[allow(non_upper_case_globals)]
+            const second_order: () = ();
+            second_order
+        };
+    }
 }
 
 /// The impl around `body` (the stub's too) and the alias.
@@ -175,11 +218,25 @@ fn joint(j: &JointDecl, e: &TreeEdge) -> TokenStream {
     }
 }
 
-/// The free joint of a floating body, named `free(BODY)`: from the ground's
-/// origin to its centre of mass.
+/// The name of body `body`'s free joint: the file's (Pinocchio's `root_joint`
+/// for a URDF's floating base, an MJCF `<freejoint name>`), so that the tree
+/// and the library layout name it alike; `free(BODY)` where no file names it.
+pub(super) fn floating_name(s: &SceneDecl, body: usize) -> String {
+    let named = s
+        .file
+        .as_ref()
+        .and_then(|f| f.library.1.iter().find(|j| j.kind == "free" && j.body == body && !j.name.is_empty()));
+    match named {
+        Some(j) => j.name.clone(),
+        None => format!("free({})", s.bodies[body].label()),
+    }
+}
+
+/// The free joint of a floating body (named by [`floating_name`]): from the
+/// ground's origin to its centre of mass.
 fn free(s: &SceneDecl, e: &TreeEdge) -> TokenStream {
     let k = krate();
-    let name = format!("free({})", s.bodies[e.ends.1].label());
+    let name = floating_name(s, e.ends.1);
     let child = Literal::usize_unsuffixed(e.ends.1);
     let z = zero();
     quote! {

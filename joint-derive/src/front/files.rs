@@ -39,16 +39,38 @@ pub(super) struct FromFile {
     pub couplings: Vec<Coupling>,
 }
 
-/// Reads the scene's `file` (none: nothing), with `floating_base`, `file_damping`,
-/// `mimic = independent` and whether the absolute impls are wanted; every
-/// mistake into `errors`.
+/// What a scene asks of its file's reading, each where the option is written.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Reading {
+    /// `floating_base`: a URDF's root link floats.
+    pub floating_base: Option<Span>,
+    /// `mimic = independent`: the file's couplings read as independent joints.
+    pub independent: Option<Span>,
+    /// `file_damping`: a URDF's `<dynamics damping>` in the dynamics.
+    pub file_damping: Option<Span>,
+    /// `equality = hard`: an MJCF file's equalities as ideal constraints.
+    pub hard: Option<Span>,
+}
+
+/// Reads the scene's `file` (none: nothing) as `reading` asks, knowing
+/// whether the absolute impls are wanted; every mistake into `errors`.
 pub(super) fn read(
     file: Option<&(RobotFormat, syn::LitStr)>,
-    (floating_base, independent, file_damping, absolute): (Option<Span>, Option<Span>, Option<Span>, bool),
+    reading: &Reading,
+    absolute: bool,
     errors: &mut Errors,
 ) -> FromFile {
+    let Reading { floating_base, independent, file_damping, hard } = *reading;
     if let (Some(at), None) = (independent, file) {
         errors.at(at, "`mimic` is for a robot's file (`urdf = \"..\"` or `mjcf = \"..\"`)");
+    }
+    match (hard, file) {
+        (Some(_), Some((RobotFormat::Mjcf, _))) | (None, _) => {}
+        (Some(at), _) => errors.at(
+            at,
+            "`equality` is for an MJCF file (`mjcf = \"..\"`), whose `<equality>`s MuJoCo makes soft; a URDF's \
+             `<mimic>` is an ideal row already",
+        ),
     }
     match (floating_base, file) {
         (Some(_), Some((RobotFormat::Urdf, _))) | (None, _) => {}
@@ -73,7 +95,8 @@ pub(super) fn read(
     // scene is relative only; URDF's `<dynamics damping>` is data (Pinocchio's
     // algorithms leave it out too) unless the scene asks (`file_damping`).
     let dynamics = (*format == RobotFormat::Mjcf || file_damping.is_some()) && !absolute;
-    let Some(mut read) = robot(*format, lit, (floating_base.is_some(), dynamics), errors) else {
+    let equalities = (hard.is_some(), independent.is_some());
+    let Some(mut read) = robot(*format, lit, (floating_base.is_some(), dynamics, equalities), errors) else {
         return FromFile::default();
     };
     if independent.is_some() {
@@ -115,14 +138,18 @@ impl RobotFormat {
 fn robot(
     format: RobotFormat,
     lit: &syn::LitStr,
-    #[cfg_attr(not(feature = "urdf"), allow(unused_variables))] (floating, dynamics): (bool, bool),
+    #[cfg_attr(not(all(feature = "urdf", feature = "mjcf")), allow(unused_variables))] (floating, dynamics, equalities): (
+        bool,
+        bool,
+        (bool, bool),
+    ),
     errors: &mut Errors,
 ) -> Option<FromFile> {
     let read = match format {
         #[cfg(feature = "urdf")]
         RobotFormat::Urdf => super::urdf::read(lit, floating),
         #[cfg(feature = "mjcf")]
-        RobotFormat::Mjcf => super::mjcf::read(lit),
+        RobotFormat::Mjcf => super::mjcf::read(lit, equalities),
         #[allow(unreachable_patterns)] // with both features on
         _ => return missing_feature(format, lit, errors),
     };
@@ -131,7 +158,12 @@ fn robot(
 
 /// Without the format's feature, a file cannot be read.
 #[cfg(not(any(feature = "urdf", feature = "mjcf")))]
-fn robot(format: RobotFormat, lit: &syn::LitStr, _: (bool, bool), errors: &mut Errors) -> Option<FromFile> {
+fn robot(
+    format: RobotFormat,
+    lit: &syn::LitStr,
+    _: (bool, bool, (bool, bool)),
+    errors: &mut Errors,
+) -> Option<FromFile> {
     missing_feature(format, lit, errors)
 }
 
@@ -297,7 +329,8 @@ pub struct FileVisual {
 }
 
 /// The runtime's `robot::Shape`, with the mesh's file as read.
-#[cfg_attr(not(any(feature = "urdf", feature = "mjcf")), allow(dead_code))]
+// MJCF's shapes without `mjcf` (URDF draws neither ellipsoids nor planes).
+#[cfg_attr(not(feature = "mjcf"), allow(dead_code))]
 #[derive(Clone, Debug, PartialEq)]
 pub enum FileShape {
     Box([f64; 3]),
@@ -355,7 +388,7 @@ pub struct FileSpring {
 
 /// The robot library whose state layout a file's scene converts to.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[cfg_attr(not(any(feature = "urdf", feature = "mjcf")), allow(dead_code))]
+#[cfg_attr(not(all(feature = "urdf", feature = "mjcf")), allow(dead_code))]
 pub enum Library {
     /// MJCF: the file's joints as written (depth first).
     MuJoCo,

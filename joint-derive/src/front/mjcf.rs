@@ -32,23 +32,25 @@
 use std::collections::HashMap;
 
 use super::robot::{
-    Closure, Fail, FileCoupling, FileLimits, FileOptions, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3, Robot,
-    V3, add, apply, assemble, mul, norm, number, numbers, read_text, required, transpose, triple,
+    Class, Closure, Fail, FileCoupling, FileLimits, FileOptions, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3,
+    Robot, V3, add, apply, assemble, attribute_at, mul, norm, number, numbers, read_text, required, transpose, triple,
 };
 use super::visuals::{FileVisual, Looks, mjcf_shape, z_turn};
 
 /// Reads `path` (relative to the crate's `CARGO_MANIFEST_DIR`); every
 /// error at the attribute, naming the file, line and column.
-pub fn read(path: &syn::LitStr) -> syn::Result<Robot> {
+///
+/// `equalities`: the scene's `equality = hard` and `mimic = independent`
+/// (see [`Reader::equalities`]).
+pub fn read(path: &syn::LitStr, equalities: (bool, bool)) -> syn::Result<Robot> {
     let (text, full) = read_text(path, "an MJCF")?;
-    // Errors name the file as the scene wrote it; the build tracks it by its full path.
-    let mut robot = from_text(&text, &path.value(), path.span())?;
+    let mut robot = from_text(&text, &super::robot::shown(&full), path.span(), equalities)?;
     super::visuals::find_meshes(robot.links.iter_mut().flat_map(|l| &mut l.visuals), &full);
     Ok(Robot { path: full, ..robot })
 }
 
 /// The robot of a file's `text` (`shown` names it in errors, at `span`).
-fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Robot> {
+fn from_text(text: &str, shown: &str, span: proc_macro2::Span, equalities: (bool, bool)) -> syn::Result<Robot> {
     let fail = |at: roxmltree::TextPos, message: String| {
         syn::Error::new(span, format!("{shown}:{}:{}: {message}", at.row, at.col))
     };
@@ -66,13 +68,14 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
         gravcomp: 0.0,
         visuals: Vec::new(),
         at: reader.pos(world),
+        inertial_at: [reader.pos(world); 2],
     });
     reader.children(world, 0, "main", (IDENTITY, [0.0; 3]))?;
     if reader.links.len() == 1 {
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
     }
     total_mass(root, &mut reader.links, &fail)?;
-    let (closures, couplings) = reader.equalities(root)?;
+    let (closures, couplings) = reader.equalities(root, equalities)?;
     let option = root.children().find(|n| n.has_tag_name("option"));
     let gravity = match option {
         Some(o) => triple(o, "gravity", reader.pos(o), &fail)?,
@@ -82,10 +85,13 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span) -> syn::Result<Ro
     let flags = option.into_iter().flat_map(|o| o.children()).filter(|n| n.has_tag_name("flag"));
     let off = flags.clone().any(|f| f.attribute("gravity") == Some("disable"));
     let gravity = if off { [0.0; 3] } else { gravity.unwrap_or([0.0, 0.0, -9.81]) };
-    let options = match option {
+    let mut options = match option {
         Some(o) => step_options(o, reader.pos(o), &fail)?,
         None => FileOptions::default(),
     };
+    // What MuJoCo steps with where the file says nothing.
+    options.timestep.get_or_insert(0.002);
+    options.integrator.get_or_insert_with(|| "Euler".to_string());
     let robot = assemble(&reader.links, &reader.joints, &closures, (false, Library::MuJoCo), &fail)?;
     Ok(Robot { gravity: Some(gravity), couplings, options, ..robot })
 }
@@ -104,7 +110,7 @@ struct Reader<'a, 'i> {
     fail: &'a Fail<'a>,
     compiler: Compiler,
     /// Each `<default>` class's joint attributes, its parents' included.
-    defaults: HashMap<String, HashMap<String, String>>,
+    defaults: HashMap<String, Class>,
     /// The same for geoms, and the `<asset>`s they name: pictures only.
     looks: Looks,
     links: Vec<Link>,
@@ -193,6 +199,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                         gravcomp: 0.0,
                         visuals,
                         at,
+                        inertial_at: [at; 2],
                     });
                     let child = self.links.len() - 1;
                     let (point, axis, limits) = ([0.0; 3], [0.0, 0.0, 1.0], FileLimits::default());
@@ -208,6 +215,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                         limits,
                         continuous,
                         at,
+                        axis_at: at,
                     });
                 }
                 "geom" => {
@@ -231,15 +239,19 @@ impl<'a, 'i> Reader<'a, 'i> {
         let name = self.name(b, "body")?;
         if b.attribute("mocap") == Some("true") {
             return Err((self.fail)(
-                at,
+                attribute_at(b, "mocap").unwrap_or(at),
                 format!("body `{name}` is a mocap body; expected a body that moves by its joints"),
             ));
         }
         let class = self.class(b, "childclass", class)?;
         let origin = compose(&offset, &self.frame(b)?);
-        let inertial = match b.children().find(|n| n.has_tag_name("inertial")) {
-            Some(i) => Some(self.inertial(i, &name)?),
-            None => None,
+        let (inertial, inertial_at) = match b.children().find(|n| n.has_tag_name("inertial")) {
+            Some(i) => {
+                let written = |key| super::robot::attribute_at(i, key).unwrap_or(self.pos(i));
+                let inertia = if i.attribute("fullinertia").is_some() { "fullinertia" } else { "diaginertia" };
+                (Some(self.inertial(i, &name)?), [written("mass"), written(inertia)])
+            }
+            None => (None, [at; 2]),
         };
         // Geoms without `<inertial>` would give MuJoCo's body a mass from
         // them: an error if the body moves (`assemble` knows), not if the
@@ -249,10 +261,13 @@ impl<'a, 'i> Reader<'a, 'i> {
             None => 0.0,
             Some(text) => match text.trim().parse::<f64>() {
                 Ok(c) if c.is_finite() => c,
-                _ => return Err((self.fail)(at, format!("`gravcomp=\"{text}\"`: expected a number"))),
+                _ => {
+                    let at = attribute_at(b, "gravcomp").unwrap_or(at);
+                    return Err((self.fail)(at, format!("`gravcomp=\"{text}\"`: expected a number")));
+                }
             },
         };
-        self.links.push(Link { name: name.clone(), inertial, unknown, gravcomp, visuals: Vec::new(), at });
+        self.links.push(Link { name: name.clone(), inertial, unknown, gravcomp, visuals: Vec::new(), at, inertial_at });
         let child = self.links.len() - 1;
         let declared: Vec<roxmltree::Node> =
             b.children().filter(|n| n.has_tag_name("joint") || n.has_tag_name("freejoint")).collect();
@@ -268,6 +283,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 limits: FileLimits::default(),
                 continuous: false,
                 at,
+                axis_at: at,
             },
             [j] => self.joint(*j, parent, child, origin, &class)?,
             [_, second, ..] => {
@@ -284,7 +300,8 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.children(b, child, &class, (IDENTITY, [0.0; 3]))
     }
 
-    /// A body's joint, with its class's defaults.
+    /// A body's joint, with its class's defaults; each mistake at the
+    /// attribute that makes it (the class's line where the class sets it).
     fn joint(
         &self,
         j: roxmltree::Node,
@@ -293,93 +310,66 @@ impl<'a, 'i> Reader<'a, 'i> {
         origin: (M3, V3),
         class: &str,
     ) -> syn::Result<Joint> {
-        let at = self.pos(j);
-        let fail = self.fail;
+        let (at, fail) = (self.pos(j), self.fail);
         let name = self.name(j, "joint")?;
         let label = match name.as_str() {
             "" => format!("the joint of body `{}`", self.links[child].name),
             _ => format!("joint `{name}`"),
         };
-        let class = self.class(j, "class", class)?;
-        let get = |key: &str| j.attribute(key).or_else(|| self.defaults.get(&class)?.get(key).map(String::as_str));
-        let value = |key: &str| -> syn::Result<Option<f64>> {
-            match get(key) {
-                None => Ok(None),
-                Some(text) => match text.trim().parse::<f64>() {
-                    Ok(x) if x.is_finite() => Ok(Some(x)),
-                    _ if text.split_whitespace().filter(|t| t.parse::<f64>().is_ok()).count() > 1 => Err(fail(
-                        at,
-                        format!(
-                            "`{key}=\"{text}\"`: MuJoCo reads the numbers after the first as a polynomial (damping \
-                             `d₀ v + d₁ v|v| + d₂ v³`, stiffness likewise in the stretch), which is not modelled; \
-                             expected one number"
-                        ),
-                    )),
-                    _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
-                },
-            }
-        };
         let free = j.has_tag_name("freejoint");
-        let kind = match if free { "free" } else { get("type").unwrap_or("hinge") } {
+        // `<freejoint/>` takes no class defaults (MuJoCo 4.0: its compiled
+        // `dof_damping` and `dof_armature` stay 0 under a `childclass` that
+        // sets them); `<joint type="free">` takes them like any joint.
+        let class = if free { String::new() } else { self.class(j, "class", class)? };
+        let get = Lookup { node: j, class: self.defaults.get(&class), at };
+        let value = |key: &str| get.number(key, fail);
+        let kind = match if free { "free" } else { get.text("type").unwrap_or("hinge") } {
             "hinge" => Kind::Revolute,
             "slide" => Kind::Prismatic,
             "ball" => Kind::Spherical,
             "free" if parent == 0 => Kind::Floating,
             "free" => {
-                return Err(fail(
-                    at,
-                    format!("{label} is free on a body of a body; expected a free joint only on a body of the world"),
-                ));
+                let message =
+                    format!("{label} is free on a body of a body; expected a free joint only on a body of the world");
+                return Err(fail(get.at("type"), message));
             }
             other => {
-                return Err(fail(
-                    at,
-                    format!("{label} has type `{other}`; expected `hinge`, `slide`, `ball` or `free`"),
-                ));
+                let message = format!("{label} has type `{other}`; expected `hinge`, `slide`, `ball` or `free`");
+                return Err(fail(get.at("type"), message));
             }
         };
-        let vector = |key: &str, default: V3| -> syn::Result<V3> {
-            let Some(text) = get(key) else { return Ok(default) };
-            let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
-            match <[f64; 3]>::try_from(parsed.as_slice()) {
-                Ok(v) if text.split_whitespace().count() == 3 && v.iter().all(|x| x.is_finite()) => Ok(v),
-                _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected three numbers, as in `{key}=\"0 0 1\"`"))),
-            }
-        };
-        let (point, axis) = (vector("pos", [0.0; 3])?, vector("axis", [0.0, 0.0, 1.0])?);
+        let (point, axis) = (get.triple("pos", [0.0; 3], fail)?, get.triple("axis", [0.0, 0.0, 1.0], fail)?);
         let angular = matches!(kind, Kind::Revolute | Kind::Spherical);
         let scale = if angular && self.compiler.degrees { std::f64::consts::PI / 180.0 } else { 1.0 };
-        let range = range(get("range"), get("limited"), scale, &|m| fail(at, m))?;
-        let effort = match get("actuatorfrcrange") {
-            Some(text) => {
-                let parsed: Vec<f64> = text.split_whitespace().filter_map(|t| t.parse().ok()).collect();
-                parsed.iter().map(|x| x.abs()).reduce(f64::max)
-            }
-            None => None,
-        };
+        let range = range(get.text("range"), get.text("limited"), scale, &|m| fail(get.at("range"), m))?;
+        let effort = get.text("actuatorfrcrange").and_then(|text| {
+            text.split_whitespace().filter_map(|t| t.parse::<f64>().ok()).map(f64::abs).reduce(f64::max)
+        });
         let (damping, armature) = (value("damping")?, value("armature")?);
-        let spring = spring(&value, (kind, scale), &label, &|m| fail(at, m))?;
+        let spring = spring(&value, (kind, scale), &label, &|key, m| fail(get.at(key), m))?;
         // MuJoCo's coordinate is `ref` at the file's pose, the tree's zero:
         // its range in the tree's coordinate.
         let range = range.map(|(a, b)| (a - spring.reference, b - spring.reference));
-        if kind == Kind::Floating && [damping, armature].iter().flatten().any(|&x| x != 0.0) {
-            return Err(fail(
-                at,
-                format!(
-                    "{label} is free and has `damping` or `armature` (its own or its class's), which a floating body \
-                     does not model; expected none"
-                ),
-            ));
-        }
-        if damping.or(armature).is_some_and(|_| damping.unwrap_or(0.0) < 0.0 || armature.unwrap_or(0.0) < 0.0) {
-            return Err(fail(
-                at,
-                format!("{label} has a negative `damping` or `armature`; expected numbers at least zero"),
-            ));
+        for (key, x) in [("damping", damping), ("armature", armature)] {
+            let Some(x) = x else { continue };
+            if kind == Kind::Floating && x != 0.0 {
+                let message = format!(
+                    "{label} is `type=\"free\"` and has `{key}` (its own or its class's): MuJoCo applies it to the six \
+                     freedoms of the floating body, which is not modelled; expected none (`<freejoint/>` takes no class)"
+                );
+                return Err(fail(get.at(key), message));
+            }
+            if x < 0.0 {
+                return Err(fail(
+                    get.at(key),
+                    format!("{label} has a negative `{key}`; expected a number at least zero"),
+                ));
+            }
         }
         let friction = value("frictionloss")?;
         let limits = FileLimits { range, effort, velocity: None, damping, friction, armature, spring };
-        Ok(Joint { name, kind, parent, child, origin, point, axis, limits, continuous: false, at })
+        let axis_at = get.at("axis");
+        Ok(Joint { name, kind, parent, child, origin, point, axis, limits, continuous: false, at, axis_at })
     }
 
     /// `<inertial>`: mass, centre and inertia in the body's frame.
@@ -395,7 +385,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             (None, Some([xx, yy, zz, xy, xz, yz])) if !turned => [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
             (None, Some(_)) => {
                 return Err(fail(
-                    at,
+                    attribute_at(i, "fullinertia").unwrap_or(at),
                     format!("body `{body}`'s `<inertial>` has `fullinertia` and an orientation; expected one of them"),
                 ));
             }
@@ -423,7 +413,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             [] => IDENTITY,
             [_, _, ..] => {
                 return Err(fail(
-                    at,
+                    attribute_at(n, given[1]).unwrap_or(at),
                     format!("`{}` and `{}` both give the orientation; expected one", given[0], given[1]),
                 ));
             }
@@ -475,7 +465,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         };
         if !turn.iter().flatten().all(|x| x.is_finite()) {
             return Err(fail(
-                at,
+                attribute_at(n, given[0]).unwrap_or(at),
                 format!("the orientation `{}` is degenerate (a zero vector); expected a turn", given[0]),
             ));
         }
@@ -487,7 +477,7 @@ impl<'a, 'i> Reader<'a, 'i> {
     /// transparent) or of a type not drawn.
     fn geom(&self, g: roxmltree::Node, class: &str, offset: &(M3, V3)) -> syn::Result<Option<FileVisual>> {
         let (at, fail) = (self.pos(g), self.fail);
-        let get = |key: &str| g.attribute(key).or_else(|| self.looks.defaults.get(class)?.get(key).map(String::as_str));
+        let get = |key: &str| g.attribute(key).or_else(|| Some(self.looks.defaults.get(class)?.get(key)?.0.as_str()));
         let list = |key: &str| -> syn::Result<Vec<f64>> {
             let Some(text) = get(key) else { return Ok(Vec::new()) };
             let parsed: Option<Vec<f64>> =
@@ -555,17 +545,32 @@ impl<'a, 'i> Reader<'a, 'i> {
         if self.defaults.contains_key(&class) {
             return Ok(class);
         }
-        Err((self.fail)(self.pos(n), format!("`{key}=\"{class}\"` names no `<default class=\"{class}\">`")))
+        let at = attribute_at(n, key).unwrap_or(self.pos(n));
+        Err((self.fail)(at, format!("`{key}=\"{class}\"` names no `<default class=\"{class}\">`")))
     }
 
     /// `<equality>`'s `connect` and `weld` as closing joints, `joint` as
-    /// couplings (`joint1 = a0 + a1 joint2`).
-    fn equalities(&self, root: roxmltree::Node) -> syn::Result<(Vec<Closure>, Vec<FileCoupling>)> {
+    /// couplings (`joint1 = a0 + a1 joint2`): none where `<flag equality>` or
+    /// `<flag constraint>` is `disable` (MuJoCo leaves them out). MuJoCo
+    /// softens every equality, so each is refused unless the scene asks for
+    /// ideal rows (`hard`; `independent` for `<equality joint>`s, which the
+    /// scene then leaves out).
+    fn equalities(
+        &self,
+        root: roxmltree::Node,
+        (hard, independent): (bool, bool),
+    ) -> syn::Result<(Vec<Closure>, Vec<FileCoupling>)> {
         let fail = self.fail;
+        let flags = root.children().filter(|n| n.has_tag_name("option")).flat_map(|o| o.children());
+        let off = |f: roxmltree::Node| ["equality", "constraint"].iter().any(|k| f.attribute(*k) == Some("disable"));
+        if flags.filter(|n| n.has_tag_name("flag")).any(off) {
+            return Ok((Vec::new(), Vec::new()));
+        }
         let link = |n: roxmltree::Node, key: &str| -> syn::Result<usize> {
             let name = n.attribute(key).unwrap_or("world");
             self.links.iter().position(|l| l.name == name).ok_or_else(|| {
-                fail(self.pos(n), format!("`{key}=\"{name}\"` is not a body of the file; expected one of its bodies"))
+                let at = attribute_at(n, key).unwrap_or(self.pos(n));
+                fail(at, format!("`{key}=\"{name}\"` is not a body of the file; expected one of its bodies"))
             })
         };
         let (mut out, mut couplings) = (Vec::new(), Vec::new());
@@ -579,6 +584,9 @@ impl<'a, 'i> Reader<'a, 'i> {
             let (at, tag) = (self.pos(e), e.tag_name().name());
             if e.attribute("active") == Some("false") {
                 continue;
+            }
+            if !(hard || independent && tag == "joint") {
+                return Err(fail(at, soft(tag)));
             }
             let weld = match tag {
                 "connect" => false,
@@ -611,7 +619,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             if relpose.is_some_and(|[_, _, _, a, b, c, d]| [a, b, c, d] != [0.0; 4]) {
                 let message =
                     "`relpose` is not read yet; expected the weld at the file's reference pose (no `relpose`)";
-                return Err(fail(at, message.into()));
+                return Err(fail(attribute_at(e, "relpose").unwrap_or(at), message.into()));
             }
             let name = e.attribute("name").map_or_else(|| format!("{tag}{k}"), str::to_string);
             // `connect`'s anchor is in body1's frame, `weld`'s in body2's.
@@ -654,6 +662,72 @@ impl<'a, 'i> Reader<'a, 'i> {
     }
 }
 
+/// A joint's attributes: its own, else its class's (`class`: each value
+/// with where the class states it), so that a mistake is reported where it
+/// is written; `at`: the element, for what neither states.
+struct Lookup<'a, 'i> {
+    node: roxmltree::Node<'a, 'i>,
+    class: Option<&'a Class>,
+    at: roxmltree::TextPos,
+}
+
+impl Lookup<'_, '_> {
+    fn find(&self, key: &str) -> Option<(&str, roxmltree::TextPos)> {
+        match self.node.attribute_node(key) {
+            Some(a) => Some((a.value(), self.node.document().text_pos_at(a.range().start))),
+            None => self.class?.get(key).map(|(v, at)| (v.as_str(), *at)),
+        }
+    }
+
+    fn text(&self, key: &str) -> Option<&str> {
+        self.find(key).map(|(v, _)| v)
+    }
+
+    /// Where `key` is written (the element where it is not).
+    fn at(&self, key: &str) -> roxmltree::TextPos {
+        self.find(key).map_or(self.at, |(_, at)| at)
+    }
+
+    /// One number, if given; MuJoCo's polynomial (several) refused by name.
+    fn number(&self, key: &str, fail: &Fail) -> syn::Result<Option<f64>> {
+        let Some((text, at)) = self.find(key) else { return Ok(None) };
+        match text.trim().parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(Some(x)),
+            _ if text.split_whitespace().filter(|t| t.parse::<f64>().is_ok()).count() > 1 => Err(fail(
+                at,
+                format!(
+                    "`{key}=\"{text}\"`: MuJoCo reads the numbers after the first as a polynomial (damping \
+                     `d₀ v + d₁ v|v| + d₂ v³`, stiffness likewise in the stretch), which is not modelled; expected \
+                     one number"
+                ),
+            )),
+            _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
+        }
+    }
+
+    /// Three numbers, `default` where not given.
+    fn triple(&self, key: &str, default: V3, fail: &Fail) -> syn::Result<V3> {
+        let Some((text, at)) = self.find(key) else { return Ok(default) };
+        let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
+        match <[f64; 3]>::try_from(parsed.as_slice()) {
+            Ok(v) if text.split_whitespace().count() == 3 && v.iter().all(|x| x.is_finite()) => Ok(v),
+            _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected three numbers, as in `{key}=\"0 0 1\"`"))),
+        }
+    }
+}
+
+/// The refusal of an equality read without `equality = hard`: what MuJoCo
+/// does with it (every equality soft, its defaults where the file gives no
+/// `solref`, `solimp`) and the option that reads it as an ideal constraint.
+fn soft(tag: &str) -> String {
+    format!(
+        "`<{tag}>`: MuJoCo makes every equality a soft constraint (`solref=\"0.02 1\"`, `solimp=\"0.9 0.95 0.001 0.5 \
+         2\"` where the file gives none), whose accelerations differ from an ideal one's, and soft rows are not \
+         modelled; expected `#[scene(.., equality = hard)]` to read the file's equalities as ideal constraints (which \
+         departs from MuJoCo), or the equality left out"
+    )
+}
+
 /// The values of an attribute that leave MuJoCo's dynamics as this reader
 /// models them.
 #[derive(Clone, Copy)]
@@ -664,8 +738,6 @@ enum Neutral {
     False,
     /// `enable`: a `<flag>` left on.
     Enable,
-    /// None at all: any value is refused.
-    Absent,
 }
 
 impl Neutral {
@@ -675,7 +747,6 @@ impl Neutral {
             Neutral::Zero => numbers().all(|x| x == Ok(0.0)),
             Neutral::False => value == "false",
             Neutral::Enable => value == "enable",
-            Neutral::Absent => false,
         }
     }
 }
@@ -683,11 +754,12 @@ impl Neutral {
 /// `<option timestep integrator>`: a positive step, one of MuJoCo's four
 /// integrators (its names), each checked at the element.
 fn step_options(o: roxmltree::Node, at: roxmltree::TextPos, fail: &Fail) -> syn::Result<FileOptions> {
+    let at = |key| attribute_at(o, key).unwrap_or(at);
     let timestep = match o.attribute("timestep") {
         None => None,
         Some(text) => match text.trim().parse::<f64>() {
             Ok(h) if h.is_finite() && h > 0.0 => Some(h),
-            _ => return Err(fail(at, format!("`timestep=\"{text}\"`: expected a positive number (s)"))),
+            _ => return Err(fail(at("timestep"), format!("`timestep=\"{text}\"`: expected a positive number (s)"))),
         },
     };
     let integrator = match o.attribute("integrator") {
@@ -695,7 +767,7 @@ fn step_options(o: roxmltree::Node, at: roxmltree::TextPos, fail: &Fail) -> syn:
         Some(name @ ("Euler" | "RK4" | "implicit" | "implicitfast")) => Some(name.to_string()),
         Some(other) => {
             return Err(fail(
-                at,
+                at("integrator"),
                 format!("`integrator=\"{other}\"`: expected `Euler`, `RK4`, `implicit` or `implicitfast`"),
             ));
         }
@@ -748,18 +820,21 @@ fn spring(
     value: &dyn Fn(&str) -> syn::Result<Option<f64>>,
     (kind, scale): (Kind, f64),
     label: &str,
-    fail: &dyn Fn(String) -> syn::Error,
+    fail: &dyn Fn(&str, String) -> syn::Error,
 ) -> syn::Result<FileSpring> {
     let stiffness = value("stiffness")?.unwrap_or(0.0);
     if stiffness < 0.0 {
-        return Err(fail(format!("{label} has a negative `stiffness`; expected a number at least zero")));
+        return Err(fail("stiffness", format!("{label} has a negative `stiffness`; expected a number at least zero")));
     }
     if !matches!(kind, Kind::Revolute | Kind::Prismatic) {
         if stiffness != 0.0 {
-            return Err(fail(format!(
-                "{label} is a ball or free joint with a `stiffness` (its own or its class's): such a joint's spring \
-                 is not modelled; expected `stiffness=\"0\"` or none"
-            )));
+            return Err(fail(
+                "stiffness",
+                format!(
+                    "{label} is a ball or free joint with a `stiffness` (its own or its class's): MuJoCo springs its \
+                     quaternion towards the reference pose, which is not modelled; expected `stiffness=\"0\"` or none"
+                ),
+            ));
         }
         return Ok(FileSpring::default());
     }
@@ -770,53 +845,61 @@ fn spring(
 
 /// What changes MuJoCo's dynamics and is not modelled here, refused
 /// wherever the file states it (a `<default>` class included), at the
-/// attribute: `(element, attribute, what leaves it neutral, what it is)`.
-/// Modelled instead: `<option gravity>` and `<flag gravity>`, a joint's
-/// `armature` and `damping`; data: `<option timestep integrator>`, ranges,
-/// `frictionloss`, actuators (the `README`'s table).
+/// attribute: `(element, attribute, what leaves it neutral, what MuJoCo
+/// does with it)`. Modelled instead: `<option gravity>` and `<flag
+/// gravity>`, a joint's `armature` and `damping`, `<flag equality
+/// constraint>` (no equalities); data: `<option timestep integrator>`,
+/// ranges, `frictionloss`, actuators (the guide's table). Fluid forces need
+/// `density` or `viscosity` (MuJoCo computes none while both are zero, so
+/// `wind` and `fluidshape` alone change nothing).
 const UNMODELLED: &[(&str, &str, Neutral, &str)] = &[
-    ("joint", "actuatorgravcomp", Neutral::False, "gravity compensation through the actuators"),
-    ("joint", "springdamper", Neutral::Zero, "a joint's spring-damper"),
-    ("compiler", "boundmass", Neutral::Zero, "a lower bound on the masses"),
-    ("compiler", "boundinertia", Neutral::Zero, "a lower bound on the inertias"),
-    ("compiler", "balanceinertia", Neutral::False, "inertias balanced by the compiler"),
-    ("option", "density", Neutral::Zero, "fluid forces"),
-    ("option", "viscosity", Neutral::Zero, "fluid forces"),
-    ("option", "wind", Neutral::Zero, "fluid forces"),
-    ("geom", "fluidshape", Neutral::Absent, "fluid forces"),
-    ("flag", "passive", Neutral::Enable, "passive forces switched off"),
-    ("flag", "damper", Neutral::Enable, "joint damping switched off"),
-    ("flag", "equality", Neutral::Enable, "equalities switched off"),
-    ("flag", "constraint", Neutral::Enable, "constraints switched off"),
+    (
+        "joint",
+        "actuatorgravcomp",
+        Neutral::False,
+        "moves this joint's gravity compensation into its actuator force (`qfrc_actuator`, clamped by \
+         `actuatorfrcrange`)",
+    ),
+    (
+        "joint",
+        "springdamper",
+        Neutral::Zero,
+        "sets the joint's stiffness and damping from this time constant and damping ratio and the joint's inertia",
+    ),
+    ("compiler", "boundmass", Neutral::Zero, "raises every smaller body mass to this bound"),
+    ("compiler", "boundinertia", Neutral::Zero, "raises every smaller principal inertia to this bound"),
+    ("compiler", "balanceinertia", Neutral::False, "changes the inertias that break the triangle inequality"),
+    ("option", "density", Neutral::Zero, "applies fluid forces (from `density` and `viscosity`) to every body"),
+    ("option", "viscosity", Neutral::Zero, "applies fluid forces (from `density` and `viscosity`) to every body"),
+    (
+        "flag",
+        "passive",
+        Neutral::Enable,
+        "leaves out every passive force (joint springs and damping, gravity compensation)",
+    ),
+    ("flag", "damper", Neutral::Enable, "leaves out joint damping"),
 ];
 
-/// An equality's softness (MuJoCo's `solref`, `solimp`): its rows are hard
-/// here, which a file that tunes them does not mean.
-const SOFTNESS: [&str; 2] = ["solref", "solimp"];
-
-/// Refuses the first of [`UNMODELLED`] the file states, and an equality's
-/// explicit softness, at the attribute's line and column.
+/// Refuses the first of [`UNMODELLED`] the file states, at the attribute's
+/// line and column, saying what MuJoCo does with it.
 fn unmodelled(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<()> {
     for n in doc.root_element().descendants().filter(|n| n.is_element()) {
         let tag = n.tag_name().name();
-        let in_equality = tag == "equality" || n.parent_element().is_some_and(|p| p.has_tag_name("equality"));
         for a in n.attributes() {
             let at = doc.text_pos_at(a.range().start);
             let (key, value) = (a.name(), a.value());
-            if in_equality && SOFTNESS.contains(&key) {
+            let refused = UNMODELLED.iter().find(|(t, k, neutral, _)| *t == tag && *k == key && !neutral.holds(value));
+            if let Some((_, _, neutral, does)) = refused {
+                let expected = match neutral {
+                    Neutral::Zero => format!("`{key}=\"0\"` or none"),
+                    Neutral::False => format!("`{key}=\"false\"` or none"),
+                    Neutral::Enable => format!("`{key}=\"enable\"` or none"),
+                };
                 return Err(fail(
                     at,
                     format!(
-                        "`{key}=\"{value}\"` on `<{tag}>`: an equality's softness is not modelled (its rows are hard \
-                         constraints here); expected none"
+                        "`{key}=\"{value}\"` on `<{tag}>`: MuJoCo {does}, which is not modelled; expected {expected}"
                     ),
-                ));
-            }
-            let refused = UNMODELLED.iter().find(|(t, k, neutral, _)| *t == tag && *k == key && !neutral.holds(value));
-            if let Some((_, _, _, what)) = refused {
-                return Err(fail(
-                    at,
-                    format!("`{key}=\"{value}\"` on `<{tag}>` ({what}) is not modelled; expected none"),
                 ));
             }
         }
@@ -832,8 +915,8 @@ const ORIENTATIONS: [&str; 5] = ["quat", "axisangle", "euler", "xyaxes", "zaxis"
 fn default_class(
     d: roxmltree::Node,
     (name, tag): (&str, &str),
-    parent: &HashMap<String, String>,
-    out: &mut HashMap<String, HashMap<String, String>>,
+    parent: &Class,
+    out: &mut HashMap<String, Class>,
     pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
     fail: &Fail,
 ) -> syn::Result<()> {
@@ -843,7 +926,8 @@ fn default_class(
     }
     let mut own = parent.clone();
     for j in d.children().filter(|n| n.has_tag_name(tag)) {
-        own.extend(j.attributes().map(|a| (a.name().to_string(), a.value().to_string())));
+        let at = |a: &roxmltree::Attribute| d.document().text_pos_at(a.range().start);
+        own.extend(j.attributes().map(|a| (a.name().to_string(), (a.value().to_string(), at(&a)))));
     }
     for inner in d.children().filter(|n| n.has_tag_name("default")) {
         if inner.attribute("class").is_none() {
@@ -903,10 +987,13 @@ mod tests {
     use super::super::robot::tests::{cut_and_mutated, test_file};
     use super::*;
 
+    /// `equality = hard`: the files' equalities read as ideal rows.
+    const HARD: (bool, bool) = (true, false);
+
     /// The error of reading `text`, from its line and column on.
     fn error(text: &str) -> String {
         let span = proc_macro2::Span::call_site();
-        let message = from_text(text, "f.xml", span).err().map(|e| e.to_string()).unwrap_or_default();
+        let message = from_text(text, "f.xml", span, HARD).err().map(|e| e.to_string()).unwrap_or_default();
         message.strip_prefix("f.xml:").unwrap_or(&message).to_string()
     }
 
@@ -925,11 +1012,41 @@ mod tests {
     fn gravity_as_the_file_says() {
         let hinge = "<joint name=\"j\"/>";
         let gravity = |extra: &str| {
-            from_text(&one_body(hinge, extra), "f.xml", proc_macro2::Span::call_site()).map(|r| r.gravity).ok()
+            from_text(&one_body(hinge, extra), "f.xml", proc_macro2::Span::call_site(), HARD).map(|r| r.gravity).ok()
         };
         assert_eq!(gravity(""), Some(Some([0.0, 0.0, -9.81])));
         assert_eq!(gravity("<option gravity=\"0 -1 0\"/>"), Some(Some([0.0, -1.0, 0.0])));
         assert_eq!(gravity("<option><flag gravity=\"disable\"/></option>"), Some(Some([0.0; 3])));
+    }
+
+    /// Public quadrupeds and humanoids float their base with `<freejoint/>`
+    /// inside a `childclass` whose joints are damped: MuJoCo applies no class
+    /// to `<freejoint/>` (its free dofs' damping and armature compile to 0),
+    /// so the file reads, its hinge below still taking the class's numbers;
+    /// `<joint type="free">` in that class takes them and is refused.
+    #[test]
+    fn freejoint_takes_no_class_defaults() {
+        let file = |base: &str| {
+            format!(
+                "<mujoco>\n<default><default class=\"robot\"><joint damping=\"2\" armature=\"0.1\"/></default></default>\n\
+                 <worldbody>\n<body name=\"base\" childclass=\"robot\">\n\
+                 <inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/>\n{base}\n\
+                 <body name=\"leg\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint name=\"hip\"/></body>\n\
+                 </body>\n</worldbody>\n</mujoco>"
+            )
+        };
+        let span = proc_macro2::Span::call_site();
+        let robot = from_text(&file("<freejoint name=\"root\"/>"), "f.xml", span, HARD).unwrap();
+        let hip = robot.joints.iter().find(|j| j.name == "hip").unwrap().limits;
+        assert_eq!((hip.damping, hip.armature), (Some(2.0), Some(0.1)));
+        assert_eq!(robot.library.1.first().map(|j| j.name.as_str()), Some("root"));
+        let refused = from_text(&file("<joint name=\"root\" type=\"free\"/>"), "f.xml", span, HARD);
+        let refused = refused.err().map(|e| e.to_string()).unwrap_or_default();
+        // At the class's `damping`, line 2.
+        assert!(
+            refused.starts_with("f.xml:2:") && refused.contains("has `damping` (its own or its class's)"),
+            "{refused}"
+        );
     }
 
     #[test]
@@ -941,16 +1058,16 @@ mod tests {
             ("<robot/>", "1:1:", "expected a `<mujoco>` element"),
             ("<mujoco/>", "1:1:", "has no `<worldbody>`"),
             ("<mujoco><worldbody/></mujoco>", "1:9:", "has no `<body>`"),
-            (&one_body("<joint type=\"cylinder\"/>", ""), "5:1:", "has type `cylinder`; expected `hinge`"),
+            (&one_body("<joint type=\"cylinder\"/>", ""), "5:8:", "has type `cylinder`; expected `hinge`"),
             (&one_body("<joint/><joint name=\"k\"/>", ""), "5:9:", "has a second joint"),
             (&one_body(&format!("{hinge}<body><geom size=\"1\"/></body>"), ""), "5:18:", "inertia from geoms"),
-            (&one_body("<joint type=\"ball\" stiffness=\"10\"/>", ""), "5:1:", "such a joint's spring is not modelled"),
-            (&one_body("<joint stiffness=\"-1\"/>", ""), "5:1:", "negative `stiffness`"),
-            (&one_body("<joint springdamper=\"0.1 1\"/>", ""), "5:8:", "(a joint's spring-damper) is not modelled"),
+            (&one_body("<joint type=\"ball\" stiffness=\"10\"/>", ""), "5:20:", "MuJoCo springs its quaternion"),
+            (&one_body("<joint stiffness=\"-1\"/>", ""), "5:8:", "negative `stiffness`"),
+            (&one_body("<joint springdamper=\"0.1 1\"/>", ""), "5:8:", "MuJoCo sets the joint's stiffness and damping"),
             (
                 &one_body("<joint actuatorgravcomp=\"true\"/>", ""),
                 "5:8:",
-                "(gravity compensation through the actuators) is not modelled",
+                "MuJoCo moves this joint's gravity compensation into its actuator force",
             ),
             (
                 &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"1\"").replace(
@@ -966,19 +1083,14 @@ mod tests {
                 "8:11:",
                 "body `g`'s comes from its geoms",
             ),
-            (&one_body(hinge, "<compiler balanceinertia=\"true\"/>"), "8:11:", "inertias balanced"),
-            (&one_body(hinge, "<option density=\"1.2\"/>"), "8:9:", "(fluid forces) is not modelled"),
-            (&one_body(hinge, "<option wind=\"0 1 0\"/>"), "8:9:", "fluid forces"),
-            (&one_body(hinge, "<option><flag damper=\"disable\"/></option>"), "8:15:", "joint damping switched off"),
-            (
-                &one_body(hinge, "<equality><joint joint1=\"j\" joint2=\"j\" solref=\"0.01 1\"/></equality>"),
-                "8:40:",
-                "an equality's softness is not modelled",
-            ),
+            (&one_body(hinge, "<compiler balanceinertia=\"true\"/>"), "8:11:", "MuJoCo changes the inertias"),
+            (&one_body(hinge, "<option density=\"1.2\"/>"), "8:9:", "MuJoCo applies fluid forces (from `density` and `viscosity`)"),
+            (&one_body(hinge, "<option viscosity=\"0.1\"/>"), "8:9:", "MuJoCo applies fluid forces"),
+            (&one_body(hinge, "<option><flag damper=\"disable\"/></option>"), "8:15:", "MuJoCo leaves out joint damping"),
             (
                 &one_body("<joint type=\"free\"/>", "<default><joint damping=\"1\"/></default>"),
-                "5:1:",
-                "is free and has `damping` or `armature`",
+                "8:17:",
+                "is `type=\"free\"` and has `damping` (its own or its class's): MuJoCo applies it",
             ),
             ("<mujoco>\n<worldbody>\n<body name=\"a\">", "3:16:", "the file ends here, cut short"),
             (
@@ -986,7 +1098,7 @@ mod tests {
                 "5:18:",
                 "body `arm` is declared twice",
             ),
-            (&one_body("<joint class=\"big\"/>", ""), "5:1:", "`class=\"big\"` names no `<default class=\"big\">`"),
+            (&one_body("<joint class=\"big\"/>", ""), "5:8:", "`class=\"big\"` names no `<default class=\"big\">`"),
             (&one_body(hinge, "<include file=\"more.xml\"/>"), "8:1:", "`<include>` is not read"),
             (
                 &one_body(&format!("{hinge}{}", second.replace("<joint/>", "<freejoint/>")), ""),
@@ -995,28 +1107,28 @@ mod tests {
             ),
             (
                 &one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" quat=\"1 0 0 0\" euler=\"0 0 1\""),
-                "3:1:",
+                "3:33:",
                 "`quat` and `euler` both",
             ),
-            (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" quat=\"0 0 0 0\""), "3:1:", "degenerate"),
-            (&one_body(hinge, "").replace("mass=\"1\"", "mass=\"0\""), "3:1:", "link `arm` moves but has mass 0"),
+            (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" quat=\"0 0 0 0\""), "3:18:", "degenerate"),
+            (&one_body(hinge, "").replace("mass=\"1\"", "mass=\"0\""), "4:23:", "link `arm` moves but has mass 0"),
             (&one_body(hinge, "").replace("mass=\"1\" ", ""), "4:1:", "has no `mass`"),
             (
                 &one_body(hinge, "").replace("diaginertia=\"1 1 1\"", "quat=\"1 0 0 0\" fullinertia=\"1 1 1 0 0 0\""),
-                "4:1:",
+                "4:47:",
                 "`fullinertia` and an orientation",
             ),
             (
                 &one_body(hinge, "").replace("diaginertia=\"1 1 1\"", "diaginertia=\"1 1 3\""),
-                "3:1:",
+                "4:32:",
                 "expected a real body's inertia",
             ),
-            (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" mocap=\"true\""), "3:1:", "mocap body"),
-            (&one_body("<joint range=\"1\"/>", ""), "5:1:", "`range=\"1\"`: expected two numbers"),
-            (&one_body(hinge, "<option integrator=\"RK45\"/>"), "8:1:", "expected `Euler`, `RK4`, `implicit`"),
-            (&one_body(hinge, "<option timestep=\"0\"/>"), "8:1:", "expected a positive number"),
-            (&one_body("<joint type=\"ball\" damping=\"15 5\"/>", ""), "5:1:", "as a polynomial"),
-            (&one_body("<joint axis=\"0 0 0\"/>", ""), "5:1:", "zero axis"),
+            (&one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" mocap=\"true\""), "3:18:", "mocap body"),
+            (&one_body("<joint range=\"1\"/>", ""), "5:8:", "`range=\"1\"`: expected two numbers"),
+            (&one_body(hinge, "<option integrator=\"RK45\"/>"), "8:9:", "expected `Euler`, `RK4`, `implicit`"),
+            (&one_body(hinge, "<option timestep=\"0\"/>"), "8:9:", "expected a positive number"),
+            (&one_body("<joint type=\"ball\" damping=\"15 5\"/>", ""), "5:20:", "as a polynomial"),
+            (&one_body("<joint axis=\"0 0 0\"/>", ""), "5:8:", "the joint of body `arm` has a zero axis"),
         ];
         for (text, at, expected) in cases {
             let message = error(text);
@@ -1032,7 +1144,7 @@ mod tests {
             (&one_body(hinge, "<equality><connect body1=\"arm\"/></equality>"), "8:11:", "has no `anchor`"),
             (
                 &one_body(hinge, "<equality><connect body1=\"leg\" anchor=\"0 0 0\"/></equality>"),
-                "8:11:",
+                "8:20:",
                 "`body1=\"leg\"` is not a body",
             ),
             (&one_body(hinge, "<equality><joint joint1=\"j\"/></equality>"), "8:11:", "without `joint2`"),
@@ -1046,7 +1158,7 @@ mod tests {
                     &format!("{hinge}{second}"),
                     "<equality><weld body1=\"arm\" body2=\"hand\" relpose=\"0 0 0 1 0 0 0\"/></equality>",
                 ),
-                "8:11:",
+                "8:42:",
                 "`relpose` is not read yet",
             ),
         ];
@@ -1056,24 +1168,69 @@ mod tests {
         }
     }
 
+    /// MuJoCo makes every equality soft (its defaults where the file states
+    /// no `solref`): refused at the equality unless the scene reads them as
+    /// ideal rows; `mimic = independent` leaves `<equality joint>`s out; a
+    /// `<flag equality>` or `<flag constraint>` switched off leaves them all
+    /// out, as in MuJoCo.
+    #[test]
+    fn equalities_are_soft_in_mujoco() {
+        let second =
+            "<body name=\"hand\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint name=\"k\"/></body>";
+        let coupled = one_body(
+            &format!("<joint name=\"j\"/>{second}"),
+            "<equality><joint joint1=\"k\" joint2=\"j\"/></equality>",
+        );
+        let span = proc_macro2::Span::call_site();
+        let read =
+            |text: &str, asked| from_text(text, "f.xml", span, asked).map(|r| (r.closures.len(), r.couplings.len()));
+        let message = read(&coupled, (false, false)).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            message.starts_with("f.xml:8:11: `<joint>`: MuJoCo makes every equality a soft constraint"),
+            "{message}"
+        );
+        assert!(message.contains("`#[scene(.., equality = hard)]`"), "{message}");
+        assert_eq!(read(&coupled, (true, false)).ok(), Some((0, 1)));
+        assert_eq!(
+            read(&coupled.replace("/></equality>", " solref=\"0.01 1\"/></equality>"), (true, false)).ok(),
+            Some((0, 1))
+        );
+        assert_eq!(read(&coupled, (false, true)).ok(), Some((0, 1)));
+        let welded = one_body(
+            &format!("<joint name=\"j\"/>{second}"),
+            "<equality><weld body1=\"arm\" body2=\"hand\"/></equality>",
+        );
+        assert!(read(&welded, (false, true)).is_err());
+        assert_eq!(read(&welded, (true, false)).ok(), Some((1, 0)));
+        for off in ["equality", "constraint"] {
+            let flag = format!("<option><flag {off}=\"disable\"/></option>");
+            assert_eq!(
+                read(&welded.replace("</mujoco>", &format!("{flag}</mujoco>")), (false, false)).ok(),
+                Some((0, 0))
+            );
+        }
+    }
+
     #[test]
     fn neutral_attributes_and_ground_geoms_are_no_error() {
         let hinge = "<joint name=\"j\"/>";
         // What leaves the dynamics as they are is no error.
         for neutral in [
             one_body(hinge, "").replace("name=\"arm\"", "name=\"arm\" gravcomp=\"0\""),
-            one_body(hinge, "<compiler settotalmass=\"-1\"/><option density=\"0\" wind=\"0 0 0\"/>"),
+            one_body(hinge, "<compiler settotalmass=\"-1\"/><option density=\"0\" wind=\"0 1 0\"/>"),
+            // Fluid forces need `density` or `viscosity`: MuJoCo computes none without.
+            one_body(&format!("{hinge}<geom size=\"0.1\" fluidshape=\"ellipsoid\"/>"), ""),
             one_body(hinge, "<option><flag damper=\"enable\" gravity=\"enable\"/></option>"),
             one_body("<joint stiffness=\"0\" springdamper=\"0 0\"/>", ""),
         ] {
-            assert!(from_text(&neutral, "f.xml", proc_macro2::Span::call_site()).is_ok(), "{neutral}");
+            assert!(from_text(&neutral, "f.xml", proc_macro2::Span::call_site(), HARD).is_ok(), "{neutral}");
         }
         // A body with geoms and no `<inertial>` on the ground is no error:
         // its mass would not move.
         let mount =
             one_body(hinge, "").replace("<worldbody>", "<worldbody><body name=\"mount\"><geom size=\"1\"/></body>");
-        assert!(from_text(&mount, "f.xml", proc_macro2::Span::call_site()).is_ok());
-        let missing = read(&syn::LitStr::new("/no/such/robot.xml", proc_macro2::Span::call_site()));
+        assert!(from_text(&mount, "f.xml", proc_macro2::Span::call_site(), HARD).is_ok());
+        let missing = read(&syn::LitStr::new("/no/such/robot.xml", proc_macro2::Span::call_site()), HARD);
         assert!(missing.err().is_some_and(|e| e.to_string().starts_with("cannot read `/no/such/robot.xml`")));
     }
 
@@ -1083,7 +1240,7 @@ mod tests {
             "<mujoco><compiler {compiler}/><worldbody><site name=\"s\" {attr}/>\
              <body><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint/></body></worldbody></mujoco>"
         );
-        let robot = from_text(&text, "f.xml", proc_macro2::Span::call_site()).unwrap();
+        let robot = from_text(&text, "f.xml", proc_macro2::Span::call_site(), HARD).unwrap();
         robot.links.iter().find(|l| l.name == "s").unwrap().rotation
     }
 
@@ -1145,9 +1302,9 @@ mod tests {
         let ours = ["ball_pendulum", "four_bar", "welded_pendulum"].map(|r| format!("mjcf/{r}.xml"));
         for path in files.iter().chain(&ours) {
             let text = test_file(path);
-            assert!(from_text(&text, path, span).is_ok(), "{path}");
+            assert!(from_text(&text, path, span, HARD).is_ok(), "{path}");
             for mutated in cut_and_mutated(&text, 300) {
-                let _ = from_text(&mutated, path, span);
+                let _ = from_text(&mutated, path, span, HARD);
             }
         }
     }

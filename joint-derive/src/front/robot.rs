@@ -21,7 +21,9 @@ use std::collections::HashMap;
 
 use super::geometry::{eigenvalues, physical};
 
-pub use super::files::{FileLimits, FileLink, FileOptions, FileSpring, FileVisual, Library, LibraryJoint};
+#[cfg(feature = "mjcf")]
+pub use super::files::FileSpring;
+pub use super::files::{FileLimits, FileLink, FileOptions, FileVisual, Library, LibraryJoint};
 
 /// A robot in the scene's terms.
 pub struct Robot {
@@ -90,6 +92,11 @@ pub struct RobotJoint {
     pub limits: FileLimits,
 }
 
+/// An MJCF `<default>` class's attributes of one element (joint, geom):
+/// each value and where it is written, its parents' included.
+#[cfg(feature = "mjcf")]
+pub type Class = HashMap<String, (String, roxmltree::TextPos)>;
+
 pub type V3 = [f64; 3];
 pub type M3 = [[f64; 3]; 3];
 /// A rotation (by rows) and an offset: a frame in another.
@@ -124,6 +131,8 @@ pub struct Link {
     /// What it looks like (URDF `<visual>`, MJCF `<geom>`), in its frame.
     pub visuals: Vec<FileVisual>,
     pub at: roxmltree::TextPos,
+    /// Where its mass and its inertia are written (`at` without them).
+    pub inertial_at: [roxmltree::TextPos; 2],
 }
 
 /// A joint as the file gives it: the child link's frame is `origin` in the
@@ -141,6 +150,8 @@ pub struct Joint {
     /// A URDF `continuous` joint (Pinocchio writes it `cos θ, sin θ`).
     pub continuous: bool,
     pub at: roxmltree::TextPos,
+    /// Where its axis is written (`at` without one).
+    pub axis_at: roxmltree::TextPos,
 }
 
 /// A joint that closes a loop between two links: a ball (`weld: false`)
@@ -160,7 +171,7 @@ pub struct Closure {
 /// lets a file beside its module, or a test harness's generated crate (whose
 /// directory is inside the target folder), name its robot the same way
 /// wherever the target folder is. Returns the text and its absolute name
-/// (what the build tracks; errors in the file name it as the scene wrote it).
+/// (what the build tracks; errors name it by [`shown`]).
 pub fn read_text(path: &syn::LitStr, what: &str) -> syn::Result<(String, String)> {
     let wanted = std::path::PathBuf::from(path.value());
     let dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default();
@@ -173,6 +184,8 @@ pub fn read_text(path: &syn::LitStr, what: &str) -> syn::Result<(String, String)
         Some(b) if !in_crate.exists() && b.exists() => b,
         _ => in_crate,
     };
+    // `..` resolved, so that errors name the file as cargo names paths.
+    let full = std::fs::canonicalize(&full).unwrap_or(full);
     let shown = full.display().to_string();
     let text = std::fs::read_to_string(&full).map_err(|e| {
         syn::Error::new(
@@ -184,6 +197,19 @@ pub fn read_text(path: &syn::LitStr, what: &str) -> syn::Result<(String, String)
         )
     })?;
     Ok((text, shown))
+}
+
+/// How an error names the file at `full` (absolute): as cargo prints
+/// paths, relative to the directory the compiler runs in (the workspace's
+/// root, where the terminal usually is), or absolute where the file is
+/// outside it; so that a terminal's or an editor's link opens it.
+pub fn shown(full: &str) -> String {
+    let path = std::path::Path::new(full);
+    let cwd = std::env::current_dir().ok();
+    match cwd.as_deref().and_then(|d| path.strip_prefix(d).ok()) {
+        Some(relative) if !relative.as_os_str().is_empty() => relative.display().to_string(),
+        _ => full.to_string(),
+    }
 }
 
 /// A file's name as a Rust identifier: other characters as `_`, a leading
@@ -255,7 +281,7 @@ pub fn assemble(
     }
     let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
     let placed = Placed { pose: &pose, body_of: &body_of, from: &from };
-    let out = moving_joints(joints, &placed, fail)?;
+    let out = moving_joints(links, joints, &placed, fail)?;
     let loops = closure_joints(closures, &placed, fail)?;
     // Every link's frame: the body's axes are the world's at zero.
     let frames = (0..links.len())
@@ -320,13 +346,17 @@ fn welded_bodies(
 }
 
 /// The moving joints between bodies: kind, unit axis and joint points.
-fn moving_joints(joints: &[Joint], at: &Placed, fail: &Fail) -> syn::Result<Vec<RobotJoint>> {
+fn moving_joints(links: &[Link], joints: &[Joint], at: &Placed, fail: &Fail) -> syn::Result<Vec<RobotJoint>> {
     let mut out = Vec::new();
     for j in joints.iter().filter(|j| !matches!(j.kind, Kind::Fixed | Kind::Floating)) {
         let (r, o) = at.pose[j.child];
         let length = norm(&j.axis);
         if j.kind != Kind::Spherical && (length.is_nan() || length <= 1e-12) {
-            return Err(fail(j.at, format!("joint `{}` has a zero axis; expected an axis such as `0 0 1`", j.name)));
+            let label = match j.name.as_str() {
+                "" => format!("the joint of body `{}`", links[j.child].name),
+                name => format!("joint `{name}`"),
+            };
+            return Err(fail(j.axis_at, format!("{label} has a zero axis; expected an axis such as `0 0 1`")));
         }
         let (parent, child) = (at.body_of[j.parent], at.body_of[j.child].unwrap_or(0));
         let point = add(&o, &apply(&r, &j.point));
@@ -545,12 +575,15 @@ fn compensation(members: &[usize], links: &[Link], fail: &Fail) -> syn::Result<f
 fn check_inertia(head: &Link, mass: f64, i: &M3, fail: &Fail) -> syn::Result<()> {
     let name = &head.name;
     if mass.is_nan() || mass <= 0.0 || mass.is_infinite() {
-        return Err(fail(head.at, format!("link `{name}` moves but has mass {mass}; expected a positive mass")));
+        return Err(fail(
+            head.inertial_at[0],
+            format!("link `{name}` moves but has mass {mass}; expected a positive mass"),
+        ));
     }
     let moments = eigenvalues(i);
     if !physical(&moments) {
         return Err(fail(
-            head.at,
+            head.inertial_at[1],
             format!(
                 "link `{name}` moves with principal moments {moments:?}; expected a real body's inertia: positive, \
                  each at most the sum of the other two"
@@ -560,7 +593,13 @@ fn check_inertia(head: &Link, mass: f64, i: &M3, fail: &Fail) -> syn::Result<()>
     Ok(())
 }
 
-/// An attribute of `N` numbers, if present.
+/// Where attribute `key` of `node` is written, if it is.
+pub fn attribute_at(node: roxmltree::Node, key: &str) -> Option<roxmltree::TextPos> {
+    node.attribute_node(key).map(|a| node.document().text_pos_at(a.range().start))
+}
+
+/// An attribute of `N` numbers, if present (a bad value reported at the
+/// attribute; `at`, the element's place, is for what is missing).
 pub fn numbers<const N: usize>(
     node: roxmltree::Node,
     key: &str,
@@ -568,6 +607,7 @@ pub fn numbers<const N: usize>(
     fail: &Fail,
 ) -> syn::Result<Option<[f64; N]>> {
     let Some(text) = node.attribute(key) else { return Ok(None) };
+    let at = attribute_at(node, key).unwrap_or(at);
     let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
     match <[f64; N]>::try_from(parsed.as_slice()) {
         Ok(v) if text.split_whitespace().count() == N && v.iter().all(|x| x.is_finite()) => Ok(Some(v)),
@@ -594,7 +634,7 @@ pub fn number(node: roxmltree::Node, key: &str, at: roxmltree::TextPos, fail: &F
     })?;
     match text.trim().parse::<f64>() {
         Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected a number"))),
+        _ => Err(fail(attribute_at(node, key).unwrap_or(at), format!("`{key}=\"{text}\"`: expected a number"))),
     }
 }
 

@@ -21,7 +21,7 @@ use syn::{Token, parenthesized};
 
 use super::attr::{self, Arg, Number, Slot, Value};
 use super::context::Errors;
-use super::files::{Coupling, FileData, FromFile, RobotFormat};
+use super::files::{Coupling, FileData, FromFile, Reading, RobotFormat};
 use super::names::did_you_mean;
 use super::resolve::{self, Dialect, Given, GivenValue, Origin, Parameter, Source};
 use crate::joints::{self, JointKind};
@@ -330,6 +330,9 @@ pub struct SceneShape {
     /// Whether the absolute impls are derived (not `coordinates = relative`):
     /// the one `Simulation` then runs the absolute engine.
     pub absolute: bool,
+    /// The robot file's format key (`urdf`, `mjcf`), if the scene names one:
+    /// the stub then has the file's constants too, empty.
+    pub file: Option<&'static str>,
 }
 
 /// The bodies' names and the number of rows, read from the attributes alone
@@ -367,14 +370,19 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
     // A robot's file runs in relative coordinates unless the scene says
     // otherwise; one that failed to read gives a stub of no bodies, so that
     // the scene's uses type-check and the file's error stands alone.
-    let file = scene_word(input, "urdf").or_else(|| scene_word(input, "mjcf")).is_some();
+    let format = match (scene_word(input, "urdf"), scene_word(input, "mjcf")) {
+        (Some(_), _) => Some("urdf"),
+        (None, Some(_)) => Some("mjcf"),
+        (None, None) => None,
+    };
+    let file = format.is_some();
     let relative = match coordinates.as_deref() {
         Some(word) => matches!(word, "relative" | "both"),
         None => file,
     };
     let tree = relative.then_some((tree.0 + 7 * floating, tree.1 + 6 * floating));
     let absolute = coordinates.as_deref().map_or(!file, |word| word != "relative");
-    (!bodies.is_empty() || file).then_some(SceneShape { bodies, rows, tree, absolute })
+    (!bodies.is_empty() || file).then_some(SceneShape { bodies, rows, tree, absolute, file: format })
 }
 
 /// The value of `#[scene(.., KEY = VALUE, ..)]` as a word (an identifier's
@@ -458,9 +466,9 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     // Attributes written, parsed or not: a scene whose only joint attribute has a
     // mistake gets that mistake reported, not a second "needs joints" as well.
     let written = |name: &str| input.attrs.iter().any(|a| a.path().is_ident(name));
-    let Options { gravity, second_order, relative, absolute, file, floating_base, independent, file_damping } =
+    let Options { gravity, second_order, relative, absolute, file, reading } =
         scene_options(input, &fields, &mut errors);
-    let read = super::files::read(file.as_ref(), (floating_base, independent, file_damping, absolute), &mut errors);
+    let read = super::files::read(file.as_ref(), &reading, absolute, &mut errors);
     let FromFile { mut bodies, joints: file_joints, files, gravity: file_gravity, data: file_data, couplings } = read;
     let known = |g: [f64; 3]| Quantity::Const(g.iter().map(|&x| Number::Known(x)).collect());
     let gravity = gravity.unwrap_or_else(|| known(file_gravity.unwrap_or([0.0; 3])));
@@ -517,12 +525,8 @@ struct Options {
     absolute: bool,
     /// `urdf = "path"` or `mjcf = "path"`: a robot's file.
     file: Option<(RobotFormat, syn::LitStr)>,
-    /// `floating_base`: the file's root link floats.
-    floating_base: Option<Span>,
-    /// `mimic = independent`: a file's couplings read as independent joints.
-    independent: Option<Span>,
-    /// `file_damping`: a URDF's `<dynamics damping>` in the dynamics.
-    file_damping: Option<Span>,
+    /// How the file is read (`floating_base`, `mimic`, `file_damping`, `equality`).
+    reading: Reading,
 }
 
 /// `armature`, `damping` and springs only on a tree's moving joints, in
@@ -596,8 +600,8 @@ fn joint_dynamics(args: Vec<Arg>, errors: &mut Errors) -> (JointDynamics, Vec<Ar
 }
 
 /// The options `#[scene(..)]` takes (the did-you-mean candidates).
-const SCENE_OPTIONS: [&str; 8] =
-    ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base", "mimic", "file_damping"];
+const SCENE_OPTIONS: [&str; 9] =
+    ["gravity", "second_order", "coordinates", "urdf", "mjcf", "floating_base", "mimic", "file_damping", "equality"];
 
 /// A scene option that takes no value (`second_order`, `floating_base`).
 fn flag(a: attr::Arg, slot: &mut Slot<()>, errors: &mut Errors) {
@@ -621,8 +625,17 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     let mut floating_base = Slot::new("`floating_base`", "it once");
     let mut file_damping = Slot::new("`file_damping`", "it once");
     let mut mimic = Slot::new("`mimic`", "it once");
+    let mut equality = Slot::new("`equality`", "it once");
     for a in attr::items(&input.attrs, "scene", errors) {
         match a.key.to_string().as_str() {
+            "equality" => match &a.value {
+                Some(Value::Ident(m)) if m == "hard" => equality.set(a.key.span(), (), errors),
+                _ => errors.at(
+                    a.value.as_ref().map_or(a.key.span(), Value::span),
+                    "expected `equality = hard`: an MJCF file's equalities read as ideal constraints (MuJoCo's are \
+                     soft, which is not modelled)",
+                ),
+            },
             "mimic" => match &a.value {
                 Some(Value::Ident(m)) if m == "coupled" || m == "independent" => {
                     mimic.set(a.key.span(), m == "independent", errors)
@@ -674,7 +687,7 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                     a.key.span(),
                     format!(
                         "unknown scene option `{other}`{hint}; expected `gravity`, `second_order`, `coordinates`, \
-                         `urdf`, `mjcf`, `floating_base`, `mimic` or `file_damping`"
+                         `urdf`, `mjcf`, `floating_base`, `mimic`, `file_damping` or `equality`"
                     ),
                 )
             }
@@ -692,19 +705,13 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
             None => (None, true),
         },
     };
-    let floating_base = floating_base.take().map(|(_, span)| span);
-    let file_damping = file_damping.take().map(|(_, span)| span);
-    let independent = mimic.take().and_then(|(independent, span)| independent.then_some(span));
-    Options {
-        gravity,
-        second_order: second_order.take().map(|(_, span)| span),
-        relative,
-        absolute,
-        file,
-        floating_base,
-        independent,
-        file_damping,
-    }
+    let reading = Reading {
+        floating_base: floating_base.take().map(|(_, span)| span),
+        independent: mimic.take().and_then(|(independent, span)| independent.then_some(span)),
+        file_damping: file_damping.take().map(|(_, span)| span),
+        hard: equality.take().map(|(_, span)| span),
+    };
+    Options { gravity, second_order: second_order.take().map(|(_, span)| span), relative, absolute, file, reading }
 }
 
 /// Mass properties given as numbers must be a rigid body's: a positive

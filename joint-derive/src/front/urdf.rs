@@ -21,8 +21,7 @@ use super::robot::{
 /// floats, not the ground.
 pub fn read(path: &syn::LitStr, floating: bool) -> syn::Result<Robot> {
     let (text, full) = super::robot::read_text(path, "a URDF")?;
-    // Errors name the file as the scene wrote it; the build tracks it by its full path.
-    let mut robot = from_text(&text, &path.value(), path.span(), floating)?;
+    let mut robot = from_text(&text, &super::robot::shown(&full), path.span(), floating)?;
     super::visuals::find_meshes(robot.links.iter_mut().flat_map(|l| &mut l.visuals), &full);
     // URDF states no gravity; robot people's tools (Pinocchio, MuJoCo, the
     // MJCF reader here) take 9.81 down `z`, and so does a URDF scene unless
@@ -96,12 +95,15 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
         if links.iter().any(|l| l.name == name) {
             return Err(fail(pos(node), format!("link `{name}` is declared twice; expected unique link names")));
         }
-        let inertial = match node.children().find(|n| n.has_tag_name("inertial")) {
-            Some(i) => Some(inertial(i, &name, &pos, fail)?),
-            None => None,
+        let (inertial, inertial_at) = match node.children().find(|n| n.has_tag_name("inertial")) {
+            Some(i) => {
+                let at = |tag| i.children().find(|n| n.has_tag_name(tag)).map_or(pos(i), pos);
+                (Some(inertial(i, &name, &pos, fail)?), [at("mass"), at("inertia")])
+            }
+            None => (None, [pos(node); 2]),
         };
         let visuals = link_visuals(node, &materials, &pos, fail)?;
-        links.push(Link { name, inertial, unknown: false, gravcomp: 0.0, visuals, at: pos(node) });
+        links.push(Link { name, inertial, unknown: false, gravcomp: 0.0, visuals, at: pos(node), inertial_at });
     }
     let index = |name: &str, at, what: &str| {
         links.iter().position(|l| l.name == name).ok_or_else(|| {
@@ -141,13 +143,14 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             Some(o) => origin(o, pos(o), fail)?,
             None => (IDENTITY, [0.0; 3]),
         };
-        let axis = match node.children().find(|n| n.has_tag_name("axis")) {
-            Some(a) => triple(a, "xyz", pos(a), fail)?.unwrap_or([1.0, 0.0, 0.0]),
-            None => [1.0, 0.0, 0.0],
+        let (axis, axis_at) = match node.children().find(|n| n.has_tag_name("axis")) {
+            Some(a) => (triple(a, "xyz", pos(a), fail)?.unwrap_or([1.0, 0.0, 0.0]), pos(a)),
+            None => ([1.0, 0.0, 0.0], at),
         };
         let limits = limits(node, &pos, fail)?;
         let continuous = written == "continuous";
-        joints.push(Joint { name, kind, parent, child, origin, point: [0.0; 3], axis, limits, continuous, at });
+        let point = [0.0; 3];
+        joints.push(Joint { name, kind, parent, child, origin, point, axis, limits, continuous, at, axis_at });
     }
     Ok((links, joints))
 }
@@ -295,12 +298,12 @@ mod tests {
             (&two_links(&hinge("revolute"), ""), "3:1:", "link `arm` moves but has mass 0"),
             (
                 &two_links(&hinge("revolute"), &MASS.replace(r#"izz="1""#, r#"izz="100""#)),
-                "3:1:",
+                "3:45:",
                 "principal moments [1.0, 1.0, 100.0]; expected a real body's inertia",
             ),
             (
                 &two_links(&hinge("revolute"), &MASS.replace(r#"ixy="0""#, r#"ixy="2""#)),
-                "3:1:",
+                "3:45:",
                 "expected a real body's inertia",
             ),
             (&two_links(&hinge("revolute").replace("arm", "hand"), MASS), "4:", "child link `hand` is not a `<link>`"),
@@ -313,7 +316,7 @@ mod tests {
             ("<robot><link name=\"a\"/><link name=\"a\"/></robot>", "1:", "link `a` is declared twice"),
             (
                 &two_links(&hinge("revolute").replace("<child", "<axis xyz=\"0 0 0\"/><child"), MASS),
-                "4:1:",
+                "4:54:",
                 "zero axis",
             ),
             (

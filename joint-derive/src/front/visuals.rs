@@ -7,17 +7,23 @@
 //! do not parse are still errors at their line and column, as everywhere in
 //! the file.
 
+#[cfg(feature = "mjcf")]
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 pub use super::files::{FileShape, FileVisual};
-use super::robot::{Fail, M3, Pose, V3, number, numbers, triple};
+use super::robot::{Fail, numbers, triple};
+#[cfg(feature = "mjcf")]
+use super::robot::{M3, V3};
+#[cfg(feature = "urdf")]
+use super::robot::{Pose, number};
 #[cfg(test)]
 use super::robot::{apply, mul};
 
 /// A URDF `<visual>`: `origin` is its `<origin>` read; `materials` the
 /// file's named `<material>` colours. `None` for a geometry without a shape
 /// read here.
+#[cfg(feature = "urdf")]
 pub fn urdf(
     node: roxmltree::Node,
     origin: Pose,
@@ -50,6 +56,7 @@ pub fn urdf(
 }
 
 /// A URDF `<material>`'s own `<color rgba>`, if it has one.
+#[cfg(feature = "urdf")]
 pub fn urdf_colour(
     material: roxmltree::Node,
     pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
@@ -63,6 +70,7 @@ pub fn urdf_colour(
 
 /// An MJCF `<geom>`'s shape from its `type` and `size` (`fromto`'s length
 /// where given: `length`); `mesh` is its mesh asset's file and scale.
+#[cfg(feature = "mjcf")]
 pub fn mjcf_shape(
     kind: &str,
     size: &[f64],
@@ -91,22 +99,24 @@ pub fn mjcf_shape(
     }))
 }
 
+#[cfg(feature = "mjcf")]
 /// An MJCF file's geom classes and the meshes and materials of its
 /// `<asset>`s, by name.
 pub struct Looks {
     /// Each `<default>` class's geom attributes, its parents' included.
-    pub defaults: HashMap<String, HashMap<String, String>>,
+    pub defaults: HashMap<String, super::robot::Class>,
     /// Each `<mesh>`'s file (`<compiler meshdir>` in front) and scale.
     pub meshes: HashMap<String, (String, V3)>,
     /// Each `<material>`'s `rgba`.
     pub materials: HashMap<String, [f64; 4]>,
 }
 
+#[cfg(feature = "mjcf")]
 impl Looks {
     /// The assets under the `<mujoco>` element `root`, with `defaults`.
     pub fn read(
         root: roxmltree::Node,
-        defaults: HashMap<String, HashMap<String, String>>,
+        defaults: HashMap<String, super::robot::Class>,
         pos: &dyn Fn(roxmltree::Node) -> roxmltree::TextPos,
         fail: &Fail,
     ) -> syn::Result<Self> {
@@ -135,6 +145,7 @@ impl Looks {
 
 /// The turn taking `z` to the direction of `d`, the shortest (MuJoCo's for
 /// `zaxis` and `fromto`), by rows; `None` for a zero `d`.
+#[cfg(feature = "mjcf")]
 pub fn z_turn(d: V3) -> Option<M3> {
     let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     if l.is_nan() || l <= 0.0 || !l.is_finite() {

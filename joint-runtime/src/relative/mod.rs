@@ -263,6 +263,36 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     /// ([`inverse_dynamics_derivatives_into`](Self::inverse_dynamics_derivatives_into));
     /// where it did not, the runtime's recursion gives the same numbers.
     const DERIVATIVES: bool = false;
+    /// A robot file's state layout, so that generic code reaches it: the
+    /// scene's `MUJOCO` (an MJCF file) or `PINOCCHIO` (a URDF). `None` for
+    /// a scene of attributes, or one that adds moving joints to its file's
+    /// (freedoms no library vector holds).
+    ///
+    /// ```
+    /// use joint_runtime::relative::TreeScene;
+    ///
+    /// /// The library's `nv` of any robot read from its file.
+    /// fn library_nv<S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+    ///     _: &S,
+    /// ) -> Option<usize> {
+    ///     S::STATE_LAYOUT.map(|layout| layout.nv())
+    /// }
+    /// # #[cfg(feature = "mjcf")] {
+    /// # use joint_runtime::Scene;
+    /// # #[derive(Scene)]
+    /// # #[scene(mjcf = "../tests/data/robots/solo12_floating.xml")]
+    /// # struct Solo;
+    /// # assert_eq!(library_nv(&Solo), Some(18));
+    /// # }
+    /// ```
+    const STATE_LAYOUT: Option<crate::robot::StateLayout<NQ, NV>> = None;
+    /// A robot file's link frames (the scene's `LINKS`); none without a file.
+    const LINKS: &'static [crate::robot::LinkFrame] = &[];
+    /// A robot file's joint limits (the scene's `LIMITS`); none without a file.
+    const LIMITS: &'static [crate::robot::JointLimits] = &[];
+    /// What a robot file asks of the step (the scene's `OPTIONS`); `None`s
+    /// without a file.
+    const OPTIONS: crate::robot::FileOptions = crate::robot::FileOptions { timestep: None, integrator: None };
     /// The tree joints, parents before children (joint `k` is the `k`-th
     /// joint reached from the ground).
     fn tree_joints(&self) -> [TreeJoint; NB];

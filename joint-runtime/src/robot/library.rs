@@ -20,7 +20,11 @@
 //! Every conversion is exact (no differences): `q` and `v` both ways, and
 //! the maps their velocities' linearity gives, generalised forces (the
 //! transpose, so that `τᵀ v` is the same power on both sides) and
-//! accelerations (with MuJoCo's `ω × u` term for a free joint's origin).
+//! accelerations (with MuJoCo's `ω × u` term for a free joint's origin);
+//! and matrices ([`StateLayout::tangent_map`] and the conversions beside it):
+//! the mass matrix, Jacobians, the dynamics' derivatives and a step's
+//! Jacobian, with the map of `∂/∂q` between the tangents each side
+//! differentiates on.
 
 use core::fmt;
 
@@ -28,6 +32,8 @@ use nalgebra::{Quaternion, Rotation3, SVector, UnitQuaternion, Vector3};
 
 use super::LinkFrame;
 use crate::relative::TreeState;
+
+mod matrices;
 
 /// The library whose state layout a [`StateLayout`] reads and writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

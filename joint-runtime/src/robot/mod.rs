@@ -77,7 +77,20 @@ impl LinkFrame {
         }
     }
 
-    fn turn(&self) -> Matrix3<f64> {
+    /// The link's axes in its body's frame (in the ground's for the
+    /// ground) as a rotation matrix: `rotation`'s columns. A link's
+    /// orientation in the world is its body's rotation times this
+    /// ([`pose`](Self::pose) gives both).
+    ///
+    /// ```
+    /// use joint_runtime::nalgebra::Matrix3;
+    /// use joint_runtime::robot::LinkFrame;
+    ///
+    /// let quarter = LinkFrame { name: "tool0", body: Some(5), rotation: [[0., 1., 0.], [-1., 0., 0.], [0., 0., 1.]], origin: [0.; 3] };
+    /// // The link's x axis is the body's y axis.
+    /// assert_eq!(quarter.turn() * Matrix3::identity().column(0), Matrix3::identity().column(1));
+    /// ```
+    pub fn turn(&self) -> Matrix3<f64> {
         let [x, y, z] = self.rotation;
         Matrix3::from_columns(&[Vector3::from(x), Vector3::from(y), Vector3::from(z)])
     }
@@ -170,9 +183,11 @@ pub struct JointLimits {
 /// [`TreeSimulation::implicit_step_with`]: crate::relative::TreeSimulation::implicit_step_with
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FileOptions {
-    /// The file's step (s), where given.
+    /// The file's step (s): an MJCF file's `timestep`, MuJoCo's default
+    /// 0.002 s where it omits it; `None` for a URDF (which has none).
     pub timestep: Option<f64>,
-    /// The file's integrator, where given.
+    /// The file's integrator: an MJCF file's `integrator`, MuJoCo's default
+    /// `Euler` where it omits it; `None` for a URDF.
     pub integrator: Option<FileIntegrator>,
 }
 

@@ -17,19 +17,19 @@ use crate::urdf::numbers;
 /// MJCF's frames turned everywhere (`library.xml`).
 #[derive(Scene)]
 #[scene(mjcf = "data/robots/library.xml")]
-struct Turned;
+pub(crate) struct Turned;
 
 /// URDF's frames turned, a continuous joint, siblings out of name order.
 #[derive(Scene)]
 #[scene(urdf = "data/robots/library.urdf", floating_base)]
-struct Branched;
+pub(crate) struct Branched;
 
 /// The floating Solo12 as MuJoCo's compiler writes it.
 #[derive(Scene)]
 #[scene(mjcf = "data/robots/solo12_floating.xml")]
-struct Solo;
+pub(crate) struct Solo;
 
-fn reference(key: &str) -> Value {
+pub(crate) fn reference(key: &str) -> Value {
     let path = format!("{}/data/robots/library.json", env!("CARGO_MANIFEST_DIR"));
     let all: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     all[key].clone()
@@ -62,9 +62,9 @@ where
             (ours.q_at, ours.v_at),
             (theirs["q_at"].as_u64().unwrap() as usize, theirs["v_at"].as_u64().unwrap() as usize)
         );
-        if let Some(tree) = sim.tree().joint_layout(ours.name) {
-            assert_eq!((tree.q_at, tree.v_at), (ours.tree_q_at, ours.tree_v_at), "{key}: `{}`", ours.name);
-        }
+        // Every joint by the library's name, a floating base's too.
+        let tree = sim.tree().joint_layout(ours.name).unwrap_or_else(|| panic!("{key}: no joint `{}`", ours.name));
+        assert_eq!((tree.q_at, tree.v_at), (ours.tree_q_at, ours.tree_v_at), "{key}: `{}`", ours.name);
     }
     let mut worst = [0.0_f64; 3];
     for s in data["samples"].as_array().unwrap() {

@@ -3,8 +3,10 @@
 //!
 //! * `analysis`: assembly, velocity and acceleration analysis.
 //! * `batch`: batches scalar, in SIMD lanes and with rayon.
+//! * `corpus`: public robot files as shipped, against MuJoCo 4.0.
 //! * `dynamics`: forward dynamics and the integrators.
 //! * `library`: states copied from MuJoCo and Pinocchio (`MUJOCO`, `PINOCCHIO`).
+//! * `library_matrices`: matrices and derivatives in MuJoCo's and Pinocchio's coordinates.
 //! * `loops`: closed loops in relative coordinates.
 //! * `record`: trajectories as CSV and SVG.
 //! * `serde_io`: the types through serde.
@@ -15,9 +17,11 @@
 
 mod analysis;
 mod batch;
+mod corpus;
 mod dynamics;
 mod floating;
 mod library;
+mod library_matrices;
 mod linear;
 mod loops;
 mod mjcf;

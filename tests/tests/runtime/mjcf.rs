@@ -67,9 +67,10 @@ fn orientations_and_classes_as_worked_out_by_hand() {
 }
 
 /// A four-bar closed by `connect`, against the same written as attributes
-/// (points from the centres worked out by hand): the same motion.
+/// (points from the centres worked out by hand): the same motion. MuJoCo
+/// would soften the `connect`; `equality = hard` reads it as an ideal joint.
 #[derive(Scene)]
-#[scene(mjcf = "data/mjcf/four_bar.xml")]
+#[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
 struct FourBarFromFile;
 
 #[derive(Scene)]
@@ -106,7 +107,7 @@ fn connect_closes_a_loop_as_a_ball_joint() {
 /// `weld` holds the elbow: the double pendulum swings as the rigid one
 /// (the lower link a body without joints).
 #[derive(Scene)]
-#[scene(mjcf = "data/mjcf/welded_pendulum.xml")]
+#[scene(mjcf = "data/mjcf/welded_pendulum.xml", equality = hard)]
 struct Welded;
 
 #[derive(Scene)]
@@ -290,9 +291,11 @@ fn a_fully_held_pendulum_floats_and_its_joint_carries_nothing() {
 fn joint_springs_as_mujoco_has_them() {
     against_mujoco(&PandaSprings, &PandaSprings::MUJOCO, "panda_springs");
     against_mujoco(&Springs, &Springs::MUJOCO, "springs");
-    // The file's `<option timestep integrator>`, as data; none in the Panda's.
+    // The file's `<option timestep integrator>`, as data; none in the Panda's,
+    // which MuJoCo steps by its defaults (0.002 s, Euler).
     let asked = FileOptions { timestep: Some(0.002), integrator: Some(FileIntegrator::ImplicitFast) };
-    assert_eq!((Springs::OPTIONS, PandaSprings::OPTIONS), (asked, FileOptions { timestep: None, integrator: None }));
+    let defaults = FileOptions { timestep: Some(0.002), integrator: Some(FileIntegrator::Euler) };
+    assert_eq!((Springs::OPTIONS, PandaSprings::OPTIONS), (asked, defaults));
     // `ref` is MuJoCo's coordinate at the file's pose, the tree's zero.
     let shoulder = Springs::MUJOCO.joints()[0];
     assert_eq!((shoulder.name, shoulder.offset), ("shoulder", 10f64.to_radians()));
@@ -318,9 +321,10 @@ fn armature_and_damping_as_mujoco_has_them() {
 
 /// `<equality joint>` is a row: `joint2 = 0.1 − 0.5 joint1`. The coupled
 /// pendulum's accelerations are Gauss's `T (Tᵀ M T)⁻¹ Tᵀ (τ − C)`,
-/// `T = [1; −0.5]`, from the same file read with `mimic = independent`.
+/// `T = [1; −0.5]`, from the same file read with `mimic = independent`
+/// (`equality = hard`: an ideal row, where MuJoCo's would be soft).
 #[derive(Scene)]
-#[scene(mjcf = "data/mjcf/coupled_pendulum.xml")]
+#[scene(mjcf = "data/mjcf/coupled_pendulum.xml", equality = hard)]
 struct CoupledPendulum;
 
 #[derive(Scene)]

@@ -191,8 +191,12 @@ where
         v_at += j["nv"].as_u64().unwrap() as usize;
     }
     assert_eq!((q_at, v_at), (NQ, NV), "the same coordinates and freedoms");
-    let key = |name: &str| if name.starts_with("free(") { "free".to_string() } else { name.to_string() };
-    sim.tree().joints().iter().map(|j| (j.kind, theirs[&key(j.name)].0, theirs[&key(j.name)].1)).collect()
+    // The floating base by its kind: Pinocchio's `root_joint`, an MJCF file's own name.
+    let key = |j: &joint_runtime::relative::TreeJoint| match j.kind {
+        TreeJointKind::Free => "free".to_string(),
+        _ => j.name.to_string(),
+    };
+    sim.tree().joints().iter().map(|j| (j.kind, theirs[&key(j)].0, theirs[&key(j)].1)).collect()
 }
 
 /// Pinocchio's `q` in ours: a free joint's quaternion `[x, y, z, w]` first

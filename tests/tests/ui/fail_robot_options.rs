@@ -17,4 +17,13 @@ struct Floating;
 #[joint(pin = spherical(ground, bar), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 struct NoFile;
 
+// `equality = hard` is for MJCF files, whose equalities MuJoCo makes soft.
+#[derive(Scene)]
+#[scene(urdf = "../../data/robots/ur5.urdf", equality = hard)]
+struct HardUrdf;
+
+#[derive(Scene)]
+#[scene(mjcf = "../../data/robots/ur5.xml", equality = soft)]
+struct Soft;
+
 fn main() {}
