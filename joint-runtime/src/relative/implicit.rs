@@ -48,8 +48,14 @@ impl<const NV: usize> ForceGains<NV> {
     }
 }
 
-impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
-    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
 {
     /// One linearly implicit Euler step of length `h` from `state` under
     /// joint forces `tau` (their value at the step's start) changing with
@@ -58,10 +64,16 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
     /// Allocation-free; `work` holds the derivatives on the way. On error
     /// `state` is unchanged.
     ///
-    /// Trees without loops, springs or user loads (as the exact
-    /// derivatives: [`TreeError::Loaded`]); [`TreeError::Singular`] if the
-    /// Newton matrix is, [`TreeError::Diverged`] if the step leaves the
-    /// finite range.
+    /// Trees without springs or user loads (as the exact derivatives:
+    /// [`TreeError::Loaded`]), and with no loops but a file's couplings
+    /// (`<mimic>`, `<equality joint>`: rows `J q = c` linear in the
+    /// coordinates; other loops get [`TreeError::NotDerived`]). A coupled
+    /// tree's step is the same with the rows' forces `Jᵀ μ` beside it and
+    /// `J v₁ = −Φ(q₀)/h`, so that the rows hold exactly at the step's end
+    /// (`Φ(q₁) = 0`: they are linear); its start is the constrained
+    /// accelerations. [`TreeError::Singular`] if the Newton matrix is (or,
+    /// coupled, `J N⁻¹ Jᵀ`: redundant couplings), [`TreeError::Diverged`]
+    /// if the step leaves the finite range.
     ///
     /// ```
     /// use joint_runtime::Scene;
@@ -96,6 +108,9 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         work: &mut StepWork<NQ, NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
+        if NC > 0 && !S::LINEAR_CLOSURES {
+            return Err(TreeError::NotDerived);
+        }
         let d = &mut work.inverse;
         self.mass_matrix_into(&state.q, &mut d.d_a);
         let qdd = self.start_accelerations(state, tau, &d.d_a)?;
@@ -106,7 +121,8 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         let newton: SMatrix<f64, NV, NV> = d.d_a + d.d_v * h + d.d_q * (h * h);
         let rhs = d.d_a * qdd * h - d.d_q * state.v * (h * h);
         let joint = self.tree().joints().first().map_or("", |j| j.name);
-        let delta = Lu::new(&newton).map_err(|_| TreeError::Singular { joint })?.solve(&rhs);
+        let lu = Lu::new(&newton).map_err(|_| TreeError::Singular { joint })?;
+        let delta = self.held(state, h, &lu, lu.solve(&rhs))?;
         let v = state.v + delta;
         let mut q = state.q;
         self.tree().displace(&mut q, &(v * h));
@@ -119,18 +135,63 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
     /// The start's `q̈₀` (where the derivatives are taken): the derive's
     /// articulated-body code where it wrote one, else `M⁻¹ (τ − b)` by an LU
     /// factor of `m`, the mass matrix (the tree's own recursion stays out of
-    /// the step: its indices are data, the step is proved panic-free).
+    /// the step: its indices are data, the step is proved panic-free); on a
+    /// coupled tree, the constrained accelerations (the rows' forces held
+    /// to `J q̈ = 0`, as [`held`](Self::held) holds the step).
     fn start_accelerations(
         &self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
         m: &SMatrix<f64, NV, NV>,
     ) -> Result<SVector<f64, NV>, TreeError> {
-        if let (_, Some(out)) = self.generated_dynamics(state, tau) {
-            return Ok(out);
-        }
         let joint = self.tree().joints().first().map_or("", |j| j.name);
-        let bias = self.inverse_dynamics(state, &SVector::zeros());
-        Ok(Lu::new(m).map_err(|_| TreeError::Singular { joint })?.solve(&(tau - bias)))
+        let lu = Lu::new(m).map_err(|_| TreeError::Singular { joint })?;
+        let free = match self.generated_dynamics(state, tau) {
+            (_, Some(out)) if NC == 0 => return Ok(out),
+            _ => lu.solve(&(tau - self.inverse_dynamics(state, &SVector::zeros()))),
+        };
+        if NC == 0 {
+            return Ok(free);
+        }
+        let j = self.closure_rows(state).jacobian;
+        self.with_row_forces(&lu, &j, free, &(-(j * free)), joint)
+    }
+
+    /// A coupled tree's velocity change held to its rows: `x` (the change
+    /// without their forces, `N x = r`) plus `N⁻¹ Jᵀ μ` with `μ` such that
+    /// `J v₁ = −Φ(q₀)/h` (the rows hold exactly at the step's end; `J` is
+    /// constant). `x` itself where there are no rows.
+    fn held(
+        &self,
+        state: &TreeState<NQ, NV>,
+        h: f64,
+        lu: &Lu<NV>,
+        x: SVector<f64, NV>,
+    ) -> Result<SVector<f64, NV>, TreeError> {
+        if NC == 0 {
+            return Ok(x);
+        }
+        let rows = self.closure_rows(state);
+        let wanted = -(rows.phi / h) - rows.jacobian * (state.v + x);
+        let joint = self.tree().joints().first().map_or("", |j| j.name);
+        self.with_row_forces(lu, &rows.jacobian, x, &wanted, joint)
+    }
+
+    /// `x + A⁻¹ Jᵀ μ` with `J A⁻¹ Jᵀ μ = wanted` (`lu`: `A`'s factor): the
+    /// change that the rows' forces make so that `J` of it moves by `wanted`.
+    fn with_row_forces(
+        &self,
+        lu: &Lu<NV>,
+        j: &SMatrix<f64, NC, NV>,
+        x: SVector<f64, NV>,
+        wanted: &SVector<f64, NC>,
+        joint: &'static str,
+    ) -> Result<SVector<f64, NV>, TreeError> {
+        let mut y = SMatrix::<f64, NV, NC>::zeros();
+        for (r, mut column) in y.column_iter_mut().enumerate() {
+            column.copy_from(&lu.solve(&j.row(r).transpose()));
+        }
+        let schur = Lu::new(&(j * y)).map_err(|_| TreeError::Singular { joint })?;
+        Ok(x + y * schur.solve(wanted))
     }
 }

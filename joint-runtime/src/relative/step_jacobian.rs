@@ -158,8 +158,14 @@ fn exp_and_right_jacobian(phi: Vector3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
     (rotation, right)
 }
 
-impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
-    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: crate::dynamics::AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
 {
     /// Refuses what the chain rule here does not cover.
     pub(super) fn check_step(
@@ -177,6 +183,11 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         }
         Ok(())
     }
+}
+
+impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
+    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
+{
 
     /// The stage's rate `(q̇, q̈)` at `stage` and its derivative into
     /// `work.rate`, given the stage's own derivative `work.stage`.

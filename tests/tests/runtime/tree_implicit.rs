@@ -111,3 +111,54 @@ fn a_stiff_joint_spring_in_closed_form_and_at_its_own_step() {
     }
     assert!((implicit.q[0] - 0.1).abs() < 1e-3 && implicit.v[0].abs() < 1.0, "{implicit:?}");
 }
+
+/// The Panda as its URDF says: the second finger follows the first (a
+/// coupling row, `NC = 1`).
+#[derive(Scene)]
+#[scene(urdf = "data/robots/panda.urdf")]
+struct PandaCoupled;
+
+/// A coupled tree at its own step: the Panda's fingers held together by
+/// their row while a stiff PD law drives every joint (the second finger's
+/// own law fights the row, whose force takes it). The row holds exactly
+/// at every step's end, and the implicit step converges to a fine RK4 run
+/// (which projects onto the row after each step) at first order.
+#[test]
+fn a_coupled_arm_keeps_its_row_and_converges_at_first_order() {
+    const GAINS: (f64, f64) = (2e3, 40.0);
+    let target = SVector::<f64, 9>::from([0.3, -0.6, 0.2, -2.0, 0.1, 1.6, 0.7, 0.03, 0.01]);
+    let pd = |s: &TreeState<9, 9>| (target - s.q) * GAINS.0 - s.v * GAINS.1;
+    let mut sim = TreeSimulation::new(&PandaCoupled).unwrap();
+    let names: Vec<&str> = sim.tree().joints().iter().map(|j| j.name).collect();
+    assert_eq!(&names[7..], ["panda_finger_joint1", "panda_finger_joint2"]);
+    let start = {
+        let mut q = target.add_scalar(0.15);
+        (q[7], q[8]) = (0.02, 0.02);
+        TreeState { q, v: SVector::zeros(), t: 0.0 }
+    };
+    let t_end = 0.2;
+    let implicit = |h: f64, sim: &TreeSimulation<'_, PandaCoupled, _, 9, 9, 1>| {
+        let gains = ForceGains::pd(&SVector::repeat(GAINS.0), &SVector::repeat(GAINS.1));
+        let (mut state, mut work, mut row) = (start, StepWork::new(), 0.0_f64);
+        for _ in 0..(t_end / h).round() as usize {
+            let tau = pd(&state);
+            sim.implicit_step_with(&mut state, h, &tau, &gains, &mut work).unwrap();
+            row = row.max(sim.closure_rows(&state).phi.amax());
+        }
+        (state, row)
+    };
+    let mut fine = start;
+    for _ in 0..(t_end / 1e-5).round() as usize {
+        let tau = pd(&fine);
+        sim.step_with(&mut fine, 1e-5, &tau).unwrap();
+    }
+    let ((coarse, row_coarse), (half, row_half)) = (implicit(2e-3, &sim), implicit(1e-3, &sim));
+    let (e1, e2) = ((coarse.q - fine.q).amax(), (half.q - fine.q).amax());
+    eprintln!(
+        "coupled Panda: implicit at 2 ms {e1:.2e} rad off RK4 at 10 µs, at 1 ms {e2:.2e} (ratio {:.2}); rows {row_coarse:.1e}, {row_half:.1e}",
+        e1 / e2
+    );
+    assert!(row_coarse < 1e-13 && row_half < 1e-13, "the row: {row_coarse:e}, {row_half:e}");
+    assert!((1.6..2.5).contains(&(e1 / e2)) && e2 < 1e-2, "first order: {e1:e} then {e2:e}");
+    assert!((half.q[7] - half.q[8]).abs() < 1e-13, "the fingers: {} and {}", half.q[7], half.q[8]);
+}
