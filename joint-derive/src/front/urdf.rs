@@ -124,11 +124,20 @@ fn elements(doc: &roxmltree::Document, fail: &Fail) -> syn::Result<(Vec<Link>, V
             "fixed" => Kind::Fixed,
             "floating" => Kind::Floating,
             kind => {
+                // What Pinocchio's reader makes of it, so the user knows what is missing.
+                let theirs = match kind {
+                    "planar" => {
+                        ": Pinocchio reads it as a planar joint (moves in x, y and turns about z), which is \
+                                 not read here"
+                    }
+                    _ => ", which neither Pinocchio nor this reader knows",
+                };
+                let at = super::robot::attribute_at(node, "type").unwrap_or(at);
                 return Err(fail(
                     at,
                     format!(
-                        "joint `{name}` has type `{kind}`; expected `revolute`, `continuous`, `prismatic`, `fixed` or \
-                     `floating` (`planar` is not read yet)"
+                        "joint `{name}` has type `{kind}`{theirs}; expected `revolute`, `continuous`, `prismatic`, \
+                         `fixed` or `floating`"
                     ),
                 ));
             }
@@ -294,7 +303,8 @@ mod tests {
         let cases = [
             ("<robot><link name=\"a\"></robot>", "1:", "malformed XML"),
             ("<robbot/>", "1:1:", "expected a `<robot>` element"),
-            (&two_links(&hinge("spherical"), MASS), "4:1:", "has type `spherical`; expected `revolute`"),
+            (&two_links(&hinge("spherical"), MASS), "4:17:", "has type `spherical`, which neither Pinocchio"),
+            (&two_links(&hinge("planar"), MASS), "4:17:", "Pinocchio reads it as a planar joint"),
             (&two_links(&hinge("revolute"), ""), "3:1:", "link `arm` moves but has mass 0"),
             (
                 &two_links(&hinge("revolute"), &MASS.replace(r#"izz="1""#, r#"izz="100""#)),

@@ -1,6 +1,6 @@
 //! Triangle meshes for a 3D run: the primitives a robot file names (box,
 //! sphere, cylinder, capsule, ellipsoid, plane) tessellated, mesh files
-//! (STL, OBJ, Collada) read by `mesh-loader`, and the stand-in a body gets
+//! (STL, OBJ, Collada) read by `mesh-loader` (feature `meshes`), and the stand-in a body gets
 //! when its file draws nothing: a capsule along its joint points whose
 //! radius gives it its mass at the density of water.
 
@@ -251,9 +251,17 @@ pub(super) fn read(file: &str, scale: [f64; 3], rgba: Option<[f32; 4]>) -> Resul
     Ok(meshes)
 }
 
+/// Without the `meshes` feature no mesh file is read: the body gets its
+/// stand-in, and the run names the file among those it could not draw.
+#[cfg(not(feature = "meshes"))]
+fn load(file: &str, _: [f64; 3], _: Option<[f32; 4]>) -> Result<Vec<Mesh>, String> {
+    Err(format!("{file}: mesh files are read with joint-runtime's `meshes` feature"))
+}
+
 /// A mesh file's triangles scaled by `scale`, one [`Mesh`] per material
 /// (the file's colour, or `rgba` where the robot file gives one); the
 /// reader's message where it cannot be read.
+#[cfg(feature = "meshes")]
 fn load(file: &str, scale: [f64; 3], rgba: Option<[f32; 4]>) -> Result<Vec<Mesh>, String> {
     let scene = mesh_loader::Loader::default().load(file).map_err(|e| format!("{file}: {e}"))?;
     let mut out = Vec::new();
@@ -279,6 +287,7 @@ fn load(file: &str, scale: [f64; 3], rgba: Option<[f32; 4]>) -> Result<Vec<Mesh>
 /// each with its own normal, which would triple the run's file. glTF's
 /// viewers shade a mesh without normals flat, by its faces (the standard
 /// asks them to), which keeps every edge the file modelled.
+#[cfg(feature = "meshes")]
 fn weld(m: Mesh) -> Mesh {
     let mut first: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
     let mut positions = Vec::new();
