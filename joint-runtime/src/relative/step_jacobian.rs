@@ -188,7 +188,6 @@ impl<
 impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
     TreeSimulation<'_, S, NB, NQ, NV, 0, L>
 {
-
     /// The stage's rate `(q̇, q̈)` at `stage` and its derivative into
     /// `work.rate`, given the stage's own derivative `work.stage`.
     fn stage_rate(
