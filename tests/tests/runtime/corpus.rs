@@ -123,6 +123,10 @@ where
         let given = stored_mass_matrix::<NV>(&s["mass_matrix"]);
         let m = mass_matrix_as_theirs(&sim, layout, &q, &state);
         worst[0] = worst[0].max((m - given).amax() / given.amax());
+        // And through the layout's matrix conversion.
+        let mut tree_m = SMatrix::<f64, NV, NV>::zeros();
+        sim.mass_matrix_into(&state.q, &mut tree_m);
+        worst[0] = worst[0].max((layout.mass_matrix_to(&state, &tree_m) - given).amax() / given.amax());
         let tau = layout.forces_from(&state, theirs("tau").as_slice()).unwrap();
         let mut qacc = [0.0; NV];
         layout.write_accelerations(&state, &sim.forward_dynamics(&state, &tau).unwrap(), &mut qacc).unwrap();
