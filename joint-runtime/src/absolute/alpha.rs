@@ -22,14 +22,13 @@ use alloc::vec::Vec;
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::AbsoluteSimulation;
-use super::buf::{Boxed, boxed};
+use super::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use super::differences::{DifferenceTerms, DifferenceWork};
 use super::kkt::{Block, Kkt, KktStorage, NodeVector};
 use super::loads::{LoadColouring, body_pairs};
 use super::second_order::{SecondOrderLayout, TermStorage};
 use super::simulation::with_taken;
 use super::solver::{jt_mul_into, non_finite};
-use crate::OmegaBody;
 use crate::analysis::{AnalysisError, check_output, velocity_vector_into};
 use crate::dynamics::{
     AlphaHistory, AppliedLoads, Attachment, Coefficients, Iterate, ModifiedNewton, NewtonMatrix, SpringDamper,
@@ -67,15 +66,16 @@ where
     K: KktStorage<f64>,
     Tm: TermStorage,
 {
-    /// The pattern of `scene` with `springs`.
+    /// The pattern of `scene` with `springs`, boxed (with `alloc`) and
+    /// written in the heap (`buf`).
     ///
     /// # Errors
     /// [`AnalysisError::NonFiniteOutput`] for a structure the derive's sizes
     /// do not fit; without `alloc`, [`AnalysisError::BadOption`] for springs
     /// between bodies no joint joins (their pattern is found at run time).
-    pub(super) fn new<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>>(
+    pub(super) fn boxed<S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>>(
         springs: &[crate::dynamics::SpringDamper],
-    ) -> Result<Self, AnalysisError> {
+    ) -> Result<Boxed<Self>, AnalysisError> {
         let bad = |_| non_finite("scene structure");
         // The derive's pattern couples the bodies each joint joins; a spring
         // between other bodies needs one found at run time.
@@ -88,29 +88,29 @@ where
         } else {
             grown::<K, NB>(S::BLOCKS, S::BLOCK_BODIES, springs)?
         };
-        let mut row_joint = [(0, 0); M];
-        for (k, block) in S::BLOCKS.iter().enumerate() {
-            for r in 0..block.rows {
-                if let Some(x) = row_joint.get_mut(block.start + r) {
-                    *x = (NB + k, r);
-                }
-            }
-        }
         let (layout, terms) = (SecondOrderLayout::new(S::BLOCKS, S::BLOCK_BODIES), Tm::zeroed());
         if terms.values().len() != layout.len() {
             return Err(non_finite("scene structure"));
         }
-        Ok(AlphaWorkspace {
+        let mut ws = boxed_with(|| AlphaWorkspace {
             kkt,
             terms,
             layout,
-            rhs: NodeVector::zeros(),
-            row_joint,
+            rhs: const { NodeVector::repeat(0.0) },
+            row_joint: const { [(0, 0); M] },
             user: LoadColouring::new(S::BLOCK_BODIES, springs),
             history: None,
             differences: DifferenceTerms::new(S::BLOCK_BODIES),
             difference_work: DifferenceWork::boxed(),
-        })
+        });
+        for (k, block) in S::BLOCKS.iter().enumerate() {
+            for r in 0..block.rows {
+                if let Some(x) = ws.row_joint.get_mut(block.start + r) {
+                    *x = (NB + k, r);
+                }
+            }
+        }
+        Ok(ws)
     }
 
     /// The second-order terms at `state` (`λ`, and `u` of `∂(J u)/∂q`) into
@@ -188,24 +188,34 @@ pub(super) struct AlphaWork<const NB: usize, const NV: usize, const M: usize, co
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> AlphaWork<NB, NV, M, NNZ> {
+    /// Zeros, states at rest and identity updates; written in the heap
+    /// (`buf`).
     pub(super) fn new() -> Boxed<Self> {
-        let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
-        let (v, l) = (SVector::zeros(), SVector::zeros());
-        boxed(AlphaWork {
-            y0: state,
-            end: state,
-            past: AlphaHistory { state, vdot: v, a: v, lambda: l },
-            v0: v,
-            it: Iterate { dq: v, a: v, v, vdot: v, lambda: l, state },
-            x: v,
-            dlambda: l,
-            values: [0.0; NNZ],
-            phi: l,
-            q: v,
-            mass: v,
-            jt: v,
-            t: [Matrix3::identity(); NB],
-        })
+        let mut w = boxed_with(|| {
+            const {
+                AlphaWork {
+                    y0: zero_state(),
+                    end: zero_state(),
+                    past: AlphaHistory::zeros(),
+                    v0: zeros(),
+                    it: Iterate::zeros(),
+                    x: zeros(),
+                    dlambda: zeros(),
+                    values: [0.0; NNZ],
+                    phi: zeros(),
+                    q: zeros(),
+                    mass: zeros(),
+                    jt: zeros(),
+                    t: [zeros(); NB],
+                }
+            }
+        });
+        let AlphaWork { y0, end, past, it, t, .. } = &mut *w;
+        for state in [y0, end, &mut past.state, &mut it.state] {
+            at_rest(state);
+        }
+        t.fill(Matrix3::identity());
+        w
     }
 }
 

@@ -21,10 +21,9 @@
 
 use nalgebra::SVector;
 
-use super::buf::{Boxed, boxed};
+use super::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use super::loads::neighbours;
 use super::second_order::{JointBodies, RowTerm, SecondOrderLayout};
-use crate::OmegaBody;
 use crate::analysis::{apply_increment, set_velocities, velocity_vector_into};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -47,19 +46,24 @@ pub(super) struct DifferenceWork<const NB: usize, const NV: usize, const M: usiz
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> DifferenceWork<NB, NV, M, NNZ> {
-    /// A zeroed work, boxed (with `alloc`).
+    /// A zeroed work (its states at rest), boxed (with `alloc`) and written
+    /// in the heap (`buf`).
     pub(super) fn boxed() -> Boxed<Self> {
-        let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
-        let (v, m) = (SVector::zeros(), SVector::zeros());
-        boxed(DifferenceWork {
-            delta: v,
-            v,
-            moved_v: v,
-            states: [state; 2],
-            j: [[0.0; NNZ]; 2],
-            gamma: [m; 2],
-            phi_t: [m; 2],
-        })
+        let mut w = boxed_with(|| {
+            const {
+                DifferenceWork {
+                    delta: zeros(),
+                    v: zeros(),
+                    moved_v: zeros(),
+                    states: [zero_state(); 2],
+                    j: [[0.0; NNZ]; 2],
+                    gamma: [zeros(); 2],
+                    phi_t: [zeros(); 2],
+                }
+            }
+        });
+        w.states.iter_mut().for_each(at_rest);
+        w
     }
 }
 

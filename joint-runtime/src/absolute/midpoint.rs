@@ -28,13 +28,12 @@ use nalgebra::{Matrix3, SVector};
 
 use super::AbsoluteSimulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, missing, spring_blocks, times_update};
-use super::buf::{Boxed, boxed};
+use super::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use super::kkt::{Kkt, KktStorage};
 use super::second_order::{RowTerm, SecondOrderLayout, TermStorage};
 use super::simulation::Accelerations;
 use super::simulation::with_taken;
 use super::solver::j_mul_into;
-use crate::OmegaBody;
 use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::dynamics::{
     AppliedLoads, ModifiedNewton, NewtonMatrix, energy_balance, mass_times_into, midpoint_end_into,
@@ -74,24 +73,34 @@ pub(super) struct MidpointWork<const NB: usize, const NV: usize, const M: usize,
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> MidpointWork<NB, NV, M, NNZ> {
+    /// Zeros, states at rest and identity updates; written in the heap
+    /// (`buf`).
     pub(super) fn new() -> Boxed<Self> {
-        let state = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
-        let dynamics = Accelerations { vdot: SVector::zeros(), lambda: SVector::zeros() };
-        let zero = SVector::zeros();
-        boxed(MidpointWork {
-            y0: state,
-            a0: zero,
-            end: state,
-            v0: zero,
-            w: zero,
-            r: zero,
-            dw: zero,
-            mid: Midpoint { state, dynamics, values: [0.0; NNZ] },
-            u: zero,
-            mr: zero,
-            jr: SVector::zeros(),
-            t: [Matrix3::identity(); NB],
-        })
+        let mut w = boxed_with(|| {
+            const {
+                let dynamics = Accelerations { vdot: zeros(), lambda: zeros() };
+                MidpointWork {
+                    y0: zero_state(),
+                    a0: zeros(),
+                    end: zero_state(),
+                    v0: zeros(),
+                    w: zeros(),
+                    r: zeros(),
+                    dw: zeros(),
+                    mid: Midpoint { state: zero_state(), dynamics, values: [0.0; NNZ] },
+                    u: zeros(),
+                    mr: zeros(),
+                    jr: zeros(),
+                    t: [zeros(); NB],
+                }
+            }
+        });
+        let MidpointWork { y0, end, mid, t, .. } = &mut *w;
+        for state in [y0, end, &mut mid.state] {
+            at_rest(state);
+        }
+        t.fill(Matrix3::identity());
+        w
     }
 }
 

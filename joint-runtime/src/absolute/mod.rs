@@ -76,7 +76,7 @@
 
 mod adaptive;
 mod alpha;
-mod buf;
+pub(crate) mod buf;
 mod differences;
 mod factor;
 mod kkt;

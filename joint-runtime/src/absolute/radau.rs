@@ -28,7 +28,7 @@ use nalgebra::{Complex, Matrix3, SVector};
 
 use super::AbsoluteSimulation;
 use super::alpha::{add_mass, add_rows, add_stiffness, spring_blocks};
-use super::buf::{Boxed, boxed};
+use super::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use super::kkt::{Kkt, KktEntry, KktStorage, NodeVector};
 use super::midpoint::{RowTerms, add_row_terms};
 use super::second_order::TermStorage;
@@ -61,19 +61,22 @@ where
     R: KktStorage<f64>,
     C: KktStorage<Complex<f64>>,
 {
-    /// On generalised-α's pattern, boxed (with `alloc`).
+    /// On generalised-α's pattern, boxed (with `alloc`) and written in the
+    /// heap (`buf`; each matrix's arrays are boxes of their own).
     pub(super) fn boxed(pattern: &Kkt<f64, R>) -> Result<Boxed<Self>, AnalysisError> {
         let bad = |_| crate::absolute::solver::non_finite("scene structure");
-        Ok(boxed(RadauWorkspace {
-            parts: [pattern.like().map_err(bad)?, pattern.like().map_err(bad)?, pattern.like().map_err(bad)?],
-            real: pattern.like().map_err(bad)?,
-            complex: pattern.like().map_err(bad)?,
-            values: [0.0; NNZ],
-            dropped: [0; M],
+        let parts = [pattern.like().map_err(bad)?, pattern.like().map_err(bad)?, pattern.like().map_err(bad)?];
+        let (real, complex) = (pattern.like().map_err(bad)?, pattern.like().map_err(bad)?);
+        Ok(boxed_with(|| RadauWorkspace {
+            parts,
+            real,
+            complex,
+            values: const { [0.0; NNZ] },
+            dropped: const { [0; M] },
             dropped_len: 0,
-            rhs: NodeVector::zeros(),
-            complex_rhs: NodeVector::zeros(),
-            product: NodeVector::zeros(),
+            rhs: const { NodeVector::repeat(0.0) },
+            complex_rhs: const { NodeVector::repeat(Complex::new(0.0, 0.0)) },
+            product: const { NodeVector::repeat(0.0) },
         }))
     }
 
@@ -105,21 +108,27 @@ pub(super) struct RadauScratch<const NB: usize, const NV: usize, const M: usize>
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> RadauScratch<NB, NV, M> {
-    /// Zeros, boxed (with `alloc`); no start solved.
+    /// Zeros (the start's state at rest), boxed (with `alloc`) and written
+    /// in the heap (`buf`); no start solved.
     pub(super) fn boxed() -> Boxed<Self> {
-        let (v, m) = (SVector::zeros(), SVector::zeros());
-        boxed(RadauScratch {
-            at: SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 },
-            solved: false,
-            vdot: v,
-            lambda: m,
-            u: v,
-            ui: v,
-            mass: v,
-            mass_i: v,
-            j: m,
-            j_i: m,
-        })
+        let mut w = boxed_with(|| {
+            const {
+                RadauScratch {
+                    at: zero_state(),
+                    solved: false,
+                    vdot: zeros(),
+                    lambda: zeros(),
+                    u: zeros(),
+                    ui: zeros(),
+                    mass: zeros(),
+                    mass_i: zeros(),
+                    j: zeros(),
+                    j_i: zeros(),
+                }
+            }
+        });
+        at_rest(&mut w.at);
+        w
     }
 
     /// The dynamics `(vdot, lambda)` solved at `at`, as the step's start.

@@ -5,11 +5,10 @@ use nalgebra::{SVector, Vector3};
 
 use super::BlockFactor;
 use super::alpha::{AlphaWork, AlphaWorkspace};
-use super::buf::{Boxed, boxed};
+use super::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use super::midpoint::MidpointWork;
 use super::radau::{RadauScratch, RadauWorkspace};
 use super::solver::{Solver, j_mul, j_mul_into, jt_mul_into, non_finite};
-use crate::OmegaBody;
 use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, NewtonWork, RowList, apply_increment, apply_metric_into, check_output,
     check_state, normalise_orientations, set_velocities, velocity_vector, velocity_vector_into,
@@ -147,19 +146,27 @@ struct SolveWork<const NB: usize, const NV: usize, const M: usize, const NNZ: us
 }
 
 impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> SolveWork<NB, NV, M, NNZ> {
+    /// Zeros, the projection's trial state at rest; written in the heap
+    /// (`buf`).
     fn new() -> Boxed<Self> {
-        boxed(SolveWork {
-            values: [0.0; NNZ],
-            loads: Loads::default(),
-            newton: NewtonWork::new(),
-            gamma: SVector::zeros(),
-            forces: SVector::zeros(),
-            minv_q: SVector::zeros(),
-            lambda: SVector::zeros(),
-            jt_lambda: SVector::zeros(),
-            vdot: SVector::zeros(),
-            r: SVector::zeros(),
-        })
+        let mut w = boxed_with(|| {
+            const {
+                SolveWork {
+                    values: [0.0; NNZ],
+                    loads: Loads::zeros(),
+                    newton: NewtonWork::zeros(),
+                    gamma: zeros(),
+                    forces: zeros(),
+                    minv_q: zeros(),
+                    lambda: zeros(),
+                    jt_lambda: zeros(),
+                    vdot: zeros(),
+                    r: zeros(),
+                }
+            }
+        });
+        at_rest(&mut w.newton.trial);
+        w
     }
 }
 
@@ -172,10 +179,16 @@ struct Rk4Work<const NB: usize, const NV: usize> {
 }
 
 impl<const NB: usize, const NV: usize> Rk4Work<NB, NV> {
+    /// States at rest and their rates (zero); written in the heap (`buf`).
     fn new() -> Boxed<Self> {
-        let y = SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 };
-        let k = Rate::new(&y, SVector::zeros());
-        boxed(Rk4Work { y0: y, k: [k; 4], stage: y, end: y })
+        let mut w = boxed_with(|| {
+            const { Rk4Work { y0: zero_state(), k: [Rate::zeros(); 4], stage: zero_state(), end: zero_state() } }
+        });
+        let Rk4Work { y0, stage, end, .. } = &mut *w;
+        for state in [y0, stage, end] {
+            at_rest(state);
+        }
+        w
     }
 }
 
@@ -239,19 +252,20 @@ where
     ) -> Result<Self, AnalysisError> {
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
         let solver = Solver::new()?;
-        let projected = boxed((SystemState { bodies: [OmegaBody::default(); NB], t: 0.0 }, None));
+        let mut projected = boxed_with(|| const { (zero_state(), None) });
+        at_rest(&mut projected.0);
         let sim = AbsoluteSimulation {
             scene,
             loads,
             springs,
-            inertias: boxed(inertias),
-            inverse: boxed(inverse),
+            inertias,
+            inverse,
             gravity,
             solver,
             projected,
             alpha: None,
             radau: None,
-            radau_history: boxed(None),
+            radau_history: boxed_with(|| const { None }),
             radau_scratch: None,
             radau_work: None,
             midpoint: None,
@@ -657,7 +671,7 @@ where
     #[cold]
     #[inline(never)]
     fn make_alpha_workspace(&mut self) -> Result<(), AnalysisError> {
-        self.alpha = Some(boxed(AlphaWorkspace::new::<S>(self.springs)?));
+        self.alpha = Some(AlphaWorkspace::boxed::<S>(self.springs)?);
         self.alpha_work = Some(AlphaWork::new());
         self.midpoint = Some(MidpointWork::new());
         Ok(())
@@ -736,7 +750,7 @@ where
         if let Some(ws) = &self.alpha {
             self.radau = Some(RadauWorkspace::boxed(&ws.kkt)?);
             self.radau_scratch = Some(RadauScratch::boxed());
-            self.radau_work = Some(boxed(RadauWork::new()));
+            self.radau_work = Some(RadauWork::boxed());
         }
         Ok(())
     }

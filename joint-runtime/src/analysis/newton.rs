@@ -5,6 +5,7 @@ use super::{
 };
 use nalgebra::SVector;
 
+use crate::absolute::buf::{at_rest, zero_state, zeros};
 use crate::scene::{Scene, SystemState};
 
 /// Damped Newton's vectors (Φ, the right-hand side `−Φ`, a trial's Φ, the
@@ -21,11 +22,18 @@ pub(crate) struct NewtonWork<const NB: usize, const NV: usize, const M: usize> {
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> NewtonWork<NB, NV, M> {
-    /// Zeros.
+    /// Zeros, and a state at rest.
     pub(crate) fn new() -> Self {
-        let (m, v) = (SVector::zeros(), SVector::zeros());
-        let trial = SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 };
-        NewtonWork { phi: m, b: m, p: m, delta: v, v, trial }
+        let mut w = Self::zeros();
+        at_rest(&mut w.trial);
+        w
+    }
+
+    /// Zeros, the trial state's Euler parameters too: a constant, for a
+    /// workspace made in the heap (`absolute::buf`), which then puts the
+    /// trial state at rest.
+    pub(crate) const fn zeros() -> Self {
+        NewtonWork { phi: zeros(), b: zeros(), p: zeros(), delta: zeros(), v: zeros(), trial: zero_state() }
     }
 }
 

@@ -33,6 +33,7 @@
 
 use nalgebra::SVector;
 
+use crate::absolute::buf::{zero_state, zeros};
 use crate::analysis::{AnalysisError, apply_increment, set_velocities};
 use crate::scene::SystemState;
 
@@ -48,6 +49,12 @@ pub(crate) struct AlphaHistory<const NB: usize, const NV: usize, const M: usize>
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> AlphaHistory<NB, NV, M> {
+    /// Zeros, the state's Euler parameters too: a constant, for a
+    /// workspace made in the heap (`absolute::buf`).
+    pub(crate) const fn zeros() -> Self {
+        AlphaHistory { state: zero_state(), vdot: zeros(), a: zeros(), lambda: zeros() }
+    }
+
     /// Written over, field by field (no history in the caller's frame).
     pub(crate) fn set(
         &mut self,
@@ -126,6 +133,11 @@ pub(crate) struct Iterate<const NB: usize, const NV: usize, const M: usize> {
 }
 
 impl<const NB: usize, const NV: usize, const M: usize> Iterate<NB, NV, M> {
+    /// Zeros, as [`AlphaHistory::zeros`].
+    pub(crate) const fn zeros() -> Self {
+        Iterate { dq: zeros(), a: zeros(), v: zeros(), vdot: zeros(), lambda: zeros(), state: zero_state() }
+    }
+
     /// The state and rates that follow from the pseudo-acceleration `self.a`
     /// (multipliers `self.lambda`), written over `self`: no vector in the
     /// caller's frame.

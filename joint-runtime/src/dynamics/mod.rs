@@ -152,8 +152,9 @@ pub(crate) use newton_matrix::update_blocks;
 pub(crate) use newton_matrix::update_blocks_into;
 pub use simulation::{Simulate, Simulation};
 
-use nalgebra::{Matrix3, SVector, Vector3, Vector4};
+use nalgebra::{SVector, Vector3, Vector4};
 
+use crate::absolute::buf::{Boxed, boxed, boxed_with, zeros};
 use crate::analysis::{
     AnalysisError, AssemblyOptions, InverseMass, RowList, WorstRows, apply_increment, quat_mul, set_velocities,
 };
@@ -181,6 +182,11 @@ impl<const NB: usize> Default for Loads<NB> {
 }
 
 impl<const NB: usize> Loads<NB> {
+    /// No loads, as a constant (a workspace's, `absolute::buf`).
+    pub(crate) const fn zeros() -> Self {
+        Loads { force: [zeros(); NB], torque: [zeros(); NB] }
+    }
+
     /// Every force and torque back to zero (a workspace's loads reused).
     pub(crate) fn clear(&mut self) {
         self.force.iter_mut().chain(self.torque.iter_mut()).for_each(|x| *x = Vector3::zeros());
@@ -538,6 +544,12 @@ impl<const NB: usize, const NV: usize> Rate<NB, NV> {
         rate
     }
 
+    /// Zero rates (a state at rest's, without accelerations), as a
+    /// constant: an RK4 workspace's before its first stage.
+    pub(crate) const fn zeros() -> Self {
+        Rate { rdot: [zeros(); NB], pdot: [zeros(); NB], vdot: zeros() }
+    }
+
     /// [`Rate::new`] written over `self` (no state-sized temporary).
     #[inline]
     pub(crate) fn assign(&mut self, state: &SystemState<NB>, vdot: &SVector<f64, NV>) {
@@ -775,10 +787,12 @@ impl ModifiedNewton {
 }
 
 /// What every simulation of a scene reads besides the scene: its inertias,
-/// their inverses and gravity, checked together with the springs.
+/// their inverses and gravity, checked together with the springs. The
+/// arrays are boxed with `alloc` (the inverses made where they live,
+/// `absolute::buf`).
 pub(crate) struct Mechanics<const NB: usize> {
-    pub(crate) inertias: [BodyInertia; NB],
-    pub(crate) inverse: [InverseMass; NB],
+    pub(crate) inertias: Boxed<[BodyInertia; NB]>,
+    pub(crate) inverse: Boxed<[InverseMass; NB]>,
     pub(crate) gravity: Vector3<f64>,
 }
 
@@ -792,8 +806,11 @@ impl<const NB: usize> Mechanics<NB> {
         springs: &[SpringDamper],
     ) -> Result<Self, AnalysisError> {
         crate::analysis::check_dims::<NB, NV>()?;
-        let inertias = scene.inertias();
-        let inverse = inverse_masses::<S, NB, NV, M>(&inertias)?;
+        // The scene returns its array by value, through this frame: the one
+        // array of the scene's size on the stack while a simulation is made.
+        let inertias = boxed(scene.inertias());
+        let mut inverse = boxed_with(|| const { [InverseMass { inv_mass: 0.0, inv_inertia: zeros() }; NB] });
+        inverse_masses::<S, NB, NV, M>(&inertias, &mut inverse)?;
         check_springs::<NB>(springs)?;
         let gravity = scene.gravity();
         if !gravity.iter().all(|x| x.is_finite()) {
@@ -846,15 +863,15 @@ pub(crate) fn near_enough(
     }
 }
 
-/// The inverse mass of every body, checked.
+/// The inverse mass of every body, checked, into `inverse`.
 fn inverse_masses<S: Scene<NB, NV, M>, const NB: usize, const NV: usize, const M: usize>(
     inertias: &[BodyInertia; NB],
-) -> Result<[InverseMass; NB], AnalysisError> {
-    let mut inverse = [InverseMass { inv_mass: 0.0, inv_inertia: Matrix3::zeros() }; NB];
+    inverse: &mut [InverseMass; NB],
+) -> Result<(), AnalysisError> {
     for (i, (b, inv)) in inertias.iter().zip(inverse.iter_mut()).enumerate() {
         *inv = inverse_mass(b).ok_or(AnalysisError::BadInertia { body: S::BODIES.get(i).copied().unwrap_or("") })?;
     }
-    Ok(inverse)
+    Ok(())
 }
 
 /// One body's inverse mass: `None` for mass properties no rigid body has

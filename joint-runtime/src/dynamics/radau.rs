@@ -84,6 +84,7 @@ use nalgebra::{SVector, Vector3};
 
 use super::adaptive::{Tolerance, increment_error};
 use super::{displaced_into, newton_done};
+use crate::absolute::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use crate::analysis::{AnalysisError, velocity_vector_into};
 use crate::scene::SystemState;
 
@@ -237,18 +238,33 @@ impl<const NB: usize, const NV: usize> RadauWork<NB, NV> {
         &mut self.y1
     }
 
-    /// Zeros.
+    /// Zeros at states at rest (the dense path's, on its stack).
+    #[cfg(feature = "__dense_reference")]
     pub(crate) fn new() -> Self {
-        let state = SystemState { bodies: [crate::OmegaBody::default(); NB], t: 0.0 };
-        let (v, z) = (SVector::zeros(), [SVector::zeros(); 3]);
+        let mut w = const { Self::zeros() };
+        w.states_at_rest();
+        w
+    }
+
+    /// Zeros at states at rest, boxed (with `alloc`) and written in the
+    /// heap (`absolute::buf`).
+    pub(crate) fn boxed() -> Boxed<Self> {
+        let mut w = boxed_with(|| const { Self::zeros() });
+        w.states_at_rest();
+        w
+    }
+
+    /// Zeros, the states' Euler parameters too: a constant.
+    const fn zeros() -> Self {
+        let z = [zeros(); 3];
         RadauWork {
-            y0: state,
-            y1: state,
-            stage: state,
-            v0: v,
-            a0: v,
-            v,
-            a: v,
+            y0: zero_state(),
+            y1: zero_state(),
+            stage: zero_state(),
+            v0: zeros(),
+            a0: zeros(),
+            v: zeros(),
+            a: zeros(),
             zu: z,
             zv: z,
             wu: z,
@@ -259,12 +275,18 @@ impl<const NB: usize, const NV: usize> RadauWork<NB, NV> {
             dv: z,
             dzu: z,
             dzv: z,
-            pu: v,
-            pv: v,
-            eu: v,
-            ev: v,
-            r: v,
-            s: v,
+            pu: zeros(),
+            pv: zeros(),
+            eu: zeros(),
+            ev: zeros(),
+            r: zeros(),
+            s: zeros(),
+        }
+    }
+
+    fn states_at_rest(&mut self) {
+        for state in [&mut self.y0, &mut self.y1, &mut self.stage] {
+            at_rest(state);
         }
     }
 }

@@ -50,8 +50,14 @@ pub(super) struct NodeVector<T, const NV: usize, const M: usize> {
 
 impl<T: KktEntry, const NV: usize, const M: usize> NodeVector<T, NV, M> {
     /// Zeros.
+    #[cfg(test)]
     pub(super) fn zeros() -> Self {
         NodeVector { head: [T::zero(); NV], tail: [T::zero(); M] }
+    }
+
+    /// `x` in every entry, usable in constants (a workspace's zeros, `buf`).
+    pub(super) const fn repeat(x: T) -> Self {
+        NodeVector { head: [x; NV], tail: [x; M] }
     }
 
     /// Entry `i` of the flat vector.

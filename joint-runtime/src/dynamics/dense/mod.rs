@@ -100,6 +100,7 @@ where
         options: SimulationOptions,
     ) -> Result<Self, AnalysisError> {
         let Mechanics { inertias, inverse, gravity } = Mechanics::new(scene, springs)?;
+        let (inertias, inverse) = (*inertias, *inverse);
         Ok(DenseSimulation { scene, loads, springs, inertias, inverse, gravity, history: None, radau: None, options })
     }
 
