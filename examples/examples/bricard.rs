@@ -6,7 +6,7 @@
 //! `target/plots/bricard_*.svg` and an animation of the RK4 run to `target/plots/bricard.svg`.
 //!
 //! ```text
-//! cargo run --release --example bricard
+//! cargo run --release -p joint-examples --example bricard
 //! ```
 
 use std::error::Error;

@@ -7,7 +7,7 @@
 //! an animation of the Z shaft (`target/plots/double-cardan.svg`).
 //!
 //! ```text
-//! cargo run --release --example double_cardan
+//! cargo run --release -p joint-examples --example double_cardan
 //! ```
 
 use joint_examples::cardan::{Curve, plot_speed_ratios};

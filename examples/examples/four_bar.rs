@@ -6,7 +6,7 @@
 //! plots go to `target/plots/four_bar_*.svg`, an animation to `four_bar.svg`.
 //!
 //! ```text
-//! cargo run --release --example four_bar
+//! cargo run --release -p joint-examples --example four_bar
 //! ```
 
 use std::error::Error;

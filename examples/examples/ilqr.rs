@@ -6,7 +6,7 @@
 //! animations (`target/plots/ilqr_panda.svg`, `ilqr_acrobot.svg`).
 //!
 //! ```text
-//! cargo run --release --example ilqr
+//! cargo run --release -p joint-examples --example ilqr
 //! ```
 
 use std::error::Error;

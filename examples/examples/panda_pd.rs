@@ -5,7 +5,7 @@
 //! whose path it prints last.
 //!
 //! ```text
-//! cargo run --release --example panda_pd
+//! cargo run --release -p joint-examples --example panda_pd
 //! ```
 
 use std::error::Error;

@@ -4,7 +4,7 @@
 //! with projection in 3D to `target/plots/pendulum_chain.html`.
 //!
 //! ```text
-//! cargo run --release --example pendulum_chain
+//! cargo run --release -p joint-examples --example pendulum_chain
 //! ```
 
 use std::error::Error;

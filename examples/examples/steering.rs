@@ -4,7 +4,7 @@
 //! Writes `target/plots/steering.svg`.
 //!
 //! ```text
-//! cargo run --release --example steering
+//! cargo run --release -p joint-examples --example steering
 //! ```
 
 use std::error::Error;

@@ -1,6 +1,6 @@
 //! Mechanisms built with `joint-runtime`, each a library module with a test that
 //! asserts its numbers (`examples/tests/`) and a program that prints and plots it
-//! (`cargo run --release --example NAME`).
+//! (`cargo run --release -p joint-examples --example NAME`).
 
 pub mod bricard;
 pub mod coordinates;

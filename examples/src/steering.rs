@@ -74,7 +74,7 @@
 //! mechanism takes one branch and keeps it; [`Sweep::branch`] says which.
 //!
 //! ```text
-//! cargo run --release --example steering
+//! cargo run --release -p joint-examples --example steering
 //! ```
 
 use core::f64::consts::{PI, TAU};
