@@ -95,8 +95,7 @@ pub(super) fn read(
     // scene is relative only; URDF's `<dynamics damping>` is data (Pinocchio's
     // algorithms leave it out too) unless the scene asks (`file_damping`).
     let dynamics = (*format == RobotFormat::Mjcf || file_damping.is_some()) && !absolute;
-    let equalities = (hard.is_some(), independent.is_some());
-    let Some(mut read) = robot(*format, lit, (floating_base.is_some(), dynamics, equalities), errors) else {
+    let Some(mut read) = robot(*format, lit, (reading, dynamics), errors) else {
         return FromFile::default();
     };
     if independent.is_some() {
@@ -138,18 +137,14 @@ impl RobotFormat {
 fn robot(
     format: RobotFormat,
     lit: &syn::LitStr,
-    #[cfg_attr(not(all(feature = "urdf", feature = "mjcf")), allow(unused_variables))] (floating, dynamics, equalities): (
-        bool,
-        bool,
-        (bool, bool),
-    ),
+    (reading, dynamics): (&Reading, bool),
     errors: &mut Errors,
 ) -> Option<FromFile> {
     let read = match format {
         #[cfg(feature = "urdf")]
-        RobotFormat::Urdf => super::urdf::read(lit, floating),
+        RobotFormat::Urdf => super::urdf::read(lit, reading.floating_base.is_some()),
         #[cfg(feature = "mjcf")]
-        RobotFormat::Mjcf => super::mjcf::read(lit, equalities),
+        RobotFormat::Mjcf => super::mjcf::read(lit, (reading.hard.is_some(), reading.independent.is_some())),
         #[allow(unreachable_patterns)] // with both features on
         _ => return missing_feature(format, lit, errors),
     };
@@ -158,12 +153,7 @@ fn robot(
 
 /// Without the format's feature, a file cannot be read.
 #[cfg(not(any(feature = "urdf", feature = "mjcf")))]
-fn robot(
-    format: RobotFormat,
-    lit: &syn::LitStr,
-    _: (bool, bool, (bool, bool)),
-    errors: &mut Errors,
-) -> Option<FromFile> {
+fn robot(format: RobotFormat, lit: &syn::LitStr, _: (&Reading, bool), errors: &mut Errors) -> Option<FromFile> {
     missing_feature(format, lit, errors)
 }
 

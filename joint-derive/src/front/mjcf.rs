@@ -33,7 +33,8 @@ use std::collections::HashMap;
 
 use super::robot::{
     Class, Closure, Fail, FileCoupling, FileLimits, FileOptions, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3,
-    Robot, V3, add, apply, assemble, attribute_at, mul, norm, number, numbers, read_text, required, transpose, triple,
+    Robot, V3, add, apply, assemble, attribute_at, mul, norm, number, numbers, parse_numbers, read_text, required,
+    transpose, triple,
 };
 use super::visuals::{FileVisual, Looks, mjcf_shape, z_turn};
 
@@ -673,9 +674,9 @@ struct Lookup<'a, 'i> {
 
 impl Lookup<'_, '_> {
     fn find(&self, key: &str) -> Option<(&str, roxmltree::TextPos)> {
-        match self.node.attribute_node(key) {
-            Some(a) => Some((a.value(), self.node.document().text_pos_at(a.range().start))),
-            None => self.class?.get(key).map(|(v, at)| (v.as_str(), *at)),
+        match (self.node.attribute(key), attribute_at(self.node, key)) {
+            (Some(text), Some(at)) => Some((text, at)),
+            _ => self.class?.get(key).map(|(v, at)| (v.as_str(), *at)),
         }
     }
 
@@ -708,11 +709,7 @@ impl Lookup<'_, '_> {
     /// Three numbers, `default` where not given.
     fn triple(&self, key: &str, default: V3, fail: &Fail) -> syn::Result<V3> {
         let Some((text, at)) = self.find(key) else { return Ok(default) };
-        let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
-        match <[f64; 3]>::try_from(parsed.as_slice()) {
-            Ok(v) if text.split_whitespace().count() == 3 && v.iter().all(|x| x.is_finite()) => Ok(v),
-            _ => Err(fail(at, format!("`{key}=\"{text}\"`: expected three numbers, as in `{key}=\"0 0 1\"`"))),
-        }
+        parse_numbers(key, text, at, fail)
     }
 }
 
@@ -782,8 +779,7 @@ fn step_options(o: roxmltree::Node, at: roxmltree::TextPos, fail: &Fail) -> syn:
 fn total_mass(root: roxmltree::Node, links: &mut [Link], fail: &Fail) -> syn::Result<()> {
     for c in root.children().filter(|n| n.has_tag_name("compiler")) {
         let Some(text) = c.attribute("settotalmass") else { continue };
-        let at = c.attribute_node("settotalmass").map_or(c.range().start, |a| a.range().start);
-        let at = c.document().text_pos_at(at);
+        let at = attribute_at(c, "settotalmass").unwrap_or_else(|| c.document().text_pos_at(c.range().start));
         let total = text.trim().parse::<f64>().ok().filter(|x| x.is_finite());
         let Some(total) = total else {
             return Err(fail(at, format!("`settotalmass=\"{text}\"`: expected a number")));

@@ -607,10 +607,20 @@ pub fn numbers<const N: usize>(
     fail: &Fail,
 ) -> syn::Result<Option<[f64; N]>> {
     let Some(text) = node.attribute(key) else { return Ok(None) };
-    let at = attribute_at(node, key).unwrap_or(at);
+    parse_numbers(key, text, attribute_at(node, key).unwrap_or(at), fail).map(Some)
+}
+
+/// `text`, the value of attribute `key` written at `at`, as `N` finite
+/// numbers; the error says how many and gives an example.
+pub fn parse_numbers<const N: usize>(
+    key: &str,
+    text: &str,
+    at: roxmltree::TextPos,
+    fail: &Fail,
+) -> syn::Result<[f64; N]> {
     let parsed: Vec<f64> = text.split_whitespace().map_while(|t| t.parse().ok()).collect();
     match <[f64; N]>::try_from(parsed.as_slice()) {
-        Ok(v) if text.split_whitespace().count() == N && v.iter().all(|x| x.is_finite()) => Ok(Some(v)),
+        Ok(v) if text.split_whitespace().count() == N && v.iter().all(|x| x.is_finite()) => Ok(v),
         _ => {
             let example = ["0", "0", "1", "0", "0", "0", "1"][..N.min(7)].join(" ");
             let what = match N {
