@@ -30,6 +30,7 @@ use crate::front::tree::{TreeEdge, TreeKind, closures};
 use crate::generate::{krate, matrix_tokens, print_none, vector_tokens};
 use crate::kinematics::{Input, Kinematics, V3};
 use crate::lower::{Block, Derived, Naming, lower_rows, param_nodes};
+use crate::second_order::SecondOrderNodes;
 
 /// A constant row at most this far from zero is one the tree keeps (a
 /// planar loop's out-of-plane rows fold to exact zeros; this allows for a
@@ -42,13 +43,13 @@ pub fn derive(
     s: &SceneDecl,
     edges: &[TreeEdge],
     (nq, nv): (usize, usize),
-) -> syn::Result<Option<(Derived, Vec<Block>)>> {
+) -> syn::Result<Option<crate::derives::tree::Loops>> {
     let loops = closures(&s.joints, edges);
-    if loops.is_empty() && s.couplings.is_empty() {
+    if loops.is_empty() && s.couplings.is_empty() && s.contacts.is_empty() {
         return Ok(None);
     }
     let mut k = Kinematics::tree(nq, nv);
-    frames(&mut k, s, edges);
+    let poses = frames(&mut k, s, edges);
     let mut bindings = Vec::new();
     let (mut phi, mut blocks) = (Vec::new(), Vec::new());
     let mut errors = crate::front::context::Errors::new();
@@ -93,9 +94,6 @@ pub fn derive(
         phi.push(k.g.sub(follower, target));
     }
     errors.finish()?;
-    if phi.is_empty() {
-        return Ok(None);
-    }
     let (mut jacobian, mut gamma, mut phi_t) = (Vec::new(), Vec::new(), Vec::new());
     for &row in &phi {
         let d = k.derive_row(row, None).map_err(|m| syn::Error::new(Span::call_site(), m))?;
@@ -103,13 +101,30 @@ pub fn derive(
         gamma.push(d.gamma);
         phi_t.push(d.phi_t);
     }
-    Ok(Some((Derived { kinematics: k, phi, phi_t, jacobian, gamma, bindings, singularity: None }, blocks)))
+    // Contacts: rows at the velocity level, no position (`contact.rs`).
+    for c in &s.contacts {
+        blocks.push(Block { name: c.name.to_string(), start: phi.len(), rows: c.rows() });
+        for (row, g) in crate::contact::rows(&mut k, &poses, c) {
+            let zero = k.g.zero();
+            phi.push(zero);
+            phi_t.push(zero);
+            jacobian.push(row);
+            gamma.push(g);
+        }
+    }
+    if phi.is_empty() {
+        return Ok(None);
+    }
+    let mut d = Derived { kinematics: k, phi, phi_t, jacobian, gamma, bindings, singularity: None };
+    let second = crate::second_order::derive(&mut d, true, None).dense;
+    Ok(Some((d, blocks, second)))
 }
 
-/// Every body's frame from the tree's coordinates, in body order. A joint
-/// whose points and axes are numbers is folded; any other reads them from
-/// the runtime's `TreeGeometry` (its unit axis and rest rotation made once).
-fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
+/// Every body's frame from the tree's coordinates, in body order (also
+/// returned: the contacts' rows start from them). A joint whose points and
+/// axes are numbers is folded; any other reads them from the runtime's
+/// `TreeGeometry` (its unit axis and rest rotation made once).
+fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) -> Vec<crate::contact::Pose> {
     let (qa, va) = kind_offsets(edges.iter().map(|e| e.kind));
     let (q, v) = (k.coords.clone(), k.velocities.clone());
     let mut b = Builder::new(std::mem::take(&mut k.g));
@@ -160,9 +175,10 @@ fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) {
             (angles, rates) => angles.iter().zip(rates).for_each(|(&q, &v)| k.rate(q, v)),
         }
     }
-    for (a, r) in by_body {
+    for &(a, r) in &by_body {
         k.frame(a, r);
     }
+    by_body
 }
 
 /// Edge `n`'s rotation relative to its parent and its two joint points (the
@@ -266,7 +282,8 @@ pub(crate) fn rotation_about(b: &mut Builder, h: V3, c: Id, s: Id) -> [[Id; 3]; 
 
 /// `fn closure_rows(&self, state) -> ClosureRows<NC, NV>` and the closures'
 /// row blocks (`CLOSURES`), with the number of rows.
-pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usize) {
+pub fn print(d: &Derived, blocks: &[Block], second: Option<&SecondOrderNodes>, s: &SceneDecl) -> (TokenStream, usize) {
+    let bodies = s.bodies.len();
     let k = krate();
     let rows = d.phi.len();
     let nv = d.kinematics.velocities.len();
@@ -281,6 +298,7 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
     let (gamma, phi_t) = rest.split_at(rows);
     let (phi, jac, gamma, phi_t) =
         (vector_tokens(phi), matrix_tokens(jac, rows), vector_tokens(gamma), vector_tokens(phi_t));
+    let contacts = contacts(s, blocks);
     let blocks = blocks.iter().map(|b| {
         let (name, start, n) = (&b.name, b.start, b.rows);
         quote!(#k::RowBlock { name: #name, start: #start, rows: #n })
@@ -293,6 +311,7 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
         && d.gamma.iter().all(zero)
         && d.phi_t.iter().all(zero);
     let doc = format!(" The closures' rows in the tree's coordinates, derived by the engine: {ops} operations.");
+    let second = second.and_then(|nodes| second_method(d, nodes, s));
     let (nc, nv) = (proc_macro2::Literal::usize_unsuffixed(rows), proc_macro2::Literal::usize_unsuffixed(nv));
     let nq = proc_macro2::Literal::usize_unsuffixed(d.kinematics.coords.len());
     let nb = proc_macro2::Literal::usize_unsuffixed(bodies);
@@ -304,6 +323,7 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
     });
     let method = quote! {
         const CLOSURES: &'static [#k::RowBlock] = &[#(#blocks),*];
+        #contacts
         #linear
         #[doc = #doc]
         #[inline]
@@ -315,6 +335,84 @@ pub fn print(d: &Derived, blocks: &[Block], bodies: usize) -> (TokenStream, usiz
             #body
             #k::relative::ClosureRows { phi: #phi, jacobian: #jac, gamma: #gamma, phi_t: #phi_t }
         }
+        #second
     };
     (method, rows)
+}
+
+/// Past this many operations the closures' second-order terms are not
+/// written (rustc's time grows faster than a function's length) and the
+/// constrained dynamics' derivatives say `NotDerived`.
+pub const SECOND_LIMIT: usize = 60_000;
+
+/// `fn closure_second_order`: the closures' `K = ∂(Jᵀλ)/∂q`, `∂(J u)/∂q`,
+/// `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q` (tangent columns), `None` past the limit.
+fn second_method(d: &Derived, nodes: &SecondOrderNodes, s: &SceneDecl) -> Option<TokenStream> {
+    let k = krate();
+    let p = print_none(d, &crate::aba::scalar());
+    let (body, outs, ops) = p.emit(&nodes.all());
+    if ops > SECOND_LIMIT {
+        return None;
+    }
+    let (rows, nv) = (d.phi.len(), d.kinematics.velocities.len());
+    let (stiffness, rest) = outs.split_at(nv * nv);
+    let (jacobian_q, rest) = rest.split_at(rows * nv);
+    let (gamma_q, rest) = rest.split_at(rows * nv);
+    let (gamma_v, phi_t_q) = rest.split_at(rows * nv);
+    let (stiffness, jacobian_q) = (matrix_tokens(stiffness, nv), matrix_tokens(jacobian_q, rows));
+    let (gamma_q, gamma_v, phi_t_q) =
+        (matrix_tokens(gamma_q, rows), matrix_tokens(gamma_v, rows), matrix_tokens(phi_t_q, rows));
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let (nc, nvl, nq, nb) = (lit(rows), lit(nv), lit(d.kinematics.coords.len()), lit(s.bodies.len()));
+    let doc = format!(" The closures' second-order terms, derived by the engine: {ops} operations.");
+    Some(quote! {
+        #[doc = #doc]
+        #[inline]
+        fn closure_second_order(
+            &self,
+            state: &#k::relative::TreeState<#nq, #nvl>,
+            geometry: &#k::relative::TreeGeometry<#nb>,
+            lambda: &#k::nalgebra::SVector<f64, #nc>,
+            u: &#k::nalgebra::SVector<f64, #nvl>,
+        ) -> ::core::option::Option<#k::SecondOrder<f64, #nc, #nvl>> {
+            #body
+            ::core::option::Option::Some(#k::SecondOrder {
+                stiffness: #stiffness, jacobian_q: #jacobian_q, gamma_q: #gamma_q, gamma_v: #gamma_v, phi_t_q: #phi_t_q,
+            })
+        }
+    })
+}
+
+/// `const CONTACTS`: each contact's block among the closures', its kind and axes.
+fn contacts(s: &SceneDecl, blocks: &[Block]) -> Option<TokenStream> {
+    use crate::front::contact::{Axes, ContactKind};
+    if s.contacts.is_empty() {
+        return None;
+    }
+    let k = krate();
+    let first = blocks.len() - s.contacts.len();
+    let items = s.contacts.iter().enumerate().map(|(i, c)| {
+        let block = first + i;
+        let kind = match c.kind {
+            ContactKind::Point => quote!(Point),
+            ContactKind::Frame => quote!(Frame),
+        };
+        let axes = match c.axes {
+            Axes::World => quote!(World),
+            Axes::Local => quote!(Local),
+        };
+        let body = c.ends[0].body.unwrap_or(0);
+        let other = match c.ends[1].body {
+            Some(b) => quote!(::core::option::Option::Some(#b)),
+            None => quote!(::core::option::Option::None),
+        };
+        quote!(#k::relative::Contact {
+            block: #block,
+            kind: #k::relative::ContactKind::#kind,
+            axes: #k::relative::ContactAxes::#axes,
+            body: #body,
+            other: #other,
+        })
+    });
+    Some(quote!(const CONTACTS: &'static [#k::relative::Contact] = &[#(#items),*];))
 }

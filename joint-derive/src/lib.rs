@@ -10,6 +10,7 @@
 
 mod aba;
 mod closure;
+mod contact;
 mod derives;
 mod engine;
 mod front;
@@ -63,7 +64,7 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 /// A tree joint in relative coordinates may add `armature = A`,
 /// `damping = D` and, on a revolute or translational joint, a spring:
 /// `stiffness = K` and `spring_rest = Q0` (its force `−K (q − Q0)`). See the `joint-runtime` documentation for the whole language.
-#[proc_macro_derive(Scene, attributes(scene, body, joint))]
+#[proc_macro_derive(Scene, attributes(scene, body, joint, contact))]
 pub fn derive_scene(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
     let input = syn::parse_macro_input!(input as syn::DeriveInput);
     derives::scene::derive(&input).into()

@@ -549,7 +549,7 @@ fn tree_only(
     let alias = state_alias(input, &nb);
     let tree = super::tree::print(input, s, edges, &generics, loops);
     let (nq, nv) = super::tree::sizes(edges);
-    let nc = loops.map_or(0, |(d, _)| d.phi.len());
+    let nc = loops.map_or(0, |(d, _, _)| d.phi.len());
     let simulate = simulate(input, &generics, Engine::Tree([s.bodies.len(), nq, nv, nc]));
     let file = file_constants(input, &generics, s);
     quote! {

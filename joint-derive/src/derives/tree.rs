@@ -20,8 +20,9 @@ pub fn sizes(edges: &[TreeEdge]) -> (usize, usize) {
     edges.iter().map(|e| e.kind.sizes()).fold((0, 0), |(q, v), (a, b)| (q + a, v + b))
 }
 
-/// A tree's closures derived in its coordinates, and their row blocks.
-pub type Loops = (Derived, Vec<Block>);
+/// A tree's closures derived in its coordinates, their row blocks and
+/// their second-order terms (what the constrained dynamics' derivatives take).
+pub type Loops = (Derived, Vec<Block>, Option<crate::second_order::SecondOrderNodes>);
 
 /// The closures of a scene with a tree (joints outside it) derived in the
 /// tree's coordinates; `None` without a tree or without closures.
@@ -68,8 +69,8 @@ pub fn print(
         }
         None => (None, None, None),
     };
-    let (closure, nc) =
-        loops.map_or((TokenStream::new(), 0), |(d, blocks)| crate::closure::print(d, blocks, s.bodies.len()));
+    let (closure, nc) = loops
+        .map_or((TokenStream::new(), 0), |(d, blocks, second)| crate::closure::print(d, blocks, second.as_ref(), s));
     // A file's gravity compensation (MJCF `gravcomp`), its bodies first.
     let held = s.file.as_ref().map(|f| f.compensation.clone()).unwrap_or_default();
     let compensation = held.iter().any(|&c| c != 0.0).then(|| {

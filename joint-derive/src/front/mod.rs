@@ -16,6 +16,7 @@
 //! scene's spanning tree; `rows` and `custom` read a joint written as rows.
 
 pub mod attr;
+pub mod contact;
 pub mod context;
 pub mod custom;
 pub mod files;

@@ -293,6 +293,8 @@ pub struct SceneDecl {
     /// Joints that follow others (a file's `<mimic>` or `<equality
     /// joint>`), as rows of the tree's coordinates.
     pub couplings: Vec<Coupling>,
+    /// `#[contact(..)]`: points and frames held, rows on the tree.
+    pub contacts: Vec<super::contact::ContactDecl>,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -492,6 +494,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         files,
         file: file_data,
         couplings,
+        contacts: Vec::new(),
     };
     for j in file_joints {
         scene.joint(j, &fields, &mut errors);
@@ -507,6 +510,16 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     }
     // The tree only of joints that parsed: a mistaken joint is one message,
     // not also an unreached body.
+    let links =
+        scene.file.iter().flat_map(|f| &f.links).map(|l| {
+            (l.name.clone(), super::contact::ContactEnd { body: l.body, rotation: l.rotation, point: l.origin })
+        });
+    let named = super::contact::Named { bodies: &scene.bodies, links: links.collect() };
+    scene.contacts = super::contact::parse(input, &named, &mut errors);
+    if let (Some(c), None) = (scene.contacts.first(), relative) {
+        let message = "contacts are rows on a tree; expected `#[scene(coordinates = relative)]` (or `both`)";
+        errors.at(c.name.span(), message);
+    }
     if relative.is_some() && errors.is_empty() {
         scene.tree = Some(super::tree::spanning_tree(&scene.bodies, &scene.joints));
     }

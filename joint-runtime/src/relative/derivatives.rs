@@ -32,8 +32,6 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::{TreeError, TreeScene, TreeState};
-use crate::dynamics::Stabilisation;
-use crate::linalg::PivotedCholesky;
 
 /// The inverse dynamics and its first derivatives at one state:
 /// `τ(q, v, v̇)`, `∂τ/∂q` (tangent columns), `∂τ/∂v` and `∂τ/∂v̇ = M`.
@@ -271,12 +269,14 @@ impl<
     /// twice). Allocation-free.
     ///
     /// The derivatives of [`forward_dynamics`](Self::forward_dynamics):
-    /// the tree's own dynamics (gravity, armature, damping) and, where the
-    /// tree's closures are a file's couplings (rows linear in the
-    /// coordinates, `TreeScene::LINEAR_CLOSURES`), the constrained
-    /// accelerations, Baumgarte's terms included. Errors as
+    /// the tree's own dynamics (gravity, armature, damping) and, with
+    /// closures (loops, couplings, contacts, every one holding), the
+    /// constrained accelerations, Baumgarte's terms included
+    /// ([`constrained_dynamics_derivatives`](Self::constrained_dynamics_derivatives),
+    /// which also gives the forces and takes an active set). Errors as
     /// [`inverse_dynamics_derivatives`](Self::inverse_dynamics_derivatives);
-    /// [`TreeError::NotDerived`] for other loops, [`TreeError::Loaded`] with
+    /// [`TreeError::NotDerived`] where the derive did not write the
+    /// closures' second-order terms, [`TreeError::Loaded`] with
     /// springs or user loads, [`TreeError::Singular`] if the mass matrix is
     /// not positive definite.
     pub fn forward_dynamics_derivatives(
@@ -290,6 +290,9 @@ impl<
         if !numbers.copied().all(f64::is_finite) {
             return Err(TreeError::NonFinite);
         }
+        if NC > 0 {
+            return self.coupled(state, tau, work, out);
+        }
         // q̈ = M⁻¹ (τ − b): the factor is wanted anyway, and the bias is one
         // Newton–Euler pass, cheaper than the articulated-body algorithm.
         self.mass_matrix_into(&state.q, &mut work.d_a);
@@ -299,9 +302,6 @@ impl<
         out.d_tau.mul_to(&(tau - bias), &mut out.qdd);
         if self.loaded() {
             return Err(TreeError::Loaded);
-        }
-        if NC > 0 {
-            return self.coupled(state, work, out);
         }
         self.derivatives_at(state, &out.qdd, work)?;
         out.d_tau.mul_to(&work.d_q, &mut out.d_q);
@@ -314,49 +314,19 @@ impl<
         Ok(())
     }
 
-    /// The constrained accelerations' derivatives on closures linear in the
-    /// coordinates (`LINEAR_CLOSURES`: a file's couplings, `J` constant, no
-    /// `γ`): with `M v̇ + b = τ + Jᵀλ`, `J v̇ = γ̃`, differentiating at fixed
-    /// `J` gives `dv̇ = −P̃ dτ_ID + C dγ̃`, `P̃ = M⁻¹ − C J M⁻¹`,
-    /// `C = M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁺` (redundant rows dropped as the step drops
-    /// them), `dτ_ID` the inverse dynamics' derivatives at the constrained
-    /// `v̇`, `γ̃` Baumgarte's (`−2α J v − β² Φ`, so `dγ̃ = −2α J dv − β² J dq`).
-    /// `out.qdd` holds the tree's own accelerations and `out.d_tau` `M⁻¹`
-    /// on entry.
+    /// The constrained accelerations' derivatives, every closure row
+    /// holding: [`constrained_dynamics_derivatives`](Self::constrained_dynamics_derivatives)
+    /// with [`ActiveRows::all`](super::ActiveRows::all), its `λ` left out.
     fn coupled(
         &self,
         state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
         work: &mut InverseDerivatives<NV>,
         out: &mut ForwardDerivatives<NV>,
     ) -> Result<(), TreeError> {
-        if !S::LINEAR_CLOSURES {
-            return Err(TreeError::NotDerived);
-        }
-        let rows = self.closure_rows(state);
-        let j = rows.jacobian;
-        let minv_jt = out.d_tau * j.transpose();
-        let factor =
-            PivotedCholesky::new(&(j * minv_jt), self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
-        let correction = |r: &SVector<f64, NC>| minv_jt * factor.solve(r);
-        let (alpha, beta) = match self.options().stabilisation {
-            Stabilisation::None => (0.0, 0.0),
-            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
-        };
-        let gamma = rows.gamma - (j * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
-        out.qdd += correction(&(gamma - j * out.qdd));
-        self.derivatives_at(state, &out.qdd, work)?;
-        // C J column by column, then P̃ = M⁻¹ − (C J) M⁻¹.
-        let mut cj = SMatrix::<f64, NV, NV>::zeros();
-        for c in 0..NV {
-            cj.set_column(c, &correction(&j.column(c).into_owned()));
-        }
-        let projected = out.d_tau - cj * out.d_tau;
-        out.d_q = -(projected * work.d_q) - cj * (beta * beta);
-        out.d_v = -(projected * work.d_v) - cj * (2.0 * alpha);
-        out.d_tau = projected;
-        if !(out.d_q.iter().chain(out.d_v.iter()).chain(out.qdd.iter()).all(|x| x.is_finite())) {
-            return Err(TreeError::NonFinite);
-        }
+        let mut all = super::ConstrainedDerivatives::zeros();
+        self.constrained_dynamics_derivatives(state, tau, super::ActiveRows::all(), work, &mut all)?;
+        *out = ForwardDerivatives { qdd: all.qdd, d_q: all.d_q, d_v: all.d_v, d_tau: all.d_tau };
         Ok(())
     }
 }

@@ -87,8 +87,12 @@ impl<
         for i in 0..n {
             a[(i, n + i)] = 1.0;
         }
-        if (NC == 0 || S::LINEAR_CLOSURES) && !self.loaded() {
-            return self.exact(state, tau, a);
+        if !self.loaded() {
+            match self.exact(state, tau, a.clone()) {
+                // Closures past the derive's limit: differences below.
+                Err(TreeError::NotDerived) => {}
+                result => return result,
+            }
         }
         for i in 0..n {
             let h = STEP * (1.0 + libm::fabs(state.v[i]));
@@ -135,11 +139,12 @@ impl<
         a.view_mut((n, 0), (n, n)).copy_from(&d.d_q);
         a.view_mut((n, n), (n, n)).copy_from(&d.d_v);
         if NC > 0 {
-            // Couplings: J constant, so `J v + Φ_t` does not move with q.
+            // `∂(J v + Φ_t)/∂q` from the closures' second-order terms.
             let rows = self.closure_rows(state);
             let j = DMatrix::from_iterator(NC, NV, rows.jacobian.iter().copied());
             let b = DMatrix::from_iterator(NV, NV, d.d_tau.iter().copied());
-            let moved = DMatrix::<f64>::zeros(NC, NV);
+            let rate = self.closure_rate_q(state)?;
+            let moved = DMatrix::from_iterator(NC, NV, rate.iter().copied());
             return crate::dynamics::linear::reduce(a, &j, &moved, b).map_err(|_| TreeError::NonFinite);
         }
         let mut b = DMatrix::<f64>::zeros(2 * n, n);

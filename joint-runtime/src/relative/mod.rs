@@ -106,6 +106,7 @@
 //! assert!((system.bodies[0].point(&[-0.5, 0.0, 0.0].into())).norm() < 1e-15);
 //! ```
 
+mod constrained;
 mod derivatives;
 mod dynamics;
 mod implicit;
@@ -119,6 +120,7 @@ mod step_jacobian;
 mod tangent;
 mod topology;
 
+pub use constrained::{ActiveRows, ConstrainedDerivatives};
 pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives};
 pub use dynamics::TreeEnergy;
 pub use implicit::ForceGains;
@@ -253,8 +255,12 @@ pub struct TreeJoint {
 /// rows: the rows of the joints outside the tree (each closes a loop) in the
 /// tree's coordinates.
 pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC: usize = 0> {
-    /// The joints outside the tree, each with its block of the closure rows.
+    /// The joints outside the tree, each with its block of the closure rows,
+    /// then the contacts' blocks (`#[contact(..)]`).
     const CLOSURES: &'static [RowBlock] = &[];
+    /// The scene's contacts (`#[contact(..)]`): each one's block among
+    /// [`CLOSURES`](Self::CLOSURES), kind and axes.
+    const CONTACTS: &'static [Contact] = &[];
     /// Whether every closure row is linear in the coordinates (a constant
     /// `J`, no `γ`, no `Φ_t`: a file's couplings), so that the constrained
     /// accelerations' derivatives follow from the tree's.
@@ -390,6 +396,57 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
         let _ = (state, geometry);
         ClosureRows::zeros()
     }
+    /// The closure rows' second-order terms at `state`, derived by the
+    /// engine: `K = ∂(Jᵀλ)/∂q`, `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q`,
+    /// every `∂/∂q` in tangent columns; what the constrained dynamics'
+    /// derivatives take. `None` where the derive did not write them (no
+    /// closures, or past its operation limit).
+    #[inline]
+    fn closure_second_order(
+        &self,
+        state: &TreeState<NQ, NV>,
+        geometry: &TreeGeometry<NB>,
+        lambda: &SVector<f64, NC>,
+        u: &SVector<f64, NV>,
+    ) -> Option<crate::SecondOrder<f64, NC, NV>> {
+        let _ = (state, geometry, lambda, u);
+        None
+    }
+}
+
+/// What a contact holds (`#[contact(NAME = point(..) | frame(..))]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactKind {
+    /// A point: 3 rows, a force.
+    Point,
+    /// A frame: 6 rows (linear, then angular), a wrench about its point.
+    Frame,
+}
+
+/// In whose axes a contact's rows and force are given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactAxes {
+    /// The world's (Pinocchio's `LOCAL_WORLD_ALIGNED`), the default.
+    World,
+    /// The contact frame's own (`LOCAL`).
+    Local,
+}
+
+/// A contact of a scene (`#[contact(..)]`): rows on the tree at the
+/// velocity level (no position), switched on and off per call with
+/// [`ActiveRows`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Contact {
+    /// Its block among the scene's `CLOSURES`.
+    pub block: usize,
+    /// Point or frame.
+    pub kind: ContactKind,
+    /// The rows' axes.
+    pub axes: ContactAxes,
+    /// The body held (its index in the scene).
+    pub body: usize,
+    /// The body that holds it, `None` for the ground.
+    pub other: Option<usize>,
 }
 
 /// Each tree joint's geometry, in tree order, as [`Tree::new`] prepared it

@@ -17,6 +17,7 @@
 
 mod analysis;
 mod batch;
+mod constrained;
 mod corpus;
 mod dynamics;
 mod floating;

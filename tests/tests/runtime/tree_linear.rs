@@ -85,7 +85,7 @@ fn tree_poles_are_the_absolute_scenes() {
         l.force[0] += s.bodies[0].rotation() * Vector3::new(0.0, 0.0, 2.6 * 9.81);
     };
     assert!(same_poles(&Hover, hover) > 3.0);
-    // A loop: the tree's minimal coordinates on it (differences) against
+    // A loop: the tree's minimal coordinates on it (exact, from the closures' second-order terms) against
     // the absolute path's (exact second derivatives).
     assert!(same_poles(&HangingFourBar, NoLoads) > 1.0);
 }

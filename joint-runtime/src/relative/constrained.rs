@@ -1,0 +1,357 @@
+//! Constrained dynamics on a tree: `q̈` and the closures' and contacts' forces
+//! `λ` for the rows active at this call, and their exact derivatives, what a
+//! legged robot's MPC calls at every node (Crocoddyl's contact dynamics).
+//!
+//! `M q̈ + b(q, v) = τ + Jᵀλ` and `J q̈ = γ̃` on the active rows
+//! ([`ActiveRows`]: a mask over the closures' blocks, chosen per call, no
+//! rebuild), with `γ̃` Baumgarte's when the simulation's options ask
+//! (`γ − 2α (J v + Φ_t) − β² Φ`; a contact has no `Φ`). The solve is the
+//! range-space one: `M = L Lᵀ` by hand, `Y = M⁻¹ Jᵀ`, the Delassus matrix
+//! `S = J Y` factorised with pivots (rows that depend on others to the
+//! options' rank tolerance dropped, so a planar loop closed by a point, or
+//! redundant contacts, keep an exact `q̈` and give the dropped rows no force);
+//! an inactive row gets the identity in `S` and no force. Decision
+//! (measured on the kit's cases, see the guide's "Contacts and closed loops"):
+//! the dense range-space solve, because at the sizes legged robots have
+//! (`NV ≤ 40`, rows ≤ 24) the `M⁻¹` it forms is wanted by the derivatives
+//! anyway, where a constrained articulated-body pass would give `q̈` alone.
+//!
+//! The derivatives differentiate the KKT system itself. With `F = ID(q, v,
+//! q̈) − τ − Jᵀλ = 0` and `G = J q̈ − γ̃ = 0`, for each input `x`:
+//! `M dq̈ − Jᵀ dλ = K dq − ∂ID/∂x + ∂τ/∂x` (`K = ∂(Jᵀλ)/∂q`) and
+//! `J dq̈ = ∂γ̃/∂x − ∂(J q̈)/∂x`. So with `P = M⁻¹ − Y S⁻¹ Yᵀ` and
+//! `C = Y S⁻¹`: `dq̈ = P r₁ + C r₂`, `dλ = S⁻¹ (r₂ − Yᵀ r₁)`. The second-order
+//! terms `K`, `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v` are the derive's
+//! ([`TreeScene::closure_second_order`]), the inverse dynamics' derivatives
+//! the tree's own: nothing is differenced. `∂/∂q` is in the tangent space
+//! (the tree's [`displace`](super::TreeSimulation::displace)), as every
+//! other derivative of the tree.
+
+use nalgebra::{SMatrix, SVector};
+
+use super::derivatives::spd_inverse;
+use super::{InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
+use crate::SecondOrder;
+use crate::dynamics::Stabilisation;
+use crate::linalg::PivotedCholesky;
+
+/// Which of a scene's closure blocks hold at this call: bit `b` is block
+/// `b` of [`TreeScene::CLOSURES`] (a loop's joint, a file's coupling, a
+/// `#[contact]`). Up to 64 blocks.
+///
+/// ```
+/// use joint_runtime::relative::ActiveRows;
+///
+/// let trot = ActiveRows::none().with(0).with(3);
+/// assert!(trot.holds(3) && !trot.holds(1));
+/// assert_eq!(trot.without(3), ActiveRows::none().with(0));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ActiveRows(pub u64);
+
+impl ActiveRows {
+    /// Every block.
+    pub const fn all() -> Self {
+        ActiveRows(u64::MAX)
+    }
+
+    /// No block: the tree's own dynamics.
+    pub const fn none() -> Self {
+        ActiveRows(0)
+    }
+
+    /// These blocks and block `block` too.
+    pub const fn with(self, block: usize) -> Self {
+        if block < 64 { ActiveRows(self.0 | 1 << block) } else { self }
+    }
+
+    /// These blocks but block `block`.
+    pub const fn without(self, block: usize) -> Self {
+        if block < 64 { ActiveRows(self.0 & !(1 << block)) } else { self }
+    }
+
+    /// The blocks named `names` among `blocks` (a scene's `CLOSURES`), `None`
+    /// if one is not there.
+    pub fn named(blocks: &[crate::RowBlock], names: &[&str]) -> Option<Self> {
+        let mut out = ActiveRows::none();
+        for name in names {
+            out = out.with(blocks.iter().position(|b| b.name == *name)?);
+        }
+        Some(out)
+    }
+
+    /// Whether block `block` holds.
+    pub const fn holds(self, block: usize) -> bool {
+        block < 64 && self.0 & (1 << block) != 0
+    }
+
+    /// Row `r`'s mask over `blocks`: whether it holds.
+    fn row_mask<const NC: usize>(self, blocks: &[crate::RowBlock]) -> [bool; NC] {
+        let mut out = [false; NC];
+        for (b, block) in blocks.iter().enumerate() {
+            if self.holds(b) {
+                for r in block.start..block.start + block.rows {
+                    if let Some(x) = out.get_mut(r) {
+                        *x = true;
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The constrained dynamics at one state: `q̈` and the rows' forces `λ` (zero
+/// on inactive and dropped rows), and their first derivatives, `∂/∂q` in
+/// tangent columns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConstrainedDerivatives<const NV: usize, const NC: usize> {
+    /// `q̈`.
+    pub qdd: SVector<f64, NV>,
+    /// `λ`, in the closures' row order: a point contact's force on its first
+    /// end, a frame's wrench `[force; torque]` about its point, in the
+    /// contact's axes; a joint's row forces.
+    pub lambda: SVector<f64, NC>,
+    /// `∂q̈/∂q`.
+    pub d_q: SMatrix<f64, NV, NV>,
+    /// `∂q̈/∂v`.
+    pub d_v: SMatrix<f64, NV, NV>,
+    /// `∂q̈/∂τ`.
+    pub d_tau: SMatrix<f64, NV, NV>,
+    /// `∂λ/∂q`.
+    pub lambda_q: SMatrix<f64, NC, NV>,
+    /// `∂λ/∂v`.
+    pub lambda_v: SMatrix<f64, NC, NV>,
+    /// `∂λ/∂τ`.
+    pub lambda_tau: SMatrix<f64, NC, NV>,
+    /// How many rows held (active and not dropped as dependent).
+    pub rank: usize,
+}
+
+impl<const NV: usize, const NC: usize> ConstrainedDerivatives<NV, NC> {
+    /// All zero.
+    pub fn zeros() -> Self {
+        ConstrainedDerivatives {
+            qdd: SVector::zeros(),
+            lambda: SVector::zeros(),
+            d_q: SMatrix::zeros(),
+            d_v: SMatrix::zeros(),
+            d_tau: SMatrix::zeros(),
+            lambda_q: SMatrix::zeros(),
+            lambda_v: SMatrix::zeros(),
+            lambda_tau: SMatrix::zeros(),
+            rank: 0,
+        }
+    }
+}
+
+/// The solve's pieces that the derivatives reuse.
+struct Kkt<const NV: usize, const NC: usize> {
+    /// `J` with inactive rows zero.
+    jacobian: SMatrix<f64, NC, NV>,
+    /// `Y = M⁻¹ Jᵀ`.
+    y: SMatrix<f64, NV, NC>,
+    factor: PivotedCholesky<NC>,
+    mask: [bool; NC],
+}
+
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: crate::dynamics::AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
+{
+    /// `q̈` and `λ` at `state` under joint forces `tau` with the rows of
+    /// `active` holding, into `out.qdd` and `out.lambda` (the derivatives
+    /// untouched); `out.d_tau` holds `M⁻¹` after the call. The tree's own
+    /// dynamics: [`TreeError::Loaded`] with springs or user loads.
+    /// Allocation-free.
+    ///
+    /// ```
+    /// use joint_runtime::Scene;
+    /// use joint_runtime::nalgebra::SVector;
+    /// use joint_runtime::relative::{ActiveRows, ConstrainedDerivatives, TreeSimulation, TreeState};
+    ///
+    /// /// A bar pinned at one end about y, its other end held by a point contact.
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[body(bar, mass = 2.0, inertia = [0.001, 0.1, 0.1])]
+    /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    /// #[contact(tip = point(bar), at = [0.5, 0, 0])]
+    /// struct Propped;
+    ///
+    /// let sim = TreeSimulation::new(&Propped)?;
+    /// let state = TreeState { q: SVector::from([0.0]), v: SVector::from([0.0]), t: 0.0 };
+    /// let mut out = ConstrainedDerivatives::zeros();
+    /// sim.constrained_dynamics(&state, &SVector::zeros(), ActiveRows::all(), &mut out)?;
+    /// // Held at both ends, the bar stays: the tip carries half its weight, upwards.
+    /// assert!(out.qdd[0].abs() < 1e-12);
+    /// assert!((out.lambda[2] - 9.81).abs() < 1e-12);
+    /// # Ok::<(), joint_runtime::relative::TreeError>(())
+    /// ```
+    pub fn constrained_dynamics(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        active: ActiveRows,
+        out: &mut ConstrainedDerivatives<NV, NC>,
+    ) -> Result<(), TreeError> {
+        self.solve_kkt(state, tau, active, out).map(|_| ())
+    }
+
+    /// The constrained dynamics and their exact first derivatives at
+    /// `state`, `tau`, `active` into `out` (the module's method); `work`
+    /// holds the inverse dynamics' derivatives on the way. Errors as
+    /// [`constrained_dynamics`](Self::constrained_dynamics), and
+    /// [`TreeError::NotDerived`] where the derive did not write the
+    /// closures' second-order terms (past its operation limit).
+    /// Allocation-free.
+    pub fn constrained_dynamics_derivatives(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        active: ActiveRows,
+        work: &mut InverseDerivatives<NV>,
+        out: &mut ConstrainedDerivatives<NV, NC>,
+    ) -> Result<(), TreeError> {
+        let kkt = self.solve_kkt(state, tau, active, out)?;
+        let (alpha, beta) = self.gains();
+        self.derivatives_at(state, &out.qdd, work)?;
+        let u = out.qdd + state.v * (2.0 * alpha);
+        let second = self.second_order_at(state, &out.lambda, &u)?;
+        // r₁ = K − ∂ID/∂q (q), −∂ID/∂v (v), I (τ); r₂ on the active rows.
+        let r1_q = second.stiffness - work.d_q;
+        let mut r2_q = second.gamma_q - second.jacobian_q - second.phi_t_q * (2.0 * alpha);
+        let mut r2_v = second.gamma_v - kkt.jacobian * (2.0 * alpha);
+        if beta != 0.0 {
+            // −β² ∂Φ/∂q = −β² J on a loop's rows; a contact has no Φ.
+            let contact = |r: usize| {
+                S::CONTACTS
+                    .iter()
+                    .filter_map(|c| S::CLOSURES.get(c.block))
+                    .any(|b| (b.start..b.start + b.rows).contains(&r))
+            };
+            for r in (0..NC).filter(|&r| !contact(r)) {
+                let row = kkt.jacobian.row(r) * (beta * beta);
+                let mut target = r2_q.row_mut(r);
+                target -= row;
+            }
+        }
+        for (r, &on) in kkt.mask.iter().enumerate() {
+            if !on && r < NC {
+                r2_q.row_mut(r).fill(0.0);
+                r2_v.row_mut(r).fill(0.0);
+            }
+        }
+        let minv = out.d_tau;
+        let yt = kkt.y.transpose();
+        let solve_columns = |rhs: &SMatrix<f64, NC, NV>, into: &mut SMatrix<f64, NC, NV>| {
+            for c in 0..NV {
+                into.set_column(c, &kkt.factor.solve(&rhs.column(c).into_owned()));
+            }
+        };
+        solve_columns(&(r2_q - yt * r1_q), &mut out.lambda_q);
+        out.d_q = minv * r1_q + kkt.y * out.lambda_q;
+        solve_columns(&(r2_v + yt * work.d_v), &mut out.lambda_v);
+        out.d_v = kkt.y * out.lambda_v - minv * work.d_v;
+        solve_columns(&(-yt), &mut out.lambda_tau);
+        out.d_tau = minv + kkt.y * out.lambda_tau;
+        let all = out.d_q.iter().chain(out.d_v.iter()).chain(out.lambda_q.iter()).chain(out.lambda_v.iter());
+        if !all.copied().all(f64::is_finite) {
+            return Err(TreeError::NonFinite);
+        }
+        Ok(())
+    }
+
+    /// `∂(J v + Φ_t)/∂q` at `state`: how the rows' velocity moves with the
+    /// coordinates (what a linearisation's reduction to the loops' own
+    /// coordinates takes).
+    pub(super) fn closure_rate_q(&self, state: &TreeState<NQ, NV>) -> Result<SMatrix<f64, NC, NV>, TreeError> {
+        let second = self.second_order_at(state, &SVector::zeros(), &state.v)?;
+        Ok(second.jacobian_q + second.phi_t_q)
+    }
+
+    /// Baumgarte's `(α, β)`, zero without stabilisation.
+    fn gains(&self) -> (f64, f64) {
+        match self.options().stabilisation {
+            Stabilisation::None => (0.0, 0.0),
+            Stabilisation::Baumgarte { alpha, beta } => (alpha, beta),
+        }
+    }
+
+    /// The closures' second-order terms: the derive's, or zero for rows
+    /// linear in the coordinates (a file's couplings) past its limit.
+    fn second_order_at(
+        &self,
+        state: &TreeState<NQ, NV>,
+        lambda: &SVector<f64, NC>,
+        u: &SVector<f64, NV>,
+    ) -> Result<SecondOrder<f64, NC, NV>, TreeError> {
+        if let Some(second) = self.scene.closure_second_order(state, &self.tree().geometry, lambda, u) {
+            return Ok(second);
+        }
+        if !S::LINEAR_CLOSURES {
+            return Err(TreeError::NotDerived);
+        }
+        Ok(SecondOrder {
+            stiffness: SMatrix::zeros(),
+            jacobian_q: SMatrix::zeros(),
+            gamma_q: SMatrix::zeros(),
+            gamma_v: SMatrix::zeros(),
+            phi_t_q: SMatrix::zeros(),
+        })
+    }
+
+    /// `q̈`, `λ` and `M⁻¹` (in `out.d_tau`), and the factor the derivatives reuse.
+    fn solve_kkt(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        active: ActiveRows,
+        out: &mut ConstrainedDerivatives<NV, NC>,
+    ) -> Result<Kkt<NV, NC>, TreeError> {
+        let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
+        if !numbers.copied().all(f64::is_finite) {
+            return Err(TreeError::NonFinite);
+        }
+        if self.loaded() {
+            return Err(TreeError::Loaded);
+        }
+        let mut m = SMatrix::<f64, NV, NV>::zeros();
+        self.mass_matrix_into(&state.q, &mut m);
+        let joint = self.tree().joints.first().map_or("", |j| j.name);
+        spd_inverse(&m, &mut out.d_tau).ok_or(TreeError::Singular { joint })?;
+        let bias = self.inverse_dynamics(state, &SVector::zeros());
+        let free = out.d_tau * (tau - bias);
+        let rows = self.closure_rows(state);
+        let mask = active.row_mask::<NC>(S::CLOSURES);
+        let (alpha, beta) = self.gains();
+        let mut gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
+        let mut jacobian = rows.jacobian;
+        for (r, &on) in mask.iter().enumerate() {
+            if !on && r < NC {
+                jacobian.row_mut(r).fill(0.0);
+                gamma[r] = 0.0;
+            }
+        }
+        let y = out.d_tau * jacobian.transpose();
+        let mut delassus = jacobian * y;
+        for (r, &on) in mask.iter().enumerate() {
+            if !on && r < NC {
+                delassus[(r, r)] = 1.0;
+            }
+        }
+        let factor =
+            PivotedCholesky::new(&delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
+        out.lambda = factor.solve(&(gamma - jacobian * free));
+        out.qdd = free + y * out.lambda;
+        out.rank = factor.rank() - mask.iter().filter(|on| !**on).count().min(factor.rank());
+        if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        Ok(Kkt { jacobian, y, factor, mask })
+    }
+}
