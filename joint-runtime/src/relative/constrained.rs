@@ -146,13 +146,23 @@ impl<const NV: usize, const NC: usize> ConstrainedDerivatives<NV, NC> {
 }
 
 /// The solve's pieces that the derivatives reuse.
-struct Kkt<const NV: usize, const NC: usize> {
+pub(super) struct Kkt<const NV: usize, const NC: usize> {
     /// `J` with inactive rows zero.
-    jacobian: SMatrix<f64, NC, NV>,
+    pub(super) jacobian: SMatrix<f64, NC, NV>,
     /// `Y = M⁻¹ Jᵀ`.
-    y: SMatrix<f64, NV, NC>,
-    factor: PivotedCholesky<NC>,
-    mask: [bool; NC],
+    pub(super) y: SMatrix<f64, NV, NC>,
+    /// `S = J Y`, pivoted.
+    pub(super) factor: PivotedCholesky<NC>,
+    /// Which rows hold.
+    pub(super) mask: [bool; NC],
+}
+
+impl<const NV: usize, const NC: usize> Kkt<NV, NC> {
+    /// The rows that hold and were kept (inactive rows are pivots of their own).
+    fn rank(&self) -> usize {
+        let inactive = self.mask.iter().filter(|on| !**on).count();
+        self.factor.rank().saturating_sub(inactive)
+    }
 }
 
 impl<
@@ -284,7 +294,7 @@ impl<
 
     /// The closures' second-order terms: the derive's, or zero for rows
     /// linear in the coordinates (a file's couplings) past its limit.
-    fn second_order_at(
+    pub(super) fn second_order_at(
         &self,
         state: &TreeState<NQ, NV>,
         lambda: &SVector<f64, NC>,
@@ -320,38 +330,55 @@ impl<
         if self.loaded() {
             return Err(TreeError::Loaded);
         }
+        let bias = self.inverse_dynamics(state, &SVector::zeros());
+        let rows = self.closure_rows(state);
+        let (alpha, beta) = self.gains();
+        let gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
+        let kkt = self.delassus(state, &rows.jacobian, active, &mut out.d_tau)?;
+        let free = out.d_tau * (tau - bias);
+        let gamma = SVector::<f64, NC>::from_fn(|r, _| if kkt.mask[r] { gamma[r] } else { 0.0 });
+        out.lambda = kkt.factor.solve(&(gamma - kkt.jacobian * free));
+        out.qdd = free + kkt.y * out.lambda;
+        out.rank = kkt.rank();
+        if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        Ok(kkt)
+    }
+
+    /// `M⁻¹` into `minv` and the Delassus matrix `S = J M⁻¹ Jᵀ` of the
+    /// active rows of `jacobian` factorised (an inactive row: zero in `J`,
+    /// the identity in `S`).
+    pub(super) fn delassus(
+        &self,
+        state: &TreeState<NQ, NV>,
+        jacobian: &SMatrix<f64, NC, NV>,
+        active: ActiveRows,
+        minv: &mut SMatrix<f64, NV, NV>,
+    ) -> Result<Kkt<NV, NC>, TreeError> {
         let mut m = SMatrix::<f64, NV, NV>::zeros();
         self.mass_matrix_into(&state.q, &mut m);
         let joint = self.tree().joints.first().map_or("", |j| j.name);
-        spd_inverse(&m, &mut out.d_tau).ok_or(TreeError::Singular { joint })?;
-        let bias = self.inverse_dynamics(state, &SVector::zeros());
-        let free = out.d_tau * (tau - bias);
-        let rows = self.closure_rows(state);
+        spd_inverse(&m, minv).ok_or(TreeError::Singular { joint })?;
         let mask = active.row_mask::<NC>(S::CLOSURES);
-        let (alpha, beta) = self.gains();
-        let mut gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
-        let mut jacobian = rows.jacobian;
+        let mut jacobian = *jacobian;
         for (r, &on) in mask.iter().enumerate() {
             if !on && r < NC {
                 jacobian.row_mut(r).fill(0.0);
-                gamma[r] = 0.0;
             }
         }
-        let y = out.d_tau * jacobian.transpose();
+        let y = *minv * jacobian.transpose();
         let mut delassus = jacobian * y;
+        // An inactive row's pivot: as large as the largest active one, so
+        // that the rank decision never drops it.
+        let largest = (0..NC).filter(|&r| mask[r]).map(|r| delassus[(r, r)]).fold(1.0, f64::max);
         for (r, &on) in mask.iter().enumerate() {
             if !on && r < NC {
-                delassus[(r, r)] = 1.0;
+                delassus[(r, r)] = largest;
             }
         }
         let factor =
             PivotedCholesky::new(&delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
-        out.lambda = factor.solve(&(gamma - jacobian * free));
-        out.qdd = free + y * out.lambda;
-        out.rank = factor.rank() - mask.iter().filter(|on| !**on).count().min(factor.rank());
-        if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
-            return Err(TreeError::NonFinite);
-        }
         Ok(Kkt { jacobian, y, factor, mask })
     }
 }

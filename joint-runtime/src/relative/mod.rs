@@ -109,6 +109,7 @@
 mod constrained;
 mod derivatives;
 mod dynamics;
+mod impact;
 mod implicit;
 mod kinematics;
 #[cfg(feature = "alloc")]
@@ -123,6 +124,7 @@ mod topology;
 pub use constrained::{ActiveRows, ConstrainedDerivatives};
 pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives};
 pub use dynamics::TreeEnergy;
+pub use impact::ImpulseDerivatives;
 pub use implicit::ForceGains;
 pub use simulation::{DIVERGED, TreeSimulation};
 pub use step_jacobian::{StepJacobian, StepWork};

@@ -10,7 +10,8 @@
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::{DMatrix, SMatrix, SVector};
 use joint_runtime::relative::{
-    ActiveRows, ConstrainedDerivatives, ForwardDerivatives, InverseDerivatives, TreeScene, TreeSimulation, TreeState,
+    ActiveRows, ConstrainedDerivatives, ForwardDerivatives, ImpulseDerivatives, InverseDerivatives, TreeScene,
+    TreeSimulation, TreeState,
 };
 use joint_runtime::robot::StateLayout;
 use serde_json::Value;
@@ -228,5 +229,157 @@ fn four_bar_closed_between_two_bodies_equals_differences() {
         // And Pinocchio's own ∂q̈/∂q is not ours.
         let (_, d_q) = ours.0.iter().find(|(n, _)| *n == "ddq_dq").unwrap();
         assert!(relative(d_q, &matrix(&sample["ddq_dq"])) > 1e-2);
+    }
+}
+
+#[test]
+fn solo12_impact_equals_pinocchio() {
+    let reference = case("solo12_4feet_lwa");
+    let sim = TreeSimulation::new(&SoloFeet).unwrap();
+    let layout = SoloFeet::PINOCCHIO;
+    for sample in reference["samples"].as_array().unwrap() {
+        let state = layout.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
+        let (mut work, mut hit) = (InverseDerivatives::zeros(), ImpulseDerivatives::zeros());
+        sim.impact_derivatives(&state, ActiveRows::all(), 0.0, &mut work, &mut hit).unwrap();
+        // Pinocchio's T is constant: v_l = T v, and each ∂/∂q, ∂/∂v goes through T⁻¹.
+        let t = layout.tangent_map(&state);
+        let t_inv = t.try_inverse().unwrap();
+        let ours = Outputs(vec![
+            ("v_after", dense(&(t * hit.v_after))),
+            ("impulse", dense(&hit.impulse)),
+            ("dv_after_dq", dense(&(t * hit.v_after_q * t_inv))),
+            ("dv_after_dv", dense(&(t * hit.v_after_v * t_inv))),
+            ("dimpulse_dq", dense(&(hit.impulse_q * t_inv))),
+            ("dimpulse_dv", dense(&(hit.impulse_v * t_inv))),
+        ]);
+        ours.check(&sample["impulse"], 1e-12, false);
+    }
+}
+
+/// Central differences of `f` along the tree's increments of `q`, then `v`,
+/// then `τ`: the three `R × NV` derivatives.
+fn differences<const NQ: usize, const NV: usize, const R: usize>(
+    state: &TreeState<NQ, NV>,
+    tau: &SVector<f64, NV>,
+    displaced: impl Fn(&SVector<f64, NQ>, &SVector<f64, NV>) -> SVector<f64, NQ>,
+    f: impl Fn(&TreeState<NQ, NV>, &SVector<f64, NV>) -> SVector<f64, R>,
+) -> [SMatrix<f64, R, NV>; 3] {
+    let h = 1e-6;
+    let mut out = [SMatrix::<f64, R, NV>::zeros(); 3];
+    for i in 0..NV {
+        let e = SVector::<f64, NV>::from_fn(|r, _| if r == i { h } else { 0.0 });
+        let q = |s: f64| TreeState { q: displaced(&state.q, &(e * s)), ..*state };
+        out[0].set_column(i, &((f(&q(1.0), tau) - f(&q(-1.0), tau)) / (2.0 * h)));
+        let v = |s: f64| TreeState { v: state.v + e * s, ..*state };
+        out[1].set_column(i, &((f(&v(1.0), tau) - f(&v(-1.0), tau)) / (2.0 * h)));
+        out[2].set_column(i, &((f(state, &(tau + e)) - f(state, &(tau - e))) / (2.0 * h)));
+    }
+    out
+}
+
+fn close<const R: usize, const C: usize>(ours: &SMatrix<f64, R, C>, theirs: &SMatrix<f64, R, C>, what: &str) {
+    let error = (ours - theirs).amax() / theirs.amax().max(1.0);
+    assert!(error < 1e-6, "{what}: {error:e}");
+}
+
+/// Every derivative against central differences of our own maps, with
+/// Baumgarte's gains on, three feet of four holding, and the UR5's weld in
+/// the world's axes.
+#[test]
+fn derivatives_equal_differences_with_gains_and_an_active_set() {
+    use joint_runtime::dynamics::{SimulationOptions, Stabilisation};
+    let options = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 3.0, beta: 4.0 });
+    let sim = TreeSimulation::new(&SoloFeet).unwrap().with_options(options).unwrap();
+    let sample = &case("solo12_4feet_lwa")["samples"][1];
+    let layout = SoloFeet::PINOCCHIO;
+    let state = layout.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
+    let tau = layout.forces_from(&state, &numbers(&sample["tau"])).unwrap();
+    let three = ActiveRows::named(SoloFeet::CLOSURES, &["fl", "fr", "hl"]).unwrap();
+    let (mut work, mut out) = (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros());
+    sim.constrained_dynamics_derivatives(&state, &tau, three, &mut work, &mut out).unwrap();
+    assert_eq!(out.rank, 9);
+    assert!(out.lambda.rows(9, 3).iter().all(|x| *x == 0.0));
+    let solve = |s: &TreeState<19, 18>, t: &SVector<f64, 18>| {
+        let mut o = ConstrainedDerivatives::zeros();
+        sim.constrained_dynamics(s, t, three, &mut o).unwrap();
+        (o.qdd, o.lambda)
+    };
+    let moved = |q: &SVector<f64, 19>, d: &SVector<f64, 18>| sim.tree().displaced(q, d);
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| solve(s, t).0);
+    close(&out.d_q, &q, "∂q̈/∂q");
+    close(&out.d_v, &v, "∂q̈/∂v");
+    close(&out.d_tau, &t, "∂q̈/∂τ");
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| solve(s, t).1);
+    close(&out.lambda_q, &q, "∂λ/∂q");
+    close(&out.lambda_v, &v, "∂λ/∂v");
+    close(&out.lambda_tau, &t, "∂λ/∂τ");
+}
+
+/// The UR5's tool welded in the world's axes: the same `q̈` as in its own
+/// axes, forces turned by the tool's rotation, and exact derivatives.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
+#[contact(weld = frame(tool0))]
+struct Ur5WeldWorld;
+
+#[test]
+fn a_weld_in_the_worlds_axes_turns_the_forces_alone() {
+    let sample = &case("ur5_weld_local")["samples"][2];
+    let (world, local) = (TreeSimulation::new(&Ur5WeldWorld).unwrap(), TreeSimulation::new(&Ur5Weld).unwrap());
+    let state = Ur5Weld::PINOCCHIO.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
+    let tau = Ur5Weld::PINOCCHIO.forces_from(&state, &numbers(&sample["tau"])).unwrap();
+    let (mut work, mut a, mut b) =
+        (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros(), ConstrainedDerivatives::zeros());
+    world.constrained_dynamics_derivatives(&state, &tau, ActiveRows::all(), &mut work, &mut a).unwrap();
+    local.constrained_dynamics_derivatives(&state, &tau, ActiveRows::all(), &mut work, &mut b).unwrap();
+    assert!((a.qdd - b.qdd).amax() < 1e-12 * b.qdd.amax());
+    // |force| and |torque| are the same in either axes.
+    for half in [0, 3] {
+        let (x, y) = (a.lambda.fixed_rows::<3>(half).norm(), b.lambda.fixed_rows::<3>(half).norm());
+        assert!((x - y).abs() < 1e-12 * y.max(1.0), "{x} {y}");
+    }
+    let solve = |s: &TreeState<6, 6>, t: &SVector<f64, 6>| {
+        let mut o = ConstrainedDerivatives::zeros();
+        world.constrained_dynamics(s, t, ActiveRows::all(), &mut o).unwrap();
+        o.lambda
+    };
+    let [q, v, t] = differences(&state, &tau, |q, d| world.tree().displaced(q, d), solve);
+    close(&a.lambda_q, &q, "∂λ/∂q");
+    close(&a.lambda_v, &v, "∂λ/∂v");
+    close(&a.lambda_tau, &t, "∂λ/∂τ");
+}
+
+/// A parallelogram hanging from pivots 1 m apart, its loop closed by a
+/// revolute joint: one freedom with `θ̈ = −g sin θ (m₁/2 + m₃/2 + m₂) /
+/// (I₁ + I₃ + (m₁ + m₃)/4 + m₂)` whatever `θ̇` (the coupler translates).
+#[derive(Scene)]
+#[scene(gravity = [0, -9.81, 0], coordinates = relative)]
+#[body(crank, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
+#[body(coupler, mass = 1.5, inertia = [0.1, 0.15, 0.2])]
+#[body(rocker, mass = 2.0, inertia = [0.2, 0.1, 0.2])]
+#[joint(a = revolute(ground, crank), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, 0.5, 0])]
+#[joint(b = revolute(crank, coupler), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, -0.5, 0], rho2 = [-0.5, 0, 0])]
+#[joint(c = revolute(coupler, rocker), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [0, -0.5, 0])]
+#[joint(d = revolute(rocker, ground), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0.5, 0], rho2 = [1, 0, 0])]
+struct Parallelogram;
+
+#[test]
+fn a_parallelogram_swings_as_its_closed_form() {
+    let sim = TreeSimulation::new(&Parallelogram).unwrap();
+    let (g, reduced) = (9.81, 0.1 + 0.2 + 0.25 * (1.0 + 2.0) + 1.5);
+    let weight = 0.5 * 1.0 + 0.5 * 2.0 + 1.5;
+    let (mut work, mut out) = (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros());
+    for (theta, omega) in [(0.3, 0.0), (-1.1, 2.5), (2.0, -4.0)] {
+        let state =
+            TreeState { q: SVector::from([theta, -theta, theta]), v: SVector::from([omega, -omega, omega]), t: 0.0 };
+        sim.constrained_dynamics_derivatives(&state, &SVector::zeros(), ActiveRows::all(), &mut work, &mut out)
+            .unwrap();
+        let expected = -g * f64::sin(theta) * weight / reduced;
+        assert!((out.qdd - SVector::from([expected, -expected, expected])).amax() < 1e-12, "{}", out.qdd);
+        // Along the loop's own freedom: dθ̈/dθ in closed form, nothing from θ̇.
+        let along = SVector::from([1.0, -1.0, 1.0]);
+        let d_theta = -g * f64::cos(theta) * weight / reduced;
+        assert!(((out.d_q * along)[0] - d_theta).abs() < 1e-11, "{} {d_theta}", (out.d_q * along)[0]);
+        assert!((out.d_v * along)[0].abs() < 1e-11);
     }
 }
