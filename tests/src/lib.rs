@@ -46,6 +46,10 @@ mod guide {
     #[doc = include_str!("../../guide/src/derivatives-and-linearisation.md")]
     struct DerivativesAndLinearisation;
 
+    /// Contacts and closed loops: constrained dynamics, forces, impacts and their derivatives.
+    #[doc = include_str!("../../guide/src/contacts-and-closed-loops.md")]
+    struct ContactsAndClosedLoops;
+
     /// Control loops: no_std, no allocation, no panic.
     #[doc = include_str!("../../guide/src/control-loops.md")]
     struct ControlLoops;

@@ -301,6 +301,38 @@ fn a_robots_step_dynamics_mass_matrix_and_frames_allocate_nothing() {
     assert!((m - m.transpose()).amax() < 1e-12 && m[(0, 0)] > 0.0);
 }
 
+/// The floating Solo12 from its URDF file on its four feet.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base)]
+#[contact(fl = point(FL_FOOT); fr = point(FR_FOOT); hl = point(HL_FOOT); hr = point(HR_FOOT))]
+struct SoloFeet;
+
+#[test]
+fn constrained_dynamics_derivatives_and_impacts_allocate_nothing() {
+    use joint_runtime::relative::{
+        ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, TreeSimulation,
+    };
+    let mut sim = TreeSimulation::new(&SoloFeet).expect("a valid robot");
+    let mut state = sim.tree().zero_state();
+    state.q[2] = 0.3;
+    for (k, x) in state.v.iter_mut().enumerate() {
+        *x = 0.1 * (k as f64).sin();
+    }
+    let tau = SVector::<f64, 18>::from_fn(|k, _| 0.2 * (k as f64).cos());
+    let (mut work, mut out, mut hit) =
+        (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros(), ImpulseDerivatives::zeros());
+    let three = ActiveRows::all().without(3);
+    let mut done = false;
+    let n = allocations(|| {
+        done = sim.constrained_dynamics(&state, &tau, three, &mut out).is_ok()
+            && sim.constrained_dynamics_derivatives(&state, &tau, three, &mut work, &mut out).is_ok()
+            && sim.impact_derivatives(&state, ActiveRows::all(), 0.5, &mut work, &mut hit).is_ok()
+            && (0..3).all(|_| sim.step(&mut state, 1e-3).is_ok());
+    });
+    assert_eq!(n, 0, "the constrained dynamics allocated");
+    assert!(done && out.rank == 9 && out.lambda.rows(9, 3).iter().all(|x| *x == 0.0));
+}
+
 #[test]
 fn the_counter_counts() {
     // The counter counts: a vector allocates.

@@ -29,6 +29,10 @@
 //! - A three-hinge arm in relative coordinates: the exact derivatives of its
 //!   inverse and forward dynamics and its RK4 and semi-implicit Euler step
 //!   Jacobians ([`trees`]).
+//! - Two robots read from their files with contacts (the floating Solo12 on
+//!   its four feet, the UR5 welded): a constrained RK4 step, the constrained
+//!   dynamics, their exact derivatives and an impact's, the active set a
+//!   run-time argument ([`contacts`]).
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`
 //!   and `f32 × 8`, and over packed states) for a universal joint ([`batch`]).
 //!
@@ -73,6 +77,7 @@
 #[macro_use]
 mod guard;
 mod batch;
+mod contacts;
 mod joints;
 mod robots;
 mod scenes;
@@ -90,7 +95,7 @@ mod canary {
 fn main() {
     let joints = joints::keep();
     let scenes = scenes::driven::keep() + scenes::free::keep() + scenes::block::keep() + trees::keep();
-    let robots = robots::keep();
+    let robots = robots::keep() + contacts::keep();
     let batches = batch::keep();
     #[cfg(feature = "canary")]
     let scenes = scenes + canary::keep();

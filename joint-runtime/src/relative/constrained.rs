@@ -158,6 +158,17 @@ pub(super) struct Kkt<const NV: usize, const NC: usize> {
 }
 
 impl<const NV: usize, const NC: usize> Kkt<NV, NC> {
+    /// `S⁻¹`, column by column from the factor: zero on dropped rows, the
+    /// inverse of the kept block elsewhere (a solve by it is the factor's).
+    pub(super) fn inverse(&self) -> SMatrix<f64, NC, NC> {
+        let mut out = SMatrix::<f64, NC, NC>::zeros();
+        for c in 0..NC {
+            let e = SVector::<f64, NC>::from_fn(|r, _| if r == c { 1.0 } else { 0.0 });
+            out.set_column(c, &self.factor.solve(&e));
+        }
+        out
+    }
+
     /// The rows that hold and were kept (inactive rows are pivots of their own).
     fn rank(&self) -> usize {
         let inactive = self.mask.iter().filter(|on| !**on).count();
@@ -256,19 +267,17 @@ impl<
                 r2_v.row_mut(r).fill(0.0);
             }
         }
+        // S⁻¹ once (its pseudo-inverse over the kept rows), then products:
+        // Cᵀ = S⁻¹ Yᵀ, dλ = S⁻¹ r₂ − Cᵀ r₁, dq̈ = M⁻¹ r₁ + Y dλ.
         let minv = out.d_tau;
-        let yt = kkt.y.transpose();
-        let solve_columns = |rhs: &SMatrix<f64, NC, NV>, into: &mut SMatrix<f64, NC, NV>| {
-            for c in 0..NV {
-                into.set_column(c, &kkt.factor.solve(&rhs.column(c).into_owned()));
-            }
-        };
-        solve_columns(&(r2_q - yt * r1_q), &mut out.lambda_q);
+        let sinv = kkt.inverse();
+        let ct = sinv * kkt.y.transpose();
+        out.lambda_q = sinv * r2_q - ct * r1_q;
         out.d_q = minv * r1_q + kkt.y * out.lambda_q;
-        solve_columns(&(r2_v + yt * work.d_v), &mut out.lambda_v);
+        out.lambda_v = sinv * r2_v + ct * work.d_v;
         out.d_v = kkt.y * out.lambda_v - minv * work.d_v;
-        solve_columns(&(-yt), &mut out.lambda_tau);
-        out.d_tau = minv + kkt.y * out.lambda_tau;
+        out.lambda_tau = -ct;
+        out.d_tau = minv - kkt.y * ct;
         let all = out.d_q.iter().chain(out.d_v.iter()).chain(out.lambda_q.iter()).chain(out.lambda_v.iter());
         if !all.copied().all(f64::is_finite) {
             return Err(TreeError::NonFinite);

@@ -101,17 +101,11 @@ impl<
                 r2_q.row_mut(r).fill(0.0);
             }
         }
-        let yt = kkt.y.transpose();
-        let rhs = r2_q - yt * r1_q;
-        for c in 0..NV {
-            out.impulse_q.set_column(c, &kkt.factor.solve(&rhs.column(c).into_owned()));
-        }
+        let sinv = kkt.inverse();
+        out.impulse_q = sinv * (r2_q - kkt.y.transpose() * r1_q);
         out.v_after_q = minv * r1_q + kkt.y * out.impulse_q;
         // ∂Λ/∂v = −(1 + e) S⁻¹ J, ∂v⁺/∂v = I + Y ∂Λ/∂v.
-        for c in 0..NV {
-            let column = kkt.jacobian.column(c) * -(1.0 + restitution);
-            out.impulse_v.set_column(c, &kkt.factor.solve(&column));
-        }
+        out.impulse_v = sinv * kkt.jacobian * -(1.0 + restitution);
         out.v_after_v = SMatrix::identity() + kkt.y * out.impulse_v;
         let all = out.v_after_q.iter().chain(out.impulse_q.iter()).chain(out.v_after_v.iter());
         if !all.copied().all(f64::is_finite) {

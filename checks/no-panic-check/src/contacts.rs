@@ -1,0 +1,61 @@
+//! Two robots read from their files with contacts (`#[contact]`), in
+//! relative coordinates: an RK4 step holding every contact, the constrained
+//! dynamics and their exact derivatives, and an impact's, each with the
+//! active set a run-time argument. The floating Solo12 from its URDF file on
+//! its four feet (points in the world's axes), the UR5 from its URDF file
+//! with its tool welded to the world (a frame in its own axes).
+
+use joint_runtime::Scene;
+use joint_runtime::dynamics::{NoLoads, Simulate, StepReport};
+use joint_runtime::nalgebra::SVector;
+use joint_runtime::relative::{
+    ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, TreeError, TreeState,
+};
+
+/// ODRI's Solo12 on a floating base (URDF), on its four feet.
+#[derive(Scene)]
+#[scene(urdf = "../../tests/data/robots/solo12.urdf", floating_base)]
+#[contact(fl = point(FL_FOOT); fr = point(FR_FOOT); hl = point(HL_FOOT); hr = point(HR_FOOT))]
+pub struct SoloFeet;
+
+/// Universal Robots' UR5 (URDF), its tool welded to the world.
+#[derive(Scene)]
+#[scene(urdf = "../../tests/data/robots/ur5.urdf")]
+#[contact(weld = frame(tool0), axes = local)]
+pub struct Ur5Weld;
+
+/// A robot's checked functions, by its scene and sizes.
+macro_rules! contacts {
+    ($module:ident, $scene:ty, $nq:literal, $nv:literal, $nc:literal) => {
+        pub mod $module {
+            use super::*;
+
+            type Sim<'a> = <$scene as Simulate<'a, NoLoads>>::Engine;
+            type State = TreeState<$nq, $nv>;
+            type Tau = SVector<f64, $nv>;
+
+            checked! {
+                fn step(sim: &mut Sim<'_>, state: &mut State, h: f64) -> Result<StepReport, TreeError> {
+                    sim.step(state, h)
+                }
+                fn constrained_dynamics(sim: &Sim<'_>, state: &State, tau: &Tau, active: u64, out: &mut ConstrainedDerivatives<$nv, $nc>) -> Result<(), TreeError> {
+                    sim.constrained_dynamics(state, tau, ActiveRows(active), out)
+                }
+                fn constrained_dynamics_derivatives(sim: &Sim<'_>, state: &State, tau: &Tau, active: u64, work: &mut InverseDerivatives<$nv>, out: &mut ConstrainedDerivatives<$nv, $nc>) -> Result<(), TreeError> {
+                    sim.constrained_dynamics_derivatives(state, tau, ActiveRows(active), work, out)
+                }
+                fn impact_derivatives(sim: &Sim<'_>, state: &State, active: u64, restitution: f64, work: &mut InverseDerivatives<$nv>, out: &mut ImpulseDerivatives<$nv, $nc>) -> Result<(), TreeError> {
+                    sim.impact_derivatives(state, ActiveRows(active), restitution, work, out)
+                }
+            }
+        }
+    };
+}
+
+contacts!(solo12, SoloFeet, 19, 18, 12);
+contacts!(ur5, Ur5Weld, 6, 6, 6);
+
+/// Every robot's wrappers kept; their number.
+pub fn keep() -> usize {
+    solo12::keep() + ur5::keep()
+}
