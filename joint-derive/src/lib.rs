@@ -8,9 +8,6 @@
 //! derives the rest, `generate` prints the methods, and the two `derives` put
 //! their impls together.
 
-mod aba;
-mod closure;
-mod contact;
 mod derives;
 mod engine;
 mod front;
@@ -22,7 +19,7 @@ mod normal;
 mod products;
 mod program;
 mod second_order;
-mod tree_derivatives;
+mod tree;
 
 #[cfg(test)]
 mod output_tests;

@@ -3,7 +3,7 @@
 //! alias of its state, `NameTreeState = TreeState<NQ, NV>`. For `relative`
 //! nothing of the absolute path is derived or compiled; `coordinates = both`
 //! writes both from one declaration. The algorithms themselves are written by
-//! `aba`, `closure` and `tree_derivatives`.
+//! the `tree` room (`aba`, `closure`, `contact`, `derivatives`).
 
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -13,22 +13,19 @@ use crate::front::resolve::{FieldShape, Source};
 use crate::front::scene::{JointDecl, SceneDecl};
 use crate::front::tree::{TreeEdge, TreeKind};
 use crate::generate::{krate, lints};
-use crate::lower::{Block, Derived};
 
 /// The tree's sizes: coordinates and velocities.
 pub fn sizes(edges: &[TreeEdge]) -> (usize, usize) {
     edges.iter().map(|e| e.kind.sizes()).fold((0, 0), |(q, v), (a, b)| (q + a, v + b))
 }
 
-/// A tree's closures derived in its coordinates, their row blocks and
-/// their second-order terms (what the constrained dynamics' derivatives take).
-pub type Loops = (Derived, Vec<Block>, Option<crate::second_order::SecondOrderNodes>);
+pub use crate::tree::closure::Loops;
 
 /// The closures of a scene with a tree (joints outside it) derived in the
 /// tree's coordinates; `None` without a tree or without closures.
 pub fn closures(s: &SceneDecl) -> syn::Result<Option<Loops>> {
     match &s.tree {
-        Some(edges) => crate::closure::derive(s, edges, sizes(edges)),
+        Some(edges) => crate::tree::closure::derive(s, edges, sizes(edges)),
         None => Ok(None),
     }
 }
@@ -50,27 +47,28 @@ pub fn print(
     let inertias = s.bodies.iter().map(|b| inertia(&b.mass, &b.inertia));
     let gravity = vector(&s.gravity);
     let (nq, nv) = sizes(edges);
-    let aba = crate::aba::method(s, edges, nq, nv).map(|(method, ops)| {
+    let aba = crate::tree::aba::method(s, edges, nq, nv).map(|(method, ops)| {
         let doc = format!(" The articulated-body algorithm written out: {ops} operations.");
         quote!(#[doc = #doc] #[inline] #method)
     });
-    let controller = crate::aba::controller_methods(s, edges, nq, nv);
+    let controller = crate::tree::aba::controller_methods(s, edges, nq, nv);
     // `second_order`: the dynamics' derivatives, what a linearisation needs.
-    let written = s.second_order.and_then(|_| crate::aba::written(s, edges));
+    let written = s.second_order.and_then(|_| crate::tree::aba::written(s, edges));
     let (derivatives, second, fallback) = match &written {
         Some(joints) => {
-            let (first, ops) = crate::tree_derivatives::method(s, joints, nq, nv);
+            let (first, ops) = crate::tree::derivatives::method(s, joints, nq, nv);
             // Past the limit `second_order` changes nothing on a tree alone: say so.
             let fallback = match (&first, s.second_order) {
                 (None, Some(at)) if !s.absolute => Some(falls_back(at, ops)),
                 _ => None,
             };
-            (first, crate::tree_derivatives::second_method(s, joints, (nq, nv), ops), fallback)
+            (first, crate::tree::derivatives::second_method(s, joints, (nq, nv), ops), fallback)
         }
         None => (None, None, None),
     };
-    let (closure, nc) = loops
-        .map_or((TokenStream::new(), 0), |(d, blocks, second)| crate::closure::print(d, blocks, second.as_ref(), s));
+    let (closure, nc) = loops.map_or((TokenStream::new(), 0), |(d, blocks, second)| {
+        crate::tree::closure::print(d, blocks, second.as_ref(), s)
+    });
     // A file's gravity compensation (MJCF `gravcomp`), its bodies first.
     let held = s.file.as_ref().map(|f| f.compensation.clone()).unwrap_or_default();
     let compensation = held.iter().any(|&c| c != 0.0).then(|| {
@@ -113,7 +111,7 @@ pub fn print(
 /// writes out: the runtime's recursion gives them, the same numbers, so the
 /// option does nothing on this scene.
 fn falls_back(at: proc_macro2::Span, ops: usize) -> TokenStream {
-    let limit = crate::tree_derivatives::FIRST_LIMIT;
+    let limit = crate::tree::derivatives::FIRST_LIMIT;
     let note = format!(
         "`second_order` writes a tree's derivatives out up to {limit} operations; this tree's would take {ops}, so \
          the runtime's recursion gives them (the same numbers, faster at this size) and the option changes \

@@ -107,8 +107,9 @@ pub enum TreeError {
     /// No exact derivatives for this: the inverse dynamics' second
     /// derivatives of a scene that did not ask for them
     /// (`#[scene(second_order)]`) or whose tree is past the derive's
-    /// straight line, or the forward dynamics' first derivatives of a tree
-    /// whose loops are not a file's couplings.
+    /// straight line, the first derivatives of a tree whose closures' second-order
+    /// terms are past the derive's operation limit, or the linearly implicit
+    /// step of a tree whose loops are not a file's couplings.
     NotDerived,
     /// A step's exact Jacobian asked of a tree with springs or user loads:
     /// it covers the tree's own dynamics (gravity, armature, damping);
@@ -173,7 +174,8 @@ impl fmt::Display for TreeError {
             ),
             TreeError::NotDerived => f.write_str(
                 "no exact derivatives for this: second derivatives need `second_order` in the `#[scene(..)]` (trees \
-                 past the derive's limit have none), and a tree's loops must be a file's couplings",
+                 past the derive's limit have none), closures past the derive's limit have no second-order terms, and \
+                 the linearly implicit step takes a file's couplings as its only loops",
             ),
             TreeError::Loaded => f.write_str(
                 "the step's exact Jacobian covers the tree's own dynamics; springs or user loads act on this one \

@@ -23,7 +23,6 @@
 use proc_macro2::{Span, TokenStream};
 use quote::quote;
 
-use crate::aba::{Builder, joint, kind_offsets, parent_edges};
 use crate::engine::graph::Id;
 use crate::front::scene::SceneDecl;
 use crate::front::tree::{TreeEdge, TreeKind, closures};
@@ -31,6 +30,11 @@ use crate::generate::{krate, matrix_tokens, print_none, vector_tokens};
 use crate::kinematics::{Input, Kinematics, V3};
 use crate::lower::{Block, Derived, Naming, lower_rows, param_nodes};
 use crate::second_order::SecondOrderNodes;
+use crate::tree::aba::{Builder, joint, kind_offsets, parent_edges};
+
+/// A tree's closures derived in its coordinates, their row blocks and
+/// their second-order terms (what the constrained dynamics' derivatives take).
+pub type Loops = (Derived, Vec<Block>, Option<SecondOrderNodes>);
 
 /// A constant row at most this far from zero is one the tree keeps (a
 /// planar loop's out-of-plane rows fold to exact zeros; this allows for a
@@ -39,11 +43,7 @@ const KEPT: f64 = 1e-12;
 
 /// The closures' rows derived in the tree's coordinates, and each joint's
 /// block of them; `None` for a tree without closures.
-pub fn derive(
-    s: &SceneDecl,
-    edges: &[TreeEdge],
-    (nq, nv): (usize, usize),
-) -> syn::Result<Option<crate::derives::tree::Loops>> {
+pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> syn::Result<Option<Loops>> {
     let loops = closures(&s.joints, edges);
     if loops.is_empty() && s.couplings.is_empty() && s.contacts.is_empty() {
         return Ok(None);
@@ -104,7 +104,7 @@ pub fn derive(
     // Contacts: rows at the velocity level, no position (`contact.rs`).
     for c in &s.contacts {
         blocks.push(Block { name: c.name.to_string(), start: phi.len(), rows: c.rows() });
-        for (row, g) in crate::contact::rows(&mut k, &poses, c) {
+        for (row, g) in crate::tree::contact::rows(&mut k, &poses, c) {
             let zero = k.g.zero();
             phi.push(zero);
             phi_t.push(zero);
@@ -124,7 +124,7 @@ pub fn derive(
 /// returned: the contacts' rows start from them). A joint whose points and
 /// axes are numbers is folded; any other reads them from the runtime's
 /// `TreeGeometry` (its unit axis and rest rotation made once).
-fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) -> Vec<crate::contact::Pose> {
+fn frames(k: &mut Kinematics, s: &SceneDecl, edges: &[TreeEdge]) -> Vec<crate::tree::contact::Pose> {
     let (qa, va) = kind_offsets(edges.iter().map(|e| e.kind));
     let (q, v) = (k.coords.clone(), k.velocities.clone());
     let mut b = Builder::new(std::mem::take(&mut k.g));
@@ -199,7 +199,7 @@ pub(crate) fn read_joint(
     let rho_p = read(b, &["rho_parent", &at]);
     let rho_c = read(b, &["rho_child", &at]);
     if kind == TreeKind::Spherical {
-        return (b.relative(&crate::aba::Joint::spherical(), q), rho_p, rho_c);
+        return (b.relative(&crate::tree::aba::Joint::spherical(), q), rho_p, rho_c);
     }
     let h = read(b, &["axis", &at]);
     let columns: [V3; 3] = [0, 1, 2].map(|c| read(b, &["rest", &at, &c.to_string()]));
@@ -287,7 +287,7 @@ pub fn print(d: &Derived, blocks: &[Block], second: Option<&SecondOrderNodes>, s
     let k = krate();
     let rows = d.phi.len();
     let nv = d.kinematics.velocities.len();
-    let p = print_none(d, &crate::aba::scalar());
+    let p = print_none(d, &crate::tree::aba::scalar());
     let mut outputs = d.phi.clone();
     outputs.extend((0..nv).flat_map(|c| d.jacobian.iter().map(move |row| row[c])));
     outputs.extend(&d.gamma);
@@ -349,7 +349,7 @@ pub const SECOND_LIMIT: usize = 60_000;
 /// `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q` (tangent columns), `None` past the limit.
 fn second_method(d: &Derived, nodes: &SecondOrderNodes, s: &SceneDecl) -> Option<TokenStream> {
     let k = krate();
-    let p = print_none(d, &crate::aba::scalar());
+    let p = print_none(d, &crate::tree::aba::scalar());
     let (body, outs, ops) = p.emit(&nodes.all());
     if ops > SECOND_LIMIT {
         return None;

@@ -834,7 +834,7 @@ impl Builder {
             }
             Some(k) => {
                 let at = k.to_string();
-                let (rel, r, rho_c) = crate::closure::read_joint(self, j.kind, k, q, &mut |b, p| b.geometry(p));
+                let (rel, r, rho_c) = crate::tree::closure::read_joint(self, j.kind, k, q, &mut |b, p| b.geometry(p));
                 let h = self.geometry(&["axis", &at]);
                 let r = self.sub3(r, inbound);
                 (rel, r, rho_c, self.read_columns(j.kind, &at, q), h)
@@ -1054,7 +1054,7 @@ impl Builder {
         // `rot(h, θ)ᵀ x`: a column turned back by the joint's angle.
         let turned = |b: &mut Builder, x: V3, angle: Id| -> V3 {
             let (c, s) = (b.g.cos(angle), b.g.sin(angle));
-            let rot = crate::closure::rotation_about(b, h, c, s);
+            let rot = crate::tree::closure::rotation_about(b, h, c, s);
             b.mtv(&rot, x)
         };
         match kind {

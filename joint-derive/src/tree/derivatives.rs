@@ -28,13 +28,15 @@
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
-use crate::aba::{Builder, Joint, NewtonEuler, bindings, kind_offsets, newton_euler, pattern, scalar, used_names};
 use crate::engine::diff::TimeRules;
 use crate::engine::emit::emit;
 use crate::engine::graph::{Graph, Id};
 use crate::front::scene::SceneDecl;
 use crate::front::tree::TreeKind;
 use crate::generate::krate;
+use crate::tree::aba::{
+    Builder, Joint, NewtonEuler, bindings, kind_offsets, newton_euler, pattern, scalar, used_names,
+};
 
 /// Operations above which the first derivatives are not written and the
 /// runtime's recursion (`relative/recursion.rs`) runs instead: measured on three
