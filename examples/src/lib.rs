@@ -12,6 +12,7 @@ pub mod pendulum_chain;
 pub mod press;
 pub mod report;
 pub mod scaling;
+pub mod solo_stance;
 pub mod steering;
 
 // The Cardan shaft and the animation writer live in `joint-demo`, the main

@@ -17,6 +17,7 @@ mod panda;
 mod pendulum_chain;
 mod press;
 mod second_order;
+mod solo_stance;
 mod sparse;
 mod stack;
 mod steering;

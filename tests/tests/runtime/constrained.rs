@@ -383,3 +383,21 @@ fn a_parallelogram_swings_as_its_closed_form() {
         assert!((out.d_v * along)[0].abs() < 1e-11);
     }
 }
+
+/// The parallelogram hanging still, linearised: `linearise` takes the
+/// loop's minimal coordinates exactly (the closures' second-order terms),
+/// and the mode is the closed form's, `ω² = g (m₁/2 + m₃/2 + m₂) / (I₁ + I₃
+/// + (m₁ + m₃)/4 + m₂)`.
+#[test]
+fn the_parallelogram_linearises_exactly() {
+    let mut sim = TreeSimulation::new(&Parallelogram).unwrap();
+    let hanging = TreeState { q: SVector::zeros(), v: SVector::zeros(), t: 0.0 };
+    let lin = sim.linearise(&hanging, &SVector::zeros()).unwrap();
+    assert_eq!(lin.freedoms, 1);
+    let omega = (9.81 * (0.5 + 1.0 + 1.5) / (0.1 + 0.2 + 0.25 * 3.0 + 1.5_f64)).sqrt();
+    let poles = lin.eigenvalues().unwrap();
+    assert_eq!(poles.len(), 2);
+    for e in poles {
+        assert!((e.im.abs() - omega).abs() < 1e-10 && e.re.abs() < 1e-10, "{e} against ±{omega} i");
+    }
+}
