@@ -235,7 +235,15 @@ fn print(
     let (nb, nv, m, lints) = (&z.nb, &z.nv, &z.m, lints());
     let (ops, methods) = (generate::ops_const(Some(&printed)), z.signature.methods(Some(&printed)));
     let alias = state_alias(input, nb);
-    let engine = Engine::Absolute([s.bodies.len(), 6 * s.bodies.len(), d.phi.len(), csr.columns.len()]);
+    // Contacts are rows of the tree alone: a `both` scene that has them runs
+    // on the tree, where they hold (the absolute impls stay, for pictures).
+    let engine = match (&s.tree, s.contacts.is_empty()) {
+        (Some(edges), false) => {
+            let (nq, nv) = super::tree::sizes(edges);
+            Engine::Tree([s.bodies.len(), nq, nv, loops.map_or(0, |(d, _, _)| d.phi.len())])
+        }
+        _ => Engine::Absolute([s.bodies.len(), 6 * s.bodies.len(), d.phi.len(), csr.columns.len()]),
+    };
     let simulate = simulate(input, &generics, engine);
     let file = file_constants(input, &generics, s);
     let visuals = s.file.as_ref().map(|_| quote!(const VISUALS: &'static [#k::robot::Visual] = &Self::VISUALS;));

@@ -151,7 +151,9 @@ pub(super) struct Kkt<const NV: usize, const NC: usize> {
     pub(super) jacobian: SMatrix<f64, NC, NV>,
     /// `Y = M⁻¹ Jᵀ`.
     pub(super) y: SMatrix<f64, NV, NC>,
-    /// `S = J Y`, pivoted.
+    /// `S = J Y` (inactive rows: a pivot of their own).
+    pub(super) delassus: SMatrix<f64, NC, NC>,
+    /// `S`, pivoted.
     pub(super) factor: PivotedCholesky<NC>,
     /// Which rows hold.
     pub(super) mask: [bool; NC],
@@ -170,7 +172,7 @@ impl<const NV: usize, const NC: usize> Kkt<NV, NC> {
     }
 
     /// The rows that hold and were kept (inactive rows are pivots of their own).
-    fn rank(&self) -> usize {
+    pub(super) fn rank(&self) -> usize {
         let inactive = self.mask.iter().filter(|on| !**on).count();
         self.factor.rank().saturating_sub(inactive)
     }
@@ -332,6 +334,25 @@ impl<
         active: ActiveRows,
         out: &mut ConstrainedDerivatives<NV, NC>,
     ) -> Result<Kkt<NV, NC>, TreeError> {
+        let (kkt, free, r) = self.kkt_system(state, tau, active, &mut out.d_tau)?;
+        out.lambda = kkt.factor.solve(&r);
+        out.qdd = free + kkt.y * out.lambda;
+        out.rank = kkt.rank();
+        if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
+            return Err(TreeError::NonFinite);
+        }
+        Ok(kkt)
+    }
+
+    /// The KKT system at `state`: the factor, the tree's own `q̈` and the
+    /// right side `S λ = γ̃ − J q̈_free` (zero on inactive rows); `M⁻¹` into `minv`.
+    pub(super) fn kkt_system(
+        &self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        active: ActiveRows,
+        minv: &mut SMatrix<f64, NV, NV>,
+    ) -> Result<(Kkt<NV, NC>, SVector<f64, NV>, SVector<f64, NC>), TreeError> {
         let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
         if !numbers.copied().all(f64::is_finite) {
             return Err(TreeError::NonFinite);
@@ -343,16 +364,11 @@ impl<
         let rows = self.closure_rows(state);
         let (alpha, beta) = self.gains();
         let gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
-        let kkt = self.delassus(state, &rows.jacobian, active, &mut out.d_tau)?;
-        let free = out.d_tau * (tau - bias);
+        let kkt = self.delassus(state, &rows.jacobian, active, minv)?;
+        let free = *minv * (tau - bias);
         let gamma = SVector::<f64, NC>::from_fn(|r, _| if kkt.mask[r] { gamma[r] } else { 0.0 });
-        out.lambda = kkt.factor.solve(&(gamma - kkt.jacobian * free));
-        out.qdd = free + kkt.y * out.lambda;
-        out.rank = kkt.rank();
-        if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
-            return Err(TreeError::NonFinite);
-        }
-        Ok(kkt)
+        let r = gamma - kkt.jacobian * free;
+        Ok((kkt, free, r))
     }
 
     /// `M⁻¹` into `minv` and the Delassus matrix `S = J M⁻¹ Jᵀ` of the
@@ -380,7 +396,8 @@ impl<
         let mut delassus = jacobian * y;
         // An inactive row's pivot: as large as the largest active one, so
         // that the rank decision never drops it.
-        let largest = (0..NC).filter(|&r| mask[r]).map(|r| delassus[(r, r)]).fold(1.0, f64::max);
+        let largest = (0..NC).filter(|&r| mask[r]).map(|r| delassus[(r, r)]).fold(0.0, f64::max);
+        let largest = if largest > 0.0 { largest } else { 1.0 };
         for (r, &on) in mask.iter().enumerate() {
             if !on && r < NC {
                 delassus[(r, r)] = largest;
@@ -388,6 +405,6 @@ impl<
         }
         let factor =
             PivotedCholesky::new(&delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
-        Ok(Kkt { jacobian, y, factor, mask })
+        Ok(Kkt { jacobian, y, delassus, factor, mask })
     }
 }

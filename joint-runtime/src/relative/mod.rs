@@ -114,6 +114,7 @@ mod implicit;
 mod kinematics;
 #[cfg(feature = "alloc")]
 mod linear;
+mod proximal;
 mod recursion;
 mod simulation;
 mod spatial;
@@ -126,6 +127,7 @@ pub use derivatives::{ForwardDerivatives, InverseDerivatives, SecondDerivatives}
 pub use dynamics::TreeEnergy;
 pub use impact::ImpulseDerivatives;
 pub use implicit::ForceGains;
+pub use proximal::Proximal;
 pub use simulation::{DIVERGED, TreeSimulation};
 pub use step_jacobian::{StepJacobian, StepWork};
 pub use topology::{JointLayout, Tree, TreeError};

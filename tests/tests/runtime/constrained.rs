@@ -401,3 +401,97 @@ fn the_parallelogram_linearises_exactly() {
         assert!((e.im.abs() - omega).abs() < 1e-10 && e.re.abs() < 1e-10, "{e} against ±{omega} i");
     }
 }
+
+/// The kit's serial four-bar with its contact declared twice: six rows of
+/// rank two.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+#[body(crank, mass = 0.3, inertia = [0.3 * 0.0004 / 2.0, 0.3 * (0.0012 + 0.09) / 12.0, 0.3 * (0.0012 + 0.09) / 12.0])]
+#[body(coupler, mass = 1.0, inertia = [0.0004 / 2.0, (0.0012 + 1.0) / 12.0, (0.0012 + 1.0) / 12.0])]
+#[body(rocker, mass = 0.8, inertia = [0.8 * 0.0004 / 2.0, 0.8 * (0.0012 + 0.64) / 12.0, 0.8 * (0.0012 + 0.64) / 12.0])]
+#[joint(a = revolute(ground, crank), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.15, 0, 0])]
+#[joint(b = revolute(crank, coupler), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.15, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(c = revolute(coupler, rocker), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.4, 0, 0])]
+#[contact(tip = point(rocker), at = [0.4, 0, 0], axes = local; again = point(rocker), at = [0.4, 0, 0], axes = local)]
+struct FourBarTwice;
+
+/// The proximal iterations give Pinocchio's `q̈` and least-norm `λ` (its
+/// own proximal solve's, the out-of-plane force zero) on the four-bar, and,
+/// with the contact declared twice, the same `q̈` and half the force on each
+/// copy, where the pivoted solve puts all of it on one.
+#[test]
+fn proximal_iterations_give_the_least_norm_forces() {
+    use joint_runtime::relative::Proximal;
+    let (once, twice) = (TreeSimulation::new(&FourBarSerial).unwrap(), TreeSimulation::new(&FourBarTwice).unwrap());
+    for sample in case("fourbar_serial")["samples"].as_array().unwrap() {
+        let state = TreeState {
+            q: SVector::from_column_slice(&numbers(&sample["q"])),
+            v: SVector::from_column_slice(&numbers(&sample["v"])),
+            t: 0.0,
+        };
+        let tau = SVector::from_column_slice(&numbers(&sample["tau"]));
+        let (qdd, lambda) = (matrix_of(&sample["ddq"]), matrix_of(&sample["lambda"]));
+        let mut one = ConstrainedDerivatives::zeros();
+        let iterations = once
+            .constrained_dynamics_proximal(&state, &tau, ActiveRows::all(), &Proximal::default(), &mut one)
+            .unwrap();
+        assert!(iterations <= 5, "{iterations}");
+        assert!(relative(&dense(&one.qdd), &qdd) < 1e-12 && relative(&dense(&one.lambda), &lambda) < 1e-12);
+        let mut two = ConstrainedDerivatives::zeros();
+        let iterations = twice
+            .constrained_dynamics_proximal(&state, &tau, ActiveRows::all(), &Proximal::default(), &mut two)
+            .unwrap();
+        assert_eq!(two.rank, 2);
+        assert!(relative(&dense(&two.qdd), &qdd) < 1e-10);
+        let half = &lambda * 0.5;
+        let split = relative(&dense(&two.lambda.fixed_rows::<3>(0).into_owned()), &half)
+            .max(relative(&dense(&two.lambda.fixed_rows::<3>(3).into_owned()), &half));
+        eprintln!("proximal: {iterations} iterations, each copy {split:.1e} from half the force");
+        assert!(split < 1e-9 && iterations <= 20);
+        // The pivoted solve: the same q̈, the force on one copy.
+        let mut basic = ConstrainedDerivatives::zeros();
+        twice.constrained_dynamics(&state, &tau, ActiveRows::all(), &mut basic).unwrap();
+        assert!(relative(&dense(&basic.qdd), &qdd) < 1e-12);
+        let sum = basic.lambda.fixed_rows::<3>(0) + basic.lambda.fixed_rows::<3>(3);
+        assert!(relative(&dense(&sum.into_owned()), &lambda) < 1e-12);
+    }
+}
+
+fn matrix_of(v: &Value) -> DMatrix<f64> {
+    DMatrix::from_column_slice(v.as_array().unwrap().len(), 1, &numbers(v))
+}
+
+/// The serial four-bar in both coordinates, with its contact.
+#[derive(Scene)]
+#[scene(gravity = [0, 0, -9.81], coordinates = both)]
+#[body(crank, mass = 0.3, inertia = [0.3 * 0.0004 / 2.0, 0.3 * (0.0012 + 0.09) / 12.0, 0.3 * (0.0012 + 0.09) / 12.0])]
+#[body(coupler, mass = 1.0, inertia = [0.0004 / 2.0, (0.0012 + 1.0) / 12.0, (0.0012 + 1.0) / 12.0])]
+#[body(rocker, mass = 0.8, inertia = [0.8 * 0.0004 / 2.0, 0.8 * (0.0012 + 0.64) / 12.0, 0.8 * (0.0012 + 0.64) / 12.0])]
+#[joint(a = revolute(ground, crank), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.15, 0, 0])]
+#[joint(b = revolute(crank, coupler), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.15, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(c = revolute(coupler, rocker), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.4, 0, 0])]
+#[contact(tip = point(rocker), at = [0.4, 0, 0], axes = local)]
+struct FourBarBoth;
+
+/// Contacts are rows of the tree alone: a `both` scene with one runs on the
+/// tree, where it holds, and its step keeps the rocker's tip still.
+#[test]
+fn a_scene_in_both_coordinates_with_contacts_runs_on_the_tree() {
+    use joint_runtime::dynamics::{NoLoads, Simulation, SimulationOptions};
+    let mut sim = Simulation::new(&FourBarBoth, NoLoads, &[], SimulationOptions::default()).unwrap();
+    let tree: &TreeSimulation<'_, FourBarBoth, 3, 3, 3, 3> = &sim;
+    let sample = &case("fourbar_serial")["samples"][0];
+    let mut state = TreeState {
+        q: SVector::from_column_slice(&numbers(&sample["q"])),
+        v: SVector::from_column_slice(&numbers(&sample["v"])),
+        t: 0.0,
+    };
+    let tip = |sim: &TreeSimulation<'_, FourBarBoth, 3, 3, 3, 3>, s: &TreeState<3, 3>| {
+        sim.system_state(s).bodies[2].point(&joint_runtime::nalgebra::Vector3::new(0.4, 0.0, 0.0))
+    };
+    let start = tip(tree, &state);
+    for _ in 0..200 {
+        sim.step(&mut state, 1e-3).unwrap();
+    }
+    assert!((tip(&sim, &state) - start).norm() < 1e-6, "{}", (tip(&sim, &state) - start).norm());
+}
