@@ -495,3 +495,38 @@ fn a_scene_in_both_coordinates_with_contacts_runs_on_the_tree() {
     }
     assert!((tip(&sim, &state) - start).norm() < 1e-6, "{}", (tip(&sim, &state) - start).norm());
 }
+
+/// An MJCF four-bar closed by `connect`, read as an ideal row.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
+struct FourBarConnect;
+
+/// A file's loop gets the same: its constrained dynamics' derivatives
+/// against central differences (the loop's rows with positions, Baumgarte's
+/// gains on), at a closed state.
+#[test]
+fn a_files_connect_has_exact_derivatives() {
+    use joint_runtime::dynamics::{SimulationOptions, Stabilisation};
+    let options = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 2.0, beta: 3.0 });
+    let sim = TreeSimulation::new(&FourBarConnect).unwrap().with_options(options).unwrap();
+    let mut guess = sim.tree().zero_state();
+    guess.v = SVector::from([1.0, -0.5, 0.7]);
+    let state = sim.assemble(&guess).unwrap();
+    let tau = SVector::from([0.3, -0.2, 0.1]);
+    let (mut work, mut out) = (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros());
+    sim.constrained_dynamics_derivatives(&state, &tau, ActiveRows::all(), &mut work, &mut out).unwrap();
+    let solve = |s: &TreeState<3, 3>, t: &SVector<f64, 3>| {
+        let mut o = ConstrainedDerivatives::<3, 2>::zeros();
+        sim.constrained_dynamics(s, t, ActiveRows::all(), &mut o).unwrap();
+        (o.qdd, o.lambda)
+    };
+    let moved = |q: &SVector<f64, 3>, d: &SVector<f64, 3>| sim.tree().displaced(q, d);
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| solve(s, t).0);
+    close(&out.d_q, &q, "∂q̈/∂q");
+    close(&out.d_v, &v, "∂q̈/∂v");
+    close(&out.d_tau, &t, "∂q̈/∂τ");
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| solve(s, t).1);
+    close(&out.lambda_q, &q, "∂λ/∂q");
+    close(&out.lambda_v, &v, "∂λ/∂v");
+    close(&out.lambda_tau, &t, "∂λ/∂τ");
+}
