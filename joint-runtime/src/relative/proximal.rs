@@ -23,17 +23,19 @@ pub struct Proximal {
     /// factor enters `S`'s null space and stays), each iteration shrinking
     /// the rest by `μ / (σ + μ)`: 1e-6 balances the two.
     pub mu: f64,
-    /// Stop when no force moved by more than this times the largest one (or 1).
+    /// Stop when no force moved by more than this times the largest one (or
+    /// 1). Above the rounding that enters `S`'s null space each iteration
+    /// (about `ε / μ`), or the iterations may not stop.
     pub tolerance: f64,
     /// At most this many iterations.
     pub max_iterations: usize,
 }
 
 impl Default for Proximal {
-    /// `μ = 1e-6` of `S`'s largest diagonal entry, tolerance `1e-12`, at
+    /// `μ = 1e-6` of `S`'s largest diagonal entry, tolerance `1e-9`, at
     /// most 50 iterations.
     fn default() -> Self {
-        Proximal { mu: 1e-6, tolerance: 1e-12, max_iterations: 50 }
+        Proximal { mu: 1e-6, tolerance: 1e-9, max_iterations: 50 }
     }
 }
 
