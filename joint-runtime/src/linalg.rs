@@ -113,12 +113,7 @@ impl<const N: usize> PivotedCholesky<N> {
             }
             // The trailing block is kept whole (both triangles) so that the
             // symmetric swaps of later steps stay valid.
-            for j in k + 1..N {
-                let ljk = w[(j, k)];
-                for i in k + 1..N {
-                    w[(i, j)] -= w[(i, k)] * ljk;
-                }
-            }
+            trailing_update(&mut w, k);
             rank = k + 1;
         }
         Ok(PivotedCholesky { factor: w, perm, rank, max_pivot })
@@ -164,12 +159,7 @@ impl<const N: usize> PivotedCholesky<N> {
             for i in k + 1..N {
                 w[(i, k)] /= l;
             }
-            for j in k + 1..N {
-                let ljk = w[(j, k)];
-                for i in k + 1..N {
-                    w[(i, j)] -= w[(i, k)] * ljk;
-                }
-            }
+            trailing_update(&mut w, k);
         }
         Ok(PivotedCholesky { factor: w, perm: *order, rank, max_pivot })
     }
@@ -236,6 +226,70 @@ impl<const N: usize> PivotedCholesky<N> {
             }
         }
         x
+    }
+
+    /// The matrix that [`solve`](Self::solve) applies: `A`'s kept block
+    /// inverted, zero on the dropped indices' rows and columns (the inverse
+    /// itself at full rank). One triangular inverse and one product, where
+    /// `N` solves would repeat the factor's traversal `N` times.
+    ///
+    /// ```
+    /// use joint_runtime::linalg::PivotedCholesky;
+    /// use joint_runtime::nalgebra::Matrix3;
+    ///
+    /// // Row 2 repeats row 0: dropped, and the kept block [[2, 1], [1, 2]] inverted.
+    /// let a = Matrix3::new(2.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0);
+    /// let inverse = PivotedCholesky::new(&a, 1e-12)?.inverse();
+    /// let kept = Matrix3::new(2.0, -1.0, 0.0, -1.0, 2.0, 0.0, 0.0, 0.0, 0.0) / 3.0;
+    /// assert!((inverse - kept).amax() < 1e-15);
+    /// # Ok::<(), joint_runtime::linalg::LinalgError>(())
+    /// ```
+    pub fn inverse(&self) -> SMatrix<f64, N, N> {
+        let r = self.rank.min(N);
+        // T = L11⁻¹, lower triangular, column by column (pivoted order).
+        let mut t = SMatrix::<f64, N, N>::zeros();
+        for j in 0..r {
+            t[(j, j)] = 1.0 / self.factor[(j, j)];
+            for i in j + 1..r {
+                let mut s = 0.0;
+                for k in j..i {
+                    s -= self.factor[(i, k)] * t[(k, j)];
+                }
+                t[(i, j)] = s / self.factor[(i, i)];
+            }
+        }
+        // (L11 L11ᵀ)⁻¹ = Tᵀ T, scattered back to the original order.
+        let mut out = SMatrix::<f64, N, N>::zeros();
+        for a in 0..r {
+            for b in 0..=a {
+                let mut s = 0.0;
+                for k in a..r {
+                    s += t[(k, a)] * t[(k, b)];
+                }
+                let (pa, pb) = (self.perm[a], self.perm[b]);
+                if pa < N && pb < N {
+                    out[(pa, pb)] = s;
+                    out[(pb, pa)] = s;
+                }
+            }
+        }
+        out
+    }
+}
+
+/// `W[i, j] −= W[i, k] W[j, k]` for `i, j > k`: Cholesky's update of the
+/// trailing block after step `k`, a column at a time on contiguous slices
+/// (the processor's vector lanes; each entry gets the same operations in
+/// the same order as an entry-by-entry loop, so the same bits).
+fn trailing_update<const N: usize>(w: &mut SMatrix<f64, N, N>, k: usize) {
+    let columns = &mut w.data.0;
+    let (head, tail) = columns.split_at_mut(k + 1);
+    let Some(pivot_column) = head.last() else { return };
+    let below = pivot_column.get(k + 1..).unwrap_or(&[]);
+    for (column, ljk) in tail.iter_mut().zip(below) {
+        for (target, lik) in column.get_mut(k + 1..).unwrap_or(&mut []).iter_mut().zip(below) {
+            *target -= lik * ljk;
+        }
     }
 }
 
@@ -383,6 +437,24 @@ mod tests {
         let f = PivotedCholesky::new(&(j * j.transpose()), DEFAULT_RANK_TOLERANCE).unwrap();
         assert_eq!(f.rank(), 3);
         assert_eq!(f.dropped().len(), 2);
+    }
+
+    #[test]
+    fn inverse_is_what_solve_applies() {
+        // Rank 4 of 7, and full rank: column j of `inverse` is `solve(e_j)`,
+        // and on the kept block it inverts `A` (A X A = A there).
+        let mut rng = Rng(19);
+        for rank in [4, 7] {
+            let a = psd::<7>(&mut rng, rank);
+            let f = PivotedCholesky::new(&a, DEFAULT_RANK_TOLERANCE).unwrap();
+            let inverse = f.inverse();
+            for j in 0..7 {
+                let e = SVector::<f64, 7>::from_fn(|i, _| f64::from(u8::from(i == j)));
+                assert!((inverse.column(j) - f.solve(&e)).amax() < 1e-9 * inverse.amax());
+            }
+            assert!((a * inverse * a - a).amax() < 1e-9 * a.amax());
+            assert_eq!(inverse, inverse.transpose());
+        }
     }
 
     #[test]

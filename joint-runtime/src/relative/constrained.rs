@@ -6,15 +6,18 @@
 //! ([`ActiveRows`]: a mask over the closures' blocks, chosen per call, no
 //! rebuild), with `γ̃` Baumgarte's when the simulation's options ask
 //! (`γ − 2α (J v + Φ_t) − β² Φ`; a contact has no `Φ`). The solve is the
-//! range-space one: `M = L Lᵀ` by hand, `Y = M⁻¹ Jᵀ`, the Delassus matrix
+//! range-space one: `M` factorised, `Y = M⁻¹ Jᵀ`, the Delassus matrix
 //! `S = J Y` factorised with pivots (rows that depend on others to the
 //! options' rank tolerance dropped, so a planar loop closed by a point, or
 //! redundant contacts, keep an exact `q̈` and give the dropped rows no force);
-//! an inactive row gets the identity in `S` and no force. Decision
-//! (measured on the kit's cases, see the guide's "Contacts and closed loops"):
-//! the dense range-space solve, because at the sizes legged robots have
-//! (`NV ≤ 40`, rows ≤ 24) the `M⁻¹` it forms is wanted by the derivatives
-//! anyway, where a constrained articulated-body pass would give `q̈` alone.
+//! an inactive row gets the identity in `S` and no force. Where the tree
+//! branches (a floating base with legs) `M = Lᵀ D L` along the tree
+//! (Featherstone's LTDL, `factor.rs`): no fill-in, and `J`'s rows go through
+//! `L⁻ᵀ` all at once as contiguous `axpy`s; on a chain, where the factor has
+//! no zeros to skip, a dense `M⁻¹` is faster (measured on the kit's cases,
+//! see the guide's "Contacts and closed loops"). Decision: a range-space
+//! solve rather than a constrained articulated-body pass, because the
+//! derivatives need `M⁻¹` and `S⁻¹` anyway, where that pass gives `q̈` alone.
 //!
 //! The derivatives differentiate the KKT system itself. With `F = ID(q, v,
 //! q̈) − τ − Jᵀλ = 0` and `G = J q̈ − γ̃ = 0`, for each input `x`:
@@ -30,6 +33,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::derivatives::spd_inverse;
+use super::factor::{MassFactor, TreeFactor};
 use super::{InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::SecondOrder;
 use crate::dynamics::Stabilisation;
@@ -146,7 +150,7 @@ impl<const NV: usize, const NC: usize> ConstrainedDerivatives<NV, NC> {
 }
 
 /// The solve's pieces that the derivatives reuse.
-pub(super) struct Kkt<const NV: usize, const NC: usize> {
+pub(super) struct Kkt<'a, const NV: usize, const NC: usize> {
     /// `J` with inactive rows zero.
     pub(super) jacobian: SMatrix<f64, NC, NV>,
     /// `Y = M⁻¹ Jᵀ`.
@@ -155,26 +159,22 @@ pub(super) struct Kkt<const NV: usize, const NC: usize> {
     pub(super) delassus: SMatrix<f64, NC, NC>,
     /// `S`, pivoted.
     pub(super) factor: PivotedCholesky<NC>,
+    /// `M`, factorised along the tree.
+    pub(super) mass: MassFactor<'a, NV>,
     /// Which rows hold.
     pub(super) mask: [bool; NC],
 }
 
-impl<const NV: usize, const NC: usize> Kkt<NV, NC> {
-    /// `S⁻¹`, column by column from the factor: zero on dropped rows, the
-    /// inverse of the kept block elsewhere (a solve by it is the factor's).
-    pub(super) fn inverse(&self) -> SMatrix<f64, NC, NC> {
-        let mut out = SMatrix::<f64, NC, NC>::zeros();
-        for c in 0..NC {
-            let e = SVector::<f64, NC>::from_fn(|r, _| if r == c { 1.0 } else { 0.0 });
-            out.set_column(c, &self.factor.solve(&e));
-        }
-        out
-    }
-
+impl<const NV: usize, const NC: usize> Kkt<'_, NV, NC> {
     /// The rows that hold and were kept (inactive rows are pivots of their own).
     pub(super) fn rank(&self) -> usize {
         let inactive = self.mask.iter().filter(|on| !**on).count();
         self.factor.rank().saturating_sub(inactive)
+    }
+
+    /// `M⁻¹`, dense (what the derivatives multiply by).
+    pub(super) fn mass_inverse(&self) -> SMatrix<f64, NV, NV> {
+        self.mass.inverse()
     }
 }
 
@@ -189,7 +189,7 @@ impl<
 {
     /// `q̈` and `λ` at `state` under joint forces `tau` with the rows of
     /// `active` holding, into `out.qdd` and `out.lambda` (the derivatives
-    /// untouched); `out.d_tau` holds `M⁻¹` after the call. The tree's own
+    /// untouched). The tree's own
     /// dynamics: [`TreeError::Loaded`] with springs or user loads.
     /// Allocation-free.
     ///
@@ -271,8 +271,8 @@ impl<
         }
         // S⁻¹ once (its pseudo-inverse over the kept rows), then products:
         // Cᵀ = S⁻¹ Yᵀ, dλ = S⁻¹ r₂ − Cᵀ r₁, dq̈ = M⁻¹ r₁ + Y dλ.
-        let minv = out.d_tau;
-        let sinv = kkt.inverse();
+        let minv = kkt.mass_inverse();
+        let sinv = kkt.factor.inverse();
         let ct = sinv * kkt.y.transpose();
         out.lambda_q = sinv * r2_q - ct * r1_q;
         out.d_q = minv * r1_q + kkt.y * out.lambda_q;
@@ -326,15 +326,16 @@ impl<
         })
     }
 
-    /// `q̈`, `λ` and `M⁻¹` (in `out.d_tau`), and the factor the derivatives reuse.
+    /// `q̈` and `λ`, and the factors the derivatives reuse.
+    #[inline(always)]
     fn solve_kkt(
         &self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
         active: ActiveRows,
         out: &mut ConstrainedDerivatives<NV, NC>,
-    ) -> Result<Kkt<NV, NC>, TreeError> {
-        let (kkt, free, r) = self.kkt_system(state, tau, active, &mut out.d_tau)?;
+    ) -> Result<Kkt<'_, NV, NC>, TreeError> {
+        let (kkt, free, r) = self.kkt_system(state, tau, active)?;
         out.lambda = kkt.factor.solve(&r);
         out.qdd = free + kkt.y * out.lambda;
         out.rank = kkt.rank();
@@ -345,14 +346,15 @@ impl<
     }
 
     /// The KKT system at `state`: the factor, the tree's own `q̈` and the
-    /// right side `S λ = γ̃ − J q̈_free` (zero on inactive rows); `M⁻¹` into `minv`.
+    /// right side `S λ = γ̃ − J q̈_free` (zero on inactive rows).
+    #[allow(clippy::type_complexity)]
+    #[inline(always)]
     pub(super) fn kkt_system(
         &self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
         active: ActiveRows,
-        minv: &mut SMatrix<f64, NV, NV>,
-    ) -> Result<(Kkt<NV, NC>, SVector<f64, NV>, SVector<f64, NC>), TreeError> {
+    ) -> Result<(Kkt<'_, NV, NC>, SVector<f64, NV>, SVector<f64, NC>), TreeError> {
         let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
         if !numbers.copied().all(f64::is_finite) {
             return Err(TreeError::NonFinite);
@@ -364,27 +366,26 @@ impl<
         let rows = self.closure_rows(state);
         let (alpha, beta) = self.gains();
         let gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
-        let kkt = self.delassus(state, &rows.jacobian, active, minv)?;
-        let free = *minv * (tau - bias);
+        let kkt = self.delassus(state, &rows.jacobian, active)?;
+        let free = kkt.mass.solve(&(tau - bias));
         let gamma = SVector::<f64, NC>::from_fn(|r, _| if kkt.mask[r] { gamma[r] } else { 0.0 });
         let r = gamma - kkt.jacobian * free;
         Ok((kkt, free, r))
     }
 
-    /// `M⁻¹` into `minv` and the Delassus matrix `S = J M⁻¹ Jᵀ` of the
-    /// active rows of `jacobian` factorised (an inactive row: zero in `J`,
-    /// the identity in `S`).
+    /// `M` factorised (along the tree where it branches, dense on a chain)
+    /// and the Delassus matrix `S = J M⁻¹ Jᵀ` of the active rows of
+    /// `jacobian` factorised (an inactive row: zero in `J`, the identity in
+    /// `S`).
+    #[inline(always)]
     pub(super) fn delassus(
         &self,
         state: &TreeState<NQ, NV>,
         jacobian: &SMatrix<f64, NC, NV>,
         active: ActiveRows,
-        minv: &mut SMatrix<f64, NV, NV>,
-    ) -> Result<Kkt<NV, NC>, TreeError> {
+    ) -> Result<Kkt<'_, NV, NC>, TreeError> {
         let mut m = SMatrix::<f64, NV, NV>::zeros();
         self.mass_matrix_into(&state.q, &mut m);
-        let joint = self.tree().joints.first().map_or("", |j| j.name);
-        spd_inverse(&m, minv).ok_or(TreeError::Singular { joint })?;
         let mask = active.row_mask::<NC>(S::CLOSURES);
         let mut jacobian = *jacobian;
         for (r, &on) in mask.iter().enumerate() {
@@ -392,10 +393,20 @@ impl<
                 jacobian.row_mut(r).fill(0.0);
             }
         }
-        let y = *minv * jacobian.transpose();
-        let mut delassus = jacobian * y;
-        // An inactive row's pivot: as large as the largest active one, so
-        // that the rank decision never drops it.
+        let singular = TreeError::Singular { joint: self.tree().joints.first().map_or("", |j| j.name) };
+        let (mass, y, mut delassus) = if self.tree().freedoms.is_chain() {
+            // A chain couples every freedom with every other: no sparsity to
+            // use, and the dense inverse's products have no index work.
+            let mut minv = SMatrix::<f64, NV, NV>::zeros();
+            spd_inverse(&m, &mut minv).ok_or(singular)?;
+            let y = minv * jacobian.transpose();
+            let delassus = jacobian * y;
+            (MassFactor::Dense(minv), y, delassus)
+        } else {
+            let tree = TreeFactor::new(&m, &self.tree().freedoms).ok_or(singular)?;
+            let (y, delassus) = tree_delassus(&tree, &jacobian);
+            (MassFactor::Tree(tree), y, delassus)
+        };
         let largest = (0..NC).filter(|&r| mask[r]).map(|r| delassus[(r, r)]).fold(0.0, f64::max);
         let largest = if largest > 0.0 { largest } else { 1.0 };
         for (r, &on) in mask.iter().enumerate() {
@@ -405,6 +416,31 @@ impl<
         }
         let factor =
             PivotedCholesky::new(&delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
-        Ok(Kkt { jacobian, y, delassus, factor, mask })
+        Ok(Kkt { jacobian, y, delassus, factor, mass, mask })
     }
+}
+
+/// `Y = M⁻¹ Jᵀ` and `S = J Y` from `M = Lᵀ D L`: `J` stored by column is
+/// `Jᵀ` by freedom; through `L⁻ᵀ` it is `W = J L⁻¹` (by column), `S = Σ_k
+/// W[:, k] W[:, k]ᵀ / D_k`, and through `D⁻¹` and `L⁻¹` it is `Y` (by
+/// freedom: `Yᵀ` by column).
+fn tree_delassus<const NV: usize, const NC: usize>(
+    mass: &TreeFactor<'_, NV>,
+    jacobian: &SMatrix<f64, NC, NV>,
+) -> (SMatrix<f64, NV, NC>, SMatrix<f64, NC, NC>) {
+    let mut w = jacobian.data.0;
+    mass.solve_lt(&mut w);
+    let mut delassus = SMatrix::<f64, NC, NC>::zeros();
+    let mut scaled = w;
+    mass.scale(&mut scaled);
+    for (column, row) in w.iter().zip(&scaled) {
+        for (c, target) in delassus.data.0.iter_mut().enumerate() {
+            let a = row[c];
+            for (s, x) in target.iter_mut().zip(column) {
+                *s += a * x;
+            }
+        }
+    }
+    mass.solve_l(&mut scaled);
+    (SMatrix::<f64, NC, NV>::from_data(nalgebra::ArrayStorage(scaled)).transpose(), delassus)
 }

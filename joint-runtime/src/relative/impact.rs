@@ -85,7 +85,8 @@ impl<
         work: &mut InverseDerivatives<NV>,
         out: &mut ImpulseDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        let (kkt, minv) = self.impulses(state, active, restitution, out)?;
+        let kkt = self.impulses(state, active, restitution, out)?;
+        let minv = kkt.mass_inverse();
         // ∂(M w)/∂q: Newton–Euler's ∂τ/∂q at rest with accelerations w, less at rest alone.
         let rest = TreeState { v: SVector::zeros(), ..*state };
         self.derivatives_at(&rest, &(out.v_after - state.v), work)?;
@@ -101,7 +102,7 @@ impl<
                 r2_q.row_mut(r).fill(0.0);
             }
         }
-        let sinv = kkt.inverse();
+        let sinv = kkt.factor.inverse();
         out.impulse_q = sinv * (r2_q - kkt.y.transpose() * r1_q);
         out.v_after_q = minv * r1_q + kkt.y * out.impulse_q;
         // ∂Λ/∂v = −(1 + e) S⁻¹ J, ∂v⁺/∂v = I + Y ∂Λ/∂v.
@@ -114,26 +115,25 @@ impl<
         Ok(())
     }
 
-    /// `v⁺` and `Λ` into `out`; the factor and `M⁻¹` for the derivatives.
+    /// `v⁺` and `Λ` into `out`; the factors for the derivatives.
     fn impulses(
         &self,
         state: &TreeState<NQ, NV>,
         active: ActiveRows,
         restitution: f64,
         out: &mut ImpulseDerivatives<NV, NC>,
-    ) -> Result<(super::constrained::Kkt<NV, NC>, SMatrix<f64, NV, NV>), TreeError> {
+    ) -> Result<super::constrained::Kkt<'_, NV, NC>, TreeError> {
         let numbers = state.q.iter().chain(state.v.iter());
         if !(numbers.copied().all(f64::is_finite) && (0.0..=1.0).contains(&restitution)) {
             return Err(TreeError::NonFinite);
         }
         let rows = self.closure_rows(state);
-        let mut minv = SMatrix::<f64, NV, NV>::zeros();
-        let kkt = self.delassus(state, &rows.jacobian, active, &mut minv)?;
+        let kkt = self.delassus(state, &rows.jacobian, active)?;
         out.impulse = kkt.factor.solve(&(kkt.jacobian * state.v * -(1.0 + restitution)));
         out.v_after = state.v + kkt.y * out.impulse;
         if !out.v_after.iter().chain(out.impulse.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
         }
-        Ok((kkt, minv))
+        Ok(kkt)
     }
 }

@@ -109,6 +109,7 @@
 mod constrained;
 mod derivatives;
 mod dynamics;
+mod factor;
 mod impact;
 mod implicit;
 mod kinematics;

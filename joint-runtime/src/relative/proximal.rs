@@ -64,7 +64,7 @@ impl<
         if !(proximal.mu > 0.0 && proximal.mu.is_finite()) {
             return Err(TreeError::NonFinite);
         }
-        let (kkt, free, r) = self.kkt_system(state, tau, active, &mut out.d_tau)?;
+        let (kkt, free, r) = self.kkt_system(state, tau, active)?;
         let mut shifted = kkt.delassus;
         let scale = (0..NC).map(|i| shifted[(i, i)]).fold(0.0, f64::max);
         let mu = proximal.mu * if scale > 0.0 { scale } else { 1.0 };

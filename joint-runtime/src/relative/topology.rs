@@ -5,6 +5,7 @@ use core::fmt;
 
 use nalgebra::{Matrix3, Matrix6, SVector, Unit, UnitQuaternion, Vector3, Vector4};
 
+use super::factor::FreedomTree;
 use super::kinematics::Subspace;
 use super::spatial::{link_inertia, split};
 use super::{TreeGeometry, TreeJoint, TreeJointKind, TreeScene, TreeState};
@@ -234,6 +235,8 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
     pub(crate) subspace: [Subspace; NB],
     pub(crate) q_at: [usize; NB],
     pub(crate) v_at: [usize; NB],
+    /// The freedoms as a tree (what the mass matrix's factor walks).
+    pub(crate) freedoms: FreedomTree<NV>,
     pub(crate) gravity: Vector3<f64>,
     /// Each body's gravity compensation (`TreeScene::tree_compensation`),
     /// in the scene's body order; `None` when every one is zero.
@@ -243,6 +246,29 @@ pub struct Tree<const NB: usize, const NQ: usize, const NV: usize> {
 }
 
 impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
+    /// Each freedom's parent freedom (see `FreedomTree`); joints come
+    /// parents first, so a parent's index is always the smaller.
+    fn freedom_parents(&self) -> [Option<usize>; NV] {
+        let freedoms = |k: usize| self.joints.get(k).map_or(0, |j| j.kind.freedoms());
+        let last = |k: usize| self.v_at.get(k).map(|at| at + freedoms(k)).and_then(|end| end.checked_sub(1));
+        let mut out = [None; NV];
+        for k in 0..NB {
+            let mut above = self.parent[k];
+            while let Some(p) = above.filter(|&p| p < k && freedoms(p) == 0) {
+                above = self.parent.get(p).copied().flatten();
+            }
+            let mut previous = above.and_then(last);
+            for i in 0..freedoms(k) {
+                let at = self.v_at[k] + i;
+                if let Some(slot) = out.get_mut(at) {
+                    *slot = previous;
+                }
+                previous = Some(at);
+            }
+        }
+        out
+    }
+
     /// The tree of a scene.
     pub fn of<S: TreeScene<NB, NQ, NV, NC>, const NC: usize>(scene: &S) -> Result<Self, TreeError> {
         let mut tree = Tree::new(scene.tree_joints(), scene.tree_inertias(), scene.tree_gravity())?;
@@ -269,6 +295,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             subspace: [Subspace::of(&[]); NB],
             q_at: [0; NB],
             v_at: [0; NB],
+            freedoms: FreedomTree::new([None; NV]),
             gravity,
             compensation: None,
             geometry: TreeGeometry {
@@ -340,6 +367,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         if nq != NQ || nv != NV {
             return Err(TreeError::Sizes { coordinates: nq, freedoms: nv });
         }
+        tree.freedoms = FreedomTree::new(tree.freedom_parents());
         Ok(tree)
     }
 
