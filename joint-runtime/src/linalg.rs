@@ -72,6 +72,12 @@ pub struct PivotedCholesky<const N: usize> {
 }
 
 impl<const N: usize> PivotedCholesky<N> {
+    /// The factor of nothing (rank 0): room that a later
+    /// [`new`](Self::new) replaces.
+    pub(crate) fn empty() -> Self {
+        PivotedCholesky { factor: SMatrix::zeros(), perm: core::array::from_fn(|i| i), rank: 0, max_pivot: 0.0 }
+    }
+
     /// Factorises the symmetric part `(A + Aᵀ)/2` of `a`. `tolerance` is relative to
     /// the largest pivot (see [`DEFAULT_RANK_TOLERANCE`]); a negative or NaN
     /// tolerance is treated as zero.

@@ -32,8 +32,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::derivatives::spd_inverse;
-use super::factor::{MassFactor, TreeFactor};
+use super::factor::{FreedomTree, MassFactor};
 use super::{InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::SecondOrder;
 use crate::dynamics::Stabilisation;
@@ -159,13 +158,27 @@ pub(super) struct Kkt<'a, const NV: usize, const NC: usize> {
     pub(super) delassus: SMatrix<f64, NC, NC>,
     /// `S`, pivoted.
     pub(super) factor: PivotedCholesky<NC>,
-    /// `M`, factorised along the tree.
+    /// `M`, factorised.
     pub(super) mass: MassFactor<'a, NV>,
     /// Which rows hold.
     pub(super) mask: [bool; NC],
 }
 
-impl<const NV: usize, const NC: usize> Kkt<'_, NV, NC> {
+impl<'a, const NV: usize, const NC: usize> Kkt<'a, NV, NC> {
+    /// Room for the solve over `tree`'s freedoms, filled in place by
+    /// `TreeSimulation::delassus` (a few kilobytes: built where they stay,
+    /// not returned through the calls).
+    pub(super) fn new(tree: &'a FreedomTree<NV>) -> Self {
+        Kkt {
+            jacobian: SMatrix::zeros(),
+            y: SMatrix::zeros(),
+            delassus: SMatrix::zeros(),
+            factor: PivotedCholesky::empty(),
+            mass: MassFactor::new(tree),
+            mask: [false; NC],
+        }
+    }
+
     /// The rows that hold and were kept (inactive rows are pivots of their own).
     pub(super) fn rank(&self) -> usize {
         let inactive = self.mask.iter().filter(|on| !**on).count();
@@ -174,7 +187,9 @@ impl<const NV: usize, const NC: usize> Kkt<'_, NV, NC> {
 
     /// `M⁻¹`, dense (what the derivatives multiply by).
     pub(super) fn mass_inverse(&self) -> SMatrix<f64, NV, NV> {
-        self.mass.inverse()
+        let mut out = SMatrix::zeros();
+        self.mass.inverse_into(&mut out);
+        out
     }
 }
 
@@ -222,7 +237,8 @@ impl<
         active: ActiveRows,
         out: &mut ConstrainedDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        self.solve_kkt(state, tau, active, out).map(|_| ())
+        let mut kkt = Kkt::new(&self.tree().freedoms);
+        self.solve_kkt(state, tau, active, out, &mut kkt)
     }
 
     /// The constrained dynamics and their exact first derivatives at
@@ -240,7 +256,8 @@ impl<
         work: &mut InverseDerivatives<NV>,
         out: &mut ConstrainedDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        let kkt = self.solve_kkt(state, tau, active, out)?;
+        let mut kkt = Kkt::new(&self.tree().freedoms);
+        self.solve_kkt(state, tau, active, out, &mut kkt)?;
         let (alpha, beta) = self.gains();
         self.derivatives_at(state, &out.qdd, work)?;
         let u = out.qdd + state.v * (2.0 * alpha);
@@ -334,27 +351,28 @@ impl<
         tau: &SVector<f64, NV>,
         active: ActiveRows,
         out: &mut ConstrainedDerivatives<NV, NC>,
-    ) -> Result<Kkt<'_, NV, NC>, TreeError> {
-        let (kkt, free, r) = self.kkt_system(state, tau, active)?;
+        kkt: &mut Kkt<'_, NV, NC>,
+    ) -> Result<(), TreeError> {
+        let (free, r) = self.kkt_system(state, tau, active, kkt)?;
         out.lambda = kkt.factor.solve(&r);
         out.qdd = free + kkt.y * out.lambda;
         out.rank = kkt.rank();
         if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
         }
-        Ok(kkt)
+        Ok(())
     }
 
-    /// The KKT system at `state`: the factor, the tree's own `q̈` and the
-    /// right side `S λ = γ̃ − J q̈_free` (zero on inactive rows).
-    #[allow(clippy::type_complexity)]
+    /// The KKT system at `state` into `kkt`, and the tree's own `q̈` and
+    /// the right side `S λ = γ̃ − J q̈_free` (zero on inactive rows).
     #[inline(always)]
     pub(super) fn kkt_system(
         &self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
         active: ActiveRows,
-    ) -> Result<(Kkt<'_, NV, NC>, SVector<f64, NV>, SVector<f64, NC>), TreeError> {
+        kkt: &mut Kkt<'_, NV, NC>,
+    ) -> Result<(SVector<f64, NV>, SVector<f64, NC>), TreeError> {
         let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
         if !numbers.copied().all(f64::is_finite) {
             return Err(TreeError::NonFinite);
@@ -366,81 +384,47 @@ impl<
         let rows = self.closure_rows(state);
         let (alpha, beta) = self.gains();
         let gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
-        let kkt = self.delassus(state, &rows.jacobian, active)?;
+        self.delassus(state, &rows.jacobian, active, kkt)?;
         let free = kkt.mass.solve(&(tau - bias));
         let gamma = SVector::<f64, NC>::from_fn(|r, _| if kkt.mask[r] { gamma[r] } else { 0.0 });
         let r = gamma - kkt.jacobian * free;
-        Ok((kkt, free, r))
+        Ok((free, r))
     }
 
     /// `M` factorised (along the tree where it branches, dense on a chain)
     /// and the Delassus matrix `S = J M⁻¹ Jᵀ` of the active rows of
     /// `jacobian` factorised (an inactive row: zero in `J`, the identity in
-    /// `S`).
+    /// `S`), into `kkt`.
     #[inline(always)]
     pub(super) fn delassus(
         &self,
         state: &TreeState<NQ, NV>,
         jacobian: &SMatrix<f64, NC, NV>,
         active: ActiveRows,
-    ) -> Result<Kkt<'_, NV, NC>, TreeError> {
+        kkt: &mut Kkt<'_, NV, NC>,
+    ) -> Result<(), TreeError> {
         let mut m = SMatrix::<f64, NV, NV>::zeros();
         self.mass_matrix_into(&state.q, &mut m);
-        let mask = active.row_mask::<NC>(S::CLOSURES);
-        let mut jacobian = *jacobian;
-        for (r, &on) in mask.iter().enumerate() {
+        let singular = TreeError::Singular { joint: self.tree().joints.first().map_or("", |j| j.name) };
+        kkt.mass.factorise(&m).ok_or(singular)?;
+        kkt.mask = active.row_mask::<NC>(S::CLOSURES);
+        kkt.jacobian = *jacobian;
+        for (r, &on) in kkt.mask.iter().enumerate() {
             if !on && r < NC {
-                jacobian.row_mut(r).fill(0.0);
+                kkt.jacobian.row_mut(r).fill(0.0);
             }
         }
-        let singular = TreeError::Singular { joint: self.tree().joints.first().map_or("", |j| j.name) };
-        let (mass, y, mut delassus) = if self.tree().freedoms.is_chain() {
-            // A chain couples every freedom with every other: no sparsity to
-            // use, and the dense inverse's products have no index work.
-            let mut minv = SMatrix::<f64, NV, NV>::zeros();
-            spd_inverse(&m, &mut minv).ok_or(singular)?;
-            let y = minv * jacobian.transpose();
-            let delassus = jacobian * y;
-            (MassFactor::Dense(minv), y, delassus)
-        } else {
-            let tree = TreeFactor::new(&m, &self.tree().freedoms).ok_or(singular)?;
-            let (y, delassus) = tree_delassus(&tree, &jacobian);
-            (MassFactor::Tree(tree), y, delassus)
-        };
-        let largest = (0..NC).filter(|&r| mask[r]).map(|r| delassus[(r, r)]).fold(0.0, f64::max);
+        kkt.mass.delassus_into(&kkt.jacobian, &mut kkt.y, &mut kkt.delassus);
+        let mask = &kkt.mask;
+        let largest = (0..NC).filter(|&r| mask[r]).map(|r| kkt.delassus[(r, r)]).fold(0.0, f64::max);
         let largest = if largest > 0.0 { largest } else { 1.0 };
         for (r, &on) in mask.iter().enumerate() {
             if !on && r < NC {
-                delassus[(r, r)] = largest;
+                kkt.delassus[(r, r)] = largest;
             }
         }
-        let factor =
-            PivotedCholesky::new(&delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
-        Ok(Kkt { jacobian, y, delassus, factor, mass, mask })
+        kkt.factor =
+            PivotedCholesky::new(&kkt.delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
+        Ok(())
     }
-}
-
-/// `Y = M⁻¹ Jᵀ` and `S = J Y` from `M = Lᵀ D L`: `J` stored by column is
-/// `Jᵀ` by freedom; through `L⁻ᵀ` it is `W = J L⁻¹` (by column), `S = Σ_k
-/// W[:, k] W[:, k]ᵀ / D_k`, and through `D⁻¹` and `L⁻¹` it is `Y` (by
-/// freedom: `Yᵀ` by column).
-fn tree_delassus<const NV: usize, const NC: usize>(
-    mass: &TreeFactor<'_, NV>,
-    jacobian: &SMatrix<f64, NC, NV>,
-) -> (SMatrix<f64, NV, NC>, SMatrix<f64, NC, NC>) {
-    let mut w = jacobian.data.0;
-    mass.solve_lt(&mut w);
-    let mut delassus = SMatrix::<f64, NC, NC>::zeros();
-    let mut scaled = w;
-    mass.scale(&mut scaled);
-    for (column, row) in w.iter().zip(&scaled) {
-        for (c, target) in delassus.data.0.iter_mut().enumerate() {
-            let a = row[c];
-            for (s, x) in target.iter_mut().zip(column) {
-                *s += a * x;
-            }
-        }
-    }
-    mass.solve_l(&mut scaled);
-    (SMatrix::<f64, NC, NV>::from_data(nalgebra::ArrayStorage(scaled)).transpose(), delassus)
 }

@@ -57,92 +57,76 @@ impl<const NV: usize> FreedomTree<NV> {
     }
 }
 
-/// `M` ready to solve by: factorised along the tree, or inverted densely
-/// (a chain, where the factor has no zeros to skip).
+/// `M` ready to solve by, in place: `M = Lᵀ D L` along the tree, or on a
+/// chain (where that factor has no zeros to skip and the dense inverse's
+/// products have no index work) `M⁻¹` itself.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum MassFactor<'a, const NV: usize> {
-    /// `M = Lᵀ D L`.
-    Tree(TreeFactor<'a, NV>),
-    /// `M⁻¹`.
-    Dense(SMatrix<f64, NV, NV>),
-}
-
-impl<const NV: usize> MassFactor<'_, NV> {
-    /// `M⁻¹ b`.
-    pub(super) fn solve(&self, b: &SVector<f64, NV>) -> SVector<f64, NV> {
-        match self {
-            MassFactor::Tree(factor) => factor.solve(b),
-            MassFactor::Dense(inverse) => inverse * b,
-        }
-    }
-
-    /// `M⁻¹`.
-    pub(super) fn inverse(&self) -> SMatrix<f64, NV, NV> {
-        match self {
-            MassFactor::Tree(factor) => {
-                let mut out = SMatrix::zeros();
-                factor.inverse_into(&mut out);
-                out
-            }
-            MassFactor::Dense(inverse) => *inverse,
-        }
-    }
-}
-
-/// `M = Lᵀ D L` over a tree's freedoms (see the module).
-#[derive(Clone, Copy, Debug)]
-pub(super) struct TreeFactor<'a, const NV: usize> {
-    /// Column-major: `h[c][r]` for `r > c` is `L(r, c)` (zero unless `c` is
-    /// an ancestor of `r`), `h[r][r]` is `D(r)`; above the diagonal unused.
+pub(super) struct MassFactor<'a, const NV: usize> {
+    /// Column-major. Along the tree: `h[c][r]` for `r > c` is `L(r, c)`
+    /// (zero unless `c` is an ancestor of `r`), `h[r][r]` is `D(r)`, above
+    /// the diagonal unused. Dense: `M⁻¹`.
     h: [[f64; NV]; NV],
     tree: &'a FreedomTree<NV>,
+    dense: bool,
 }
 
-impl<'a, const NV: usize> TreeFactor<'a, NV> {
-    /// Factorises `m` (only the entries between a freedom and its ancestors
-    /// are read); `None` if a pivot is not positive and finite (`M` not
-    /// positive definite: a massless chain).
-    pub(super) fn new(m: &SMatrix<f64, NV, NV>, tree: &'a FreedomTree<NV>) -> Option<Self> {
+impl<'a, const NV: usize> MassFactor<'a, NV> {
+    /// Not yet factorised (zero): [`factorise`](Self::factorise) fills it.
+    pub(super) fn new(tree: &'a FreedomTree<NV>) -> Self {
+        MassFactor { h: [[0.0; NV]; NV], tree, dense: tree.is_chain() }
+    }
+
+    /// Factorises `m` (along the tree, only the entries between a freedom
+    /// and its ancestors are read); `None` if a pivot is not positive and
+    /// finite (`M` not positive definite: a massless chain).
+    pub(super) fn factorise(&mut self, m: &SMatrix<f64, NV, NV>) -> Option<()> {
+        if self.dense {
+            let mut inverse = SMatrix::<f64, NV, NV>::zeros();
+            super::derivatives::spd_inverse(m, &mut inverse)?;
+            self.h = inverse.data.0;
+            return Some(());
+        }
+        let (h, tree) = (&mut self.h, self.tree);
         // Every index below comes from `up`, so is under `NV`: the `min`s
         // change nothing but let the optimiser drop the bounds checks.
         let last = NV.saturating_sub(1);
-        let mut h = [[0.0; NV]; NV];
-        for k in 0..NV {
+        *h = [[0.0; NV]; NV];
+        // M's column k holds M(a, k) = M(k, a): row k of the lower triangle.
+        for (k, column) in m.data.0.iter().enumerate() {
             let mut i = Some(k);
             while let Some(a) = i {
                 let a = a.min(last);
-                h[a][k] = m.data.0[a][k];
+                h[a][k] = column[a];
                 i = tree.up(a);
             }
         }
-        // k's ancestors, nearest first: gathered once a freedom, so the
-        // elimination below reads independent entries instead of chasing.
-        let mut above = [0usize; NV];
+        // From the leaves in: row k of L is row k of H over D(k), and
+        // H(i, j) −= H(k, i) H(k, j) / D(k) on the block before k, a
+        // column at a time over contiguous rows. Entries between freedoms
+        // on different branches are zero and stay zero (their updates are
+        // products with zero), so a column whose H(k, j) is zero is skipped.
         for k in (0..NV).rev() {
             let d = h[k][k];
             if !(d > 0.0 && d.is_finite()) {
                 return None;
             }
-            let mut depth = 0;
-            let mut i = tree.up(k);
-            while let (Some(a), Some(slot)) = (i, above.get_mut(depth)) {
-                *slot = a.min(last);
-                depth += 1;
-                i = tree.up(a);
-            }
-            let chain = above.get(..depth).unwrap_or(&[]);
-            for (n, &a) in chain.iter().enumerate() {
-                let a = a.min(last);
-                let ratio = h[a][k] / d;
-                // (a, b) for b = a and a's ancestors: the lower triangle.
-                for &b in chain.get(n..).unwrap_or(&[]) {
-                    let b = b.min(last);
-                    h[b][a] -= ratio * h[b][k];
+            let inverse = 1.0 / d;
+            let row: [f64; NV] = core::array::from_fn(|i| if i < k { h[i][k] } else { 0.0 });
+            for (j, column) in h.iter_mut().enumerate().take(k) {
+                let l = row[j] * inverse;
+                if l == 0.0 {
+                    continue;
                 }
-                h[a][k] = ratio;
+                let (Some(targets), Some(sources)) = (column.get_mut(j..k), row.get(j..k)) else {
+                    continue;
+                };
+                for (target, source) in targets.iter_mut().zip(sources) {
+                    *target -= l * source;
+                }
+                column[k] = l;
             }
         }
-        Some(TreeFactor { h, tree })
+        Some(())
     }
 
     /// `X ← L⁻ᵀ X` for `X` stored by freedom (`x[k]` is row `k`, `C`
@@ -150,7 +134,7 @@ impl<'a, const NV: usize> TreeFactor<'a, NV> {
     /// descendants'. Each step is an `axpy` over the `C` columns, so
     /// several right-hand sides cost little more than one (a row of `J`
     /// nonzero only on a path to the root stays there).
-    pub(super) fn solve_lt<const C: usize>(&self, x: &mut [[f64; C]; NV]) {
+    fn solve_lt<const C: usize>(&self, x: &mut [[f64; C]; NV]) {
         for c in (0..NV).rev() {
             let end = self.tree.end[c].min(NV);
             let (head, tail) = x.split_at_mut(c + 1);
@@ -165,9 +149,9 @@ impl<'a, const NV: usize> TreeFactor<'a, NV> {
         }
     }
 
-    /// `X ← L⁻¹ X` (stored as for [`solve_lt`](Self::solve_lt)): from the
-    /// root out, each freedom's value taken from its descendants.
-    pub(super) fn solve_l<const C: usize>(&self, x: &mut [[f64; C]; NV]) {
+    /// `X ← L⁻¹ X` (stored as for `solve_lt`): from the root out, each
+    /// freedom's value taken from its descendants.
+    fn solve_l<const C: usize>(&self, x: &mut [[f64; C]; NV]) {
         for c in 0..NV {
             let end = self.tree.end[c].min(NV);
             let (head, tail) = x.split_at_mut(c + 1);
@@ -183,22 +167,20 @@ impl<'a, const NV: usize> TreeFactor<'a, NV> {
     }
 
     /// `X ← D⁻¹ X`.
-    pub(super) fn scale<const C: usize>(&self, x: &mut [[f64; C]; NV]) {
+    fn scale<const C: usize>(&self, x: &mut [[f64; C]; NV]) {
         for (k, row) in x.iter_mut().enumerate() {
             let inverse = 1.0 / self.h[k][k];
             row.iter_mut().for_each(|value| *value *= inverse);
         }
     }
 
-    /// `D`'s entry `k`.
-    #[cfg(test)]
-    fn pivot(&self, k: usize) -> f64 {
-        self.h[k][k]
-    }
-
-    /// `M⁻¹ b`: the solves above for one column, written for it (a dot
-    /// product in four running sums and a contiguous `axpy` a freedom).
+    /// `M⁻¹ b`: along the tree, the solves for one column written for it
+    /// (a dot product in four running sums and a contiguous `axpy` a
+    /// freedom).
     pub(super) fn solve(&self, b: &SVector<f64, NV>) -> SVector<f64, NV> {
+        if self.dense {
+            return SMatrix::from_data(nalgebra::ArrayStorage(self.h)) * b;
+        }
         let mut x = b.data.0[0];
         for c in (0..NV).rev() {
             let end = self.tree.end[c].min(NV);
@@ -221,17 +203,64 @@ impl<'a, const NV: usize> TreeFactor<'a, NV> {
         SVector::from_data(nalgebra::ArrayStorage([x]))
     }
 
-    /// `M⁻¹`, every column at once (symmetric: stored by freedom or by
-    /// column, the same numbers).
+    /// `M⁻¹` into `out`, every column at once along the tree.
     pub(super) fn inverse_into(&self, out: &mut SMatrix<f64, NV, NV>) {
+        if self.dense {
+            out.data.0 = self.h;
+            return;
+        }
         let x = &mut out.data.0;
         for (k, row) in x.iter_mut().enumerate() {
             *row = [0.0; NV];
             row[k] = 1.0;
         }
+        // Symmetric: stored by freedom or by column, the same numbers.
         self.solve_lt(x);
         self.scale(x);
         self.solve_l(x);
+    }
+
+    /// `Y = M⁻¹ Jᵀ` and `S = J Y` into `y` and `delassus`. Along the tree,
+    /// `J` stored by column is `Jᵀ` by freedom; through `L⁻ᵀ` it is
+    /// `W = J L⁻¹` (by column), `S = Σ_k W[:, k] W[:, k]ᵀ / D_k`, and
+    /// through `D⁻¹` and `L⁻¹` it is `Y` (by freedom: `Yᵀ` by column).
+    pub(super) fn delassus_into<const NC: usize>(
+        &self,
+        jacobian: &SMatrix<f64, NC, NV>,
+        y: &mut SMatrix<f64, NV, NC>,
+        delassus: &mut SMatrix<f64, NC, NC>,
+    ) {
+        if self.dense {
+            let inverse = SMatrix::from_data(nalgebra::ArrayStorage(self.h));
+            y.gemm(1.0, &inverse, &jacobian.transpose(), 0.0);
+            delassus.gemm(1.0, jacobian, y, 0.0);
+            return;
+        }
+        let mut w = jacobian.data.0;
+        self.solve_lt(&mut w);
+        let mut scaled = w;
+        self.scale(&mut scaled);
+        delassus.fill(0.0);
+        for (column, row) in w.iter().zip(&scaled) {
+            for (c, target) in delassus.data.0.iter_mut().enumerate() {
+                let a = row[c];
+                for (s, x) in target.iter_mut().zip(column) {
+                    *s += a * x;
+                }
+            }
+        }
+        self.solve_l(&mut scaled);
+        for (k, row) in scaled.iter().enumerate() {
+            for (c, value) in row.iter().enumerate() {
+                y.data.0[c][k] = *value;
+            }
+        }
+    }
+
+    /// `D`'s entry `k` (along the tree).
+    #[cfg(test)]
+    fn pivot(&self, k: usize) -> f64 {
+        self.h[k][k]
     }
 }
 
@@ -295,7 +324,9 @@ mod tests {
         assert_eq!(m[(3, 6)], 0.0);
         let tree = FreedomTree::new(PARENT);
         assert_eq!(tree.end, [7, 7, 7, 6, 7, 6, 7]);
-        let factor = TreeFactor::new(&m, &tree).expect("positive definite");
+        let mut factor = MassFactor::new(&tree);
+        assert!(!factor.dense);
+        factor.factorise(&m).expect("positive definite");
         let b = SVector::<f64, 7>::from_fn(|k, _| (k as f64 + 1.0).cos());
         let x = factor.solve(&b);
         assert!((m * x - b).amax() < 1e-13);
@@ -311,15 +342,31 @@ mod tests {
         assert_eq!((row[3], row[5]), ([0.0], [0.0]));
         let s: f64 = (0..7).map(|k| row[k][0] * row[k][0] / factor.pivot(k)).sum();
         assert!((s - (j.transpose() * dense * j)[0]).abs() < 1e-13);
+        // Y and S for two rows, against the dense products; and a chain's
+        // dense inverse gives the same.
+        let jacobian = SMatrix::<f64, 2, 7>::from_fn(|r, c| if r == 0 { j[c] } else { (c as f64).sin() });
+        let (mut y, mut delassus) = (SMatrix::zeros(), SMatrix::zeros());
+        factor.delassus_into(&jacobian, &mut y, &mut delassus);
+        assert!((y - dense * jacobian.transpose()).amax() < 1e-13);
+        assert!((delassus - jacobian * dense * jacobian.transpose()).amax() < 1e-13);
+        let chain = FreedomTree::new(core::array::from_fn(|i| i.checked_sub(1)));
+        let mut full = MassFactor::new(&chain);
+        assert!(full.dense);
+        full.factorise(&m).expect("positive definite");
+        assert!((full.solve(&b) - x).amax() < 1e-13);
+        let (mut y2, mut delassus2) = (SMatrix::zeros(), SMatrix::zeros());
+        full.delassus_into(&jacobian, &mut y2, &mut delassus2);
+        assert!((y2 - y).amax() < 1e-13 && (delassus2 - delassus).amax() < 1e-13);
     }
 
     #[test]
     fn refuses_a_matrix_that_is_not_positive_definite() {
         let mut m = tree_matrix();
         let tree = FreedomTree::new(PARENT);
+        let mut factor = MassFactor::new(&tree);
         m[(6, 6)] = 0.0;
-        assert!(TreeFactor::new(&m, &tree).is_none());
+        assert!(factor.factorise(&m).is_none());
         m[(6, 6)] = f64::NAN;
-        assert!(TreeFactor::new(&m, &tree).is_none());
+        assert!(factor.factorise(&m).is_none());
     }
 }

@@ -14,6 +14,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::constrained::Kkt;
 use super::{ActiveRows, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
 
 /// An impact's outcome at one state: the velocity after it, the impulses,
@@ -69,7 +70,8 @@ impl<
         restitution: f64,
         out: &mut ImpulseDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        self.impulses(state, active, restitution, out).map(|_| ())
+        let mut kkt = Kkt::new(&self.tree().freedoms);
+        self.impulses(state, active, restitution, out, &mut kkt)
     }
 
     /// The impact and its exact first derivatives (the module's method);
@@ -85,14 +87,23 @@ impl<
         work: &mut InverseDerivatives<NV>,
         out: &mut ImpulseDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        let kkt = self.impulses(state, active, restitution, out)?;
+        let mut kkt = Kkt::new(&self.tree().freedoms);
+        self.impulses(state, active, restitution, out, &mut kkt)?;
         let minv = kkt.mass_inverse();
-        // ∂(M w)/∂q: Newton–Euler's ∂τ/∂q at rest with accelerations w, less at rest alone.
-        let rest = TreeState { v: SVector::zeros(), ..*state };
-        self.derivatives_at(&rest, &(out.v_after - state.v), work)?;
-        let moved = work.d_q;
-        self.derivatives_at(&rest, &SVector::zeros(), work)?;
-        let m_w_q = moved - work.d_q;
+        // ∂(M w)/∂q: the tree's pass without gravity or springs; the
+        // derive's written derivatives hold gravity, so there it is Newton–
+        // Euler's ∂τ/∂q at rest with accelerations w, less at rest alone.
+        let jump = out.v_after - state.v;
+        let m_w_q = if S::DERIVATIVES {
+            let rest = TreeState { v: SVector::zeros(), ..*state };
+            self.derivatives_at(&rest, &jump, work)?;
+            let moved = work.d_q;
+            self.derivatives_at(&rest, &SVector::zeros(), work)?;
+            moved - work.d_q
+        } else {
+            self.tree().mass_product_derivative(&state.q, &jump, work);
+            work.d_q
+        };
         let u = out.v_after + state.v * restitution;
         let second = self.second_order_at(state, &out.impulse, &u)?;
         let r1_q = second.stiffness - m_w_q;
@@ -122,18 +133,19 @@ impl<
         active: ActiveRows,
         restitution: f64,
         out: &mut ImpulseDerivatives<NV, NC>,
-    ) -> Result<super::constrained::Kkt<'_, NV, NC>, TreeError> {
+        kkt: &mut Kkt<'_, NV, NC>,
+    ) -> Result<(), TreeError> {
         let numbers = state.q.iter().chain(state.v.iter());
         if !(numbers.copied().all(f64::is_finite) && (0.0..=1.0).contains(&restitution)) {
             return Err(TreeError::NonFinite);
         }
         let rows = self.closure_rows(state);
-        let kkt = self.delassus(state, &rows.jacobian, active)?;
+        self.delassus(state, &rows.jacobian, active, kkt)?;
         out.impulse = kkt.factor.solve(&(kkt.jacobian * state.v * -(1.0 + restitution)));
         out.v_after = state.v + kkt.y * out.impulse;
         if !out.v_after.iter().chain(out.impulse.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
         }
-        Ok(kkt)
+        Ok(())
     }
 }

@@ -64,7 +64,8 @@ impl<
         if !(proximal.mu > 0.0 && proximal.mu.is_finite()) {
             return Err(TreeError::NonFinite);
         }
-        let (kkt, free, r) = self.kkt_system(state, tau, active)?;
+        let mut kkt = super::constrained::Kkt::new(&self.tree().freedoms);
+        let (free, r) = self.kkt_system(state, tau, active, &mut kkt)?;
         let mut shifted = kkt.delassus;
         let scale = (0..NC).map(|i| shifted[(i, i)]).fold(0.0, f64::max);
         let mu = proximal.mu * if scale > 0.0 { scale } else { 1.0 };

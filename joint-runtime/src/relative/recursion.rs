@@ -152,7 +152,34 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
         vdot: &SVector<f64, NV>,
         out: &mut InverseDerivatives<NV>,
     ) {
-        let (fr, subtrees) = self.ground_frame_pass(state, vdot);
+        self.derivatives_pass(state, vdot, &self.gravity, true, out);
+    }
+
+    /// `∂(M(q) w)/∂q` (tangent columns) into `out.d_q`: the pass above at
+    /// rest with accelerations `w`, no gravity and no springs, which leaves
+    /// exactly the mass matrix's part (an impact's `∂(M Δv)/∂q`, in one
+    /// pass where differencing two inverse dynamics' derivatives takes two).
+    pub(crate) fn mass_product_derivative(
+        &self,
+        q: &SVector<f64, NQ>,
+        w: &SVector<f64, NV>,
+        out: &mut InverseDerivatives<NV>,
+    ) {
+        let rest = TreeState { q: *q, v: SVector::zeros(), t: 0.0 };
+        self.derivatives_pass(&rest, w, &Vector3::zeros(), false, out);
+    }
+
+    /// The derivatives' pass under `gravity`, the joints' springs included
+    /// or not.
+    fn derivatives_pass(
+        &self,
+        state: &TreeState<NQ, NV>,
+        vdot: &SVector<f64, NV>,
+        gravity: &Vector3<f64>,
+        springs: bool,
+        out: &mut InverseDerivatives<NV>,
+    ) {
+        let (fr, subtrees) = self.ground_frame_pass(state, vdot, gravity);
         // Per freedom `k`: `Yᶜᵀ Sₖ`, `Bᶜᵀ Sₖ` of its child's subtree, and the
         // columns it gives the rows above it (`g`: `∂/∂q`, `h`: `∂/∂v`).
         let zero = [Vector6::zeros(); NV];
@@ -196,6 +223,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                 above = self.parent.get(ja).copied().flatten();
             }
             let (damping, stiffness) = self.joints.get(joint).map_or((0.0, 0.0), |j| (j.damping, j.stiffness));
+            let stiffness = if springs { stiffness } else { 0.0 };
             let diagonal = at(&out.d_v, m, m) + damping;
             put(&mut out.d_v, m, m, diagonal);
             // A spring's joint has one freedom, its tangent the coordinate.
@@ -302,12 +330,17 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// Root to leaves, each freedom's twist and frames in the ground's
     /// frame and each body's Newton–Euler force and `Y`, `B`; then leaves to
     /// root, the subtrees' sums (in one frame, a sum is all a subtree needs).
-    fn ground_frame_pass(&self, state: &TreeState<NQ, NV>, vdot: &SVector<f64, NV>) -> (Freedoms<NV>, [Composite; NB]) {
+    fn ground_frame_pass(
+        &self,
+        state: &TreeState<NQ, NV>,
+        vdot: &SVector<f64, NV>,
+        gravity: &Vector3<f64>,
+    ) -> (Freedoms<NV>, [Composite; NB]) {
         let zero = Vector6::zeros();
         let mut fr = Freedoms { s: [zero; NV], u: [zero; NV], e: [zero; NV], w: [zero; NV], joint: [0; NV] };
         let mut sub = [Composite::ZERO; NB];
         // Each link frame's turn and origin, its body's velocity and acceleration.
-        let ground = (Matrix3::identity(), Vector3::zeros(), zero, join(&Vector3::zeros(), &(-self.gravity)));
+        let ground = (Matrix3::identity(), Vector3::zeros(), zero, join(&Vector3::zeros(), &(-gravity)));
         let mut frames = [ground; NB];
         for k in 0..NB {
             let x = self.transform(k, &state.q);
