@@ -310,7 +310,7 @@ struct SoloFeet;
 #[test]
 fn constrained_dynamics_derivatives_and_impacts_allocate_nothing() {
     use joint_runtime::relative::{
-        ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, TreeSimulation,
+        ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, StepJacobian, TreeSimulation,
     };
     let mut sim = TreeSimulation::new(&SoloFeet).expect("a valid robot");
     let mut state = sim.tree().zero_state();
@@ -322,9 +322,12 @@ fn constrained_dynamics_derivatives_and_impacts_allocate_nothing() {
     let (mut work, mut out, mut hit) =
         (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros(), ImpulseDerivatives::zeros());
     let three = ActiveRows::all().without(3);
-    let mut done = false;
+    let (mut done, mut jacobian, mut node) = (false, StepJacobian::zeros(), state);
     let n = allocations(|| {
         done = sim.constrained_dynamics(&state, &tau, three, &mut out).is_ok()
+            && sim
+                .constrained_euler_step_jacobian(&mut node, 1e-3, &tau, three, &mut work, &mut out, &mut jacobian)
+                .is_ok()
             && sim.constrained_dynamics_derivatives(&state, &tau, three, &mut work, &mut out).is_ok()
             && sim.impact_derivatives(&state, ActiveRows::all(), 0.5, &mut work, &mut hit).is_ok()
             && (0..3).all(|_| sim.step(&mut state, 1e-3).is_ok());

@@ -1,6 +1,7 @@
 //! Two robots read from their files with contacts (`#[contact]`), in
 //! relative coordinates: an RK4 step holding every contact, the constrained
-//! dynamics and their exact derivatives, and an impact's, each with the
+//! dynamics and their exact derivatives, a constrained Euler step with its
+//! Jacobian, and an impact's, each with the
 //! active set a run-time argument. The floating Solo12 from its URDF file on
 //! its four feet (points in the world's axes), the UR5 from its URDF file
 //! with its tool welded to the world (a frame in its own axes).
@@ -9,7 +10,7 @@ use joint_runtime::Scene;
 use joint_runtime::dynamics::{NoLoads, Simulate, StepReport};
 use joint_runtime::nalgebra::SVector;
 use joint_runtime::relative::{
-    ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, TreeError, TreeState,
+    ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, StepJacobian, TreeError, TreeState,
 };
 
 /// ODRI's Solo12 on a floating base (URDF), on its four feet.
@@ -43,6 +44,9 @@ macro_rules! contacts {
                 }
                 fn constrained_dynamics_derivatives(sim: &Sim<'_>, state: &State, tau: &Tau, active: u64, work: &mut InverseDerivatives<$nv>, out: &mut ConstrainedDerivatives<$nv, $nc>) -> Result<(), TreeError> {
                     sim.constrained_dynamics_derivatives(state, tau, ActiveRows(active), work, out)
+                }
+                fn constrained_euler_step_jacobian(sim: &Sim<'_>, state: &mut State, h: f64, tau: &Tau, active: u64, work: &mut InverseDerivatives<$nv>, dynamics: &mut ConstrainedDerivatives<$nv, $nc>, out: &mut StepJacobian<$nv>) -> Result<(), TreeError> {
+                    sim.constrained_euler_step_jacobian(state, h, tau, ActiveRows(active), work, dynamics, out)
                 }
                 fn impact_derivatives(sim: &Sim<'_>, state: &State, active: u64, restitution: f64, work: &mut InverseDerivatives<$nv>, out: &mut ImpulseDerivatives<$nv, $nc>) -> Result<(), TreeError> {
                     sim.impact_derivatives(state, ActiveRows(active), restitution, work, out)

@@ -33,7 +33,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::factor::{FreedomTree, MassFactor};
-use super::{InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
+use super::{InverseDerivatives, StepJacobian, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::SecondOrder;
 use crate::dynamics::Stabilisation;
 use crate::linalg::PivotedCholesky;
@@ -302,6 +302,64 @@ impl<
             return Err(TreeError::NonFinite);
         }
         Ok(())
+    }
+
+    /// One semi-implicit Euler step under the constrained dynamics with the
+    /// rows of `active` holding — `v₁ = v + h q̈(q, v, τ)`, `q₁ = q ⊕ h v₁`,
+    /// as [`euler_step_jacobian`](Self::euler_step_jacobian) takes it and
+    /// as Crocoddyl integrates contact dynamics — and its exact Jacobian
+    /// into `out`; `dynamics` holds `q̈`, `λ` and their derivatives at the
+    /// step's start (what a contact MPC's node needs besides: the forces
+    /// for friction cones). No projection: the rows hold at the
+    /// acceleration level (with the options' Baumgarte gains), as in a
+    /// shooting node. Errors as
+    /// [`constrained_dynamics_derivatives`](Self::constrained_dynamics_derivatives),
+    /// and [`TreeError::NonFinite`] for an `h` that is not finite; on error
+    /// `state` is unchanged. Allocation-free.
+    ///
+    /// ```
+    /// use joint_runtime::Scene;
+    /// use joint_runtime::nalgebra::SVector;
+    /// use joint_runtime::relative::{
+    ///     ActiveRows, ConstrainedDerivatives, InverseDerivatives, StepJacobian, TreeSimulation, TreeState,
+    /// };
+    ///
+    /// /// A bar pinned at one end about y, its other end on a point contact.
+    /// #[derive(Scene)]
+    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[body(bar, mass = 2.0, inertia = [0.001, 0.1, 0.1])]
+    /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+    /// #[contact(tip = point(bar), at = [0.5, 0, 0])]
+    /// struct Propped;
+    ///
+    /// let sim = TreeSimulation::new(&Propped)?;
+    /// let mut state = TreeState { q: SVector::from([0.0]), v: SVector::from([0.0]), t: 0.0 };
+    /// let (mut work, mut dynamics) = (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros());
+    /// let mut jacobian = StepJacobian::zeros();
+    /// let tau = SVector::from([1.0]);
+    /// sim.constrained_euler_step_jacobian(&mut state, 0.01, &tau, ActiveRows::all(), &mut work, &mut dynamics, &mut jacobian)?;
+    /// // Held, the bar does not answer a torque; the contact takes it (1 N·m over 1 m).
+    /// assert!(jacobian.v_tau[(0, 0)].abs() < 1e-12 && state.v[0].abs() < 1e-12);
+    /// assert!((dynamics.lambda_tau[(2, 0)] - 1.0).abs() < 1e-12);
+    /// # Ok::<(), joint_runtime::relative::TreeError>(())
+    /// ```
+    #[allow(clippy::too_many_arguments)]
+    pub fn constrained_euler_step_jacobian(
+        &self,
+        state: &mut TreeState<NQ, NV>,
+        h: f64,
+        tau: &SVector<f64, NV>,
+        active: ActiveRows,
+        work: &mut InverseDerivatives<NV>,
+        dynamics: &mut ConstrainedDerivatives<NV, NC>,
+        out: &mut StepJacobian<NV>,
+    ) -> Result<(), TreeError> {
+        if !h.is_finite() {
+            return Err(TreeError::NonFinite);
+        }
+        self.constrained_dynamics_derivatives(state, tau, active, work, dynamics)?;
+        let d = &*dynamics;
+        self.euler_chain(state, h, (&d.qdd, &d.d_q, &d.d_v, &d.d_tau), out)
     }
 
     /// `∂(J v + Φ_t)/∂q` at `state`: how the rows' velocity moves with the

@@ -283,11 +283,37 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         self.check_step(state, h, tau)?;
         self.forward_dynamics_derivatives(state, tau, &mut work.inverse, &mut work.forward)?;
         let f = &work.forward;
-        let v1 = state.v + f.qdd * h;
-        // δv₁ = h A_q δq₀ + (I + h A_v) δv₀ + h M⁻¹ δτ.
-        out.v_q = f.d_q * h;
-        out.v_v = f.d_v * h + SMatrix::<f64, NV, NV>::identity();
-        out.v_tau = f.d_tau * h;
+        self.euler_chain(state, h, (&f.qdd, &f.d_q, &f.d_v, &f.d_tau), out)
+    }
+}
+
+/// A stage's `q̈` and its derivatives `∂q̈/∂(q, v, τ)`.
+type Rate<'a, const NV: usize> = (&'a SVector<f64, NV>, &'a Block<NV>, &'a Block<NV>, &'a Block<NV>);
+
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: crate::dynamics::AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
+{
+    /// The semi-implicit Euler step from `state` with acceleration `qdd`
+    /// and its derivatives, and the step's Jacobian into `out`, by the
+    /// chain rule: `v₁ = v + h q̈`, `q₁ = q ⊕ h v₁`.
+    pub(super) fn euler_chain(
+        &self,
+        state: &mut TreeState<NQ, NV>,
+        h: f64,
+        (qdd, d_q, d_v, d_tau): Rate<'_, NV>,
+        out: &mut StepJacobian<NV>,
+    ) -> Result<(), TreeError> {
+        let v1 = state.v + qdd * h;
+        // δv₁ = h A_q δq₀ + (I + h A_v) δv₀ + h B δτ.
+        out.v_q = d_q * h;
+        out.v_v = d_v * h + SMatrix::<f64, NV, NV>::identity();
+        out.v_tau = d_tau * h;
         // δq₁ = (the turn's transport) δq₀ + (its right Jacobian) h δv₁, joint by joint.
         out.q_q.fill_with_identity();
         let mut push = SMatrix::<f64, NV, NV>::identity() * h;

@@ -315,6 +315,43 @@ fn derivatives_equal_differences_with_gains_and_an_active_set() {
     close(&out.lambda_tau, &t, "∂λ/∂τ");
 }
 
+/// The constrained semi-implicit Euler step's Jacobian (a contact MPC's
+/// node: three feet holding, Baumgarte's gains on, a floating base whose
+/// turn goes through `exp`) against central differences of the step itself,
+/// `q₁` measured in the tree's increments at the nominal end.
+#[test]
+fn the_constrained_euler_step_has_an_exact_jacobian() {
+    use joint_runtime::dynamics::{SimulationOptions, Stabilisation};
+    use joint_runtime::relative::StepJacobian;
+    let options = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 3.0, beta: 4.0 });
+    let sim = TreeSimulation::new(&SoloFeet).unwrap().with_options(options).unwrap();
+    let sample = &case("solo12_4feet_lwa")["samples"][2];
+    let layout = SoloFeet::PINOCCHIO;
+    let state = layout.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
+    let tau = layout.forces_from(&state, &numbers(&sample["tau"])).unwrap();
+    let three = ActiveRows::named(SoloFeet::CLOSURES, &["fl", "hl", "hr"]).unwrap();
+    let h = 0.01;
+    let step = |s: &TreeState<19, 18>, t: &SVector<f64, 18>| {
+        let (mut work, mut dynamics, mut jacobian) =
+            (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros(), StepJacobian::zeros());
+        let mut end = *s;
+        sim.constrained_euler_step_jacobian(&mut end, h, t, three, &mut work, &mut dynamics, &mut jacobian).unwrap();
+        (end, dynamics, jacobian)
+    };
+    let (nominal, dynamics, ours) = step(&state, &tau);
+    // The step is v₁ = v + h q̈ at the start, with the start's q̈.
+    assert!((nominal.v - state.v - dynamics.qdd * h).amax() < 1e-12 * nominal.v.amax());
+    let moved = |q: &SVector<f64, 19>, d: &SVector<f64, 18>| sim.tree().displaced(q, d);
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| sim.tree().difference(&nominal.q, &step(s, t).0.q));
+    close(&ours.q_q, &q, "∂q₁/∂q₀");
+    close(&ours.q_v, &v, "∂q₁/∂v₀");
+    close(&ours.q_tau, &t, "∂q₁/∂τ");
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| step(s, t).0.v);
+    close(&ours.v_q, &q, "∂v₁/∂q₀");
+    close(&ours.v_v, &v, "∂v₁/∂v₀");
+    close(&ours.v_tau, &t, "∂v₁/∂τ");
+}
+
 /// The UR5's tool welded in the world's axes: the same `q̈` as in its own
 /// axes, forces turned by the tool's rotation, and exact derivatives.
 #[derive(Scene)]
