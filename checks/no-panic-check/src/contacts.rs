@@ -45,7 +45,9 @@ macro_rules! contacts {
                 fn constrained_dynamics_derivatives(sim: &Sim<'_>, state: &State, tau: &Tau, active: u64, work: &mut InverseDerivatives<$nv>, out: &mut ConstrainedDerivatives<$nv, $nc>) -> Result<(), TreeError> {
                     sim.constrained_dynamics_derivatives(state, tau, ActiveRows(active), work, out)
                 }
-                fn constrained_euler_step_jacobian(sim: &Sim<'_>, state: &mut State, h: f64, tau: &Tau, active: u64, work: &mut InverseDerivatives<$nv>, dynamics: &mut ConstrainedDerivatives<$nv, $nc>, out: &mut StepJacobian<$nv>) -> Result<(), TreeError> {
+                fn constrained_euler_step_jacobian(sim: &Sim<'_>, state: &mut State, step: (f64, u64), tau: &Tau, work: &mut InverseDerivatives<$nv>, dynamics: &mut ConstrainedDerivatives<$nv, $nc>, out: &mut StepJacobian<$nv>) -> Result<(), TreeError> {
+                    // The step's length and active set in one argument: seven at most.
+                    let (h, active) = step;
                     sim.constrained_euler_step_jacobian(state, h, tau, ActiveRows(active), work, dynamics, out)
                 }
                 fn impact_derivatives(sim: &Sim<'_>, state: &State, active: u64, restitution: f64, work: &mut InverseDerivatives<$nv>, out: &mut ImpulseDerivatives<$nv, $nc>) -> Result<(), TreeError> {
