@@ -36,7 +36,7 @@ use super::factor::{FreedomTree, MassFactor};
 use super::{InverseDerivatives, StepJacobian, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::SecondOrder;
 use crate::dynamics::Stabilisation;
-use crate::linalg::PivotedCholesky;
+use crate::linalg::{PivotedCholesky, finite, gemm};
 
 /// Which of a scene's closure blocks hold at this call: bit `b` is block
 /// `b` of [`TreeScene::CLOSURES`] (a loop's joint, a file's coupling, a
@@ -184,13 +184,6 @@ impl<'a, const NV: usize, const NC: usize> Kkt<'a, NV, NC> {
         let inactive = self.mask.iter().filter(|on| !**on).count();
         self.factor.rank().saturating_sub(inactive)
     }
-
-    /// `M⁻¹`, dense (what the derivatives multiply by).
-    pub(super) fn mass_inverse(&self) -> SMatrix<f64, NV, NV> {
-        let mut out = SMatrix::zeros();
-        self.mass.inverse_into(&mut out);
-        out
-    }
 }
 
 impl<
@@ -263,7 +256,8 @@ impl<
         let u = out.qdd + state.v * (2.0 * alpha);
         let second = self.second_order_at(state, &out.lambda, &u)?;
         // r₁ = K − ∂ID/∂q (q), −∂ID/∂v (v), I (τ); r₂ on the active rows.
-        let r1_q = second.stiffness - work.d_q;
+        let mut r1_q = second.stiffness;
+        r1_q -= &work.d_q;
         let mut r2_q = second.gamma_q - second.jacobian_q - second.phi_t_q * (2.0 * alpha);
         let mut r2_v = second.gamma_v - kkt.jacobian * (2.0 * alpha);
         if beta != 0.0 {
@@ -288,17 +282,25 @@ impl<
         }
         // S⁻¹ once (its pseudo-inverse over the kept rows), then products:
         // Cᵀ = S⁻¹ Yᵀ, dλ = S⁻¹ r₂ − Cᵀ r₁, dq̈ = M⁻¹ r₁ + Y dλ.
-        let minv = kkt.mass_inverse();
+        // In place, no temporaries: the products are most of this tail.
+        let mut minv = SMatrix::<f64, NV, NV>::zeros();
+        kkt.mass.inverse_into(&mut minv);
         let sinv = kkt.factor.inverse();
-        let ct = sinv * kkt.y.transpose();
-        out.lambda_q = sinv * r2_q - ct * r1_q;
-        out.d_q = minv * r1_q + kkt.y * out.lambda_q;
-        out.lambda_v = sinv * r2_v + ct * work.d_v;
-        out.d_v = kkt.y * out.lambda_v - minv * work.d_v;
+        let mut ct = SMatrix::<f64, NC, NV>::zeros();
+        gemm(&mut ct, 1.0, &sinv, &kkt.y.transpose(), 0.0);
+        gemm(&mut out.lambda_q, 1.0, &sinv, &r2_q, 0.0);
+        gemm(&mut out.lambda_q, -1.0, &ct, &r1_q, 1.0);
+        gemm(&mut out.d_q, 1.0, &minv, &r1_q, 0.0);
+        gemm(&mut out.d_q, 1.0, &kkt.y, &out.lambda_q, 1.0);
+        gemm(&mut out.lambda_v, 1.0, &sinv, &r2_v, 0.0);
+        gemm(&mut out.lambda_v, 1.0, &ct, &work.d_v, 1.0);
+        gemm(&mut out.d_v, -1.0, &minv, &work.d_v, 0.0);
+        gemm(&mut out.d_v, 1.0, &kkt.y, &out.lambda_v, 1.0);
         out.lambda_tau = -ct;
-        out.d_tau = minv - kkt.y * ct;
-        let all = out.d_q.iter().chain(out.d_v.iter()).chain(out.lambda_q.iter()).chain(out.lambda_v.iter());
-        if !all.copied().all(f64::is_finite) {
+        out.d_tau = minv;
+        gemm(&mut out.d_tau, -1.0, &kkt.y, &ct, 1.0);
+        let all = [out.d_q.as_slice(), out.d_v.as_slice(), out.lambda_q.as_slice(), out.lambda_v.as_slice()];
+        if !all.iter().all(|m| finite(m)) {
             return Err(TreeError::NonFinite);
         }
         Ok(())

@@ -308,7 +308,7 @@ impl<
         out.d_tau.mul_to(&work.d_v, &mut out.d_v);
         out.d_q.neg_mut();
         out.d_v.neg_mut();
-        if !(out.d_q.iter().chain(out.d_v.iter()).all(|x| x.is_finite())) {
+        if !(crate::linalg::finite(out.d_q.as_slice()) && crate::linalg::finite(out.d_v.as_slice())) {
             return Err(TreeError::NonFinite);
         }
         Ok(())

@@ -16,6 +16,7 @@ use nalgebra::{SMatrix, SVector};
 
 use super::constrained::Kkt;
 use super::{ActiveRows, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
+use crate::linalg::{finite, gemm};
 
 /// An impact's outcome at one state: the velocity after it, the impulses,
 /// and their first derivatives (`∂/∂q` in tangent columns).
@@ -89,7 +90,6 @@ impl<
     ) -> Result<(), TreeError> {
         let mut kkt = Kkt::new(&self.tree().freedoms);
         self.impulses(state, active, restitution, out, &mut kkt)?;
-        let minv = kkt.mass_inverse();
         // ∂(M w)/∂q: the tree's pass without gravity or springs; the
         // derive's written derivatives hold gravity, so there it is Newton–
         // Euler's ∂τ/∂q at rest with accelerations w, less at rest alone.
@@ -113,14 +113,20 @@ impl<
                 r2_q.row_mut(r).fill(0.0);
             }
         }
+        let mut minv = SMatrix::<f64, NV, NV>::zeros();
+        kkt.mass.inverse_into(&mut minv);
         let sinv = kkt.factor.inverse();
-        out.impulse_q = sinv * (r2_q - kkt.y.transpose() * r1_q);
-        out.v_after_q = minv * r1_q + kkt.y * out.impulse_q;
+        let mut rows = r2_q;
+        gemm(&mut rows, -1.0, &kkt.y.transpose(), &r1_q, 1.0);
+        gemm(&mut out.impulse_q, 1.0, &sinv, &rows, 0.0);
+        gemm(&mut out.v_after_q, 1.0, &minv, &r1_q, 0.0);
+        gemm(&mut out.v_after_q, 1.0, &kkt.y, &out.impulse_q, 1.0);
         // ∂Λ/∂v = −(1 + e) S⁻¹ J, ∂v⁺/∂v = I + Y ∂Λ/∂v.
-        out.impulse_v = sinv * kkt.jacobian * -(1.0 + restitution);
-        out.v_after_v = SMatrix::identity() + kkt.y * out.impulse_v;
-        let all = out.v_after_q.iter().chain(out.impulse_q.iter()).chain(out.v_after_v.iter());
-        if !all.copied().all(f64::is_finite) {
+        gemm(&mut out.impulse_v, -(1.0 + restitution), &sinv, &kkt.jacobian, 0.0);
+        out.v_after_v = SMatrix::identity();
+        gemm(&mut out.v_after_v, 1.0, &kkt.y, &out.impulse_v, 1.0);
+        let all = [out.v_after_q.as_slice(), out.impulse_q.as_slice(), out.v_after_v.as_slice()];
+        if !all.iter().all(|m| finite(m)) {
             return Err(TreeError::NonFinite);
         }
         Ok(())
