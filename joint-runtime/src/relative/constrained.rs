@@ -33,6 +33,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::factor::{FreedomTree, MassFactor};
+use super::simulation::finite_inputs;
 use super::{InverseDerivatives, StepJacobian, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::SecondOrder;
 use crate::dynamics::Stabilisation;
@@ -274,12 +275,8 @@ impl<
                 target -= row;
             }
         }
-        for (r, &on) in kkt.mask.iter().enumerate() {
-            if !on && r < NC {
-                r2_q.row_mut(r).fill(0.0);
-                r2_v.row_mut(r).fill(0.0);
-            }
-        }
+        mask_rows(&kkt.mask, &mut r2_q);
+        mask_rows(&kkt.mask, &mut r2_v);
         // S⁻¹ once (its pseudo-inverse over the kept rows), then products:
         // Cᵀ = S⁻¹ Yᵀ, dλ = S⁻¹ r₂ − Cᵀ r₁, dq̈ = M⁻¹ r₁ + Y dλ.
         // In place, no temporaries: the products are most of this tail.
@@ -433,10 +430,7 @@ impl<
         active: ActiveRows,
         kkt: &mut Kkt<'_, NV, NC>,
     ) -> Result<(SVector<f64, NV>, SVector<f64, NC>), TreeError> {
-        let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
-        if !numbers.copied().all(f64::is_finite) {
-            return Err(TreeError::NonFinite);
-        }
+        finite_inputs(state, &[tau.as_slice()])?;
         if self.loaded() {
             return Err(TreeError::Loaded);
         }
@@ -469,11 +463,7 @@ impl<
         kkt.mass.factorise(&m).ok_or(singular)?;
         kkt.mask = active.row_mask::<NC>(S::CLOSURES);
         kkt.jacobian = *jacobian;
-        for (r, &on) in kkt.mask.iter().enumerate() {
-            if !on && r < NC {
-                kkt.jacobian.row_mut(r).fill(0.0);
-            }
-        }
+        mask_rows(&kkt.mask, &mut kkt.jacobian);
         kkt.mass.delassus_into(&kkt.jacobian, &mut kkt.y, &mut kkt.delassus);
         let mask = &kkt.mask;
         let largest = (0..NC).filter(|&r| mask[r]).map(|r| kkt.delassus[(r, r)]).fold(0.0, f64::max);
@@ -486,5 +476,14 @@ impl<
         kkt.factor =
             PivotedCholesky::new(&kkt.delassus, self.options().rank_tolerance).map_err(|_| TreeError::NonFinite)?;
         Ok(())
+    }
+}
+
+/// Rows that do not hold set to zero (their forces and equations drop out).
+pub(super) fn mask_rows<const NC: usize, const C: usize>(mask: &[bool; NC], m: &mut SMatrix<f64, NC, C>) {
+    for (r, &on) in mask.iter().enumerate() {
+        if !on {
+            m.row_mut(r).fill(0.0);
+        }
     }
 }

@@ -222,9 +222,7 @@ impl<
         vdot: &SVector<f64, NV>,
         out: &mut InverseDerivatives<NV>,
     ) -> Result<(), TreeError> {
-        if !(state.q.iter().chain(state.v.iter()).chain(vdot.iter()).all(|x| x.is_finite())) {
-            return Err(TreeError::NonFinite);
-        }
+        super::simulation::finite_inputs(state, &[vdot.as_slice()])?;
         if !S::DERIVATIVES {
             self.tree().recursive_derivatives(state, vdot, out);
         } else {
@@ -249,10 +247,7 @@ impl<
         lambda: &SVector<f64, NV>,
         out: &mut SecondDerivatives<NV>,
     ) -> Result<(), TreeError> {
-        let numbers = state.q.iter().chain(state.v.iter()).chain(vdot.iter()).chain(lambda.iter());
-        if !numbers.copied().all(f64::is_finite) {
-            return Err(TreeError::NonFinite);
-        }
+        super::simulation::finite_inputs(state, &[vdot.as_slice(), lambda.as_slice()])?;
         let (q, v, a, l) = (&state.q.data.0[0], &state.v.data.0[0], &vdot.data.0[0], &lambda.data.0[0]);
         if !self.scene.inverse_dynamics_second_derivatives_into(self.tree().geometry(), q, v, a, l, out) {
             return Err(TreeError::NotDerived);
@@ -286,10 +281,7 @@ impl<
         work: &mut InverseDerivatives<NV>,
         out: &mut ForwardDerivatives<NV>,
     ) -> Result<(), TreeError> {
-        let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
-        if !numbers.copied().all(f64::is_finite) {
-            return Err(TreeError::NonFinite);
-        }
+        super::simulation::finite_inputs(state, &[tau.as_slice()])?;
         if NC > 0 {
             return self.coupled(state, tau, work, out);
         }

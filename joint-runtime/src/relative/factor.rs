@@ -47,9 +47,7 @@ impl<const NV: usize> FreedomTree<NV> {
     pub(crate) fn up(&self, i: usize) -> Option<usize> {
         self.parent.get(i).copied().flatten().filter(|&p| p < i)
     }
-}
 
-impl<const NV: usize> FreedomTree<NV> {
     /// Whether every freedom's parent is the one before it: a chain, whose
     /// mass matrix is dense.
     pub(crate) fn is_chain(&self) -> bool {

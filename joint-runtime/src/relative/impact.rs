@@ -14,7 +14,8 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::constrained::Kkt;
+use super::constrained::{Kkt, mask_rows};
+use super::simulation::finite_inputs;
 use super::{ActiveRows, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::linalg::{finite, gemm};
 
@@ -108,11 +109,7 @@ impl<
         let second = self.second_order_at(state, &out.impulse, &u)?;
         let r1_q = second.stiffness - m_w_q;
         let mut r2_q = -second.jacobian_q;
-        for (r, &on) in kkt.mask.iter().enumerate() {
-            if !on && r < NC {
-                r2_q.row_mut(r).fill(0.0);
-            }
-        }
+        mask_rows(&kkt.mask, &mut r2_q);
         let mut minv = SMatrix::<f64, NV, NV>::zeros();
         kkt.mass.inverse_into(&mut minv);
         let sinv = kkt.factor.inverse();
@@ -141,8 +138,8 @@ impl<
         out: &mut ImpulseDerivatives<NV, NC>,
         kkt: &mut Kkt<'_, NV, NC>,
     ) -> Result<(), TreeError> {
-        let numbers = state.q.iter().chain(state.v.iter());
-        if !(numbers.copied().all(f64::is_finite) && (0.0..=1.0).contains(&restitution)) {
+        finite_inputs(state, &[])?;
+        if !(0.0..=1.0).contains(&restitution) {
             return Err(TreeError::NonFinite);
         }
         let rows = self.closure_rows(state);

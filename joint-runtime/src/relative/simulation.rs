@@ -641,6 +641,21 @@ impl<const NQ: usize, const NV: usize> Timed for TreeState<NQ, NV> {
 /// MuJoCo's `mjMAXVAL`, where it too calls a simulation unstable.
 pub const DIVERGED: f64 = 1e10;
 
+/// [`TreeError::NonFinite`] unless `state` and every one of `more` (joint
+/// forces, accelerations, multipliers) are finite: what every call that
+/// takes a state checks first.
+pub(crate) fn finite_inputs<const NQ: usize, const NV: usize>(
+    state: &TreeState<NQ, NV>,
+    more: &[&[f64]],
+) -> Result<(), TreeError> {
+    let finite = crate::linalg::finite;
+    if finite(state.q.as_slice()) && finite(state.v.as_slice()) && more.iter().all(|m| finite(m)) {
+        Ok(())
+    } else {
+        Err(TreeError::NonFinite)
+    }
+}
+
 /// [`TreeError::Diverged`] for a step's end past [`DIVERGED`] or not finite.
 pub(crate) fn diverged<const NQ: usize, const NV: usize>(next: &TreeState<NQ, NV>) -> Result<(), TreeError> {
     // `!(x <= bound)`: NaN fails too.

@@ -177,10 +177,10 @@ impl<
         if self.loaded() {
             return Err(TreeError::Loaded);
         }
-        let numbers = state.q.iter().chain(state.v.iter()).chain(tau.iter());
-        if !(h.is_finite() && numbers.copied().all(f64::is_finite)) {
+        if !h.is_finite() {
             return Err(TreeError::NonFinite);
         }
+        super::simulation::finite_inputs(state, &[tau.as_slice()])?;
         Ok(())
     }
 }

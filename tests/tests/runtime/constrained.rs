@@ -315,6 +315,49 @@ fn derivatives_equal_differences_with_gains_and_an_active_set() {
     close(&out.lambda_tau, &t, "∂λ/∂τ");
 }
 
+/// An impact's derivatives against central differences of the impact
+/// itself: the Solo12 on three feet with restitution 0.5, and the four-bar
+/// closed between two moving bodies (where Pinocchio's constrained
+/// derivatives are wrong, so its impulse ones are no reference).
+#[test]
+fn impact_derivatives_equal_differences() {
+    fn check<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+        scene: &S,
+        state: &TreeState<NQ, NV>,
+        active: ActiveRows,
+        restitution: f64,
+    ) where
+        S: TreeScene<NB, NQ, NV, NC>,
+    {
+        let sim = TreeSimulation::new(scene).unwrap();
+        let (mut work, mut ours) = (InverseDerivatives::zeros(), ImpulseDerivatives::zeros());
+        sim.impact_derivatives(state, active, restitution, &mut work, &mut ours).unwrap();
+        let hit = |s: &TreeState<NQ, NV>| {
+            let mut o = ImpulseDerivatives::zeros();
+            sim.impact(s, active, restitution, &mut o).unwrap();
+            o
+        };
+        let moved = |q: &SVector<f64, NQ>, d: &SVector<f64, NV>| sim.tree().displaced(q, d);
+        let zero = SVector::<f64, NV>::zeros();
+        let [q, v, _] = differences(state, &zero, moved, |s, _| hit(s).v_after);
+        close(&ours.v_after_q, &q, "∂v⁺/∂q");
+        close(&ours.v_after_v, &v, "∂v⁺/∂v");
+        let [q, v, _] = differences(state, &zero, moved, |s, _| hit(s).impulse);
+        close(&ours.impulse_q, &q, "∂Λ/∂q");
+        close(&ours.impulse_v, &v, "∂Λ/∂v");
+    }
+    let sample = &case("solo12_4feet_lwa")["samples"][3];
+    let state = SoloFeet::PINOCCHIO.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
+    check(&SoloFeet, &state, ActiveRows::named(SoloFeet::CLOSURES, &["fl", "fr", "hr"]).unwrap(), 0.5);
+    let sample = &case("fourbar_branch")["samples"][0];
+    let state = TreeState {
+        q: SVector::from_column_slice(&numbers(&sample["q"])),
+        v: SVector::from_column_slice(&numbers(&sample["v"])),
+        t: 0.0,
+    };
+    check(&FourBarBranch, &state, ActiveRows::all(), 0.0);
+}
+
 /// The constrained semi-implicit Euler step's Jacobian (a contact MPC's
 /// node: three feet holding, Baumgarte's gains on, a floating base whose
 /// turn goes through `exp`) against central differences of the step itself,
