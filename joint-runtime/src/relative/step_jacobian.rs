@@ -32,6 +32,9 @@ use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeJointKind, Tr
 
 type Block<const NV: usize> = SMatrix<f64, NV, NV>;
 
+/// A stage's `q̈` and its derivatives `∂q̈/∂(q, v, τ)`.
+type Rate<'a, const NV: usize> = (&'a SVector<f64, NV>, &'a Block<NV>, &'a Block<NV>, &'a Block<NV>);
+
 /// One step's Jacobian by blocks: `q_q = ∂q₁/∂q₀`, `q_v = ∂q₁/∂v₀`,
 /// `q_tau = ∂q₁/∂τ`, and the same of `v₁`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -183,6 +186,54 @@ impl<
         super::simulation::finite_inputs(state, &[tau.as_slice()])?;
         Ok(())
     }
+
+    /// The semi-implicit Euler step from `state` with acceleration `qdd`
+    /// and its derivatives, and the step's Jacobian into `out`, by the
+    /// chain rule: `v₁ = v + h q̈`, `q₁ = q ⊕ h v₁`.
+    pub(super) fn euler_chain(
+        &self,
+        state: &mut TreeState<NQ, NV>,
+        h: f64,
+        (qdd, d_q, d_v, d_tau): Rate<'_, NV>,
+        out: &mut StepJacobian<NV>,
+    ) -> Result<(), TreeError> {
+        let v1 = state.v + qdd * h;
+        // δv₁ = h A_q δq₀ + (I + h A_v) δv₀ + h B δτ.
+        out.v_q = d_q * h;
+        out.v_v = d_v * h + SMatrix::<f64, NV, NV>::identity();
+        out.v_tau = d_tau * h;
+        // δq₁ = (the turn's transport) δq₀ + (its right Jacobian) h δv₁, joint by joint.
+        out.q_q.fill_with_identity();
+        let mut push = SMatrix::<f64, NV, NV>::identity() * h;
+        let tree = self.tree();
+        for (k, j) in tree.joints.iter().enumerate() {
+            let va = tree.v_at[k];
+            let turn_at = match j.kind {
+                TreeJointKind::Spherical => va,
+                TreeJointKind::Free => va + 3,
+                _ => continue,
+            };
+            let phi = three(&v1, turn_at) * h;
+            let (rotation, right) = exp_and_right_jacobian(phi);
+            let back = rotation.transpose();
+            put_block(&mut out.q_q, (turn_at, turn_at), &back);
+            put_block(&mut push, (turn_at, turn_at), &(right * h));
+            if j.kind == TreeJointKind::Free {
+                // The offset moves by R(p₀) h u₁: δ₁ = R(φ)ᵀ (δ₀ + δθ₀ × h u₁ + h δu₁).
+                let u = three(&v1, va) * h;
+                put_block(&mut out.q_q, (va, va), &back);
+                put_block(&mut out.q_q, (va, va + 3), &(back * -u.cross_matrix()));
+                put_block(&mut push, (va, va), &(back * h));
+            }
+        }
+        let transport = out.q_q;
+        out.q_q = transport + push * out.v_q;
+        out.q_v = push * out.v_v;
+        out.q_tau = push * out.v_tau;
+        let mut end = TreeState { q: state.q, v: v1, t: state.t + h };
+        tree.displace(&mut end.q, &(v1 * h));
+        finish(state, end)
+    }
 }
 
 impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
@@ -284,67 +335,6 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         self.forward_dynamics_derivatives(state, tau, &mut work.inverse, &mut work.forward)?;
         let f = &work.forward;
         self.euler_chain(state, h, (&f.qdd, &f.d_q, &f.d_v, &f.d_tau), out)
-    }
-}
-
-/// A stage's `q̈` and its derivatives `∂q̈/∂(q, v, τ)`.
-type Rate<'a, const NV: usize> = (&'a SVector<f64, NV>, &'a Block<NV>, &'a Block<NV>, &'a Block<NV>);
-
-impl<
-    S: TreeScene<NB, NQ, NV, NC>,
-    L: crate::dynamics::AppliedLoads<NB>,
-    const NB: usize,
-    const NQ: usize,
-    const NV: usize,
-    const NC: usize,
-> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
-{
-    /// The semi-implicit Euler step from `state` with acceleration `qdd`
-    /// and its derivatives, and the step's Jacobian into `out`, by the
-    /// chain rule: `v₁ = v + h q̈`, `q₁ = q ⊕ h v₁`.
-    pub(super) fn euler_chain(
-        &self,
-        state: &mut TreeState<NQ, NV>,
-        h: f64,
-        (qdd, d_q, d_v, d_tau): Rate<'_, NV>,
-        out: &mut StepJacobian<NV>,
-    ) -> Result<(), TreeError> {
-        let v1 = state.v + qdd * h;
-        // δv₁ = h A_q δq₀ + (I + h A_v) δv₀ + h B δτ.
-        out.v_q = d_q * h;
-        out.v_v = d_v * h + SMatrix::<f64, NV, NV>::identity();
-        out.v_tau = d_tau * h;
-        // δq₁ = (the turn's transport) δq₀ + (its right Jacobian) h δv₁, joint by joint.
-        out.q_q.fill_with_identity();
-        let mut push = SMatrix::<f64, NV, NV>::identity() * h;
-        let tree = self.tree();
-        for (k, j) in tree.joints.iter().enumerate() {
-            let va = tree.v_at[k];
-            let turn_at = match j.kind {
-                TreeJointKind::Spherical => va,
-                TreeJointKind::Free => va + 3,
-                _ => continue,
-            };
-            let phi = three(&v1, turn_at) * h;
-            let (rotation, right) = exp_and_right_jacobian(phi);
-            let back = rotation.transpose();
-            put_block(&mut out.q_q, (turn_at, turn_at), &back);
-            put_block(&mut push, (turn_at, turn_at), &(right * h));
-            if j.kind == TreeJointKind::Free {
-                // The offset moves by R(p₀) h u₁: δ₁ = R(φ)ᵀ (δ₀ + δθ₀ × h u₁ + h δu₁).
-                let u = three(&v1, va) * h;
-                put_block(&mut out.q_q, (va, va), &back);
-                put_block(&mut out.q_q, (va, va + 3), &(back * -u.cross_matrix()));
-                put_block(&mut push, (va, va), &(back * h));
-            }
-        }
-        let transport = out.q_q;
-        out.q_q = transport + push * out.v_q;
-        out.q_v = push * out.v_v;
-        out.q_tau = push * out.v_tau;
-        let mut end = TreeState { q: state.q, v: v1, t: state.t + h };
-        tree.displace(&mut end.q, &(v1 * h));
-        finish(state, end)
     }
 }
 

@@ -282,18 +282,27 @@ fn close<const R: usize, const C: usize>(ours: &SMatrix<f64, R, C>, theirs: &SMa
     assert!(error < 1e-6, "{what}: {error:e}");
 }
 
+/// The Solo12 on its feet with Baumgarte's gains (α = 3, β = 4), at the
+/// four-feet reference's sample `n`: the simulation, the state, `τ`.
+fn solo_with_gains(
+    n: usize,
+) -> (TreeSimulation<'static, SoloFeet, 13, 19, 18, 12>, TreeState<19, 18>, SVector<f64, 18>) {
+    use joint_runtime::dynamics::{SimulationOptions, Stabilisation};
+    let options = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 3.0, beta: 4.0 });
+    let sim = TreeSimulation::new(&SoloFeet).unwrap().with_options(options).unwrap();
+    let sample = &case("solo12_4feet_lwa")["samples"][n];
+    let layout = SoloFeet::PINOCCHIO;
+    let state = layout.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
+    let tau = layout.forces_from(&state, &numbers(&sample["tau"])).unwrap();
+    (sim, state, tau)
+}
+
 /// Every derivative against central differences of our own maps, with
 /// Baumgarte's gains on, three feet of four holding, and the UR5's weld in
 /// the world's axes.
 #[test]
 fn derivatives_equal_differences_with_gains_and_an_active_set() {
-    use joint_runtime::dynamics::{SimulationOptions, Stabilisation};
-    let options = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 3.0, beta: 4.0 });
-    let sim = TreeSimulation::new(&SoloFeet).unwrap().with_options(options).unwrap();
-    let sample = &case("solo12_4feet_lwa")["samples"][1];
-    let layout = SoloFeet::PINOCCHIO;
-    let state = layout.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
-    let tau = layout.forces_from(&state, &numbers(&sample["tau"])).unwrap();
+    let (sim, state, tau) = solo_with_gains(1);
     let three = ActiveRows::named(SoloFeet::CLOSURES, &["fl", "fr", "hl"]).unwrap();
     let (mut work, mut out) = (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros());
     sim.constrained_dynamics_derivatives(&state, &tau, three, &mut work, &mut out).unwrap();
@@ -364,14 +373,8 @@ fn impact_derivatives_equal_differences() {
 /// `q₁` measured in the tree's increments at the nominal end.
 #[test]
 fn the_constrained_euler_step_has_an_exact_jacobian() {
-    use joint_runtime::dynamics::{SimulationOptions, Stabilisation};
     use joint_runtime::relative::StepJacobian;
-    let options = SimulationOptions::default().with_stabilisation(Stabilisation::Baumgarte { alpha: 3.0, beta: 4.0 });
-    let sim = TreeSimulation::new(&SoloFeet).unwrap().with_options(options).unwrap();
-    let sample = &case("solo12_4feet_lwa")["samples"][2];
-    let layout = SoloFeet::PINOCCHIO;
-    let state = layout.state_from(&numbers(&sample["q"]), &numbers(&sample["v"])).unwrap();
-    let tau = layout.forces_from(&state, &numbers(&sample["tau"])).unwrap();
+    let (sim, state, tau) = solo_with_gains(2);
     let three = ActiveRows::named(SoloFeet::CLOSURES, &["fl", "hl", "hr"]).unwrap();
     let h = 0.01;
     let step = |s: &TreeState<19, 18>, t: &SVector<f64, 18>| {
