@@ -336,6 +336,30 @@ fn constrained_dynamics_derivatives_and_impacts_allocate_nothing() {
     assert!(done && out.rank == 9 && out.lambda.rows(9, 3).iter().all(|x| *x == 0.0));
 }
 
+/// The Panda with its fingers coupled softly, as MuJoCo makes a file's
+/// `<equality joint>`.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/panda_fingers.xml")]
+struct PandaFingers;
+
+#[test]
+fn soft_equalities_allocate_nothing() {
+    use joint_runtime::relative::{ForwardDerivatives, InverseDerivatives, TreeSimulation};
+    let (mut work, mut out) = (InverseDerivatives::zeros(), ForwardDerivatives::zeros());
+    let mut done = false;
+    let n = allocations(|| {
+        let Ok(mut sim) = TreeSimulation::new(&PandaFingers) else { return };
+        let mut state = sim.tree().zero_state();
+        state.q[7] = 0.001;
+        let tau = SVector::<f64, 9>::from_fn(|k, _| 0.2 * (k as f64).cos());
+        done = sim.forward_dynamics(&state, &tau).is_ok()
+            && sim.forward_dynamics_derivatives(&state, &tau, &mut work, &mut out).is_ok()
+            && (0..3).all(|_| sim.step(&mut state, 1e-3).is_ok());
+    });
+    assert_eq!(n, 0, "the soft equalities allocated");
+    assert!(done && out.d_q[(7, 7)] < 0.0);
+}
+
 #[test]
 fn the_counter_counts() {
     // The counter counts: a vector allocates.

@@ -4,7 +4,9 @@
 //! Jacobian, and an impact's, each with the
 //! active set a run-time argument. The floating Solo12 from its URDF file on
 //! its four feet (points in the world's axes), the UR5 from its URDF file
-//! with its tool welded to the world (a frame in its own axes).
+//! with its tool welded to the world (a frame in its own axes); and the
+//! Panda from its MJCF file with its fingers coupled softly (MuJoCo's
+//! `<equality joint>`): its step, dynamics and their derivatives.
 
 use joint_runtime::Scene;
 use joint_runtime::dynamics::{NoLoads, Simulate, StepReport};
@@ -61,7 +63,35 @@ macro_rules! contacts {
 contacts!(solo12, SoloFeet, 19, 18, 12);
 contacts!(ur5, Ur5Weld, 6, 6, 6);
 
+/// The Panda from its MJCF file with its fingers coupled softly, as MuJoCo
+/// makes an `<equality joint>`.
+#[derive(Scene)]
+#[scene(mjcf = "../../tests/data/mjcf/panda_fingers.xml")]
+pub struct PandaFingers;
+
+/// A soft equality's step, dynamics and exact derivatives.
+pub mod soft {
+    use super::*;
+    use joint_runtime::relative::ForwardDerivatives;
+
+    type Sim<'a> = <PandaFingers as Simulate<'a, NoLoads>>::Engine;
+    type State = TreeState<9, 9>;
+    type Tau = SVector<f64, 9>;
+
+    checked! {
+        fn step(sim: &mut Sim<'_>, state: &mut State, h: f64) -> Result<StepReport, TreeError> {
+            sim.step(state, h)
+        }
+        fn forward_dynamics(sim: &mut Sim<'_>, state: &State, tau: &Tau) -> Result<Tau, TreeError> {
+            sim.forward_dynamics(state, tau)
+        }
+        fn forward_dynamics_derivatives(sim: &Sim<'_>, state: &State, tau: &Tau, work: &mut InverseDerivatives<9>, out: &mut ForwardDerivatives<9>) -> Result<(), TreeError> {
+            sim.forward_dynamics_derivatives(state, tau, work, out)
+        }
+    }
+}
+
 /// Every robot's wrappers kept; their number.
 pub fn keep() -> usize {
-    solo12::keep() + ur5::keep()
+    solo12::keep() + ur5::keep() + soft::keep()
 }

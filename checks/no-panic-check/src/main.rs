@@ -32,7 +32,9 @@
 //! - Two robots read from their files with contacts (the floating Solo12 on
 //!   its four feet, the UR5 welded): a constrained RK4 step, the constrained
 //!   dynamics, their exact derivatives and an impact's, the active set a
-//!   run-time argument ([`contacts`]).
+//!   run-time argument; the Panda from its MJCF file with its fingers
+//!   coupled softly (MuJoCo's `<equality joint>`): its step, dynamics and
+//!   their exact derivatives ([`contacts`]).
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`
 //!   and `f32 × 8`, and over packed states) for a universal joint ([`batch`]).
 //!

@@ -37,6 +37,18 @@ pub(super) struct FromFile {
     pub data: Option<FileData>,
     /// Its couplings (none with `mimic = independent`).
     pub couplings: Vec<Coupling>,
+    /// Its closing joints that MuJoCo softens.
+    pub soft: Vec<SoftJoint>,
+}
+
+/// A closing joint of a file that MuJoCo softens (a `connect`): the
+/// joint's name in the scene, its softening and its ends' bodies with the
+/// points MuJoCo weighs them at.
+#[derive(Clone, Debug)]
+pub struct SoftJoint {
+    pub joint: String,
+    pub soft: super::robot::Soft,
+    pub ends: super::robot::SoftEnds,
 }
 
 /// What a scene asks of its file's reading, each where the option is written.
@@ -98,6 +110,17 @@ pub(super) fn read(
     let Some(mut read) = robot(*format, lit, (reading, dynamics), errors) else {
         return FromFile::default();
     };
+    if let (Some(_), true) = (
+        read.soft.first().map(|j| &j.joint).or(read.couplings.iter().find(|c| c.soft.is_some()).map(|c| &c.name)),
+        absolute,
+    ) {
+        errors.at(
+            lit.span(),
+            "the file's equalities are soft as MuJoCo makes them, which is modelled in relative coordinates only; \
+             expected `coordinates = relative` (a file's default), or `equality = hard` to read them as ideal \
+             constraints",
+        );
+    }
     if independent.is_some() {
         read.couplings.clear();
     } else if let (Some(c), true) = (read.couplings.first(), absolute) {
@@ -209,6 +232,7 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
     };
     let list = |v: &[f64; 3]| Some(Value::List(known(v), span));
     let arg = |key: &str, v: &[f64; 3]| Arg { key: syn::Ident::new(key, span), value: list(v) };
+    let mut soft = Vec::new();
     let joints = robot
         .joints
         .iter()
@@ -220,8 +244,12 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
                 _ => vec![arg("axis1", &j.axis), arg("axis2", &j.axis), arg("rho1", &j.rho1), arg("rho2", &j.rho2)],
             };
             args.extend(dynamics_args(j, dynamics, span, errors));
+            let name = ident(&j.name, &mut joint_names, errors);
+            if let Some((s, ends)) = j.soft {
+                soft.push(SoftJoint { joint: name.to_string(), soft: s, ends });
+            }
             JointAttr {
-                name: ident(&j.name, &mut joint_names, errors),
+                name,
                 repeat: None,
                 kind: syn::Ident::new(j.kind, span),
                 bodies: vec![body_ref(j.parent), body_ref(Some(j.child))],
@@ -237,8 +265,8 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
         .iter()
         .filter_map(|c| {
             let (follower, leader) = (index(&c.follower)?, index(&c.leader)?);
-            let (multiplier, offset) = (c.multiplier, c.offset);
-            Some(Coupling { name: c.follower.clone(), follower, leader, multiplier, offset })
+            let (multiplier, offset, soft) = (c.multiplier, c.offset, c.soft);
+            Some(Coupling { name: c.follower.clone(), follower, leader, multiplier, offset, soft })
         })
         .collect();
     Some(FromFile {
@@ -254,6 +282,7 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
             compensation: robot.bodies.iter().map(|b| b.gravcomp).collect(),
         }),
         couplings,
+        soft,
     })
 }
 
@@ -290,6 +319,8 @@ pub struct Coupling {
     pub leader: usize,
     pub multiplier: f64,
     pub offset: f64,
+    /// MuJoCo's softening (an MJCF `<equality joint>`); `None`: an ideal row.
+    pub soft: Option<super::robot::Soft>,
 }
 
 /// A link's frame on its body (`None`: the ground), from a robot's file:

@@ -33,8 +33,8 @@ use std::collections::HashMap;
 
 use super::robot::{
     Class, Closure, Fail, FileCoupling, FileLimits, FileOptions, FileSpring, IDENTITY, Joint, Kind, Library, Link, M3,
-    Robot, V3, add, apply, assemble, attribute_at, mul, norm, number, numbers, parse_numbers, read_text, required,
-    transpose, triple,
+    Robot, Soft, V3, add, apply, assemble, attribute_at, mul, norm, number, numbers, parse_numbers, read_text,
+    required, transpose, triple,
 };
 use super::visuals::{FileVisual, Looks, mjcf_shape, z_turn};
 
@@ -76,7 +76,6 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, equalities: (bool
         return Err(fail(reader.pos(world), "the `<worldbody>` has no `<body>`; expected the robot's bodies".into()));
     }
     total_mass(root, &mut reader.links, &fail)?;
-    let (closures, couplings) = reader.equalities(root, equalities)?;
     let option = root.children().find(|n| n.has_tag_name("option"));
     let gravity = match option {
         Some(o) => triple(o, "gravity", reader.pos(o), &fail)?,
@@ -91,8 +90,12 @@ fn from_text(text: &str, shown: &str, span: proc_macro2::Span, equalities: (bool
         None => FileOptions::default(),
     };
     // What MuJoCo steps with where the file says nothing.
-    options.timestep.get_or_insert(0.002);
+    let timestep = *options.timestep.get_or_insert(0.002);
     options.integrator.get_or_insert_with(|| "Euler".to_string());
+    // MuJoCo raises a soft row's time constant to twice the step unless
+    // `<flag refsafe="disable">`.
+    let refsafe = !flags.clone().any(|f| f.attribute("refsafe") == Some("disable"));
+    let (closures, couplings) = reader.equalities(root, equalities, refsafe.then_some(timestep))?;
     let robot = assemble(&reader.links, &reader.joints, &closures, (false, Library::MuJoCo), &fail)?;
     Ok(Robot { gravity: Some(gravity), couplings, options, ..robot })
 }
@@ -112,6 +115,8 @@ struct Reader<'a, 'i> {
     compiler: Compiler,
     /// Each `<default>` class's joint attributes, its parents' included.
     defaults: HashMap<String, Class>,
+    /// The same for equalities (`solref`, `solimp`).
+    equality_defaults: HashMap<String, Class>,
     /// The same for geoms, and the `<asset>`s they name: pictures only.
     looks: Looks,
     links: Vec<Link>,
@@ -163,14 +168,17 @@ impl<'a, 'i> Reader<'a, 'i> {
             return Err(fail(pos(n), format!("`<{}>`: {what}", n.tag_name().name())));
         }
         unmodelled(doc, fail)?;
-        let (mut defaults, mut geoms) = (HashMap::new(), HashMap::new());
+        let (mut defaults, mut geoms, mut equality_defaults) = (HashMap::new(), HashMap::new(), HashMap::new());
         for d in root.children().filter(|n| n.has_tag_name("default")) {
             default_class(d, ("main", "joint"), &HashMap::new(), &mut defaults, &pos, fail)?;
             default_class(d, ("main", "geom"), &HashMap::new(), &mut geoms, &pos, fail)?;
+            default_class(d, ("main", "equality"), &HashMap::new(), &mut equality_defaults, &pos, fail)?;
         }
         defaults.entry("main".to_string()).or_default();
+        equality_defaults.entry("main".to_string()).or_default();
         let looks = Looks::read(root, geoms, &pos, fail)?;
-        Ok(Reader { doc, fail, compiler, defaults, looks, links: Vec::new(), joints: Vec::new() })
+        let (links, joints) = (Vec::new(), Vec::new());
+        Ok(Reader { doc, fail, compiler, defaults, equality_defaults, looks, links, joints })
     }
 
     fn pos(&self, n: roxmltree::Node) -> roxmltree::TextPos {
@@ -552,14 +560,17 @@ impl<'a, 'i> Reader<'a, 'i> {
 
     /// `<equality>`'s `connect` and `weld` as closing joints, `joint` as
     /// couplings (`joint1 = a0 + a1 joint2`): none where `<flag equality>` or
-    /// `<flag constraint>` is `disable` (MuJoCo leaves them out). MuJoCo
-    /// softens every equality, so each is refused unless the scene asks for
-    /// ideal rows (`hard`; `independent` for `<equality joint>`s, which the
-    /// scene then leaves out).
+    /// `<flag constraint>` is `disable` (MuJoCo leaves them out). Each soft
+    /// as MuJoCo makes it (`solref`, `solimp`; `refsafe`: the file's step
+    /// where MuJoCo raises time constants to twice it), or ideal where the
+    /// scene asks (`hard`; `independent` for `<equality joint>`s, which the
+    /// scene then leaves out). A soft `weld` is refused: its orientation
+    /// rows (MuJoCo's quaternion error) are not modelled.
     fn equalities(
         &self,
         root: roxmltree::Node,
         (hard, independent): (bool, bool),
+        refsafe: Option<f64>,
     ) -> syn::Result<(Vec<Closure>, Vec<FileCoupling>)> {
         let fail = self.fail;
         let flags = root.children().filter(|n| n.has_tag_name("option")).flat_map(|o| o.children());
@@ -586,14 +597,18 @@ impl<'a, 'i> Reader<'a, 'i> {
             if e.attribute("active") == Some("false") {
                 continue;
             }
-            if !(hard || independent && tag == "joint") {
-                return Err(fail(at, soft(tag)));
+            if independent && tag == "joint" {
+                continue;
+            }
+            let soft = if hard { None } else { Some(self.softness(e, refsafe)?) };
+            if soft.is_some() && tag == "weld" {
+                return Err(fail(at, soft_weld()));
             }
             let weld = match tag {
                 "connect" => false,
                 "weld" => true,
                 "joint" => {
-                    couplings.push(self.coupling(e)?);
+                    couplings.push(FileCoupling { soft, ..self.coupling(e)? });
                     continue;
                 }
                 _ => {
@@ -625,7 +640,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             let name = e.attribute("name").map_or_else(|| format!("{tag}{k}"), str::to_string);
             // `connect`'s anchor is in body1's frame, `weld`'s in body2's.
             let anchor_on = if weld { links[1] } else { links[0] };
-            out.push(Closure { name, weld, links, anchor_on, anchor: anchor.unwrap_or([0.0; 3]), at });
+            out.push(Closure { name, weld, links, anchor_on, anchor: anchor.unwrap_or([0.0; 3]), at, soft });
         }
         Ok((out, couplings))
     }
@@ -659,7 +674,54 @@ impl<'a, 'i> Reader<'a, 'i> {
                 ),
             ));
         }
-        Ok(FileCoupling { follower, leader: leader.to_string(), multiplier: a1, offset: a0 })
+        Ok(FileCoupling { follower, leader: leader.to_string(), multiplier: a1, offset: a0, soft: None })
+    }
+
+    /// An equality's `solref` and `solimp` (its own, else its class's, else
+    /// MuJoCo's `0.02 1` and `0.9 0.95 0.001 0.5 2`; fewer numbers than
+    /// five fill the first ones, as MuJoCo reads them), clamped and with
+    /// the time constant raised to twice `refsafe`'s step, as MuJoCo's
+    /// `getsolparam` does.
+    fn softness(&self, e: roxmltree::Node, refsafe: Option<f64>) -> syn::Result<Soft> {
+        let (at, fail) = (self.pos(e), self.fail);
+        let class = self.class(e, "class", "main")?;
+        let class = self.equality_defaults.get(&class);
+        let get = Lookup { node: e, class, at };
+        let mut solref = [0.02, 1.0];
+        let mut solimp = [0.9, 0.95, 0.001, 0.5, 2.0];
+        for (key, out) in [("solref", &mut solref[..]), ("solimp", &mut solimp[..])] {
+            // The class's numbers over MuJoCo's, the element's over those.
+            let own = e.attribute(key).map(|t| (t, attribute_at(e, key).unwrap_or(at)));
+            let inherited = class.and_then(|c| c.get(key)).map(|(t, at)| (t.as_str(), *at));
+            for (text, at) in inherited.into_iter().chain(own) {
+                let parsed: Vec<Option<f64>> = text.split_whitespace().map(|t| t.parse().ok()).collect();
+                let n = out.len();
+                if parsed.is_empty() || parsed.len() > n || parsed.iter().any(|x| !x.is_some_and(f64::is_finite)) {
+                    return Err(fail(at, format!("`{key}=\"{text}\"`: expected one to {n} numbers")));
+                }
+                for (o, x) in out.iter_mut().zip(parsed.into_iter().flatten()) {
+                    *o = x;
+                }
+            }
+        }
+        if (solref[0] > 0.0) != (solref[1] > 0.0) {
+            let at = get.at("solref");
+            let message = "`solref` mixes MuJoCo's two forms, which MuJoCo replaces by its default with a warning; \
+                           expected a time constant and a damping ratio (both positive) or a stiffness and a damping \
+                           (both negative)";
+            return Err(fail(at, message.into()));
+        }
+        if let (Some(step), true) = (refsafe, solref[0] > 0.0) {
+            solref[0] = solref[0].max(2.0 * step);
+        }
+        // MuJoCo's mjMINIMP and mjMAXIMP.
+        let (low, high) = (0.0001, 0.9999);
+        for k in [0, 1, 3] {
+            solimp[k] = solimp[k].clamp(low, high);
+        }
+        solimp[2] = solimp[2].max(0.0);
+        solimp[4] = solimp[4].max(1.0);
+        Ok(Soft { solref, solimp })
     }
 }
 
@@ -713,16 +775,13 @@ impl Lookup<'_, '_> {
     }
 }
 
-/// The refusal of an equality read without `equality = hard`: what MuJoCo
-/// does with it (every equality soft, its defaults where the file gives no
-/// `solref`, `solimp`) and the option that reads it as an ideal constraint.
-fn soft(tag: &str) -> String {
-    format!(
-        "`<{tag}>`: MuJoCo makes every equality a soft constraint (`solref=\"0.02 1\"`, `solimp=\"0.9 0.95 0.001 0.5 \
-         2\"` where the file gives none), whose accelerations differ from an ideal one's, and soft rows are not \
-         modelled; expected `#[scene(.., equality = hard)]` to read the file's equalities as ideal constraints (which \
-         departs from MuJoCo), or the equality left out"
-    )
+/// The refusal of a `<weld>` read soft: what is not modelled and the
+/// option that reads it as an ideal constraint.
+fn soft_weld() -> String {
+    "`<weld>`: MuJoCo makes it a soft constraint whose orientation rows are its quaternion error, which is not \
+     modelled (its `connect`s and `joint`s are); expected `#[scene(.., equality = hard)]` to read the file's \
+     equalities as ideal constraints (which departs from MuJoCo), or the weld left out"
+        .into()
 }
 
 /// The values of an attribute that leave MuJoCo's dynamics as this reader
@@ -1164,13 +1223,15 @@ mod tests {
         }
     }
 
-    /// MuJoCo makes every equality soft (its defaults where the file states
-    /// no `solref`): refused at the equality unless the scene reads them as
-    /// ideal rows; `mimic = independent` leaves `<equality joint>`s out; a
-    /// `<flag equality>` or `<flag constraint>` switched off leaves them all
-    /// out, as in MuJoCo.
+    /// MuJoCo makes every equality soft, and so does the reader: its
+    /// defaults where the file states nothing, a class's numbers under the
+    /// element's (fewer than five fill the first ones), time constants
+    /// raised to twice the step unless `refsafe` is off; ideal rows where
+    /// the scene asks (`hard`); `mimic = independent` leaves `<equality
+    /// joint>`s out; a soft `<weld>` is refused; a `<flag equality>` or
+    /// `<flag constraint>` switched off leaves them all out, as in MuJoCo.
     #[test]
-    fn equalities_are_soft_in_mujoco() {
+    fn equalities_are_soft_as_in_mujoco() {
         let second =
             "<body name=\"hand\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint name=\"k\"/></body>";
         let coupled = one_body(
@@ -1178,25 +1239,33 @@ mod tests {
             "<equality><joint joint1=\"k\" joint2=\"j\"/></equality>",
         );
         let span = proc_macro2::Span::call_site();
+        let soft = |text: &str, asked| {
+            from_text(text, "f.xml", span, asked)
+                .map(|r| r.couplings.first().and_then(|c| c.soft).map(|s| (s.solref, s.solimp)))
+        };
+        let defaults = Some(([0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0]));
+        assert_eq!(soft(&coupled, (false, false)).ok(), Some(defaults));
+        assert_eq!(soft(&coupled, (true, false)).ok(), Some(None));
+        let quick = coupled.replace("/></equality>", " solref=\"0.001 1\"/></equality>");
+        let stepped =
+            |flags: &str| quick.replace("</mujoco>", &format!("<option timestep=\"0.004\">{flags}</option></mujoco>"));
+        assert_eq!(soft(&stepped(""), (false, false)).ok().flatten().map(|s| s.0), Some([0.008, 1.0]));
+        let unsafe_ = stepped("<flag refsafe=\"disable\"/>");
+        assert_eq!(soft(&unsafe_, (false, false)).ok().flatten().map(|s| s.0), Some([0.001, 1.0]));
+        let classed = coupled
+            .replace("/></equality>", " solimp=\"0.95 0.99 0.001\"/></equality>")
+            .replace("<worldbody>", "<default><equality solimp=\"0.8 0.9 0.01 0.3 3\"/></default><worldbody>");
+        assert_eq!(soft(&classed, (false, false)).ok().flatten().map(|s| s.1), Some([0.95, 0.99, 0.001, 0.3, 3.0]));
         let read =
             |text: &str, asked| from_text(text, "f.xml", span, asked).map(|r| (r.closures.len(), r.couplings.len()));
-        let message = read(&coupled, (false, false)).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(
-            message.starts_with("f.xml:8:11: `<joint>`: MuJoCo makes every equality a soft constraint"),
-            "{message}"
-        );
-        assert!(message.contains("`#[scene(.., equality = hard)]`"), "{message}");
-        assert_eq!(read(&coupled, (true, false)).ok(), Some((0, 1)));
-        assert_eq!(
-            read(&coupled.replace("/></equality>", " solref=\"0.01 1\"/></equality>"), (true, false)).ok(),
-            Some((0, 1))
-        );
-        assert_eq!(read(&coupled, (false, true)).ok(), Some((0, 1)));
+        assert_eq!(read(&coupled, (false, true)).ok(), Some((0, 0)));
         let welded = one_body(
             &format!("<joint name=\"j\"/>{second}"),
             "<equality><weld body1=\"arm\" body2=\"hand\"/></equality>",
         );
-        assert!(read(&welded, (false, true)).is_err());
+        let message = read(&welded, (false, true)).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(message.starts_with("f.xml:8:11: `<weld>`: MuJoCo makes it a soft constraint"), "{message}");
+        assert!(message.contains("`#[scene(.., equality = hard)]`"), "{message}");
         assert_eq!(read(&welded, (true, false)).ok(), Some((1, 0)));
         for off in ["equality", "constraint"] {
             let flag = format!("<option><flag {off}=\"disable\"/></option>");
@@ -1204,6 +1273,32 @@ mod tests {
                 read(&welded.replace("</mujoco>", &format!("{flag}</mujoco>")), (false, false)).ok(),
                 Some((0, 0))
             );
+        }
+    }
+
+    /// A soft equality's numbers: each mistake at its attribute.
+    #[test]
+    fn bad_softness_one_message_each_at_line_and_column() {
+        let second =
+            "<body name=\"hand\"><inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"1 1 1\"/><joint name=\"k\"/></body>";
+        let with = |attributes: &str| {
+            one_body(
+                &format!("<joint name=\"j\"/>{second}"),
+                &format!("<equality><joint joint1=\"k\" joint2=\"j\" {attributes}/></equality>"),
+            )
+        };
+        let span = proc_macro2::Span::call_site();
+        let error = |text: &str| {
+            from_text(text, "f.xml", span, (false, false)).err().map(|e| e.to_string()).unwrap_or_default()
+        };
+        let cases = [
+            (with("solref=\"0.02 -1\""), "8:40:", "mixes MuJoCo's two forms"),
+            (with("solimp=\"0.9 0.95 0.001 0.5 2 1\""), "8:40:", "expected one to 5 numbers"),
+            (with("solref=\"fast\""), "8:40:", "expected one to 2 numbers"),
+        ];
+        for (text, at, expected) in cases {
+            let message = error(&text);
+            assert!(message.starts_with(&format!("f.xml:{at}")) && message.contains(expected), "{text}\n{message}");
         }
     }
 

@@ -56,6 +56,9 @@ pub struct FileCoupling {
     pub leader: String,
     pub multiplier: f64,
     pub offset: f64,
+    /// MuJoCo's softening (an MJCF `<equality joint>` read soft); `None`
+    /// for an ideal row.
+    pub soft: Option<Soft>,
 }
 
 /// One body: the links a chain of fixed joints welds together.
@@ -90,7 +93,23 @@ pub struct RobotJoint {
     pub rho2: V3,
     /// Its limits and friction.
     pub limits: FileLimits,
+    /// A closing joint MuJoCo softens: its `solref`, `solimp` and each
+    /// end's body with that MuJoCo body's centre of mass from the body's
+    /// (what MuJoCo's inverse weights are taken at); `None` for an ideal one.
+    pub soft: Option<(Soft, SoftEnds)>,
 }
+
+/// MuJoCo's softening of an equality: `solref` (its time constant already
+/// at least twice the file's timestep) and `solimp`, as MuJoCo clamps them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Soft {
+    pub solref: [f64; 2],
+    pub solimp: [f64; 5],
+}
+
+/// A soft `connect`'s two ends: each a body with a point in its frame, or
+/// `None` for the world.
+pub type SoftEnds = [Option<(usize, V3)>; 2];
 
 /// An MJCF `<default>` class's attributes of one element (joint, geom):
 /// each value and where it is written, its parents' included.
@@ -163,6 +182,8 @@ pub struct Closure {
     pub anchor_on: usize,
     pub anchor: V3,
     pub at: roxmltree::TextPos,
+    /// MuJoCo's softening; `None` for an ideal joint.
+    pub soft: Option<Soft>,
 }
 
 /// Reads `path`: relative to the crate's `CARGO_MANIFEST_DIR`, or, where
@@ -280,7 +301,8 @@ pub fn assemble(
         bodies.push(RobotBody { name: links[head].name.clone(), mass, inertia, gravcomp });
     }
     let from = |b: Option<usize>| b.map_or([0.0; 3], |b| centres[b]);
-    let placed = Placed { pose: &pose, body_of: &body_of, from: &from };
+    let link_centres: Vec<V3> = links.iter().map(|l| l.inertial.map_or([0.0; 3], |(_, c, _)| c)).collect();
+    let placed = Placed { pose: &pose, centres: &link_centres, body_of: &body_of, from: &from };
     let out = moving_joints(links, joints, &placed, fail)?;
     let loops = closure_joints(closures, &placed, fail)?;
     // Every link's frame: the body's axes are the world's at zero.
@@ -310,6 +332,8 @@ pub fn assemble(
 /// (the ground's: the origin).
 struct Placed<'a> {
     pose: &'a [Pose],
+    /// Each link's centre of mass in its frame (its origin without mass).
+    centres: &'a [V3],
     body_of: &'a [Option<usize>],
     from: &'a dyn Fn(Option<usize>) -> V3,
 }
@@ -374,7 +398,7 @@ fn moving_joints(links: &[Link], joints: &[Joint], at: &Placed, fail: &Fail) -> 
             }
         };
         let name = j.name.clone();
-        out.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits: j.limits });
+        out.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits: j.limits, soft: None });
     }
     Ok(out)
 }
@@ -397,7 +421,15 @@ fn closure_joints(closures: &[Closure], at: &Placed, fail: &Fail) -> syn::Result
         let (rho1, rho2) = points(&point, at.from, (parent, child)).ok_or_else(|| out_of_range(&c.name, c.at, fail))?;
         let (name, kind, axis) = (c.name.clone(), if c.weld { "fixed" } else { "spherical" }, [0.0, 0.0, 1.0]);
         let limits = FileLimits::default();
-        loops.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits });
+        // MuJoCo weighs a soft connect at each MuJoCo body's centre of mass.
+        let centre = |l: usize| {
+            let (r, o) = at.pose[l];
+            let c = at.centres[l];
+            let b = at.body_of[l]?;
+            Some((b, round_off(sub(&add(&o, &apply(&r, &c)), &(at.from)(Some(b))))))
+        };
+        let soft = c.soft.map(|s| (s, c.links.map(centre)));
+        loops.push(RobotJoint { name, kind, parent, child, axis, rho1, rho2, limits, soft });
     }
     Ok(loops)
 }

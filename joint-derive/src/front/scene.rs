@@ -295,6 +295,8 @@ pub struct SceneDecl {
     pub couplings: Vec<Coupling>,
     /// `#[contact(..)]`: points and frames held, rows on the tree.
     pub contacts: Vec<super::contact::ContactDecl>,
+    /// A file's closing joints that MuJoCo softens.
+    pub soft: Vec<super::files::SoftJoint>,
 }
 
 /// The inherent constants a scene gets beside its bodies' indices.
@@ -471,7 +473,8 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     let Options { gravity, second_order, relative, absolute, file, reading } =
         scene_options(input, &fields, &mut errors);
     let read = super::files::read(file.as_ref(), &reading, absolute, &mut errors);
-    let FromFile { mut bodies, joints: file_joints, files, gravity: file_gravity, data: file_data, couplings } = read;
+    let FromFile { mut bodies, joints: file_joints, files, gravity: file_gravity, data: file_data, couplings, soft } =
+        read;
     let known = |g: [f64; 3]| Quantity::Const(g.iter().map(|&x| Number::Known(x)).collect());
     let gravity = gravity.unwrap_or_else(|| known(file_gravity.unwrap_or([0.0; 3])));
     bodies.extend(self::bodies(input, &fields, &mut errors));
@@ -495,6 +498,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
         file: file_data,
         couplings,
         contacts: Vec::new(),
+        soft,
     };
     for j in file_joints {
         scene.joint(j, &fields, &mut errors);
@@ -645,8 +649,8 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
                 Some(Value::Ident(m)) if m == "hard" => equality.set(a.key.span(), (), errors),
                 _ => errors.at(
                     a.value.as_ref().map_or(a.key.span(), Value::span),
-                    "expected `equality = hard`: an MJCF file's equalities read as ideal constraints (MuJoCo's are \
-                     soft, which is not modelled)",
+                    "expected `equality = hard`: an MJCF file's equalities read as ideal constraints (without it \
+                     they are soft, as MuJoCo makes them)",
                 ),
             },
             "mimic" => match &a.value {

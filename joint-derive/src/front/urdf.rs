@@ -71,6 +71,7 @@ fn mimics(doc: &roxmltree::Document, joints: &[Joint], fail: &Fail) -> syn::Resu
             leader,
             multiplier: optional("multiplier", 1.0)?,
             offset: optional("offset", 0.0)?,
+            soft: None,
         });
     }
     Ok(out)

@@ -299,6 +299,7 @@ pub fn print(d: &Derived, blocks: &[Block], second: Option<&SecondOrderNodes>, s
     let (phi, jac, gamma, phi_t) =
         (vector_tokens(phi), matrix_tokens(jac, rows), vector_tokens(gamma), vector_tokens(phi_t));
     let contacts = contacts(s, blocks);
+    let soft = soft(s, blocks);
     let blocks = blocks.iter().map(|b| {
         let (name, start, n) = (&b.name, b.start, b.rows);
         quote!(#k::RowBlock { name: #name, start: #start, rows: #n })
@@ -324,6 +325,7 @@ pub fn print(d: &Derived, blocks: &[Block], second: Option<&SecondOrderNodes>, s
     let method = quote! {
         const CLOSURES: &'static [#k::RowBlock] = &[#(#blocks),*];
         #contacts
+        #soft
         #linear
         #[doc = #doc]
         #[inline]
@@ -381,6 +383,53 @@ fn second_method(d: &Derived, nodes: &SecondOrderNodes, s: &SceneDecl) -> Option
             })
         }
     })
+}
+
+/// `const SOFT`: a file's equalities as MuJoCo softens them, each with its
+/// block (loops first, then couplings, then contacts), `solref`, `solimp`
+/// and whose inverse weights scale it; `None` where none is soft.
+fn soft(s: &SceneDecl, blocks: &[Block]) -> Option<TokenStream> {
+    let k = krate();
+    let first_coupling = blocks.len() - s.contacts.len() - s.couplings.len();
+    let f = proc_macro2::Literal::f64_suffixed;
+    let some = |t: TokenStream| quote!(::core::option::Option::Some(#t));
+    let none = quote!(::core::option::Option::None);
+    let item = |block: usize, soft: &crate::front::robot::Soft, weight: TokenStream| {
+        let (solref, solimp) = (soft.solref.map(f), soft.solimp.map(f));
+        quote!(#k::relative::SoftEquality {
+            block: #block,
+            solref: [#(#solref),*],
+            solimp: [#(#solimp),*],
+            weight: #k::relative::InverseWeight::#weight,
+        })
+    };
+    let mut items = Vec::new();
+    for (n, b) in blocks[..first_coupling].iter().enumerate() {
+        let Some(j) = s.soft.iter().find(|j| j.joint == b.name) else { continue };
+        let ends = j.ends.map(|end| match end {
+            Some((body, p)) => {
+                let p = p.map(f);
+                some(quote!((#body, [#(#p),*])))
+            }
+            None => none.clone(),
+        });
+        items.push(item(n, &j.soft, quote!(Bodies([#(#ends),*]))));
+    }
+    let edges = s.tree.as_deref().unwrap_or(&[]);
+    let (_, va) = kind_offsets(edges.iter().map(|e| e.kind));
+    let freedom = |joint: usize| match edges.iter().position(|e| e.joint == Some(joint)) {
+        Some(n) => {
+            let at = va[n];
+            some(quote!(#at))
+        }
+        None => none.clone(),
+    };
+    for (i, c) in s.couplings.iter().enumerate() {
+        let Some(soft) = &c.soft else { continue };
+        let (a, b) = (freedom(c.follower), freedom(c.leader));
+        items.push(item(first_coupling + i, soft, quote!(Freedoms([#a, #b]))));
+    }
+    (!items.is_empty()).then(|| quote!(const SOFT: &'static [#k::relative::SoftEquality] = &[#(#items),*];))
 }
 
 /// `const CONTACTS`: each contact's block among the closures', its kind and axes.

@@ -34,6 +34,7 @@ use nalgebra::{SMatrix, SVector};
 
 use super::factor::{FreedomTree, MassFactor};
 use super::simulation::finite_inputs;
+use super::soft::SoftTerms;
 use super::{InverseDerivatives, StepJacobian, TreeError, TreeScene, TreeSimulation, TreeState};
 use crate::SecondOrder;
 use crate::dynamics::Stabilisation;
@@ -163,6 +164,10 @@ pub(super) struct Kkt<'a, const NV: usize, const NC: usize> {
     pub(super) mass: MassFactor<'a, NV>,
     /// Which rows hold.
     pub(super) mask: [bool; NC],
+    /// `Φ` at the state (what the soft rows' derivatives read).
+    pub(super) phi: SVector<f64, NC>,
+    /// The soft rows' `R` and `a_ref` (`None` without soft rows).
+    pub(super) soft: Option<SoftTerms<NC>>,
 }
 
 impl<'a, const NV: usize, const NC: usize> Kkt<'a, NV, NC> {
@@ -177,6 +182,8 @@ impl<'a, const NV: usize, const NC: usize> Kkt<'a, NV, NC> {
             factor: PivotedCholesky::empty(),
             mass: MassFactor::new(tree),
             mask: [false; NC],
+            phi: SVector::zeros(),
+            soft: None,
         }
     }
 
@@ -274,6 +281,12 @@ impl<
                 let mut target = r2_q.row_mut(r);
                 target -= row;
             }
+        }
+        if let Some(terms) = &kkt.soft {
+            // MuJoCo's rows: a_ref through J v, R and a_ref through imp(Φ).
+            let jv_q = self.second_order_at(state, &SVector::zeros(), &state.v)?.jacobian_q;
+            let at = (&kkt.phi, &kkt.jacobian);
+            self.soft.derivative_rows(terms, at, &out.lambda, (&second, &jv_q, alpha), &mut r2_q, &mut r2_v);
         }
         mask_rows(&kkt.mask, &mut r2_q);
         mask_rows(&kkt.mask, &mut r2_v);
@@ -437,7 +450,12 @@ impl<
         let bias = self.inverse_dynamics(state, &SVector::zeros());
         let rows = self.closure_rows(state);
         let (alpha, beta) = self.gains();
-        let gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
+        let mut gamma = rows.gamma - (rows.jacobian * state.v + rows.phi_t) * (2.0 * alpha) - rows.phi * (beta * beta);
+        kkt.phi = rows.phi;
+        kkt.soft = self.soft.any().then(|| self.soft.terms::<S, NB, NQ, NV>(&rows, &state.v));
+        if let Some(terms) = &kkt.soft {
+            self.soft.target(terms, &mut gamma);
+        }
         self.delassus(state, &rows.jacobian, active, kkt)?;
         let free = kkt.mass.solve(&(tau - bias));
         let gamma = SVector::<f64, NC>::from_fn(|r, _| if kkt.mask[r] { gamma[r] } else { 0.0 });
@@ -448,7 +466,7 @@ impl<
     /// `M` factorised (along the tree where it branches, dense on a chain)
     /// and the Delassus matrix `S = J M⁻¹ Jᵀ` of the active rows of
     /// `jacobian` factorised (an inactive row: zero in `J`, the identity in
-    /// `S`), into `kkt`.
+    /// `S`), into `kkt`; the soft rows' `R` (`kkt.soft`) on its diagonal.
     #[inline(always)]
     pub(super) fn delassus(
         &self,
@@ -471,6 +489,11 @@ impl<
         for (r, &on) in mask.iter().enumerate() {
             if !on && r < NC {
                 kkt.delassus[(r, r)] = largest;
+            }
+        }
+        if let Some(terms) = &kkt.soft {
+            for (r, x) in terms.regularisation.iter().enumerate().filter(|&(r, _)| mask[r]) {
+                kkt.delassus[(r, r)] += x;
             }
         }
         kkt.factor =

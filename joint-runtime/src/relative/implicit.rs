@@ -108,6 +108,12 @@ impl<
         work: &mut StepWork<NQ, NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
+        if self.soft.any() {
+            return Err(TreeError::NotOffered {
+                what: "the linearly implicit step on a file's soft equalities (it holds every row)",
+                instead: "step with `step` (RK4), or read the file's equalities as ideal rows (`equality = hard`)",
+            });
+        }
         if NC > 0 && !S::LINEAR_CLOSURES {
             return Err(TreeError::NotDerived);
         }

@@ -81,6 +81,13 @@ impl<
     /// # Ok::<(), joint_runtime::relative::TreeError>(())
     /// ```
     pub fn linearise(&mut self, state: &TreeState<NQ, NV>, tau: &SVector<f64, NV>) -> Result<Linearisation, TreeError> {
+        if self.soft.any() && !self.soft.all() {
+            return Err(TreeError::NotOffered {
+                what: "linearising a scene whose soft equalities share it with ideal rows",
+                instead: "read the file's equalities as ideal rows (`equality = hard`), or linearise without the \
+                          ideal rows",
+            });
+        }
         let n = NV;
         let mut a = DMatrix::<f64>::zeros(2 * n, 2 * n);
         self.tree().increment_rates(&state.v, &mut a);
@@ -108,15 +115,20 @@ impl<
             let column = (self.forward_dynamics(&plus, tau)? - self.forward_dynamics(&minus, tau)?) / (2.0 * h);
             a.view_mut((n, i), (n, 1)).copy_from(&column);
         }
-        if NC > 0 {
+        if NC > 0 && !self.soft.all() {
             return self.on_loops(state, tau, a);
         }
-        let mut m = SMatrix::<f64, NV, NV>::zeros();
-        self.mass_matrix_into(&state.q, &mut m);
-        let joint = self.tree().joints.first().map_or("", |j| j.name);
-        let minv = nalgebra::Cholesky::new(m).ok_or(TreeError::Singular { joint })?.inverse();
         let mut b = DMatrix::<f64>::zeros(2 * n, n);
-        b.view_mut((n, 0), (n, n)).copy_from(&minv);
+        if NC > 0 {
+            // Soft rows only: no loops to reduce to, `B` as the loops' is.
+            b.view_mut((n, 0), (n, n)).copy_from(&self.tau_columns(state, tau)?);
+        } else {
+            let mut m = SMatrix::<f64, NV, NV>::zeros();
+            self.mass_matrix_into(&state.q, &mut m);
+            let joint = self.tree().joints.first().map_or("", |j| j.name);
+            let minv = nalgebra::Cholesky::new(m).ok_or(TreeError::Singular { joint })?.inverse();
+            b.view_mut((n, 0), (n, n)).copy_from(&minv);
+        }
         if !a.iter().chain(b.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
         }
@@ -138,7 +150,7 @@ impl<
         self.forward_dynamics_derivatives(state, tau, &mut work, &mut d)?;
         a.view_mut((n, 0), (n, n)).copy_from(&d.d_q);
         a.view_mut((n, n), (n, n)).copy_from(&d.d_v);
-        if NC > 0 {
+        if NC > 0 && !self.soft.all() {
             // `∂(J v + Φ_t)/∂q` from the closures' second-order terms.
             let rows = self.closure_rows(state);
             let j = DMatrix::from_iterator(NC, NV, rows.jacobian.iter().copied());
@@ -153,6 +165,19 @@ impl<
         Ok(Linearisation { a: a.clone(), b: b.clone(), basis, freedoms: n, full: a, full_b: b })
     }
 
+    /// `∂v̇/∂τ` of the constrained accelerations: `v̇` is affine in `τ`, so
+    /// differences of a unit step are exact to round-off.
+    fn tau_columns(&mut self, state: &TreeState<NQ, NV>, tau: &SVector<f64, NV>) -> Result<DMatrix<f64>, TreeError> {
+        let mut out = DMatrix::<f64>::zeros(NV, NV);
+        for i in 0..NV {
+            let push = SVector::<f64, NV>::from_fn(|r, _| if r == i { 1.0 } else { 0.0 });
+            let column =
+                (self.forward_dynamics(state, &(tau + push))? - self.forward_dynamics(state, &(tau - push))?) / 2.0;
+            out.set_column(i, &column);
+        }
+        Ok(out)
+    }
+
     /// The full linearisation `full` taken to the loops' minimal
     /// coordinates: `B`'s columns the constrained accelerations' own
     /// (`v̇` is affine in `τ`: differences of a unit step are exact to
@@ -164,13 +189,7 @@ impl<
         tau: &SVector<f64, NV>,
         full: DMatrix<f64>,
     ) -> Result<Linearisation, TreeError> {
-        let mut a_u = DMatrix::<f64>::zeros(NV, NV);
-        for i in 0..NV {
-            let push = SVector::<f64, NV>::from_fn(|r, _| if r == i { 1.0 } else { 0.0 });
-            let column =
-                (self.forward_dynamics(state, &(tau + push))? - self.forward_dynamics(state, &(tau - push))?) / 2.0;
-            a_u.set_column(i, &column);
-        }
+        let a_u = self.tau_columns(state, tau)?;
         let rows = self.closure_rows(state);
         let j = DMatrix::from_iterator(NC, NV, rows.jacobian.iter().copied());
         let mut moved = DMatrix::<f64>::zeros(NC, NV);

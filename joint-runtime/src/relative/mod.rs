@@ -118,6 +118,7 @@ mod linear;
 mod proximal;
 mod recursion;
 mod simulation;
+mod soft;
 mod spatial;
 mod step_jacobian;
 mod tangent;
@@ -130,6 +131,7 @@ pub use impact::ImpulseDerivatives;
 pub use implicit::ForceGains;
 pub use proximal::Proximal;
 pub use simulation::{DIVERGED, TreeSimulation};
+pub use soft::{InverseWeight, SoftEquality};
 pub use step_jacobian::{StepJacobian, StepWork};
 pub use topology::{JointLayout, Tree, TreeError};
 
@@ -266,6 +268,12 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     /// The scene's contacts (`#[contact(..)]`): each one's block among
     /// [`CLOSURES`](Self::CLOSURES), kind and axes.
     const CONTACTS: &'static [Contact] = &[];
+    /// A robot file's equalities as MuJoCo softens them (an MJCF file read
+    /// without `equality = hard`): each one's block among
+    /// [`CLOSURES`](Self::CLOSURES), `solref`, `solimp` and whose inverse
+    /// weights scale it. Their rows are springs in the constraint space
+    /// (MuJoCo's `(J M⁻¹ Jᵀ + R) f = a_ref − J q̈₀`), never projected.
+    const SOFT: &'static [SoftEquality] = &[];
     /// Whether every closure row is linear in the coordinates (a constant
     /// `J`, no `γ`, no `Φ_t`: a file's couplings), so that the constrained
     /// accelerations' derivatives follow from the tree's.

@@ -31,6 +31,7 @@ mod record;
 mod record_3d;
 mod second_order;
 mod serde_io;
+mod soft;
 mod tree;
 mod tree_adaptive;
 mod tree_derivatives;
