@@ -41,14 +41,26 @@ pub(super) struct FromFile {
     pub soft: Vec<SoftJoint>,
 }
 
+/// MuJoCo's softening of an equality: `solref` (its time constant already
+/// at least twice the file's timestep) and `solimp`, as MuJoCo clamps them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Soft {
+    pub solref: [f64; 2],
+    pub solimp: [f64; 5],
+}
+
+/// A soft `connect`'s two ends: each a body with a point in its frame, or
+/// `None` for the world.
+pub type SoftEnds = [Option<(usize, [f64; 3])>; 2];
+
 /// A closing joint of a file that MuJoCo softens (a `connect`): the
 /// joint's name in the scene, its softening and its ends' bodies with the
 /// points MuJoCo weighs them at.
 #[derive(Clone, Debug)]
 pub struct SoftJoint {
     pub joint: String,
-    pub soft: super::robot::Soft,
-    pub ends: super::robot::SoftEnds,
+    pub soft: Soft,
+    pub ends: SoftEnds,
 }
 
 /// What a scene asks of its file's reading, each where the option is written.
@@ -320,7 +332,7 @@ pub struct Coupling {
     pub multiplier: f64,
     pub offset: f64,
     /// MuJoCo's softening (an MJCF `<equality joint>`); `None`: an ideal row.
-    pub soft: Option<super::robot::Soft>,
+    pub soft: Option<Soft>,
 }
 
 /// A link's frame on its body (`None`: the ground), from a robot's file:

@@ -99,17 +99,7 @@ pub struct RobotJoint {
     pub soft: Option<(Soft, SoftEnds)>,
 }
 
-/// MuJoCo's softening of an equality: `solref` (its time constant already
-/// at least twice the file's timestep) and `solimp`, as MuJoCo clamps them.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Soft {
-    pub solref: [f64; 2],
-    pub solimp: [f64; 5],
-}
-
-/// A soft `connect`'s two ends: each a body with a point in its frame, or
-/// `None` for the world.
-pub type SoftEnds = [Option<(usize, V3)>; 2];
+pub use super::files::{Soft, SoftEnds};
 
 /// An MJCF `<default>` class's attributes of one element (joint, geom):
 /// each value and where it is written, its parents' included.

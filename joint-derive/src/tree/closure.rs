@@ -394,7 +394,7 @@ fn soft(s: &SceneDecl, blocks: &[Block]) -> Option<TokenStream> {
     let f = proc_macro2::Literal::f64_suffixed;
     let some = |t: TokenStream| quote!(::core::option::Option::Some(#t));
     let none = quote!(::core::option::Option::None);
-    let item = |block: usize, soft: &crate::front::robot::Soft, weight: TokenStream| {
+    let item = |block: usize, soft: &crate::front::files::Soft, weight: TokenStream| {
         let (solref, solimp) = (soft.solref.map(f), soft.solimp.map(f));
         quote!(#k::relative::SoftEquality {
             block: #block,

@@ -21,8 +21,9 @@
 //! coordinates and back, the rates' and the normalisation's derivatives);
 //! the semi-implicit Euler step turns it by `exp(h ω₁)`, whose derivative
 //! is the rotation group's right Jacobian. A tree with springs or user
-//! loads gets [`TreeError::Loaded`] (the tree's own dynamics only; trees
-//! with loops have no such step), and
+//! loads gets [`TreeError::Loaded`] (the tree's own dynamics only; a
+//! scene whose rows hold and are projected has no such step, one whose
+//! rows are all MuJoCo's soft ones has), and
 //! [`transition`](super::TreeSimulation::transition) differences its step.
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -234,11 +235,23 @@ impl<
         tree.displace(&mut end.q, &(v1 * h));
         finish(state, end)
     }
-}
 
-impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
-    TreeSimulation<'_, S, NB, NQ, NV, 0, L>
-{
+    /// Refuses a step Jacobian where the step projects: rows that hold
+    /// (loops, couplings, contacts) are closed after each step, which the
+    /// chain rule here does not follow. MuJoCo's soft rows are never
+    /// projected, so a scene whose rows are all soft has its step's
+    /// Jacobian.
+    fn unprojected(&self) -> Result<(), TreeError> {
+        if NC > 0 && !self.soft.all() {
+            return Err(TreeError::NotOffered {
+                what: "the RK4 and Euler step Jacobians of a scene whose rows hold (its step projects them)",
+                instead: "`constrained_euler_step_jacobian` (rows held at the acceleration level, no projection), or \
+                          `transition` (differences of the projected step)",
+            });
+        }
+        Ok(())
+    }
+
     /// The stage's rate `(q̇, q̈)` at `stage` and its derivative into
     /// `work.rate`, given the stage's own derivative `work.stage`.
     fn stage_rate(
@@ -267,9 +280,12 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
     /// springs or loads: quaternions moved as four numbers, renormalised at
     /// the end) and its exact Jacobian into `out`, by the chain rule through
     /// the four stages: `4` forward-dynamics derivatives. Allocation-free;
-    /// on error `state` is unchanged.
+    /// on error `state` is unchanged. A file's soft equalities (MuJoCo's,
+    /// never projected) are in the stages' dynamics and their derivatives.
     ///
-    /// A tree with springs or user loads gets [`TreeError::Loaded`].
+    /// A tree with springs or user loads gets [`TreeError::Loaded`]; one
+    /// with rows that hold (its step projects them) gets
+    /// [`TreeError::NotOffered`].
     pub fn rk4_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,
@@ -279,6 +295,7 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         out: &mut StepJacobian<NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
+        self.unprojected()?;
         let tree = self.tree();
         // The start's derivative: q moves by T(q₀) δq₀, v by δv₀.
         work.start = Chain::zeros();
@@ -332,6 +349,7 @@ impl<S: TreeScene<NB, NQ, NV>, L: crate::dynamics::AppliedLoads<NB>, const NB: u
         out: &mut StepJacobian<NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
+        self.unprojected()?;
         self.forward_dynamics_derivatives(state, tau, &mut work.inverse, &mut work.forward)?;
         let f = &work.forward;
         self.euler_chain(state, h, (&f.qdd, &f.d_q, &f.d_v, &f.d_tau), out)

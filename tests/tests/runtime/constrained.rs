@@ -613,3 +613,39 @@ fn a_files_connect_has_exact_derivatives() {
     close(&out.lambda_v, &v, "∂λ/∂v");
     close(&out.lambda_tau, &t, "∂λ/∂τ");
 }
+
+/// Contacts at an MJCF file's sites: the ball pendulum's `tip` site (on the
+/// bob, its z turned onto x) held as a point in the world's axes and as a
+/// frame in its own; each contact's `J v` against the site's velocity from
+/// the runtime's own kinematics (`LinkFrame::velocity`, `LinkFrame::pose`):
+/// `ṗ`, and `[R_fᵀ ṗ; R_fᵀ ω]`.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/ball_pendulum.xml")]
+#[contact(point_at_tip = point(tip); frame_at_tip = frame(tip), axes = local)]
+struct HeldAtItsSite;
+
+#[test]
+fn contacts_at_mjcf_sites() {
+    use joint_runtime::nalgebra::{Vector3, Vector4};
+    use joint_runtime::robot::LinkFrame;
+    let sim = TreeSimulation::new(&HeldAtItsSite).unwrap();
+    let tip = LinkFrame::find(&HeldAtItsSite::LINKS, "tip").unwrap();
+    let mut worst = 0.0_f64;
+    for k in 0..5 {
+        let x = f64::from(k);
+        let q = Vector4::new(0.9, 0.3 - 0.1 * x, -0.2, 0.25 + 0.05 * x).normalize();
+        let state = TreeState::<4, 3> { q, v: Vector3::new(0.7 - 0.2 * x, -1.1, 0.4 + 0.3 * x), t: 0.0 };
+        let rows = sim.closure_rows(&state);
+        let psi = rows.jacobian * state.v;
+        let system = sim.system_state(&state);
+        let (turn, _) = tip.pose(&system);
+        let (spin, velocity) = tip.velocity(&system);
+        let back = turn.to_rotation_matrix().transpose();
+        let expected = [velocity, back * velocity, back * spin];
+        for (n, e) in expected.iter().enumerate() {
+            worst = worst.max((psi.fixed_rows::<3>(3 * n) - e).amax());
+        }
+    }
+    eprintln!("contacts at an MJCF site: J v to {worst:.1e} of the site's own velocity");
+    assert!(worst < 1e-13, "{worst:e}");
+}

@@ -7,7 +7,9 @@
 
 use joint_runtime::Scene;
 use joint_runtime::nalgebra::SVector;
-use joint_runtime::relative::{ForwardDerivatives, InverseDerivatives, TreeScene, TreeSimulation, TreeState};
+use joint_runtime::relative::{
+    ForwardDerivatives, InverseDerivatives, StepJacobian, StepWork, TreeError, TreeScene, TreeSimulation, TreeState,
+};
 
 /// A four-bar closed by a `connect` with MuJoCo's default `solref`, `solimp`.
 #[derive(Scene)]
@@ -176,6 +178,90 @@ fn soft_runs_equal_mujoco() {
     run_against_mujoco(&SoftCoupled, "coupled_pendulum");
     run_against_mujoco(&SoftGripper, "soft_gripper");
     run_against_mujoco(&PandaFingers, "panda_fingers");
+}
+
+/// The RK4 and semi-implicit Euler steps' exact Jacobians on soft rows
+/// (never projected, so the chain rule through the stages is the step's)
+/// against central differences of the same steps, at samples on each piece
+/// of the impedance curve; the RK4 step is `step_with`'s.
+fn step_jacobians_against_differences<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+    scene: &S,
+    key: &str,
+) -> [f64; 2]
+where
+    S: TreeScene<NB, NQ, NV, NC>,
+{
+    let mut sim = TreeSimulation::new(scene).unwrap();
+    let h = reference(&format!("{key}_rk4"))["h"].as_f64().unwrap();
+    let (mut work, mut out, mut scratch) = (Box::new(StepWork::new()), StepJacobian::zeros(), StepJacobian::zeros());
+    let mut worst = [0.0_f64; 2];
+    for (start, tau, _) in samples::<S, NB, NQ, NV, NC>(key).into_iter().step_by(3) {
+        for (k, worst) in worst.iter_mut().enumerate() {
+            let mut step = |s: &mut TreeState<NQ, NV>, t: &SVector<f64, NV>, out: &mut StepJacobian<NV>| match k {
+                0 => sim.rk4_step_jacobian(s, h, t, &mut work, out).unwrap(),
+                _ => sim.euler_step_jacobian(s, h, t, &mut work, out).unwrap(),
+            };
+            let mut end = start;
+            step(&mut end, &tau, &mut out);
+            let tree = sim.tree().clone();
+            let eps = 1e-6;
+            let (mut diff, mut scale) = (0.0_f64, 0.0_f64);
+            for c in 0..3 * NV {
+                let moved = |by: f64| {
+                    let (mut s, mut t) = (start, tau);
+                    let e = SVector::<f64, NV>::from_fn(|r, _| if r == c % NV { by } else { 0.0 });
+                    match c / NV {
+                        0 => s.q = tree.displaced(&start.q, &e),
+                        1 => s.v += e,
+                        _ => t += e,
+                    }
+                    (s, t)
+                };
+                // Richardson on central differences: the impedance curves
+                // sharply within a millimetre.
+                let mut central = |h: f64| {
+                    let ((mut a, ta), (mut b, tb)) = (moved(h), moved(-h));
+                    step(&mut a, &ta, &mut scratch);
+                    step(&mut b, &tb, &mut scratch);
+                    let dq = (tree.difference(&end.q, &a.q) - tree.difference(&end.q, &b.q)) / (2.0 * h);
+                    (dq, (a.v - b.v) / (2.0 * h))
+                };
+                let ((dq1, dv1), (dq2, dv2)) = (central(eps), central(2.0 * eps));
+                let (dq, dv) = ((dq1 * 4.0 - dq2) / 3.0, (dv1 * 4.0 - dv2) / 3.0);
+                for r in 0..NV {
+                    diff = diff.max((dq[r] - out.entry(r, c)).abs()).max((dv[r] - out.entry(NV + r, c)).abs());
+                    scale = scale.max(out.entry(r, c).abs()).max(out.entry(NV + r, c).abs());
+                }
+            }
+            *worst = worst.max(diff / scale);
+            if k == 0 {
+                let mut stepped = start;
+                sim.step_with(&mut stepped, h, &tau).unwrap();
+                assert!((stepped.q - end.q).amax() < 1e-14 && (stepped.v - end.v).amax() < 1e-12);
+            }
+        }
+    }
+    eprintln!("{key}: soft step Jacobians off differences by {:.1e} (RK4), {:.1e} (Euler)", worst[0], worst[1]);
+    assert!(worst[0] < 1e-6 && worst[1] < 1e-6, "{key}: {worst:?}");
+    worst
+}
+
+#[test]
+fn soft_step_jacobians_equal_differences() {
+    step_jacobians_against_differences(&SoftGripper, "soft_gripper");
+    step_jacobians_against_differences(&PandaFingers, "panda_fingers");
+}
+
+/// A scene whose rows hold is projected after each step: no step Jacobian.
+#[test]
+fn a_projected_step_has_no_step_jacobian() {
+    #[derive(Scene)]
+    #[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
+    struct HardFourBar;
+    let sim = TreeSimulation::new(&HardFourBar).unwrap();
+    let (mut state, mut work, mut out) = (sim.tree().zero_state(), Box::new(StepWork::new()), StepJacobian::zeros());
+    let error = sim.rk4_step_jacobian(&mut state, 1e-3, &SVector::zeros(), &mut work, &mut out).unwrap_err();
+    assert!(matches!(error, TreeError::NotOffered { .. }), "{error}");
 }
 
 /// A soft loop is not projected: a start off it steps, and the rows'
