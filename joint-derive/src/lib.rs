@@ -57,8 +57,7 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 /// `<dynamics damping>` in the dynamics), `mimic = coupled |
 /// independent` (a file's followers as rows, the default, or as free joints)
 /// and `equality = hard` (MJCF: its `<equality>`s as ideal constraints, which
-/// departs from MuJoCo; without it a `connect` and a `joint` equality are
-/// soft, as MuJoCo makes them, and a `weld` is refused).
+/// departs from MuJoCo; without it they are soft, as MuJoCo makes them).
 /// A tree joint in relative coordinates may add `armature = A`,
 /// `damping = D` and, on a revolute or translational joint, a spring:
 /// `stiffness = K` and `spring_rest = Q0` (its force `−K (q − Q0)`). See the `joint-runtime` documentation for the whole language.

@@ -143,6 +143,13 @@ impl TimeRules {
                     let m = g.mul(s, da);
                     g.neg(m)
                 }
+                Node::Sqrt(a) => {
+                    // (√a)' = a' / (2 √a)
+                    let da = self.dt(g, a);
+                    let two = g.constant(2.0);
+                    let root = g.mul(two, id);
+                    g.div(da, root)
+                }
             }
         };
         self.memo.insert(id, d);
@@ -231,6 +238,12 @@ pub fn grad(g: &mut Graph, root: Id, wrt: &[Id]) -> Vec<Id> {
                 let sin = g.sin(a);
                 let m = g.mul(bar, sin);
                 let c = g.neg(m);
+                push(g, a, c);
+            }
+            Node::Sqrt(a) => {
+                let two = g.constant(2.0);
+                let root = g.mul(two, id);
+                let c = g.div(bar, root);
                 push(g, a, c);
             }
         }

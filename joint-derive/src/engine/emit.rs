@@ -61,7 +61,7 @@ pub fn reachable(g: &Graph, outputs: &[Id]) -> Vec<Id> {
                 live[a.index()] = true;
                 live[b.index()] = true;
             }
-            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => live[a.index()] = true,
+            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => live[a.index()] = true,
             Node::Const(_) | Node::Var(_) => {}
         }
     }
@@ -103,7 +103,7 @@ impl<'g> OpCount<'g> {
                     extra += 1;
                     stack.extend([a, b]);
                 }
-                Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => stack.push(a),
+                Node::Neg(a) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => stack.push(a),
                 Node::Const(_) | Node::Var(_) => {}
             }
         }
@@ -165,7 +165,7 @@ fn count_uses(g: &Graph, nodes: &[Id], outputs: &[Id]) -> HashMap<Id, usize> {
                 *uses.entry(a).or_default() += 1;
                 *uses.entry(b).or_default() += 1;
             }
-            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => *uses.entry(a).or_default() += 1,
+            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => *uses.entry(a).or_default() += 1,
             Node::Const(_) | Node::Var(_) => {}
         }
     }
@@ -222,7 +222,13 @@ pub fn emit(g: &Graph, outputs: &[Id], scalar: &ScalarTy) -> Emitted {
         let bind = uses.get(&id).copied().unwrap_or(0) > 1
             && matches!(
                 node,
-                Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Div(..) | Node::Sin(_) | Node::Cos(_)
+                Node::Add(..)
+                    | Node::Sub(..)
+                    | Node::Mul(..)
+                    | Node::Div(..)
+                    | Node::Sin(_)
+                    | Node::Cos(_)
+                    | Node::Sqrt(_)
             );
         let ex = if bind { e.bind(id, ex) } else { ex };
         e.exprs.insert(id, ex);
@@ -291,9 +297,13 @@ impl Emitter<'_> {
                 let ea = &self.exprs[&a];
                 Ex { pos: ea.neg.clone(), neg: ea.pos.clone(), level: ea.level }
             }
-            Node::Sin(a) | Node::Cos(a) => {
+            Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => {
                 let (x, level) = (paren(&self.exprs[&a].pos, 1), self.exprs[&a].level);
-                let f = if matches!(node, Node::Sin(_)) { quote!(simd_sin) } else { quote!(simd_cos) };
+                let f = match node {
+                    Node::Sin(_) => quote!(simd_sin),
+                    Node::Cos(_) => quote!(simd_cos),
+                    _ => quote!(simd_sqrt),
+                };
                 let (ty, krate) = (&self.scalar.ty, &self.scalar.krate);
                 Ex::atom(quote!(<#ty as #krate::__private::SimdComplexField>::#f(#x)), level)
             }

@@ -47,6 +47,8 @@ pub enum Node {
     Sin(Id),
     /// `cos a`.
     Cos(Id),
+    /// `√a` (a soft weld's quaternion error: `w = ½ √(1 + tr E)`).
+    Sqrt(Id),
 }
 
 /// What kind of input a variable is; the derivative rules and emission read it.
@@ -96,7 +98,7 @@ impl Graph {
     pub fn hint(&mut self, id: Id, name: impl Into<String>) {
         if matches!(
             self.node(id),
-            Node::Mul(..) | Node::Div(..) | Node::Add(..) | Node::Sub(..) | Node::Sin(_) | Node::Cos(_)
+            Node::Mul(..) | Node::Div(..) | Node::Add(..) | Node::Sub(..) | Node::Sin(_) | Node::Cos(_) | Node::Sqrt(_)
         ) {
             self.hints.entry(id).or_insert_with(|| name.into());
         }
@@ -188,7 +190,7 @@ impl Graph {
             Node::Const(_) => 0,
             Node::Var(v) => self.var_mask(v),
             Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => self.mask(a) | self.mask(b),
-            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => self.mask(a),
+            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => self.mask(a),
         };
         let id = Id(self.nodes.len() as u32);
         self.nodes.push(node);
@@ -403,6 +405,14 @@ impl Graph {
         }
     }
 
+    /// `√a`.
+    pub fn sqrt(&mut self, a: Id) -> Id {
+        match self.as_const(a) {
+            Some(x) => self.constant(x.sqrt()),
+            None => self.intern(Node::Sqrt(a)),
+        }
+    }
+
     /// `id` with the variables of `map` replaced by their nodes, rebuilt through
     /// the smart constructors (`memo` carries work between calls). How a rule
     /// stated along the velocities becomes the same rule along another direction.
@@ -422,11 +432,12 @@ impl Graph {
                     _ => self.div(x, y),
                 }
             }
-            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) => {
+            Node::Neg(a) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => {
                 let x = self.substitute(a, map, memo);
                 match self.node(id) {
                     Node::Neg(_) => self.neg(x),
                     Node::Sin(_) => self.sin(x),
+                    Node::Sqrt(_) => self.sqrt(x),
                     _ => self.cos(x),
                 }
             }
@@ -460,6 +471,7 @@ impl Graph {
                 Node::Neg(a) => -values[a.index()],
                 Node::Sin(a) => values[a.index()].sin(),
                 Node::Cos(a) => values[a.index()].cos(),
+                Node::Sqrt(a) => values[a.index()].sqrt(),
             };
         }
         values[id.index()]

@@ -208,6 +208,7 @@ impl Ctx {
             Node::Div(l, r) => format!("(/ {} {})", self.show(l), self.show(r)),
             Node::Neg(l) => format!("(neg {})", self.show(l)),
             Node::Sin(l) => format!("(sin {})", self.show(l)),
+            Node::Sqrt(l) => format!("(sqrt {})", self.show(l)),
             Node::Cos(l) => format!("(cos {})", self.show(l)),
         }
     }
@@ -507,7 +508,7 @@ mod hashcons {
             let id = Id(i as u32);
             let operands = match cx.g.node(id) {
                 Node::Add(l, r) | Node::Sub(l, r) | Node::Mul(l, r) | Node::Div(l, r) => vec![l, r],
-                Node::Neg(l) | Node::Sin(l) | Node::Cos(l) => vec![l],
+                Node::Neg(l) | Node::Sin(l) | Node::Cos(l) | Node::Sqrt(l) => vec![l],
                 Node::Const(_) | Node::Var(_) => vec![],
             };
             assert!(operands.iter().all(|&o| o < id), "node {i} = {:?}", cx.g.node(id));

@@ -47,6 +47,8 @@ pub(super) struct FromFile {
 pub struct Soft {
     pub solref: [f64; 2],
     pub solimp: [f64; 5],
+    /// A weld's `torquescale` (its orientation rows' factor); 1 elsewhere.
+    pub torquescale: f64,
 }
 
 /// A soft `connect`'s two ends: each a body with a point in its frame, or
@@ -61,6 +63,9 @@ pub struct SoftJoint {
     pub joint: String,
     pub soft: Soft,
     pub ends: SoftEnds,
+    /// A weld's points on its first and second body (each from its centre,
+    /// the body's axes); `None` for a `connect`.
+    pub weld: Option<[[f64; 3]; 2]>,
 }
 
 /// What a scene asks of its file's reading, each where the option is written.
@@ -258,7 +263,8 @@ fn from_file(robot: super::robot::Robot, span: Span, dynamics: bool, errors: &mu
             args.extend(dynamics_args(j, dynamics, span, errors));
             let name = ident(&j.name, &mut joint_names, errors);
             if let Some((s, ends)) = j.soft {
-                soft.push(SoftJoint { joint: name.to_string(), soft: s, ends });
+                let weld = (j.kind == "fixed").then_some([j.rho1, j.rho2]);
+                soft.push(SoftJoint { joint: name.to_string(), soft: s, ends, weld });
             }
             JointAttr {
                 name,

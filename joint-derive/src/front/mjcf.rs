@@ -564,8 +564,7 @@ impl<'a, 'i> Reader<'a, 'i> {
     /// as MuJoCo makes it (`solref`, `solimp`; `refsafe`: the file's step
     /// where MuJoCo raises time constants to twice it), or ideal where the
     /// scene asks (`hard`; `independent` for `<equality joint>`s, which the
-    /// scene then leaves out). A soft `weld` is refused: its orientation
-    /// rows (MuJoCo's quaternion error) are not modelled.
+    /// scene then leaves out).
     fn equalities(
         &self,
         root: roxmltree::Node,
@@ -601,9 +600,6 @@ impl<'a, 'i> Reader<'a, 'i> {
                 continue;
             }
             let soft = if hard { None } else { Some(self.softness(e, refsafe)?) };
-            if soft.is_some() && tag == "weld" {
-                return Err(fail(at, soft_weld()));
-            }
             let weld = match tag {
                 "connect" => false,
                 "weld" => true,
@@ -721,7 +717,8 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         solimp[2] = solimp[2].max(0.0);
         solimp[4] = solimp[4].max(1.0);
-        Ok(Soft { solref, solimp })
+        let torquescale = get.number("torquescale", fail)?.unwrap_or(1.0);
+        Ok(Soft { solref, solimp, torquescale })
     }
 }
 
@@ -773,15 +770,6 @@ impl Lookup<'_, '_> {
         let Some((text, at)) = self.find(key) else { return Ok(default) };
         parse_numbers(key, text, at, fail)
     }
-}
-
-/// The refusal of a `<weld>` read soft: what is not modelled and the
-/// option that reads it as an ideal constraint.
-fn soft_weld() -> String {
-    "`<weld>`: MuJoCo makes it a soft constraint whose orientation rows are its quaternion error, which is not \
-     modelled (its `connect`s and `joint`s are); expected `#[scene(.., equality = hard)]` to read the file's \
-     equalities as ideal constraints (which departs from MuJoCo), or the weld left out"
-        .into()
 }
 
 /// The values of an attribute that leave MuJoCo's dynamics as this reader
@@ -1228,7 +1216,7 @@ mod tests {
     /// element's (fewer than five fill the first ones), time constants
     /// raised to twice the step unless `refsafe` is off; ideal rows where
     /// the scene asks (`hard`); `mimic = independent` leaves `<equality
-    /// joint>`s out; a soft `<weld>` is refused; a `<flag equality>` or
+    /// joint>`s out; a weld's `torquescale` is read; a `<flag equality>` or
     /// `<flag constraint>` switched off leaves them all out, as in MuJoCo.
     #[test]
     fn equalities_are_soft_as_in_mujoco() {
@@ -1263,10 +1251,15 @@ mod tests {
             &format!("<joint name=\"j\"/>{second}"),
             "<equality><weld body1=\"arm\" body2=\"hand\"/></equality>",
         );
-        let message = read(&welded, (false, true)).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(message.starts_with("f.xml:8:11: `<weld>`: MuJoCo makes it a soft constraint"), "{message}");
-        assert!(message.contains("`#[scene(.., equality = hard)]`"), "{message}");
+        assert_eq!(read(&welded, (false, true)).ok(), Some((1, 0)));
         assert_eq!(read(&welded, (true, false)).ok(), Some((1, 0)));
+        let torque = |text: &str| {
+            from_text(text, "f.xml", span, (false, false))
+                .map(|r| r.closures.first().and_then(|c| c.soft).map(|s| s.0.torquescale))
+        };
+        assert_eq!(torque(&welded).ok(), Some(Some(1.0)));
+        let halved = welded.replace("/></equality>", " torquescale=\"0.5\"/></equality>");
+        assert_eq!(torque(&halved).ok(), Some(Some(0.5)));
         for off in ["equality", "constraint"] {
             let flag = format!("<option><flag {off}=\"disable\"/></option>");
             assert_eq!(

@@ -55,6 +55,14 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
     let mut errors = crate::front::context::Errors::new();
     for &i in &loops {
         let j = &s.joints[i];
+        // A soft weld's rows are MuJoCo's, not the catalogue's (`weld_rows`).
+        if let Some((points, soft)) = s.soft.iter().find(|w| w.joint == j.label()).and_then(|w| Some((w.weld?, w.soft)))
+        {
+            let start = phi.len();
+            phi.extend(weld_rows(&mut k, &poses, [j.bodies[0], j.bodies[1]], points, soft.torquescale));
+            blocks.push(Block { name: j.label(), start, rows: 6 });
+            continue;
+        }
         k.connect(j.bodies[0], j.bodies[1]);
         let prefix = j.prefix();
         let values = param_nodes(&mut k, j.kind, &j.params, Naming::ByField { joint: &prefix }, &mut bindings);
@@ -119,6 +127,68 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
     let second = crate::second_order::derive(&mut d, true, None).dense;
     Ok(Some((d, blocks, second)))
 }
+
+/// A soft weld's six rows as MuJoCo 4.0 makes them: its points apart
+/// (`p₁ − p₂`, the world's axes), then its orientation error, the vector
+/// part of the quaternion of `E = A₂ᵀ A₁` times `torquescale`:
+/// `vee(E − Eᵀ) / (4w)`, `w = ½ √(1 + tr E)`. MuJoCo's quaternion is
+/// `q̄₂ q₁ q_rel` in its bodies' frames; ours differ from them by constant
+/// turns, which `q_rel` (the file's pose) cancels up to one conjugation:
+/// the same rows turned, which leaves its accelerations as they are (the
+/// three share their weight and the impedance reads their norm). No row is
+/// dropped: a row the tree keeps by construction is a zero with a zero `J`.
+fn weld_rows(
+    k: &mut Kinematics,
+    poses: &[crate::tree::contact::Pose],
+    bodies: [Option<usize>; 2],
+    points: [V3Num; 2],
+    torquescale: f64,
+) -> Vec<Id> {
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|row| row.map(|x| k.g.constant(x)));
+    let zero = [k.g.zero(); 3];
+    let pose = |b: Option<usize>| b.and_then(|b| poses.get(b).copied()).unwrap_or((identity, zero));
+    let ((a1, c1), (a2, c2)) = (pose(bodies[0]), pose(bodies[1]));
+    let mut rows = Vec::with_capacity(6);
+    for i in 0..3 {
+        let at = |k: &mut Kinematics, a: &[[Id; 3]; 3], c: &V3, p: &V3Num| {
+            let terms: Vec<Id> = (0..3)
+                .map(|j| {
+                    let x = k.g.constant(p[j]);
+                    k.g.mul(a[i][j], x)
+                })
+                .collect();
+            let turned = k.g.sum(&terms);
+            k.g.add(c[i], turned)
+        };
+        let (p1, p2) = (at(k, &a1, &c1, &points[0]), at(k, &a2, &c2, &points[1]));
+        rows.push(k.g.sub(p1, p2));
+    }
+    // E = A₂ᵀ A₁, entry (r, c) = Σ A₂[i][r] A₁[i][c].
+    let e = [0, 1, 2].map(|r| {
+        [0, 1, 2].map(|c| {
+            let terms: Vec<Id> = (0..3).map(|i| k.g.mul(a2[i][r], a1[i][c])).collect();
+            k.g.sum(&terms)
+        })
+    });
+    if torquescale == 0.0 {
+        rows.extend([k.g.zero(); 3]);
+        return rows;
+    }
+    let one = k.g.constant(1.0);
+    let trace = k.g.sum(&[one, e[0][0], e[1][1], e[2][2]]);
+    let root = k.g.sqrt(trace);
+    // 4w = 2 √(1 + tr E); torquescale folded in.
+    let scale = k.g.constant(2.0 / torquescale);
+    let denominator = k.g.mul(scale, root);
+    for (a, b) in [((2, 1), (1, 2)), ((0, 2), (2, 0)), ((1, 0), (0, 1))] {
+        let d = k.g.sub(e[a.0][a.1], e[b.0][b.1]);
+        rows.push(k.g.div(d, denominator));
+    }
+    rows
+}
+
+/// A point's three numbers.
+type V3Num = [f64; 3];
 
 /// Every body's frame from the tree's coordinates, in body order (also
 /// returned: the contacts' rows start from them). A joint whose points and
@@ -413,7 +483,8 @@ fn soft(s: &SceneDecl, blocks: &[Block]) -> Option<TokenStream> {
             }
             None => none.clone(),
         });
-        items.push(item(n, &j.soft, quote!(Bodies([#(#ends),*]))));
+        let weight = if j.weld.is_some() { quote!(Weld([#(#ends),*])) } else { quote!(Bodies([#(#ends),*])) };
+        items.push(item(n, &j.soft, weight));
     }
     let edges = s.tree.as_deref().unwrap_or(&[]);
     let (_, va) = kind_offsets(edges.iter().map(|e| e.kind));

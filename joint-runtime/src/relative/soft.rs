@@ -1,4 +1,4 @@
-//! MuJoCo's soft equalities: an MJCF file's `connect` and `joint`
+//! MuJoCo's soft equalities: an MJCF file's `connect`, `weld` and `joint`
 //! equalities as MuJoCo 4.0 holds them, which is not as ideal rows.
 //!
 //! MuJoCo makes every equality row `i` a spring-damper in the constraint
@@ -7,19 +7,23 @@
 //! acceleration and `q̈ = q̈₀ + M⁻¹ Jᵀ f`. Its
 //! numbers, each as MuJoCo's `engine_core_constraint.c` makes it:
 //!
-//! - `r`: the row's residual (`Φ`; a `connect`'s anchor apart, a `joint`'s
+//! - `r`: the row's residual (`Φ`; a `connect`'s anchor apart, a `weld`'s
+//!   too and then its quaternion error times `torquescale`, a `joint`'s
 //!   `q₁ − q₁⁰ − poly(q₂ − q₂⁰)`). Row signs and an orthogonal change of a
 //!   `connect`'s axes leave `q̈` unchanged (its three rows share `R` and the
 //!   impedance reads their norm), so the derive's rows serve as they are.
-//! - `a_ref = −B (J v) − K imp r + γ`: MuJoCo 4.0 takes a `connect`'s
-//!   `J̇ v` out of its reference (`mj_Jdotv`), which is the rows' `γ`.
+//! - `a_ref = −B (J v) − K imp r + γ`: MuJoCo 4.0 takes a `connect`'s and
+//!   a `weld`'s `J̇ v` out of its reference (`mj_Jdotv`), which is the
+//!   rows' `γ`.
 //! - `imp(x)` from `solimp = (d₀, d_w, width, mid, power)`: `d₀` at zero
 //!   residual, `d_w` past `width`, a two-piece power curve between; its
-//!   argument the norm of a `connect`'s three rows, a `joint`'s signed row.
+//!   argument the norm of a `connect`'s three rows (a `weld`'s six), a
+//!   `joint`'s signed row.
 //! - `R = max(10⁻¹⁵, (1 − imp)/imp · dA)`, `dA` the "diagonal
 //!   approximation": the inverse weights of the bodies (`connect`: each
 //!   body's translational `body_invweight0`, the mean diagonal of
-//!   `J_c M⁻¹ J_cᵀ` at its centre of mass) or freedoms (`joint`:
+//!   `J_c M⁻¹ J_cᵀ` at its centre of mass; a `weld`'s orientation rows the
+//!   rotational one) or freedoms (`joint`:
 //!   `dof_invweight0 = (M⁻¹)ᵢᵢ`), all at the file's reference configuration
 //!   ([`Softness::new`], once per simulation).
 //! - `K`, `B` from `solref`: `(τ, ζ)` gives `K = 1/(d_w τ ζ)²`,
@@ -50,6 +54,10 @@ pub enum InverseWeight {
     /// centre of mass in the scene body's frame, or `None` for the world
     /// (and a body welded to it: weight zero).
     Bodies([Option<(usize, [f64; 3])>; 2]),
+    /// A `weld`: the same bodies' translational inverse weights on its
+    /// first three rows, their rotational ones (`body_invweight0`'s second,
+    /// the mean diagonal of `J_ω M⁻¹ J_ωᵀ`) on its orientation rows.
+    Weld([Option<(usize, [f64; 3])>; 2]),
     /// A `joint`: the inverse weight of each joint's freedom (its index
     /// among the tree's freedoms), `None` where the equality names one joint.
     Freedoms([Option<usize>; 2]),
@@ -120,24 +128,32 @@ impl<const NC: usize> Softness<NC> {
         tree.mass_matrix_into(&q, &mut m);
         let singular = TreeError::Singular { joint: tree.joints.first().map_or("", |j| j.name) };
         let minv = nalgebra::Cholesky::new(m).ok_or(singular)?.inverse();
+        // A body's translational and rotational inverse weights at its
+        // MuJoCo body's centre: point_jacobian's rows are `[ω; ṗ]`.
         let body = |end: Option<(usize, [f64; 3])>| {
             let (b, p) = end?;
             let j = tree.point_jacobian(&q, b, &p.into())?;
             let a = j * minv * j.transpose();
-            Some((a[(3, 3)] + a[(4, 4)] + a[(5, 5)]) / 3.0)
+            Some([(a[(3, 3)] + a[(4, 4)] + a[(5, 5)]) / 3.0, (a[(0, 0)] + a[(1, 1)] + a[(2, 2)]) / 3.0])
+        };
+        let bodies = |ends: [Option<(usize, [f64; 3])>; 2]| {
+            let [a, b] = ends.map(|end| body(end).unwrap_or([0.0; 2]));
+            [a[0] + b[0], a[1] + b[1]]
         };
         let freedom = |f: Option<usize>| f.filter(|&f| f < NV).map(|f| minv[(f, f)]);
         for (n, e) in S::SOFT.iter().enumerate() {
             let Some(block) = S::CLOSURES.get(e.block) else { continue };
-            let diag = match e.weight {
-                InverseWeight::Bodies(ends) => ends.iter().map(|&end| body(end).unwrap_or(0.0)).sum::<f64>(),
-                InverseWeight::Freedoms(ends) => ends.iter().map(|&f| freedom(f).unwrap_or(0.0)).sum::<f64>(),
+            // Each row's weight: a weld's orientation rows (its last three) their own.
+            let [translation, rotation] = match e.weight {
+                InverseWeight::Bodies(ends) => [bodies(ends)[0]; 2],
+                InverseWeight::Weld(ends) => bodies(ends),
+                InverseWeight::Freedoms(ends) => [ends.iter().map(|&f| freedom(f).unwrap_or(0.0)).sum::<f64>(); 2],
             };
             let (stiffness, damping) = reference_gains(e);
             for r in (block.start..block.start + block.rows).filter(|&r| r < NC) {
                 out.soft[r] = true;
                 out.equality[r] = n;
-                out.diag[r] = diag;
+                out.diag[r] = if r - block.start < 3 { translation } else { rotation };
                 out.stiffness[r] = stiffness;
                 out.damping[r] = damping;
             }

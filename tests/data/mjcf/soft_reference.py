@@ -13,7 +13,9 @@ It writes, next to itself:
   * soft_reference.json: for four_bar.xml (a `connect`, MuJoCo's default solref and solimp),
     coupled_pendulum.xml (a `joint` equality with an offset and a negative factor), soft_gripper.xml
     (hand-written: a class's direct solref and cubic impedance, a time constant MuJoCo raises to twice
-    the step) and panda_fingers.xml, at 24 states each: q near the file's pose at residuals
+    the step), panda_fingers.xml, welded_pendulum.xml (a `weld`, MuJoCo's defaults) and
+    soft_weld.xml (hand-written: a weld with half its torque between a ball joint's body and a
+    turned hinge's, a slider welded to the world), at 24 states each: q near the file's pose at residuals
     from 1e-4 to 1 (so the impedance is read on each piece of its curve), v and tau uniform in
     [-1, 1]: qacc = mj_forward with qfrc_applied = tau, and the equality rows' forces efc_force;
     and each file's run: 100 steps of MuJoCo's RK4 at the file's timestep from the sixth sample,
@@ -91,7 +93,7 @@ def main():
     rng = np.random.default_rng(SEED)
     fingers()
     out = {"generator": f"soft_reference.py, MuJoCo {mujoco.__version__}"}
-    for name in ["four_bar", "coupled_pendulum", "soft_gripper", "panda_fingers"]:
+    for name in ["four_bar", "coupled_pendulum", "soft_gripper", "panda_fingers", "welded_pendulum", "soft_weld"]:
         out[name] = samples(os.path.join(HERE, name + ".xml"), rng)
         out[name + "_rk4"] = run(os.path.join(HERE, name + ".xml"), out[name][5], 100)
     with open(os.path.join(HERE, "soft_reference.json"), "w") as fh:

@@ -34,6 +34,17 @@ struct SoftGripper;
 #[scene(mjcf = "data/mjcf/panda_fingers.xml")]
 struct PandaFingers;
 
+/// A double pendulum whose elbow is welded, with MuJoCo's defaults.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/welded_pendulum.xml")]
+struct SoftWelded;
+
+/// A weld with half its torque between a ball joint's body and a turned
+/// hinge's, and a slider welded to the world.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/soft_weld.xml")]
+struct SoftWeld;
+
 /// `soft_reference.json`'s entry `key`.
 fn reference(key: &str) -> serde_json::Value {
     let path = format!("{}/data/mjcf/soft_reference.json", env!("CARGO_MANIFEST_DIR"));
@@ -86,6 +97,8 @@ fn soft_equalities_equal_mujoco() {
     against_mujoco(&SoftCoupled, "coupled_pendulum");
     against_mujoco(&SoftGripper, "soft_gripper");
     against_mujoco(&PandaFingers, "panda_fingers");
+    against_mujoco(&SoftWelded, "welded_pendulum");
+    against_mujoco(&SoftWeld, "soft_weld");
 }
 
 /// The exact derivatives of the soft accelerations (through `J`, `R(imp(Φ))`
@@ -138,6 +151,8 @@ fn soft_derivatives_equal_differences() {
     derivatives_against_differences(&SoftCoupled, "coupled_pendulum");
     derivatives_against_differences(&SoftGripper, "soft_gripper");
     derivatives_against_differences(&PandaFingers, "panda_fingers");
+    derivatives_against_differences(&SoftWelded, "welded_pendulum");
+    derivatives_against_differences(&SoftWeld, "soft_weld");
 }
 
 /// A run: 100 RK4 steps at the file's timestep from a sample's state, its
@@ -178,6 +193,8 @@ fn soft_runs_equal_mujoco() {
     run_against_mujoco(&SoftCoupled, "coupled_pendulum");
     run_against_mujoco(&SoftGripper, "soft_gripper");
     run_against_mujoco(&PandaFingers, "panda_fingers");
+    run_against_mujoco(&SoftWelded, "welded_pendulum");
+    run_against_mujoco(&SoftWeld, "soft_weld");
 }
 
 /// The RK4 and semi-implicit Euler steps' exact Jacobians on soft rows
@@ -250,6 +267,7 @@ where
 fn soft_step_jacobians_equal_differences() {
     step_jacobians_against_differences(&SoftGripper, "soft_gripper");
     step_jacobians_against_differences(&PandaFingers, "panda_fingers");
+    step_jacobians_against_differences(&SoftWeld, "soft_weld");
 }
 
 /// A scene whose rows hold is projected after each step: no step Jacobian.
