@@ -144,25 +144,20 @@ fn weld_rows(
     points: [V3Num; 2],
     torquescale: f64,
 ) -> Vec<Id> {
-    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|row| row.map(|x| k.g.constant(x)));
-    let zero = [k.g.zero(); 3];
-    let pose = |b: Option<usize>| b.and_then(|b| poses.get(b).copied()).unwrap_or((identity, zero));
-    let ((a1, c1), (a2, c2)) = (pose(bodies[0]), pose(bodies[1]));
-    let mut rows = Vec::with_capacity(6);
-    for i in 0..3 {
-        let at = |k: &mut Kinematics, a: &[[Id; 3]; 3], c: &V3, p: &V3Num| {
-            let terms: Vec<Id> = (0..3)
-                .map(|j| {
-                    let x = k.g.constant(p[j]);
-                    k.g.mul(a[i][j], x)
-                })
-                .collect();
-            let turned = k.g.sum(&terms);
-            k.g.add(c[i], turned)
-        };
-        let (p1, p2) = (at(k, &a1, &c1, &points[0]), at(k, &a2, &c2, &points[1]));
-        rows.push(k.g.sub(p1, p2));
+    // Its points apart: each `r + A ρ`, as a contact's point is.
+    let unit = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let [p1, p2] = [0, 1].map(|n| {
+        let end = crate::front::contact::ContactEnd { body: bodies[n], rotation: unit, point: points[n] };
+        crate::tree::contact::point(k, poses, &end)
+    });
+    let mut rows: Vec<Id> = (0..3).map(|i| k.g.sub(p1[i], p2[i])).collect();
+    if torquescale == 0.0 {
+        rows.extend([k.g.zero(); 3]);
+        return rows;
     }
+    let identity = unit.map(|row| row.map(|x| k.g.constant(x)));
+    let turn = |b: Option<usize>| b.and_then(|b| poses.get(b)).map_or(identity, |pose| pose.0);
+    let (a1, a2) = (turn(bodies[0]), turn(bodies[1]));
     // E = A₂ᵀ A₁, entry (r, c) = Σ A₂[i][r] A₁[i][c].
     let e = [0, 1, 2].map(|r| {
         [0, 1, 2].map(|c| {
@@ -170,10 +165,6 @@ fn weld_rows(
             k.g.sum(&terms)
         })
     });
-    if torquescale == 0.0 {
-        rows.extend([k.g.zero(); 3]);
-        return rows;
-    }
     let one = k.g.constant(1.0);
     let trace = k.g.sum(&[one, e[0][0], e[1][1], e[2][2]]);
     let root = k.g.sqrt(trace);

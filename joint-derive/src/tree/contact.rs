@@ -88,7 +88,7 @@ fn frame(k: &mut Kinematics, poses: &[Pose], end: &ContactEnd) -> [[Id; 3]; 3] {
 }
 
 /// The contact point in the world: `r + A ρ` (on the ground, `ρ` itself).
-fn point(k: &mut Kinematics, poses: &[Pose], end: &ContactEnd) -> V3 {
+pub fn point(k: &mut Kinematics, poses: &[Pose], end: &ContactEnd) -> V3 {
     let rho = end.point.map(|x| k.g.constant(x));
     let Some(b) = end.body else { return rho };
     let (a, r) = poses[b];
