@@ -115,18 +115,10 @@ impl<const N: usize> PivotedCholesky<N> {
                 break;
             }
             if best_at != k {
-                w.swap_rows(k, best_at);
-                w.swap_columns(k, best_at);
+                symmetric_swap(&mut w, k, best_at);
                 perm.swap(k, best_at);
             }
-            let l = libm::sqrt(best);
-            w[(k, k)] = l;
-            for i in k + 1..N {
-                w[(i, k)] /= l;
-            }
-            // The trailing block is kept whole (both triangles) so that the
-            // symmetric swaps of later steps stay valid.
-            trailing_update(&mut w, k);
+            eliminate(&mut w, k, best);
             rank = k + 1;
         }
         Ok(PivotedCholesky { factor: w, perm, rank, max_pivot })
@@ -167,12 +159,7 @@ impl<const N: usize> PivotedCholesky<N> {
             if pivot.is_nan() || pivot <= 0.0 {
                 return Self::new(a, tolerance);
             }
-            let l = libm::sqrt(pivot);
-            w[(k, k)] = l;
-            for i in k + 1..N {
-                w[(i, k)] /= l;
-            }
-            trailing_update(&mut w, k);
+            eliminate(&mut w, k, pivot);
         }
         Ok(PivotedCholesky { factor: w, perm: *order, rank, max_pivot })
     }
@@ -316,19 +303,66 @@ pub(crate) fn gemm<const R: usize, const K: usize, const C: usize>(
     }
 }
 
-/// `W[i, j] −= W[i, k] W[j, k]` for `i, j > k`: Cholesky's update of the
-/// trailing block after step `k`, a column at a time on contiguous slices
-/// (the processor's vector lanes; each entry gets the same operations in
-/// the same order as an entry-by-entry loop, so the same bits).
-fn trailing_update<const N: usize>(w: &mut SMatrix<f64, N, N>, k: usize) {
+/// Step `k` of Cholesky's factor on the lower triangle of `w`: column `k`
+/// over `√pivot`, then `W[i, j] −= W[i, k] W[j, k]` for `i ≥ j > k`, a
+/// column at a time on contiguous slices (the processor's vector lanes).
+/// Only the lower triangle is kept: half the work of the whole trailing
+/// block, which [`symmetric_swap`] makes possible.
+fn eliminate<const N: usize>(w: &mut SMatrix<f64, N, N>, k: usize, pivot: f64) {
+    let l = libm::sqrt(pivot);
     let columns = &mut w.data.0;
-    let (head, tail) = columns.split_at_mut(k + 1);
-    let Some(pivot_column) = head.last() else { return };
-    let below = pivot_column.get(k + 1..).unwrap_or(&[]);
-    for (column, ljk) in tail.iter_mut().zip(below) {
-        for (target, lik) in column.get_mut(k + 1..).unwrap_or(&mut []).iter_mut().zip(below) {
+    let (head, tail) = columns.split_at_mut((k + 1).min(N));
+    let Some(pivot_column) = head.last_mut() else { return };
+    if let Some(x) = pivot_column.get_mut(k) {
+        *x = l;
+    }
+    // A copy the updates cannot alias, so that they run in vector lanes.
+    let mut below = [0.0; N];
+    let inverse = 1.0 / l;
+    for ((x, y), _) in pivot_column.iter_mut().zip(below.iter_mut()).zip(0..N).skip(k + 1) {
+        *x *= inverse;
+        *y = *x;
+    }
+    for ((j, column), ljk) in (k + 1..N).zip(tail.iter_mut()).zip(below.iter().skip(k + 1)) {
+        let ljk = *ljk;
+        let (Some(targets), Some(sources)) = (column.get_mut(j..), below.get(j..)) else { continue };
+        for (target, lik) in targets.iter_mut().zip(sources) {
             *target -= lik * ljk;
         }
+    }
+}
+
+/// Swaps indices `p < q` of the symmetric matrix whose lower triangle is
+/// `w` (LAPACK's `dpstrf` swap): the rows of the columns already
+/// factorised, the two diagonals, and the entries between them reflected.
+fn symmetric_swap<const N: usize>(w: &mut SMatrix<f64, N, N>, p: usize, q: usize) {
+    let (p, q) = (p.min(q), q.max(p));
+    if q >= N {
+        return;
+    }
+    // Entry (i, j) is `w[j][i]` (column-major); every index below is under `N`.
+    let w = &mut w.data.0;
+    let mut swap = |(i, j): (usize, usize), (k, l): (usize, usize)| {
+        let (Some(a), Some(b)) = (w.get(j).and_then(|c| c.get(i)), w.get(l).and_then(|c| c.get(k))) else {
+            return;
+        };
+        let (a, b) = (*a, *b);
+        if let Some(x) = w.get_mut(j).and_then(|c| c.get_mut(i)) {
+            *x = b;
+        }
+        if let Some(x) = w.get_mut(l).and_then(|c| c.get_mut(k)) {
+            *x = a;
+        }
+    };
+    for j in 0..p {
+        swap((p, j), (q, j));
+    }
+    swap((p, p), (q, q));
+    for i in p + 1..q {
+        swap((i, p), (q, i));
+    }
+    for i in q + 1..N {
+        swap((i, p), (i, q));
     }
 }
 

@@ -154,8 +154,11 @@ impl<const NV: usize, const NC: usize> ConstrainedDerivatives<NV, NC> {
 pub(super) struct Kkt<'a, const NV: usize, const NC: usize> {
     /// `J` with inactive rows zero.
     pub(super) jacobian: SMatrix<f64, NC, NV>,
-    /// `Y = M⁻¹ Jᵀ`.
+    /// `Y = M⁻¹ Jᵀ` (zero unless [`with_y`](Self::with_y)).
     pub(super) y: SMatrix<f64, NV, NC>,
+    /// Whether the solve fills `y`: the derivatives and impacts read it,
+    /// the forward dynamics need only `Y λ` (one solve, where `Y` is `NC`).
+    pub(super) with_y: bool,
     /// `S = J Y` (inactive rows: a pivot of their own).
     pub(super) delassus: SMatrix<f64, NC, NC>,
     /// `S`, pivoted.
@@ -178,12 +181,32 @@ impl<'a, const NV: usize, const NC: usize> Kkt<'a, NV, NC> {
         Kkt {
             jacobian: SMatrix::zeros(),
             y: SMatrix::zeros(),
+            with_y: true,
             delassus: SMatrix::zeros(),
             factor: PivotedCholesky::empty(),
             mass: MassFactor::new(tree),
             mask: [false; NC],
             phi: SVector::zeros(),
             soft: None,
+        }
+    }
+
+    /// Room for the forward dynamics alone: `y` is not filled where the
+    /// tree has more freedoms than rows (a floating robot on its feet: the
+    /// one solve for `M⁻¹ Jᵀ λ` costs less than `Y`'s `NC` columns; on a
+    /// four-bar's three freedoms and three rows `Y` is the cheaper, 0.36
+    /// against 0.43 µs).
+    pub(super) fn forward(tree: &'a FreedomTree<NV>) -> Self {
+        let mut kkt = Kkt::new(tree);
+        kkt.with_y = NC >= NV;
+        kkt
+    }
+
+    /// `M⁻¹ Jᵀ λ`: `Y λ`, or one solve where `Y` was not filled.
+    pub(super) fn velocity_jump(&self, lambda: &SVector<f64, NC>) -> SVector<f64, NV> {
+        match self.with_y {
+            true => self.y * lambda,
+            false => self.mass.solve(&(self.jacobian.transpose() * lambda)),
         }
     }
 
@@ -238,7 +261,7 @@ impl<
         active: ActiveRows,
         out: &mut ConstrainedDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        let mut kkt = Kkt::new(&self.tree().freedoms);
+        let mut kkt = Kkt::forward(&self.tree().freedoms);
         self.solve_kkt(state, tau, active, out, &mut kkt)
     }
 
@@ -425,7 +448,7 @@ impl<
     ) -> Result<(), TreeError> {
         let (free, r) = self.kkt_system(state, tau, active, kkt)?;
         out.lambda = kkt.factor.solve(&r);
-        out.qdd = free + kkt.y * out.lambda;
+        out.qdd = free + kkt.velocity_jump(&out.lambda);
         out.rank = kkt.rank();
         if !out.qdd.iter().chain(out.lambda.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
@@ -482,7 +505,7 @@ impl<
         kkt.mask = active.row_mask::<NC>(S::CLOSURES);
         kkt.jacobian = *jacobian;
         mask_rows(&kkt.mask, &mut kkt.jacobian);
-        kkt.mass.delassus_into(&kkt.jacobian, &mut kkt.y, &mut kkt.delassus);
+        kkt.mass.delassus_into(&kkt.jacobian, kkt.with_y.then_some(&mut kkt.y), &mut kkt.delassus);
         let mask = &kkt.mask;
         let largest = (0..NC).filter(|&r| mask[r]).map(|r| kkt.delassus[(r, r)]).fold(0.0, f64::max);
         let largest = if largest > 0.0 { largest } else { 1.0 };

@@ -26,6 +26,11 @@ pub(crate) struct FreedomTree<const NV: usize> {
     pub(crate) parent: [Option<usize>; NV],
     /// One past the last of freedom `i`'s descendants (`i + 1` for a leaf).
     pub(crate) end: [usize; NV],
+    /// The first freedom of the unbranched run that ends at `i`: each of
+    /// `first[i] ..= i` is the parent of the next, so a walk to the root
+    /// takes whole runs (contiguous ranges) rather than one parent at a time
+    /// (a chain of dependent loads).
+    pub(crate) first: [usize; NV],
 }
 
 impl<const NV: usize> FreedomTree<NV> {
@@ -40,7 +45,13 @@ impl<const NV: usize> FreedomTree<NV> {
                 *slot = (*slot).max(below);
             }
         }
-        FreedomTree { parent, end }
+        let mut first: [usize; NV] = core::array::from_fn(|i| i);
+        for i in 1..NV {
+            if parent[i] == Some(i - 1) {
+                first[i] = first[i - 1];
+            }
+        }
+        FreedomTree { parent, end, first }
     }
 
     /// Freedom `i`'s parent, smaller than `i` (so a walk up ends).
@@ -88,7 +99,9 @@ impl<'a, const NV: usize> MassFactor<'a, NV> {
         // Every index below comes from `up`, so is under `NV`: the `min`s
         // change nothing but let the optimiser drop the bounds checks.
         let last = NV.saturating_sub(1);
-        *h = [[0.0; NV]; NV];
+        // Only the entries between a freedom and its ancestors are written,
+        // the same ones at every call (the tree is fixed): the others keep
+        // the zeros `new` gave them.
         // M's column k holds M(a, k) = M(k, a): row k of the lower triangle.
         for (k, column) in m.data.0.iter().enumerate() {
             let mut i = Some(k);
@@ -98,30 +111,32 @@ impl<'a, const NV: usize> MassFactor<'a, NV> {
                 i = tree.up(a);
             }
         }
-        // From the leaves in: row k of L is row k of H over D(k), and
-        // H(i, j) −= H(k, i) H(k, j) / D(k) on the block before k, a
-        // column at a time over contiguous rows. Entries between freedoms
-        // on different branches are zero and stay zero (their updates are
-        // products with zero), so a column whose H(k, j) is zero is skipped.
+        // From the leaves in (Featherstone's LTDL): row k of L is row k of
+        // H over D(k), and H(a, b) −= L(k, a) H(k, b) for every ancestor
+        // pair a ≥ b of k. Only ancestors are walked: the entries between
+        // branches are zero and stay zero, and a freedom's work is its
+        // depth squared, not its index squared.
         for k in (0..NV).rev() {
             let d = h[k][k];
             if !(d > 0.0 && d.is_finite()) {
                 return None;
             }
             let inverse = 1.0 / d;
-            let row: [f64; NV] = core::array::from_fn(|i| if i < k { h[i][k] } else { 0.0 });
-            for (j, column) in h.iter_mut().enumerate().take(k) {
-                let l = row[j] * inverse;
-                if l == 0.0 {
-                    continue;
+            let mut i = tree.up(k);
+            while let Some(a) = i {
+                let a = a.min(last);
+                // H(k, a) is h[a][k]; H(a, b) is h[b][a], H(k, b) is h[b][k].
+                let l = h[a][k] * inverse;
+                let mut top = Some(a);
+                while let Some(t) = top {
+                    let low = tree.first.get(t).map_or(t, |&f| f.min(t));
+                    for column in h.get_mut(low..=t).unwrap_or(&mut []) {
+                        column[a] -= l * column[k];
+                    }
+                    top = tree.up(low);
                 }
-                let (Some(targets), Some(sources)) = (column.get_mut(j..k), row.get(j..k)) else {
-                    continue;
-                };
-                for (target, source) in targets.iter_mut().zip(sources) {
-                    *target -= l * source;
-                }
-                column[k] = l;
+                h[a][k] = l;
+                i = tree.up(a);
             }
         }
         Some(())
@@ -218,18 +233,22 @@ impl<'a, const NV: usize> MassFactor<'a, NV> {
         self.solve_l(x);
     }
 
-    /// `Y = M⁻¹ Jᵀ` and `S = J Y` into `y` and `delassus`. Along the tree,
-    /// `J` stored by column is `Jᵀ` by freedom; through `L⁻ᵀ` it is
-    /// `W = J L⁻¹` (by column), `S = Σ_k W[:, k] W[:, k]ᵀ / D_k`, and
-    /// through `D⁻¹` and `L⁻¹` it is `Y` (by freedom: `Yᵀ` by column).
+    /// `S = J M⁻¹ Jᵀ` into `delassus`, and `Y = M⁻¹ Jᵀ` into `y` when
+    /// given (the forward dynamics need only `Y λ`, one solve, where `Y`
+    /// takes `NC`). Along the tree, `J` stored by column is `Jᵀ` by
+    /// freedom; through `L⁻ᵀ` it is `W = J L⁻¹` (by column),
+    /// `S = Σ_k W[:, k] W[:, k]ᵀ / D_k`, and through `D⁻¹` and `L⁻¹` it is
+    /// `Y` (by freedom: `Yᵀ` by column).
     pub(super) fn delassus_into<const NC: usize>(
         &self,
         jacobian: &SMatrix<f64, NC, NV>,
-        y: &mut SMatrix<f64, NV, NC>,
+        y: Option<&mut SMatrix<f64, NV, NC>>,
         delassus: &mut SMatrix<f64, NC, NC>,
     ) {
         if self.dense {
             let inverse = SMatrix::from_data(nalgebra::ArrayStorage(self.h));
+            let mut room = SMatrix::<f64, NV, NC>::zeros();
+            let y = y.unwrap_or(&mut room);
             y.gemm(1.0, &inverse, &jacobian.transpose(), 0.0);
             delassus.gemm(1.0, jacobian, y, 0.0);
             return;
@@ -238,15 +257,30 @@ impl<'a, const NV: usize> MassFactor<'a, NV> {
         self.solve_lt(&mut w);
         let mut scaled = w;
         self.scale(&mut scaled);
+        // S's lower triangle, column c from row c down. A contact's rows
+        // through L⁻ᵀ stay on its leg and the base, so a freedom's `w` is
+        // zero on the other legs' rows: those columns are skipped.
         delassus.fill(0.0);
         for (column, row) in w.iter().zip(&scaled) {
             for (c, target) in delassus.data.0.iter_mut().enumerate() {
                 let a = row[c];
-                for (s, x) in target.iter_mut().zip(column) {
+                if a == 0.0 {
+                    continue;
+                }
+                let (Some(targets), Some(sources)) = (target.get_mut(c..), column.get(c..)) else {
+                    continue;
+                };
+                for (s, x) in targets.iter_mut().zip(sources) {
                     *s += a * x;
                 }
             }
         }
+        for c in 0..NC {
+            for r in c + 1..NC {
+                delassus[(c, r)] = delassus[(r, c)];
+            }
+        }
+        let Some(y) = y else { return };
         self.solve_l(&mut scaled);
         for (k, row) in scaled.iter().enumerate() {
             for (c, value) in row.iter().enumerate() {
@@ -322,6 +356,7 @@ mod tests {
         assert_eq!(m[(3, 6)], 0.0);
         let tree = FreedomTree::new(PARENT);
         assert_eq!(tree.end, [7, 7, 7, 6, 7, 6, 7]);
+        assert_eq!(tree.first, [0, 0, 0, 0, 4, 5, 6]);
         let mut factor = MassFactor::new(&tree);
         assert!(!factor.dense);
         factor.factorise(&m).expect("positive definite");
@@ -344,16 +379,19 @@ mod tests {
         // dense inverse gives the same.
         let jacobian = SMatrix::<f64, 2, 7>::from_fn(|r, c| if r == 0 { j[c] } else { (c as f64).sin() });
         let (mut y, mut delassus) = (SMatrix::zeros(), SMatrix::zeros());
-        factor.delassus_into(&jacobian, &mut y, &mut delassus);
+        factor.delassus_into(&jacobian, Some(&mut y), &mut delassus);
         assert!((y - dense * jacobian.transpose()).amax() < 1e-13);
         assert!((delassus - jacobian * dense * jacobian.transpose()).amax() < 1e-13);
+        let mut alone = SMatrix::zeros();
+        factor.delassus_into(&jacobian, None, &mut alone);
+        assert_eq!(alone, delassus);
         let chain = FreedomTree::new(core::array::from_fn(|i| i.checked_sub(1)));
         let mut full = MassFactor::new(&chain);
         assert!(full.dense);
         full.factorise(&m).expect("positive definite");
         assert!((full.solve(&b) - x).amax() < 1e-13);
         let (mut y2, mut delassus2) = (SMatrix::zeros(), SMatrix::zeros());
-        full.delassus_into(&jacobian, &mut y2, &mut delassus2);
+        full.delassus_into(&jacobian, Some(&mut y2), &mut delassus2);
         assert!((y2 - y).amax() < 1e-13 && (delassus2 - delassus).amax() < 1e-13);
     }
 

@@ -72,7 +72,7 @@ impl<
         restitution: f64,
         out: &mut ImpulseDerivatives<NV, NC>,
     ) -> Result<(), TreeError> {
-        let mut kkt = Kkt::new(&self.tree().freedoms);
+        let mut kkt = Kkt::forward(&self.tree().freedoms);
         self.impulses(state, active, restitution, out, &mut kkt)
     }
 
@@ -145,7 +145,7 @@ impl<
         let rows = self.closure_rows(state);
         self.delassus(state, &rows.jacobian, active, kkt)?;
         out.impulse = kkt.factor.solve(&(kkt.jacobian * state.v * -(1.0 + restitution)));
-        out.v_after = state.v + kkt.y * out.impulse;
+        out.v_after = state.v + kkt.velocity_jump(&out.impulse);
         if !out.v_after.iter().chain(out.impulse.iter()).all(|x| x.is_finite()) {
             return Err(TreeError::NonFinite);
         }

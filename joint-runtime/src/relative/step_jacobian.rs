@@ -237,16 +237,19 @@ impl<
     }
 
     /// Refuses a step Jacobian where the step projects: rows that hold
-    /// (loops, couplings, contacts) are closed after each step, which the
-    /// chain rule here does not follow. MuJoCo's soft rows are never
-    /// projected, so a scene whose rows are all soft has its step's
-    /// Jacobian.
+    /// (loops, couplings, contacts) are closed after each step when the
+    /// options ask for a projection (the default), which the chain rule
+    /// here does not follow. Without projection the stages hold the rows at
+    /// the acceleration level (with the options' Baumgarte gains) and the
+    /// chain rule runs through their constrained dynamics; MuJoCo's soft
+    /// rows are never projected.
     fn unprojected(&self) -> Result<(), TreeError> {
-        if NC > 0 && !self.soft.all() {
+        if NC > 0 && !self.soft.all() && self.options().projection.is_some() {
             return Err(TreeError::NotOffered {
-                what: "the RK4 and Euler step Jacobians of a scene whose rows hold (its step projects them)",
-                instead: "`constrained_euler_step_jacobian` (rows held at the acceleration level, no projection), or \
-                          `transition` (differences of the projected step)",
+                what: "the RK4 and Euler step Jacobians of a scene whose rows hold and are projected after each step",
+                instead: "`SimulationOptions::with_projection(None)` (the rows held at the acceleration level, with \
+                          Baumgarte's gains), `constrained_euler_step_jacobian`, or `transition` (differences of the \
+                          projected step)",
             });
         }
         Ok(())
@@ -284,8 +287,10 @@ impl<
     /// never projected) are in the stages' dynamics and their derivatives.
     ///
     /// A tree with springs or user loads gets [`TreeError::Loaded`]; one
-    /// with rows that hold (its step projects them) gets
-    /// [`TreeError::NotOffered`].
+    /// whose rows hold and are projected after each step (the default
+    /// options) gets [`TreeError::NotOffered`]: with
+    /// `projection: None` its stages' constrained dynamics are
+    /// differentiated, every row holding.
     pub fn rk4_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,
@@ -314,7 +319,7 @@ impl<
             } else {
                 work.stage.set(&work.start, c * h, &work.rate);
             }
-            let stage = TreeState { q: q0 + kq * (c * h), v: v0 + kv * (c * h), t: state.t };
+            let stage = TreeState { q: q0 + kq * (c * h), v: v0 + kv * (c * h), t: state.t + c * h };
             (kq, kv) = self.stage_rate(&stage, tau, work)?;
             dq += kq * w;
             dv += kv * w;
