@@ -317,10 +317,11 @@ fn eliminate<const N: usize>(w: &mut SMatrix<f64, N, N>, k: usize, pivot: f64) {
         *x = l;
     }
     // A copy the updates cannot alias, so that they run in vector lanes.
+    // Divided, not multiplied by `1 / l`: the same bits as before, which the
+    // adaptive integrators' step choices are sensitive to.
     let mut below = [0.0; N];
-    let inverse = 1.0 / l;
     for ((x, y), _) in pivot_column.iter_mut().zip(below.iter_mut()).zip(0..N).skip(k + 1) {
-        *x *= inverse;
+        *x /= l;
         *y = *x;
     }
     for ((j, column), ljk) in (k + 1..N).zip(tail.iter_mut()).zip(below.iter().skip(k + 1)) {

@@ -28,11 +28,11 @@ const ASSEMBLY_ITERATIONS: usize = 50;
 /// The tolerance on the largest closure row a projection ends below, its
 /// Newton iterations, and the round-off floor it accepts (`1e3 ×` the
 /// tolerance, as the absolute `Simulation`'s).
-type Projection = (f64, usize, f64);
+pub(super) type Projection = (f64, usize, f64);
 
 /// What closing the loops did: Newton iterations, `‖Φ‖₂` and
 /// `‖J v + Φ_t‖₂` at the end.
-type Closed = (usize, f64, f64);
+pub(super) type Closed = (usize, f64, f64);
 
 /// The simulation of a relative-coordinate scene: the scene (its generated
 /// articulated-body algorithm and closure rows, where the derive wrote them)
@@ -59,14 +59,14 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
 /// dropped rows are the redundant closure rows.
-struct Saddle<const NV: usize, const NC: usize> {
-    minv_jt: SMatrix<f64, NV, NC>,
-    factor: PivotedCholesky<NC>,
+pub(super) struct Saddle<const NV: usize, const NC: usize> {
+    pub(super) minv_jt: SMatrix<f64, NV, NC>,
+    pub(super) factor: PivotedCholesky<NC>,
 }
 
 impl<const NV: usize, const NC: usize> Saddle<NV, NC> {
     /// `M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁺ r`: the mass-metric correction for the rows' residual `r`.
-    fn correction(&self, r: &SVector<f64, NC>) -> SVector<f64, NV> {
+    pub(super) fn correction(&self, r: &SVector<f64, NC>) -> SVector<f64, NV> {
         self.minv_jt * self.factor.solve(r)
     }
 }
@@ -194,7 +194,7 @@ impl<
 
     /// The step's projection: the options' tolerance and iterations, or
     /// none (no iterations, the default floor).
-    fn projection(&self) -> Projection {
+    pub(super) fn projection(&self) -> Projection {
         match self.options.projection {
             Some(p) => (p.tolerance, p.max_iterations, 1e3 * p.tolerance),
             None => (1e-12, 0, 1e-9),
@@ -319,7 +319,7 @@ impl<
 
     /// `M⁻¹ Jᵀ` and the factor of `J M⁻¹ Jᵀ + R` (in `order`'s pivots when
     /// given; `R` the soft rows' `regularisation`, none for ideal rows).
-    fn saddle(
+    pub(super) fn saddle(
         &self,
         q: &SVector<f64, NQ>,
         jacobian: &SMatrix<f64, NC, NV>,
@@ -396,7 +396,7 @@ impl<
 
     /// Newton on `Φ(q, t) = 0` (`refactor`: full, else simplified), then the
     /// velocity projection with the last factor.
-    fn close(
+    pub(super) fn close(
         &self,
         state: &mut TreeState<NQ, NV>,
         (tolerance, iterations, floor): Projection,

@@ -21,10 +21,11 @@
 //! coordinates and back, the rates' and the normalisation's derivatives);
 //! the semi-implicit Euler step turns it by `exp(h ω₁)`, whose derivative
 //! is the rotation group's right Jacobian. A tree with springs or user
-//! loads gets [`TreeError::Loaded`] (the tree's own dynamics only; a
-//! scene whose rows hold and are projected has no such step, one whose
-//! rows are all MuJoCo's soft ones has), and
+//! loads gets [`TreeError::Loaded`] (the tree's own dynamics only), and
 //! [`transition`](super::TreeSimulation::transition) differences its step.
+//! Where rows hold, the stages' constrained dynamics carry their exact
+//! derivatives, and a projected RK4 step's projection is differentiated
+//! along its own iterations (`projected.rs`).
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
@@ -203,9 +204,25 @@ impl<
         out.v_q = d_q * h;
         out.v_v = d_v * h + SMatrix::<f64, NV, NV>::identity();
         out.v_tau = d_tau * h;
-        // δq₁ = (the turn's transport) δq₀ + (its right Jacobian) h δv₁, joint by joint.
-        out.q_q.fill_with_identity();
-        let mut push = SMatrix::<f64, NV, NV>::identity() * h;
+        // δq₁ = (the turn's transport) δq₀ + (its right Jacobian) h δv₁.
+        let (transport, right) = self.displace_derivative(&(v1 * h));
+        let push = right * h;
+        out.q_q = transport + push * out.v_q;
+        out.q_v = push * out.v_v;
+        out.q_tau = push * out.v_tau;
+        let tree = self.tree();
+        let mut end = TreeState { q: state.q, v: v1, t: state.t + h };
+        tree.displace(&mut end.q, &(v1 * h));
+        finish(state, end)
+    }
+
+    /// The derivative of `q ⊕ Δ` in increments at both ends:
+    /// `δ(q ⊕ Δ) = transport δq + right δΔ`, joint by joint (a turn's
+    /// `exp(φ)ᵀ` and the rotation group's right Jacobian; a free joint's
+    /// offset moves by `R(p) u`, so `δ₁ = R(φ)ᵀ (δ₀ + δθ₀ × u + δu)`; the
+    /// identity on the other freedoms).
+    pub(super) fn displace_derivative(&self, delta: &SVector<f64, NV>) -> (Block<NV>, Block<NV>) {
+        let (mut transport, mut right) = (Block::<NV>::identity(), Block::<NV>::identity());
         let tree = self.tree();
         for (k, j) in tree.joints.iter().enumerate() {
             let va = tree.v_at[k];
@@ -214,42 +231,38 @@ impl<
                 TreeJointKind::Free => va + 3,
                 _ => continue,
             };
-            let phi = three(&v1, turn_at) * h;
-            let (rotation, right) = exp_and_right_jacobian(phi);
+            let (rotation, jr) = exp_and_right_jacobian(three(delta, turn_at));
             let back = rotation.transpose();
-            put_block(&mut out.q_q, (turn_at, turn_at), &back);
-            put_block(&mut push, (turn_at, turn_at), &(right * h));
+            put_block(&mut transport, (turn_at, turn_at), &back);
+            put_block(&mut right, (turn_at, turn_at), &jr);
             if j.kind == TreeJointKind::Free {
-                // The offset moves by R(p₀) h u₁: δ₁ = R(φ)ᵀ (δ₀ + δθ₀ × h u₁ + h δu₁).
-                let u = three(&v1, va) * h;
-                put_block(&mut out.q_q, (va, va), &back);
-                put_block(&mut out.q_q, (va, va + 3), &(back * -u.cross_matrix()));
-                put_block(&mut push, (va, va), &(back * h));
+                let u = three(delta, va);
+                put_block(&mut transport, (va, va), &back);
+                put_block(&mut transport, (va, va + 3), &(back * -u.cross_matrix()));
+                put_block(&mut right, (va, va), &back);
             }
         }
-        let transport = out.q_q;
-        out.q_q = transport + push * out.v_q;
-        out.q_v = push * out.v_v;
-        out.q_tau = push * out.v_tau;
-        let mut end = TreeState { q: state.q, v: v1, t: state.t + h };
-        tree.displace(&mut end.q, &(v1 * h));
-        finish(state, end)
+        (transport, right)
     }
 
-    /// Refuses a step Jacobian where the step projects: rows that hold
-    /// (loops, couplings, contacts) are closed after each step when the
-    /// options ask for a projection (the default), which the chain rule
-    /// here does not follow. Without projection the stages hold the rows at
-    /// the acceleration level (with the options' Baumgarte gains) and the
-    /// chain rule runs through their constrained dynamics; MuJoCo's soft
-    /// rows are never projected.
+    /// Whether the step closes its rows after it: rows that hold (loops,
+    /// couplings, contacts) under options that ask for a projection (the
+    /// default). MuJoCo's soft rows are never projected.
+    fn projects(&self) -> bool {
+        NC > 0 && !self.soft.all() && self.options().projection.is_some()
+    }
+
+    /// Refuses the semi-implicit Euler step's Jacobian where the step would
+    /// project: that step is this Jacobian's alone (no stepping function
+    /// projects it), so it is offered as Crocoddyl integrates contact
+    /// dynamics, held at the acceleration level, without projection.
     fn unprojected(&self) -> Result<(), TreeError> {
-        if NC > 0 && !self.soft.all() && self.options().projection.is_some() {
+        if self.projects() {
             return Err(TreeError::NotOffered {
-                what: "the RK4 and Euler step Jacobians of a scene whose rows hold and are projected after each step",
+                what: "the semi-implicit Euler step Jacobian of a scene whose rows hold and are projected",
                 instead: "`SimulationOptions::with_projection(None)` (the rows held at the acceleration level, with \
-                          Baumgarte's gains), `constrained_euler_step_jacobian`, or `transition` (differences of the \
-                          projected step)",
+                          Baumgarte's gains), `constrained_euler_step_jacobian`, or `rk4_step_jacobian` (the \
+                          projected RK4 step, exact)",
             });
         }
         Ok(())
@@ -286,11 +299,13 @@ impl<
     /// on error `state` is unchanged. A file's soft equalities (MuJoCo's,
     /// never projected) are in the stages' dynamics and their derivatives.
     ///
-    /// A tree with springs or user loads gets [`TreeError::Loaded`]; one
-    /// whose rows hold and are projected after each step (the default
-    /// options) gets [`TreeError::NotOffered`]: with
-    /// `projection: None` its stages' constrained dynamics are
-    /// differentiated, every row holding.
+    /// A scene whose rows hold (loops, couplings, contacts) has its stages'
+    /// constrained dynamics differentiated, every row holding, and, where
+    /// its options project (the default), the projection that ends
+    /// `step_with`'s step too (`projected.rs`: the same simplified Newton
+    /// iterations and velocity corrections, differentiated). Its start is
+    /// not checked to be closed: the map is smooth off the loops as well.
+    /// A tree with springs or user loads gets [`TreeError::Loaded`].
     pub fn rk4_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,
@@ -300,7 +315,6 @@ impl<
         out: &mut StepJacobian<NV>,
     ) -> Result<(), TreeError> {
         self.check_step(state, h, tau)?;
-        self.unprojected()?;
         let tree = self.tree();
         // The start's derivative: q moves by T(q₀) δq₀, v by δv₀.
         work.start = Chain::zeros();
@@ -335,6 +349,9 @@ impl<
             tree.increments_of_columns(&end.q, &work.sum.q[g], q_block);
             *v_block = work.sum.v[g];
         }
+        if self.projects() {
+            self.project_chain(&mut end, &mut work.inverse, out)?;
+        }
         finish(state, end)
     }
 
@@ -344,7 +361,9 @@ impl<
     /// Jacobian into `out` (one forward-dynamics derivative). What a user
     /// compares with MuJoCo's `mjd_transitionFD` compares like with like.
     /// Allocation-free; on error `state` is unchanged. Errors as
-    /// [`rk4_step_jacobian`](Self::rk4_step_jacobian).
+    /// [`rk4_step_jacobian`](Self::rk4_step_jacobian), and
+    /// [`TreeError::NotOffered`] where the rows hold and the options
+    /// project (this step has no projection of its own).
     pub fn euler_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,

@@ -367,6 +367,36 @@ fn impact_derivatives_equal_differences() {
     check(&FourBarBranch, &state, ActiveRows::all(), 0.0);
 }
 
+/// The projected RK4 step on four feet (`step_with`'s: the stages hold the
+/// feet at the acceleration level with Baumgarte's gains, the end's foot
+/// velocities projected out; a floating base's quaternion) has its exact
+/// Jacobian, projection included: against central differences of the step.
+#[test]
+fn the_projected_rk4_step_on_four_feet_has_an_exact_jacobian() {
+    use joint_runtime::relative::{StepJacobian, StepWork};
+    let (sim, state, tau) = solo_with_gains(2);
+    let h = 0.01;
+    let step = |s: &TreeState<19, 18>, t: &SVector<f64, 18>| {
+        let (mut work, mut jacobian) = (Box::new(StepWork::new()), StepJacobian::zeros());
+        let mut end = *s;
+        sim.rk4_step_jacobian(&mut end, h, t, &mut work, &mut jacobian).unwrap();
+        (end, jacobian)
+    };
+    let (nominal, ours) = step(&state, &tau);
+    // The feet stand still at the end: the projection held them.
+    let rows = sim.closure_rows(&nominal);
+    assert!((rows.jacobian * nominal.v).amax() < 1e-12, "{}", (rows.jacobian * nominal.v).amax());
+    let moved = |q: &SVector<f64, 19>, d: &SVector<f64, 18>| sim.tree().displaced(q, d);
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| sim.tree().difference(&nominal.q, &step(s, t).0.q));
+    close(&ours.q_q, &q, "∂q₁/∂q₀");
+    close(&ours.q_v, &v, "∂q₁/∂v₀");
+    close(&ours.q_tau, &t, "∂q₁/∂τ");
+    let [q, v, t] = differences(&state, &tau, moved, |s, t| step(s, t).0.v);
+    close(&ours.v_q, &q, "∂v₁/∂q₀");
+    close(&ours.v_v, &v, "∂v₁/∂v₀");
+    close(&ours.v_tau, &t, "∂v₁/∂τ");
+}
+
 /// The constrained semi-implicit Euler step's Jacobian (a contact MPC's
 /// node: three feet holding, Baumgarte's gains on, a floating base whose
 /// turn goes through `exp`) against central differences of the step itself,

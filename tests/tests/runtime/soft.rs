@@ -273,27 +273,86 @@ fn soft_step_jacobians_equal_differences() {
     step_jacobians_against_differences(&SoftWeld, "soft_weld", options);
 }
 
-/// A scene whose rows hold is projected after each step by default: no
-/// step Jacobian. Without projection its stages hold the rows at the
-/// acceleration level, and both steps' Jacobians run the chain rule through
-/// the constrained dynamics' exact derivatives: against central differences
+/// The four-bar with ideal rows (`equality = hard`).
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
+struct HardFourBar;
+
+/// A scene whose rows hold is projected after each step by default: the
+/// semi-implicit Euler step (no stepping function projects it) is refused
+/// then. Without projection the stages hold the rows at the acceleration
+/// level, and both steps' Jacobians run the chain rule through the
+/// constrained dynamics' exact derivatives: against central differences
 /// (the hard four-bar from the soft one's states, slightly open, Baumgarte's
 /// gains pulling them in; its planar loop closed by a point has a redundant
 /// row, dropped at every stage).
 #[test]
-fn a_projected_step_has_no_step_jacobian_an_unprojected_one_has() {
-    #[derive(Scene)]
-    #[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
-    struct HardFourBar;
+fn an_unprojected_step_has_both_step_jacobians() {
     let sim = TreeSimulation::new(&HardFourBar).unwrap();
     let (mut state, mut work, mut out) = (sim.tree().zero_state(), Box::new(StepWork::new()), StepJacobian::zeros());
-    let error = sim.rk4_step_jacobian(&mut state, 1e-3, &SVector::zeros(), &mut work, &mut out).unwrap_err();
+    let error = sim.euler_step_jacobian(&mut state, 1e-3, &SVector::zeros(), &mut work, &mut out).unwrap_err();
     assert!(matches!(error, TreeError::NotOffered { .. }), "{error}");
     let options = SimulationOptions::default()
         .with_projection(None)
         .with_stabilisation(Stabilisation::Baumgarte { alpha: 5.0, beta: 5.0 });
     let worst = step_jacobians_against_differences(&HardFourBar, "four_bar", options);
     assert!(worst[0] > 0.0 && worst[1] > 0.0);
+}
+
+/// The projected RK4 step (the default options: simplified Newton on the
+/// loop's rows, then the velocities) has its exact Jacobian, projection
+/// included: against central differences of the same step from starts off
+/// the loop by the differences' steps, at closed starts (the soft four-bar's
+/// states assembled onto the hard loop); its end is `step_with`'s.
+#[test]
+fn the_projected_rk4_step_has_its_exact_jacobian() {
+    let mut sim = TreeSimulation::new(&HardFourBar).unwrap();
+    let h = 1e-2;
+    let (mut work, mut out, mut scratch) = (Box::new(StepWork::new()), StepJacobian::zeros(), StepJacobian::zeros());
+    let mut worst = 0.0_f64;
+    let mut iterations = 0;
+    for (guess, tau, _) in samples::<HardFourBar, 3, 3, 3, 2>("four_bar").into_iter().step_by(3) {
+        let start = sim.assemble(&guess).unwrap();
+        let mut end = start;
+        sim.rk4_step_jacobian(&mut end, h, &tau, &mut work, &mut out).unwrap();
+        let mut stepped = start;
+        iterations += sim.step_with(&mut stepped, h, &tau).unwrap().projection_iterations;
+        assert!((stepped.q - end.q).amax() < 1e-15 && (stepped.v - end.v).amax() < 1e-14);
+        let tree = sim.tree().clone();
+        let (mut diff, mut scale) = (0.0_f64, 0.0_f64);
+        for c in 0..3 * 3 {
+            let central = |by: f64, scratch: &mut StepJacobian<3>, work: &mut StepWork<3, 3>| {
+                let mut ends = [start; 2];
+                for (sign, e) in [1.0, -1.0].into_iter().zip(ends.iter_mut()) {
+                    let mut t = tau;
+                    let d = SVector::<f64, 3>::from_fn(|r, _| if r == c % 3 { sign * by } else { 0.0 });
+                    match c / 3 {
+                        0 => e.q = tree.displaced(&start.q, &d),
+                        1 => e.v += d,
+                        _ => t += d,
+                    }
+                    sim.rk4_step_jacobian(e, h, &t, work, scratch).unwrap();
+                }
+                let dq = tree.difference(&end.q, &ends[0].q) - tree.difference(&end.q, &ends[1].q);
+                (dq / (2.0 * by), (ends[0].v - ends[1].v) / (2.0 * by))
+            };
+            // Steps of 1e-4: the projection's tolerance (1e-12) decides its
+            // iteration count, so a difference over 2ε carries 1e-12/ε of it.
+            let ((dq1, dv1), (dq2, dv2)) =
+                (central(1e-4, &mut scratch, &mut work), central(2e-4, &mut scratch, &mut work));
+            let (dq, dv) = ((dq1 * 4.0 - dq2) / 3.0, (dv1 * 4.0 - dv2) / 3.0);
+            for r in 0..3 {
+                diff = diff.max((dq[r] - out.entry(r, c)).abs()).max((dv[r] - out.entry(3 + r, c)).abs());
+                scale = scale.max(out.entry(r, c).abs()).max(out.entry(3 + r, c).abs());
+            }
+        }
+        worst = worst.max(diff / scale);
+    }
+    eprintln!(
+        "hard four-bar: the projected RK4 step's Jacobian off differences by {worst:.1e} ({iterations} Newton iterations)"
+    );
+    assert!(iterations > 0, "the projection never iterated: its derivative went untested");
+    assert!(worst < 1e-7, "{worst:e}");
 }
 
 /// A soft loop is not projected: a start off it steps, and the rows'
