@@ -367,6 +367,26 @@ fn impact_derivatives_equal_differences() {
     check(&FourBarBranch, &state, ActiveRows::all(), 0.0);
 }
 
+/// A step's Jacobian `ours` at `state`, `tau` (ending at `nominal`)
+/// against central differences of `step`, `q₁` measured in the tree's
+/// increments at the nominal end.
+fn step_against_differences(
+    sim: &TreeSimulation<'static, SoloFeet, 13, 19, 18, 12>,
+    (state, tau): (&TreeState<19, 18>, &SVector<f64, 18>),
+    (nominal, ours): (&TreeState<19, 18>, &joint_runtime::relative::StepJacobian<18>),
+    step: impl Fn(&TreeState<19, 18>, &SVector<f64, 18>) -> TreeState<19, 18>,
+) {
+    let moved = |q: &SVector<f64, 19>, d: &SVector<f64, 18>| sim.tree().displaced(q, d);
+    let [q, v, t] = differences(state, tau, moved, |s, t| sim.tree().difference(&nominal.q, &step(s, t).q));
+    close(&ours.q_q, &q, "∂q₁/∂q₀");
+    close(&ours.q_v, &v, "∂q₁/∂v₀");
+    close(&ours.q_tau, &t, "∂q₁/∂τ");
+    let [q, v, t] = differences(state, tau, moved, |s, t| step(s, t).v);
+    close(&ours.v_q, &q, "∂v₁/∂q₀");
+    close(&ours.v_v, &v, "∂v₁/∂v₀");
+    close(&ours.v_tau, &t, "∂v₁/∂τ");
+}
+
 /// The projected RK4 step on four feet (`step_with`'s: the stages hold the
 /// feet at the acceleration level with Baumgarte's gains, the end's foot
 /// velocities projected out; a floating base's quaternion) has its exact
@@ -386,15 +406,7 @@ fn the_projected_rk4_step_on_four_feet_has_an_exact_jacobian() {
     // The feet stand still at the end: the projection held them.
     let rows = sim.closure_rows(&nominal);
     assert!((rows.jacobian * nominal.v).amax() < 1e-12, "{}", (rows.jacobian * nominal.v).amax());
-    let moved = |q: &SVector<f64, 19>, d: &SVector<f64, 18>| sim.tree().displaced(q, d);
-    let [q, v, t] = differences(&state, &tau, moved, |s, t| sim.tree().difference(&nominal.q, &step(s, t).0.q));
-    close(&ours.q_q, &q, "∂q₁/∂q₀");
-    close(&ours.q_v, &v, "∂q₁/∂v₀");
-    close(&ours.q_tau, &t, "∂q₁/∂τ");
-    let [q, v, t] = differences(&state, &tau, moved, |s, t| step(s, t).0.v);
-    close(&ours.v_q, &q, "∂v₁/∂q₀");
-    close(&ours.v_v, &v, "∂v₁/∂v₀");
-    close(&ours.v_tau, &t, "∂v₁/∂τ");
+    step_against_differences(&sim, (&state, &tau), (&nominal, &ours), |s, t| step(s, t).0);
 }
 
 /// The constrained semi-implicit Euler step's Jacobian (a contact MPC's
@@ -417,15 +429,7 @@ fn the_constrained_euler_step_has_an_exact_jacobian() {
     let (nominal, dynamics, ours) = step(&state, &tau);
     // The step is v₁ = v + h q̈ at the start, with the start's q̈.
     assert!((nominal.v - state.v - dynamics.qdd * h).amax() < 1e-12 * nominal.v.amax());
-    let moved = |q: &SVector<f64, 19>, d: &SVector<f64, 18>| sim.tree().displaced(q, d);
-    let [q, v, t] = differences(&state, &tau, moved, |s, t| sim.tree().difference(&nominal.q, &step(s, t).0.q));
-    close(&ours.q_q, &q, "∂q₁/∂q₀");
-    close(&ours.q_v, &v, "∂q₁/∂v₀");
-    close(&ours.q_tau, &t, "∂q₁/∂τ");
-    let [q, v, t] = differences(&state, &tau, moved, |s, t| step(s, t).0.v);
-    close(&ours.v_q, &q, "∂v₁/∂q₀");
-    close(&ours.v_v, &v, "∂v₁/∂v₀");
-    close(&ours.v_tau, &t, "∂v₁/∂τ");
+    step_against_differences(&sim, (&state, &tau), (&nominal, &ours), |s, t| step(s, t).0);
 }
 
 /// The UR5's tool welded in the world's axes: the same `q̈` as in its own
