@@ -204,19 +204,19 @@ impl<const N: usize> PivotedCholesky<N> {
         let r = self.rank.min(N);
         let mut z = SVector::<f64, N>::zeros();
         // L11 z = P b (forward).
+        // The sums run over iterators, not indices: at small `N` (a planar
+        // loop's two rows) the optimiser did not prove `(i, k)` in bounds.
+        // Same operations in the same order as indexed loops.
         for k in 0..r {
-            let mut s = b.get(self.perm[k]).copied().unwrap_or(0.0);
-            for j in 0..k {
-                s -= self.factor[(k, j)] * z[j];
-            }
+            let b = b.get(self.perm[k]).copied().unwrap_or(0.0);
+            let row = self.factor.row(k);
+            let s = row.iter().zip(z.iter()).take(k).fold(b, |s, (l, z)| s - l * z);
             z[k] = s / self.factor[(k, k)];
         }
         // L11ᵀ y = z (backward), in place.
         for k in (0..r).rev() {
-            let mut s = z[k];
-            for i in k + 1..r {
-                s -= self.factor[(i, k)] * z[i];
-            }
+            let column = self.factor.column(k);
+            let s = column.iter().zip(z.iter()).take(r).skip(k + 1).fold(z[k], |s, (l, z)| s - l * z);
             z[k] = s / self.factor[(k, k)];
         }
         let mut x = SVector::<f64, N>::zeros();
@@ -246,16 +246,24 @@ impl<const N: usize> PivotedCholesky<N> {
     /// ```
     pub fn inverse(&self) -> SMatrix<f64, N, N> {
         let r = self.rank.min(N);
+        // Every index is below `r ≤ N`; `get` lets the optimiser see it at
+        // small `N` too (a planar loop's two rows kept an indexed bounds
+        // check), and changes no value.
+        let at = |m: &SMatrix<f64, N, N>, i: usize, j: usize| m.get((i, j)).copied().unwrap_or(0.0);
         // T = L11⁻¹, lower triangular, column by column (pivoted order).
         let mut t = SMatrix::<f64, N, N>::zeros();
         for j in 0..r {
-            t[(j, j)] = 1.0 / self.factor[(j, j)];
+            if let Some(x) = t.get_mut((j, j)) {
+                *x = 1.0 / at(&self.factor, j, j);
+            }
             for i in j + 1..r {
                 let mut s = 0.0;
                 for k in j..i {
-                    s -= self.factor[(i, k)] * t[(k, j)];
+                    s -= at(&self.factor, i, k) * at(&t, k, j);
                 }
-                t[(i, j)] = s / self.factor[(i, i)];
+                if let Some(x) = t.get_mut((i, j)) {
+                    *x = s / at(&self.factor, i, i);
+                }
             }
         }
         // (L11 L11ᵀ)⁻¹ = Tᵀ T, scattered back to the original order.
@@ -264,7 +272,7 @@ impl<const N: usize> PivotedCholesky<N> {
             for b in 0..=a {
                 let mut s = 0.0;
                 for k in a..r {
-                    s += t[(k, a)] * t[(k, b)];
+                    s += at(&t, k, a) * at(&t, k, b);
                 }
                 let (pa, pb) = (self.perm[a], self.perm[b]);
                 if pa < N && pb < N {

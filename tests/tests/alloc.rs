@@ -310,7 +310,8 @@ struct SoloFeet;
 #[test]
 fn constrained_dynamics_derivatives_and_impacts_allocate_nothing() {
     use joint_runtime::relative::{
-        ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, StepJacobian, TreeSimulation,
+        ActiveRows, ConstrainedDerivatives, ImpulseDerivatives, InverseDerivatives, StepJacobian, StepWork,
+        TreeSimulation,
     };
     let mut sim = TreeSimulation::new(&SoloFeet).expect("a valid robot");
     let mut state = sim.tree().zero_state();
@@ -323,8 +324,10 @@ fn constrained_dynamics_derivatives_and_impacts_allocate_nothing() {
         (InverseDerivatives::zeros(), ConstrainedDerivatives::zeros(), ImpulseDerivatives::zeros());
     let three = ActiveRows::all().without(3);
     let (mut done, mut jacobian, mut node) = (false, StepJacobian::zeros(), state);
+    let (mut steps, mut stepped) = (Box::new(StepWork::new()), state);
     let n = allocations(|| {
         done = sim.constrained_dynamics(&state, &tau, three, &mut out).is_ok()
+            && sim.rk4_step_jacobian(&mut stepped, 1e-3, &tau, &mut steps, &mut jacobian).is_ok()
             && sim
                 .constrained_euler_step_jacobian(&mut node, 1e-3, &tau, three, &mut work, &mut out, &mut jacobian)
                 .is_ok()
@@ -358,6 +361,27 @@ fn soft_equalities_allocate_nothing() {
     });
     assert_eq!(n, 0, "the soft equalities allocated");
     assert!(done && out.d_q[(7, 7)] < 0.0);
+}
+
+/// A planar four-bar from its MJCF file, its `connect` held exactly.
+#[derive(Scene)]
+#[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
+struct HardFourBar;
+
+#[test]
+fn the_projected_step_jacobian_on_a_loop_allocates_nothing() {
+    use joint_runtime::relative::{StepJacobian, StepWork, TreeSimulation};
+    let sim = TreeSimulation::new(&HardFourBar).expect("a valid mechanism");
+    let (mut work, mut jacobian) = (StepWork::new(), StepJacobian::zeros());
+    let mut state = sim.tree().zero_state();
+    let mut done = false;
+    let n = allocations(|| {
+        done = (0..3)
+            .all(|_| sim.rk4_step_jacobian(&mut state, 1e-2, &SVector::zeros(), &mut work, &mut jacobian).is_ok());
+    });
+    assert_eq!(n, 0, "the projected step Jacobian allocated");
+    // Gravity moves the loop, and the end moves with the start's velocity.
+    assert!(done && jacobian.q_v[(0, 0)].abs() > 1e-4 && state.v.amax() > 0.0);
 }
 
 #[test]

@@ -30,9 +30,11 @@
 //!   inverse and forward dynamics and its RK4 and semi-implicit Euler step
 //!   Jacobians ([`trees`]).
 //! - Two robots read from their files with contacts (the floating Solo12 on
-//!   its four feet, the UR5 welded): a constrained RK4 step, the constrained
-//!   dynamics, their exact derivatives and an impact's, the active set a
-//!   run-time argument; the Panda from its MJCF file with its fingers
+//!   its four feet, the UR5 welded): a constrained RK4 step and its exact
+//!   Jacobian (projection included), the constrained dynamics, their exact
+//!   derivatives and an impact's, the active set a run-time argument; a hard
+//!   four-bar from its MJCF file: the projected RK4 step's exact Jacobian
+//!   (Newton on a loop's position); the Panda from its MJCF file with its fingers
 //!   coupled softly (MuJoCo's `<equality joint>`): its step, dynamics and
 //!   their exact derivatives ([`contacts`]).
 //! - The batch functions (`evaluate_batch`, `evaluate_batch_simd` in `f64 × 4`

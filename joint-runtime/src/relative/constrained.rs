@@ -293,13 +293,8 @@ impl<
         let mut r2_v = second.gamma_v - kkt.jacobian * (2.0 * alpha);
         if beta != 0.0 {
             // −β² ∂Φ/∂q = −β² J on a loop's rows; a contact has no Φ.
-            let contact = |r: usize| {
-                S::CONTACTS
-                    .iter()
-                    .filter_map(|c| S::CLOSURES.get(c.block))
-                    .any(|b| (b.start..b.start + b.rows).contains(&r))
-            };
-            for r in (0..NC).filter(|&r| !contact(r)) {
+            let positioned = Self::POSITIONED;
+            for r in (0..NC).filter(|&r| positioned[r]) {
                 let row = kkt.jacobian.row(r) * (beta * beta);
                 let mut target = r2_q.row_mut(r);
                 target -= row;

@@ -68,7 +68,7 @@ impl<
         // loop's (`I − G J` on the first), not the identity.
         // `∂Φ/∂q` is `J` on a loop's rows and zero on a contact's (it has
         // no position: its zero residual holds the foot where it is).
-        let positioned = self.positioned_mask();
+        let positioned = Self::POSITIONED;
         let (mut q, mut rows, mut d) = (raw, rows, Block::<NV>::identity());
         for i in 0..done.max(1) {
             let delta = -saddle.correction(&rows.phi);
@@ -148,18 +148,27 @@ impl<
         self.soft.soft.map(|soft| !soft)
     }
 
-    /// The rows with a position `Φ`: all but the contacts'.
-    fn positioned_mask(&self) -> [bool; NC] {
-        let mut out = [true; NC];
-        for block in S::CONTACTS.iter().filter_map(|c| S::CLOSURES.get(c.block)) {
-            for r in block.start..block.start + block.rows {
-                if let Some(x) = out.get_mut(r) {
-                    *x = false;
-                }
+    /// The rows with a position `Φ`: all but the contacts'. A constant of
+    /// the scene, evaluated when it compiles (no run-time loop to prove).
+    pub(super) const POSITIONED: [bool; NC] = positioned(S::CLOSURES, S::CONTACTS);
+}
+
+/// `[true; NC]` with the contacts' blocks of `closures` set to `false`.
+const fn positioned<const NC: usize>(closures: &[crate::RowBlock], contacts: &[super::Contact]) -> [bool; NC] {
+    let mut out = [true; NC];
+    let mut c = 0;
+    while c < contacts.len() {
+        if contacts[c].block < closures.len() {
+            let block = &closures[contacts[c].block];
+            let mut r = block.start;
+            while r < block.start + block.rows && r < NC {
+                out[r] = false;
+                r += 1;
             }
         }
-        out
+        c += 1;
     }
+    out
 }
 
 /// `G X = M⁻¹ Jᵀ S⁺ X`, column by column.
