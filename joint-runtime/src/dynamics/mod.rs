@@ -727,6 +727,9 @@ pub(crate) struct ModifiedNewton {
     matrices: usize,
     last: f64,
     stale: bool,
+    /// The slowest contraction kept before the matrix is rebuilt: ¼, or
+    /// 1/10 while an earlier step's matrix is in use.
+    slowest: f64,
     max_iterations: usize,
     tolerance: f64,
 }
@@ -738,6 +741,7 @@ impl ModifiedNewton {
             matrices: 0,
             last: f64::INFINITY,
             stale: true,
+            slowest: 0.25,
             max_iterations: options.newton_max_iterations,
             tolerance: options.newton_tolerance,
         }
@@ -756,10 +760,21 @@ impl ModifiedNewton {
         self.stale
     }
 
+    /// A matrix built before this iteration began (an earlier step's) is
+    /// in use: the first iteration does not build one, and a correction
+    /// that shrinks by less than a factor 10 has it rebuilt (a fresh
+    /// matrix is cheaper than the iterations an old one's slow contraction
+    /// would take to the tolerance).
+    pub(crate) fn kept(&mut self) {
+        self.stale = false;
+        self.slowest = 0.1;
+    }
+
     /// The iteration matrix was built.
     pub(crate) fn built(&mut self) {
         self.matrices += 1;
         self.stale = false;
+        self.slowest = 0.25;
     }
 
     /// After a correction of norm `size` to an iterate of norm about `scale`:
@@ -773,7 +788,7 @@ impl ModifiedNewton {
         if newton_done(size, self.last, scale, self.tolerance) {
             return Ok(true);
         }
-        if size > 0.25 * self.last {
+        if size > self.slowest * self.last {
             self.stale = true;
         }
         self.last = size;

@@ -36,7 +36,7 @@ use super::{
 /// The largest step workspace `transition` puts on the stack for the exact
 /// Jacobian (256 KiB: a tree of about 32 freedoms); larger trees difference.
 const EXACT_WORK: usize = 256 << 10;
-use crate::dynamics::{AppliedLoads, Linearisation};
+use crate::dynamics::{AppliedLoads, Integrator, Linearisation};
 
 /// The central differences' step, scaled by `1 + |x|` of the coordinate or
 /// velocity it moves: near the cube root of ε, the best balance of their
@@ -209,16 +209,16 @@ impl<
 impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
     TreeSimulation<'_, S, NB, NQ, NV, 0, L>
 {
-    /// One RK4 step of `state` under joint forces `tau` (as
-    /// [`step_with`](TreeSimulation::step_with)) and its state-transition
+    /// One step of `state` under joint forces `tau` (as
+    /// [`step_with`](TreeSimulation::step_with), by the options' integrator) and its state-transition
     /// Jacobian `Φ` (`2 NV × 2 NV`): `(δq₁, δv₁) = Φ (δq₀, δv₀)` in the
     /// increments of [`linearise`](TreeSimulation::linearise) at the start
     /// and at the end ([`Tree::difference`](super::Tree::difference)), what
     /// an extended Kalman filter or an MPC propagates. Exact where the
     /// tree's exact step Jacobian is
     /// ([`rk4_step_jacobian`](TreeSimulation::rk4_step_jacobian): no
-    /// springs or user loads) and its workspace fits the stack (up to
-    /// about 32 freedoms: 240 NV² bytes); by central differences of the step (`4 NV` more
+    /// springs or user loads), its workspace fits the stack (up to
+    /// about 32 freedoms: 240 NV² bytes) and the integrator is RK4; by central differences of the step (`4 NV` more
     /// steps, about 1e-8 of the entries) elsewhere. On error `state` is
     /// unchanged.
     pub fn transition(
@@ -228,7 +228,8 @@ impl<S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: u
         tau: &SVector<f64, NV>,
     ) -> Result<DMatrix<f64>, TreeError> {
         let start = *state;
-        if size_of::<StepWork<NQ, NV>>() <= EXACT_WORK {
+        // The exact Jacobian is RK4's: another integrator's step is differenced.
+        if size_of::<StepWork<NQ, NV>>() <= EXACT_WORK && self.options().integrator == Integrator::Rk4 {
             let (mut work, mut j, mut end) = (StepWork::new(), StepJacobian::zeros(), start);
             match self.rk4_step_jacobian(&mut end, h, tau, &mut work, &mut j) {
                 Ok(()) => {

@@ -115,6 +115,7 @@ mod implicit;
 mod kinematics;
 #[cfg(feature = "alloc")]
 mod linear;
+mod midpoint;
 mod projected;
 mod proximal;
 mod recursion;

@@ -20,7 +20,7 @@ use crate::dynamics::{
     Adaptive, AppliedLoads, Attachment, Energy, IntegrationReport, Integrator, Loads, NoLoads, SimulationOptions,
     SpringDamper, Stabilisation, StepReport, Tolerance,
 };
-use crate::linalg::PivotedCholesky;
+use crate::linalg::{Lu, PivotedCholesky};
 
 /// Newton iterations of [`TreeSimulation::assemble`].
 const ASSEMBLY_ITERATIONS: usize = 50;
@@ -55,6 +55,10 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
     /// The scene's soft rows (a file's equalities as MuJoCo holds them),
     /// fixed at the reference configuration.
     pub(super) soft: Softness<NC>,
+    /// The implicit midpoint rule's last Newton matrix, factorised, and
+    /// the step length it was built for: the next step of that length
+    /// starts from it (`midpoint.rs`).
+    pub(super) newton: Option<(f64, Lu<NV>)>,
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -81,7 +85,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
         let last = Cell::new(None);
         let tree = Tree::of(scene)?;
         let soft = Softness::new::<S, NB, NQ, NV>(&tree)?;
-        Ok(TreeSimulation { scene, tree, springs: &[], loads: NoLoads, options, last, soft })
+        Ok(TreeSimulation { scene, tree, springs: &[], loads: NoLoads, options, last, soft, newton: None })
     }
 }
 
@@ -103,30 +107,34 @@ impl<
     /// same closure drives both coordinate choices of a scene.
     pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
         let TreeSimulation { scene, tree, springs, options, last, soft, .. } = self;
-        TreeSimulation { scene, tree, springs, loads, options, last, soft }
+        TreeSimulation { scene, tree, springs, loads, options, last, soft, newton: None }
     }
 
     /// The same simulation with `options` (the absolute `Simulation`'s):
-    /// the integrator must be [`Integrator::Rk4`] (the implicit integrators
-    /// are the absolute path's so far), `stabilisation` (Baumgarte on the
-    /// closure rows), `projection` (`None`: the loops are not projected
-    /// after a step; the tolerance bounds the largest closure row) and
-    /// `rank_tolerance` (the redundant closure rows) are honoured; the
-    /// implicit integrators' Newton options are not used.
+    /// the integrator ([`Integrator::Rk4`] or
+    /// [`Integrator::ImplicitMidpoint`], with its Newton options:
+    /// `midpoint.rs`), `stabilisation` (Baumgarte on the closure rows),
+    /// `projection` (`None`: the loops are not projected after a step; the
+    /// tolerance bounds the largest closure row) and `rank_tolerance` (the
+    /// redundant closure rows) are honoured.
     ///
     /// # Errors
-    /// [`TreeError::NotOffered`] for another integrator (with where it is
-    /// offered); [`TreeError::BadOption`] naming the option: a
-    /// non-finite or negative Baumgarte coefficient, a projection
-    /// tolerance or rank tolerance that is not positive and finite.
+    /// [`TreeError::NotOffered`] for generalised-α and Radau IIA (with
+    /// where they are offered); [`TreeError::BadOption`] naming the option:
+    /// a non-finite or negative Baumgarte coefficient, a projection,
+    /// rank or Newton tolerance that is not positive and finite, no Newton
+    /// iterations.
     pub fn with_options(mut self, options: SimulationOptions) -> Result<Self, TreeError> {
         let positive = |x: f64| x.is_finite() && x > 0.0;
-        if options.integrator != Integrator::Rk4 {
+        if !matches!(options.integrator, Integrator::Rk4 | Integrator::ImplicitMidpoint) {
             return Err(TreeError::NotOffered {
-                what: "an implicit `integrator` (its steps are RK4)",
-                instead: "step a stiff tree with `implicit_step_with`, or declare `coordinates = absolute` for the \
-                          implicit midpoint, generalised-α and Radau IIA",
+                what: "generalised-α and Radau IIA as `integrator` (its steps are RK4 or the implicit midpoint rule)",
+                instead: "step a stiff tree with `Integrator::ImplicitMidpoint` or `implicit_step_with`, or declare \
+                          `coordinates = absolute` for generalised-α and Radau IIA",
             });
+        }
+        if !positive(options.newton_tolerance) || options.newton_max_iterations == 0 {
+            return Err(TreeError::BadOption { name: "newton_tolerance" });
         }
         if let Stabilisation::Baumgarte { alpha, beta } = options.stabilisation
             && !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0)
@@ -140,6 +148,7 @@ impl<
             return Err(TreeError::BadOption { name: "rank_tolerance" });
         }
         self.options = options;
+        self.newton = None;
         Ok(self)
     }
 
@@ -215,6 +224,7 @@ impl<
             }
         }
         self.springs = springs;
+        self.newton = None;
         Ok(self)
     }
 
@@ -287,7 +297,7 @@ impl<
     /// The constrained `v̇` and the pivot order of its factor; `order` fixes
     /// which rows are dropped (the later stages of a step keep the first's).
     #[inline(always)]
-    fn constrained(
+    pub(super) fn constrained(
         &mut self,
         state: &TreeState<NQ, NV>,
         tau: &SVector<f64, NV>,
@@ -511,11 +521,14 @@ impl<
         self.step_with(state, h, &SVector::zeros())
     }
 
-    /// One RK4 step of length `h` under joint forces `tau`, held over the step
-    /// (a controller's zero-order hold). The state is left unchanged on error:
+    /// One step of length `h` under joint forces `tau`, held over the step
+    /// (a controller's zero-order hold), by the options' integrator: RK4
+    /// (the default), or the implicit midpoint rule (`midpoint.rs`: its
+    /// Newton counts in the report). The state is left unchanged on error:
     /// [`TreeError::Diverged`] when the step is too long for the dynamics'
     /// stiffness (its end past [`DIVERGED`] or a later stage's dynamics
-    /// failing).
+    /// failing), [`TreeError::NotConverged`] when the implicit rule's
+    /// Newton iteration does not converge.
     // Inlined into `step` and its callers: out of line, LTO left it without
     // `nounwind` (nothing in it unwinds), a landing pad in every caller.
     #[inline(always)]
@@ -529,6 +542,9 @@ impl<
             return Err(TreeError::NonFinite);
         }
         self.check_closed(state)?;
+        if self.options.integrator == Integrator::ImplicitMidpoint {
+            return self.midpoint_step(state, h, tau);
+        }
         // Every stage drops the closure rows the first dropped: a redundant
         // row switching between stages would break the method's order.
         let (v1, first) = self.constrained(state, tau, None)?;
@@ -560,7 +576,7 @@ impl<
 
     /// A step's end: quaternions back to unit length, loops closed, every
     /// number finite.
-    fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
+    pub(super) fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
         self.tree.normalise(&mut next.q);
         let closed = self.project(next).map_err(|e| e.at_stage(next.t))?;
         diverged(next)?;
@@ -703,7 +719,7 @@ pub(crate) fn diverged<const NQ: usize, const NV: usize>(next: &TreeState<NQ, NV
 
 impl TreeError {
     /// A stage's failure after a start that held: the step diverged.
-    fn at_stage(self, t: f64) -> Self {
+    pub(super) fn at_stage(self, t: f64) -> Self {
         match self {
             TreeError::NonFinite | TreeError::Singular { .. } => TreeError::Diverged { t },
             other => other,
@@ -837,6 +853,22 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
                         set(q, qa + i, get(q, qa + i) + get(delta, va + i));
                     }
                 }
+            }
+        }
+    }
+
+    /// `q ⊕ δ` but with each free joint's offset turned by the rotation
+    /// of `mid` rather than `q`'s: the implicit midpoint rule's end,
+    /// `r₁ = r₀ + R_½ h w`, second order where the start's rotation
+    /// (`q ⊕ h w`) is first.
+    pub(super) fn displace_through(&self, q: &mut SVector<f64, NQ>, delta: &SVector<f64, NV>, mid: &SVector<f64, NQ>) {
+        let start = *q;
+        self.displace(q, delta);
+        for (k, j) in self.joints.iter().enumerate() {
+            if j.kind == TreeJointKind::Free {
+                let (qa, va) = (self.q_at[k], self.v_at[k]);
+                let moved = three(&start, qa) + unit_at(mid, qa + 3) * three(delta, va);
+                put_three(q, qa, &moved);
             }
         }
     }

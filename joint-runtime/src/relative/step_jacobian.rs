@@ -305,7 +305,9 @@ impl<
     /// `step_with`'s step too (`projected.rs`: the same simplified Newton
     /// iterations and velocity corrections, differentiated). Its start is
     /// not checked to be closed: the map is smooth off the loops as well.
-    /// A tree with springs or user loads gets [`TreeError::Loaded`].
+    /// A tree with springs or user loads gets [`TreeError::Loaded`]. The
+    /// step is RK4's whatever the options' integrator (`step_with`'s only
+    /// where that is RK4, the default).
     pub fn rk4_step_jacobian(
         &self,
         state: &mut TreeState<NQ, NV>,

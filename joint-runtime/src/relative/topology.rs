@@ -116,6 +116,15 @@ pub enum TreeError {
     /// it covers the tree's own dynamics (gravity, armature, damping);
     /// `TreeSimulation::transition` differences such a step.
     Loaded,
+    /// The implicit integrator's Newton iteration did not converge within
+    /// the options' `newton_max_iterations` (or its correction stopped
+    /// being finite): take a shorter step.
+    NotConverged {
+        /// Iterations taken.
+        iterations: usize,
+        /// The last correction's norm, `‖Δw‖₂`.
+        correction: f64,
+    },
     /// The error-controlled step fell below round-off at `t`.
     StepTooSmall {
         /// The time reached.
@@ -165,6 +174,11 @@ impl fmt::Display for TreeError {
                 write!(f, "the projection did not close the loop of joint `{joint}` (misfit {misfit:e})")
             }
             TreeError::BadOption { name } => write!(f, "option `{name}` is out of range"),
+            TreeError::NotConverged { iterations, correction } => write!(
+                f,
+                "the implicit step's Newton iteration did not converge in {iterations} iterations (last correction \
+                 {correction:.3e}): take a shorter step"
+            ),
             TreeError::NotOffered { what, instead } => {
                 write!(f, "the relative-coordinate engine does not offer {what}: {instead}")
             }

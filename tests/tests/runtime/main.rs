@@ -38,5 +38,6 @@ mod tree_derivatives;
 mod tree_implicit;
 mod tree_joints;
 mod tree_linear;
+mod tree_midpoint;
 mod tree_reactions;
 mod urdf;

@@ -143,6 +143,7 @@ fn options_the_tree_does_not_offer() {
     }
     assert_eq!(bad(default.with_stabilisation(Stabilisation::Baumgarte { alpha: -1.0, beta: 1.0 })), "stabilisation");
     assert_eq!(bad(default.with_rank_tolerance(f64::NAN)), "rank_tolerance");
+    assert_eq!(bad(default.with_newton_tolerance(0.0)), "newton_tolerance");
     let mut loose = default;
     loose.projection.as_mut().unwrap().tolerance = 0.0;
     assert_eq!(bad(loose), "projection");
