@@ -380,17 +380,20 @@ fn the_projected_step_jacobian_on_a_loop_allocates_nothing() {
             .all(|_| sim.rk4_step_jacobian(&mut state, 1e-2, &SVector::zeros(), &mut work, &mut jacobian).is_ok());
     });
     assert_eq!(n, 0, "the projected step Jacobian allocated");
-    // The implicit midpoint rule on the loop, its Newton matrix exact.
-    let options = SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint);
-    let mut sim = TreeSimulation::new(&HardFourBar).expect("a valid mechanism").with_options(options).expect("offered");
-    let (mut stepped, mut iterations) = (sim.tree().zero_state(), 0);
-    let n = allocations(|| {
-        for _ in 0..3 {
-            iterations += sim.step(&mut stepped, 1e-2).map_or(0, |r| r.newton_iterations);
-        }
-    });
-    assert_eq!(n, 0, "the implicit midpoint step allocated");
-    assert!(iterations >= 3 && stepped.t > 0.02);
+    // The implicit rules on the loop, their Newton matrix exact.
+    for integrator in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha] {
+        let options = SimulationOptions::default().with_integrator(integrator);
+        let mut sim =
+            TreeSimulation::new(&HardFourBar).expect("a valid mechanism").with_options(options).expect("offered");
+        let (mut stepped, mut iterations) = (sim.tree().zero_state(), 0);
+        let n = allocations(|| {
+            for _ in 0..3 {
+                iterations += sim.step(&mut stepped, 1e-2).map_or(0, |r| r.newton_iterations);
+            }
+        });
+        assert_eq!(n, 0, "the {integrator:?} step allocated");
+        assert!(iterations >= 3 && stepped.t > 0.02);
+    }
     // Gravity moves the loop, and the end moves with the start's velocity.
     assert!(done && jacobian.q_v[(0, 0)].abs() > 1e-4 && state.v.amax() > 0.0);
 }

@@ -395,6 +395,8 @@ impl<
     /// `∂(J v + Φ_t)/∂q` at `state`: how the rows' velocity moves with the
     /// coordinates (what a linearisation's reduction to the loops' own
     /// coordinates takes).
+    // The linearisation's alone, which needs `alloc`: without it, unused.
+    #[cfg(feature = "alloc")]
     pub(super) fn closure_rate_q(&self, state: &TreeState<NQ, NV>) -> Result<SMatrix<f64, NC, NV>, TreeError> {
         let second = self.second_order_at(state, &SVector::zeros(), &state.v)?;
         Ok(second.jacobian_q + second.phi_t_q)

@@ -112,10 +112,10 @@ mod dynamics;
 mod factor;
 mod impact;
 mod implicit;
+mod implicit_rules;
 mod kinematics;
 #[cfg(feature = "alloc")]
 mod linear;
-mod midpoint;
 mod projected;
 mod proximal;
 mod recursion;

@@ -9,6 +9,7 @@ use core::cell::Cell;
 
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
+use super::implicit_rules::AlphaMemory;
 use super::soft::Softness;
 use super::tangent::{get, put_quaternion, put_three, quaternion_at, set, three, unit_at};
 use super::topology::{Tree, TreeError};
@@ -55,10 +56,12 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
     /// The scene's soft rows (a file's equalities as MuJoCo holds them),
     /// fixed at the reference configuration.
     pub(super) soft: Softness<NC>,
-    /// The implicit midpoint rule's last Newton matrix, factorised, and
-    /// the step length it was built for: the next step of that length
-    /// starts from it (`midpoint.rs`).
+    /// The implicit rules' last Newton matrix, factorised, and the step
+    /// length it was built for: the next step of that length starts from
+    /// it (`implicit_rules.rs`).
     pub(super) newton: Option<(f64, Lu<NV>)>,
+    /// What generalised-α's last step carries to the next.
+    pub(super) alpha: Option<AlphaMemory<NQ, NV>>,
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -85,7 +88,7 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
         let last = Cell::new(None);
         let tree = Tree::of(scene)?;
         let soft = Softness::new::<S, NB, NQ, NV>(&tree)?;
-        Ok(TreeSimulation { scene, tree, springs: &[], loads: NoLoads, options, last, soft, newton: None })
+        Ok(TreeSimulation { scene, tree, springs: &[], loads: NoLoads, options, last, soft, newton: None, alpha: None })
     }
 }
 
@@ -107,34 +110,38 @@ impl<
     /// same closure drives both coordinate choices of a scene.
     pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
         let TreeSimulation { scene, tree, springs, options, last, soft, .. } = self;
-        TreeSimulation { scene, tree, springs, loads, options, last, soft, newton: None }
+        TreeSimulation { scene, tree, springs, loads, options, last, soft, newton: None, alpha: None }
     }
 
     /// The same simulation with `options` (the absolute `Simulation`'s):
-    /// the integrator ([`Integrator::Rk4`] or
-    /// [`Integrator::ImplicitMidpoint`], with its Newton options:
-    /// `midpoint.rs`), `stabilisation` (Baumgarte on the closure rows),
+    /// the integrator ([`Integrator::Rk4`], [`Integrator::ImplicitMidpoint`]
+    /// or [`Integrator::GeneralisedAlpha`] with its spectral radius, the
+    /// implicit ones with their Newton options: `implicit_rules.rs`),
+    /// `stabilisation` (Baumgarte on the closure rows),
     /// `projection` (`None`: the loops are not projected after a step; the
     /// tolerance bounds the largest closure row) and `rank_tolerance` (the
     /// redundant closure rows) are honoured.
     ///
     /// # Errors
-    /// [`TreeError::NotOffered`] for generalised-α and Radau IIA (with
-    /// where they are offered); [`TreeError::BadOption`] naming the option:
-    /// a non-finite or negative Baumgarte coefficient, a projection,
-    /// rank or Newton tolerance that is not positive and finite, no Newton
-    /// iterations.
+    /// [`TreeError::NotOffered`] for Radau IIA (with where it is offered);
+    /// [`TreeError::BadOption`] naming the option: a non-finite or negative
+    /// Baumgarte coefficient, a projection, rank or Newton tolerance that
+    /// is not positive and finite, no Newton iterations, a spectral radius
+    /// outside `[0, 1]`.
     pub fn with_options(mut self, options: SimulationOptions) -> Result<Self, TreeError> {
         let positive = |x: f64| x.is_finite() && x > 0.0;
-        if !matches!(options.integrator, Integrator::Rk4 | Integrator::ImplicitMidpoint) {
+        if options.integrator == Integrator::RadauIIA {
             return Err(TreeError::NotOffered {
-                what: "generalised-α and Radau IIA as `integrator` (its steps are RK4 or the implicit midpoint rule)",
-                instead: "step a stiff tree with `Integrator::ImplicitMidpoint` or `implicit_step_with`, or declare \
-                          `coordinates = absolute` for generalised-α and Radau IIA",
+                what: "Radau IIA as `integrator` (its steps are RK4, the implicit midpoint rule or generalised-α)",
+                instead: "step a stiff tree with `Integrator::GeneralisedAlpha`, `Integrator::ImplicitMidpoint` or \
+                          `implicit_step_with`, or declare `coordinates = absolute` for Radau IIA",
             });
         }
         if !positive(options.newton_tolerance) || options.newton_max_iterations == 0 {
             return Err(TreeError::BadOption { name: "newton_tolerance" });
+        }
+        if !(0.0..=1.0).contains(&options.spectral_radius) {
+            return Err(TreeError::BadOption { name: "spectral_radius" });
         }
         if let Stabilisation::Baumgarte { alpha, beta } = options.stabilisation
             && !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0)
@@ -148,7 +155,7 @@ impl<
             return Err(TreeError::BadOption { name: "rank_tolerance" });
         }
         self.options = options;
-        self.newton = None;
+        (self.newton, self.alpha) = (None, None);
         Ok(self)
     }
 
@@ -224,7 +231,7 @@ impl<
             }
         }
         self.springs = springs;
-        self.newton = None;
+        (self.newton, self.alpha) = (None, None);
         Ok(self)
     }
 
@@ -523,11 +530,11 @@ impl<
 
     /// One step of length `h` under joint forces `tau`, held over the step
     /// (a controller's zero-order hold), by the options' integrator: RK4
-    /// (the default), or the implicit midpoint rule (`midpoint.rs`: its
-    /// Newton counts in the report). The state is left unchanged on error:
+    /// (the default), the implicit midpoint rule or generalised-α
+    /// (`implicit_rules.rs`: their Newton counts in the report). The state is left unchanged on error:
     /// [`TreeError::Diverged`] when the step is too long for the dynamics'
     /// stiffness (its end past [`DIVERGED`] or a later stage's dynamics
-    /// failing), [`TreeError::NotConverged`] when the implicit rule's
+    /// failing), [`TreeError::NotConverged`] when an implicit rule's
     /// Newton iteration does not converge.
     // Inlined into `step` and its callers: out of line, LTO left it without
     // `nounwind` (nothing in it unwinds), a landing pad in every caller.
@@ -542,8 +549,8 @@ impl<
             return Err(TreeError::NonFinite);
         }
         self.check_closed(state)?;
-        if self.options.integrator == Integrator::ImplicitMidpoint {
-            return self.midpoint_step(state, h, tau);
+        if matches!(self.options.integrator, Integrator::ImplicitMidpoint | Integrator::GeneralisedAlpha) {
+            return self.implicit_rule_step(state, h, tau);
         }
         // Every stage drops the closure rows the first dropped: a redundant
         // row switching between stages would break the method's order.

@@ -1,8 +1,9 @@
-//! The implicit midpoint rule in relative coordinates
-//! (`SimulationOptions::with_integrator(Integrator::ImplicitMidpoint)` on a
-//! `TreeSimulation`): its closed form on a stiff linear spring, its second
-//! order on a floating tree and on a loop against fine RK4 runs, and the
-//! exact Newton matrix's iteration counts against the differenced one's.
+//! The implicit rules in relative coordinates (`Integrator::ImplicitMidpoint`
+//! and `Integrator::GeneralisedAlpha` in a `TreeSimulation`'s options):
+//! their closed forms on a stiff linear spring, their second order on a
+//! floating tree, a loop and a quadruped on its feet against fine RK4 runs,
+//! and the exact Newton matrix's iteration counts against the differenced
+//! one's.
 
 use joint_runtime::Scene;
 use joint_runtime::dynamics::{Integrator, NewtonMatrix, SimulationOptions};
@@ -20,7 +21,11 @@ use crate::floating::{Drone, drone_state};
 struct Rotor;
 
 fn midpoint(matrix: NewtonMatrix) -> SimulationOptions {
-    SimulationOptions::default().with_integrator(Integrator::ImplicitMidpoint).with_newton_matrix(matrix)
+    implicit(Integrator::ImplicitMidpoint, matrix)
+}
+
+fn implicit(integrator: Integrator, matrix: NewtonMatrix) -> SimulationOptions {
+    SimulationOptions::default().with_integrator(integrator).with_newton_matrix(matrix)
 }
 
 /// On `ë = −ω² e` the midpoint rule turns `(e, ė/ω)` by exactly
@@ -52,6 +57,54 @@ fn a_stiff_spring_turns_by_the_rules_closed_form_angle() {
         let most = if matrix == NewtonMatrix::Generated { 2 } else { 3 };
         assert!(iterations <= most, "{matrix:?}: {iterations} iterations");
     }
+}
+
+/// Generalised-α on `ë = −ω² e` follows its own recurrence, written here
+/// from the method's definition (one linear equation for `v̇_{n+1}` a step,
+/// `a` and `v̇` carried), over 50 steps at `h ω = 4`; and at `h ω = 1000`,
+/// far past every step a stiff mode would be resolved at, it damps the
+/// mode out (ρ∞ = 0.5 a step) where the midpoint rule keeps its energy.
+#[test]
+fn generalised_alpha_follows_its_recurrence_and_damps_a_stiff_spring() {
+    let (omega, rho) = (1000.0_f64, 0.5);
+    let (alpha_m, alpha_f) = ((2.0 * rho - 1.0) / (rho + 1.0), rho / (rho + 1.0));
+    let gamma = 0.5 + alpha_f - alpha_m;
+    let beta = 0.25 * (gamma + 0.5) * (gamma + 0.5);
+    let options = implicit(Integrator::GeneralisedAlpha, NewtonMatrix::Generated).with_spectral_radius(rho);
+    for h in [4e-3, 1.0] {
+        let mut sim = TreeSimulation::new(&Rotor).unwrap().with_options(options).unwrap();
+        let mut state = TreeState { q: SVector::from([0.3]), v: SVector::zeros(), t: 0.0 };
+        // The recurrence: e = θ − 0.1, its rate, v̇ and the pseudo-acceleration.
+        let (mut e, mut rate) = (0.2, 0.0);
+        let (mut vdot, mut a) = (-omega * omega * e, -omega * omega * e);
+        for _ in 0..50 {
+            sim.step(&mut state, h).unwrap();
+            let known = e
+                + h * rate
+                + h * h * (0.5 - beta) * a
+                + h * h * beta * (alpha_f * vdot - alpha_m * a) / (1.0 - alpha_m);
+            let next =
+                -omega * omega * known / (1.0 + omega * omega * h * h * beta * (1.0 - alpha_f) / (1.0 - alpha_m));
+            let pseudo = ((1.0 - alpha_f) * next + alpha_f * vdot - alpha_m * a) / (1.0 - alpha_m);
+            e += h * rate + h * h * (0.5 - beta) * a + h * h * beta * pseudo;
+            rate += h * (1.0 - gamma) * a + h * gamma * pseudo;
+            (vdot, a) = (next, pseudo);
+        }
+        assert!((state.q[0] - 0.1 - e).abs() < 1e-11, "h = {h}: {} against {e}", state.q[0] - 0.1);
+        assert!((state.v[0] - rate).abs() < 1e-8, "h = {h}: {} against {rate}", state.v[0]);
+    }
+    // At h ω = 1000 the mode is gone after 50 steps; the midpoint rule keeps it.
+    let damped = |integrator| {
+        let options = implicit(integrator, NewtonMatrix::Generated).with_spectral_radius(rho);
+        let mut sim = TreeSimulation::new(&Rotor).unwrap().with_options(options).unwrap();
+        let mut state = TreeState { q: SVector::from([0.3]), v: SVector::zeros(), t: 0.0 };
+        for _ in 0..50 {
+            sim.step(&mut state, 1.0).unwrap();
+        }
+        sim.energy(&state).total()
+    };
+    let (alpha, midpoint) = (damped(Integrator::GeneralisedAlpha), damped(Integrator::ImplicitMidpoint));
+    assert!(alpha < 1e-9 && (midpoint - 200.0).abs() < 1e-6, "{alpha} J and {midpoint} J left of 200");
 }
 
 /// The end of `steps` steps of `h` from `start` with `options`.
@@ -87,19 +140,24 @@ fn second_order<S, const NB: usize, const NQ: usize, const NV: usize, const NC: 
     S: TreeScene<NB, NQ, NV, NC>,
 {
     let fine = run(scene, SimulationOptions::default(), start, (t / 1000.0, 1000)).0;
-    let mut errors = [0.0; 2];
+    let mut errors = [[0.0; 2]; 2];
     for (k, error) in errors.iter_mut().enumerate() {
         let coarse = h / f64::from(1 << k);
         let steps = (t / coarse).round() as usize;
-        let (end, iterations) = run(scene, midpoint(NewtonMatrix::Generated), start, (coarse, steps));
-        let (differenced, more) = run(scene, midpoint(NewtonMatrix::FiniteDifferences), start, (coarse, steps));
-        assert!((end.q - differenced.q).amax() < 1e-9 && (end.v - differenced.v).amax() < 1e-8);
-        // The exact matrix converges at least as fast as the differenced one.
-        assert!(iterations <= more, "{iterations} iterations against {more} at h = {coarse}");
-        *error = (end.q - fine.q).amax().max((end.v - fine.v).amax() * coarse);
+        for (integrator, error) in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha].into_iter().zip(error) {
+            let (end, iterations) = run(scene, implicit(integrator, NewtonMatrix::Generated), start, (coarse, steps));
+            let differenced = implicit(integrator, NewtonMatrix::FiniteDifferences);
+            let (other, more) = run(scene, differenced, start, (coarse, steps));
+            assert!((end.q - other.q).amax() < 1e-9 && (end.v - other.v).amax() < 1e-8, "{integrator:?}");
+            // The exact matrix converges at least as fast as the differenced one.
+            assert!(iterations <= more, "{integrator:?}: {iterations} iterations against {more} at h = {coarse}");
+            *error = (end.q - fine.q).amax().max((end.v - fine.v).amax() * coarse);
+        }
     }
-    let ratio = errors[0] / errors[1];
-    assert!((3.5..4.5).contains(&ratio), "errors {errors:?}: ratio {ratio}");
+    for (k, integrator) in ["midpoint", "generalised-α"].into_iter().enumerate() {
+        let ratio = errors[0][k] / errors[1][k];
+        assert!((3.5..4.5).contains(&ratio), "{integrator}: errors {errors:?}: ratio {ratio}");
+    }
 }
 
 /// A floating drone with a ball-jointed gripper: both turns go through
