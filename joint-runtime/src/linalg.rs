@@ -429,7 +429,8 @@ impl<const N: usize, T: ComplexField<RealField = f64> + Copy> Lu<N, T> {
     /// Solves `A x = b`.
     pub fn solve(&self, b: &SVector<T, N>) -> SVector<T, N> {
         // `perm` is a permutation of `0..N`: `get` never misses.
-        let mut x = SVector::<T, N>::from_fn(|i, _| b.get(self.perm[i]).copied().unwrap_or_else(T::zero));
+        let mut x =
+            SVector::<T, N>::from_fn(|i, _| self.perm.get(i).and_then(|&p| b.get(p)).copied().unwrap_or_else(T::zero));
         for i in 0..N {
             for j in 0..i {
                 let xj = x[j];

@@ -380,8 +380,8 @@ fn the_projected_step_jacobian_on_a_loop_allocates_nothing() {
             .all(|_| sim.rk4_step_jacobian(&mut state, 1e-2, &SVector::zeros(), &mut work, &mut jacobian).is_ok());
     });
     assert_eq!(n, 0, "the projected step Jacobian allocated");
-    // The implicit rules on the loop, their Newton matrix exact.
-    for integrator in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha] {
+    // The implicit rules and Radau IIA on the loop, their Newton matrix exact.
+    for integrator in [Integrator::ImplicitMidpoint, Integrator::GeneralisedAlpha, Integrator::RadauIIA] {
         let options = SimulationOptions::default().with_integrator(integrator);
         let mut sim =
             TreeSimulation::new(&HardFourBar).expect("a valid mechanism").with_options(options).expect("offered");
@@ -394,6 +394,17 @@ fn the_projected_step_jacobian_on_a_loop_allocates_nothing() {
         assert_eq!(n, 0, "the {integrator:?} step allocated");
         assert!(iterations >= 3 && stepped.t > 0.02);
     }
+    // Error-controlled steps by the three methods.
+    let mut sim = TreeSimulation::new(&HardFourBar).expect("a valid mechanism");
+    let (mut stepped, tolerance) = (sim.tree().zero_state(), Tolerance { rtol: 1e-6, atol: 1e-6 });
+    let mut integrated = false;
+    let n = allocations(|| {
+        integrated = [(Adaptive::DormandPrince, 0.05), (Adaptive::RadauIIA, 0.1), (Adaptive::GeneralisedAlpha, 0.15)]
+            .into_iter()
+            .all(|(method, t)| sim.integrate(&mut stepped, t, method, tolerance).is_ok());
+    });
+    assert_eq!(n, 0, "error-controlled steps allocated");
+    assert!(integrated && stepped.t == 0.15);
     // Gravity moves the loop, and the end moves with the start's velocity.
     assert!(done && jacobian.q_v[(0, 0)].abs() > 1e-4 && state.v.amax() > 0.0);
 }

@@ -11,19 +11,23 @@
 //!
 //! Integrators: fixed steps of RK4, the implicit midpoint rule,
 //! generalised-α (ρ∞ = 0.8) and Radau IIA, the implicit ones with the
-//! generated iteration matrix, on `Simulation`; and the error-controlled
-//! Dormand–Prince 5(4), generalised-α and Radau IIA over a range of
-//! tolerances (`rtol = atol`). Every run projects after each
-//! step (the default options). The error is the largest `|r − r_ref| +
-//! |p − p_ref|` of a body at the end (metres and Euler parameters, `p` up to
-//! its sign), the reference being Dormand–Prince at `rtol = atol = 1e-12`;
-//! the time is the fastest of repeated runs until 20 ms were spent.
+//! generated iteration matrix; and the error-controlled Dormand–Prince
+//! 5(4), generalised-α and Radau IIA over a range of tolerances (`rtol =
+//! atol`). Each in both coordinate choices of the one declaration
+//! (`coordinates = both`): the absolute `AbsoluteSimulation` and the relative
+//! `TreeSimulation`, the series named by their engine. Every
+//! run projects after each step (the default options). The error is the
+//! largest `|r − r_ref| + |p − p_ref|` of a body at the end (metres and
+//! Euler parameters, `p` up to its sign; a relative run's end as bodies),
+//! the reference being the absolute Dormand–Prince at `rtol = atol =
+//! 1e-12`; the time is the fastest of repeated runs until 20 ms were spent.
 
 use std::time::Instant;
 
 use joint_runtime::dynamics::{
     AbsoluteSimulation, Adaptive, Integrator, NoLoads, SimulationOptions, SpringDamper, Tolerance,
 };
+use joint_runtime::relative::{TreeScene, TreeSimulation};
 use joint_runtime::{Scene, SparseJacobian, SystemState};
 
 use super::simulation::Series;
@@ -32,6 +36,25 @@ use super::simulation::Series;
 const MIN_TIME: f64 = 0.02;
 /// The error at which the summary compares the integrators' times.
 pub const TARGET_ERROR: f64 = 1e-8;
+
+/// The coordinate choice a run is in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Engine {
+    /// Bodies' absolute coordinates (`AbsoluteSimulation`).
+    Absolute,
+    /// The tree's joint coordinates (`TreeSimulation`).
+    Relative,
+}
+
+impl Engine {
+    /// The word the series' names end with.
+    pub fn word(self) -> &'static str {
+        match self {
+            Engine::Absolute => "absolute",
+            Engine::Relative => "relative",
+        }
+    }
+}
 
 /// How a run advances.
 #[derive(Clone, Copy, Debug)]
@@ -52,10 +75,15 @@ struct Problem<'a, S, const NB: usize> {
 }
 
 impl<S, const NB: usize> Problem<'_, S, NB> {
-    /// The state at `t_end` by `run`, or why it failed.
-    fn run<const NV: usize, const M: usize, const NNZ: usize>(&self, run: Run) -> Result<SystemState<NB>, String>
+    /// The state at `t_end` by `run` in `engine`'s coordinates (as bodies),
+    /// or why it failed.
+    fn run<const NV6: usize, const M: usize, const NNZ: usize, const NQ: usize, const NV: usize, const NC: usize>(
+        &self,
+        engine: Engine,
+        run: Run,
+    ) -> Result<SystemState<NB>, String>
     where
-        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+        S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + TreeScene<NB, NQ, NV, NC>,
     {
         // The simulation is made for the integrator it runs (for
         // error-controlled steps, the one they are made of), so that `new`
@@ -68,6 +96,9 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         };
         let options = SimulationOptions::default().with_integrator(integrator).with_spectral_radius(0.8);
         let text = |e: joint_runtime::analysis::AnalysisError| e.to_string();
+        if engine == Engine::Relative {
+            return self.run_relative(options, run);
+        }
         let mut state = self.start;
         match run {
             Run::Fixed(_, steps) => {
@@ -85,18 +116,46 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         Ok(state)
     }
 
-    /// The fastest time of `run` (s) and its end state.
-    fn timed<const NV: usize, const M: usize, const NNZ: usize>(
+    /// [`run`](Self::run) in the tree's coordinates with `options`.
+    fn run_relative<const NQ: usize, const NV: usize, const NC: usize>(
         &self,
+        options: SimulationOptions,
+        run: Run,
+    ) -> Result<SystemState<NB>, String>
+    where
+        S: TreeScene<NB, NQ, NV, NC>,
+    {
+        let text = |e: joint_runtime::relative::TreeError| e.to_string();
+        let made = TreeSimulation::new(self.scene).and_then(|s| s.with_springs(self.springs));
+        let mut sim = made.and_then(|s| s.with_options(options)).map_err(text)?;
+        let mut state = sim.state_of(&self.start).map_err(text)?;
+        match run {
+            Run::Fixed(_, steps) => {
+                let h = self.t_end / steps as f64;
+                for _ in 0..steps {
+                    sim.step(&mut state, h).map_err(text)?;
+                }
+            }
+            Run::Adaptive(method, tol) => {
+                sim.integrate(&mut state, self.t_end, method, Tolerance { rtol: tol, atol: tol }).map_err(text)?;
+            }
+        }
+        Ok(sim.tree().system_state(&state))
+    }
+
+    /// The fastest time of `run` (s) and its end state.
+    fn timed<const NV6: usize, const M: usize, const NNZ: usize, const NQ: usize, const NV: usize, const NC: usize>(
+        &self,
+        engine: Engine,
         run: Run,
     ) -> Result<(f64, SystemState<NB>), String>
     where
-        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+        S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + TreeScene<NB, NQ, NV, NC>,
     {
         let (mut best, mut spent, mut end) = (f64::INFINITY, 0.0, self.start);
         while spent < MIN_TIME {
             let clock = Instant::now();
-            end = self.run(run)?;
+            end = self.run(engine, run)?;
             let t = clock.elapsed().as_secs_f64();
             best = best.min(t);
             spent += t;
@@ -105,11 +164,14 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
     }
 
     /// Every series of the problem.
-    fn series<const NV: usize, const M: usize, const NNZ: usize>(&self, progress: &mut dyn FnMut(&str)) -> Vec<Series>
+    fn series<const NV6: usize, const M: usize, const NNZ: usize, const NQ: usize, const NV: usize, const NC: usize>(
+        &self,
+        progress: &mut dyn FnMut(&str),
+    ) -> Vec<Series>
     where
-        S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
+        S: Scene<NB, NV6, M> + SparseJacobian<NB, NNZ> + TreeScene<NB, NQ, NV, NC>,
     {
-        let reference = match self.run(Run::Adaptive(Adaptive::DormandPrince, 1e-12)) {
+        let reference = match self.run(Engine::Absolute, Run::Adaptive(Adaptive::DormandPrince, 1e-12)) {
             Ok(r) => r,
             Err(e) => {
                 progress(&format!("{}: the reference run failed: {e}", self.group));
@@ -126,28 +188,32 @@ impl<S, const NB: usize> Problem<'_, S, NB> {
         };
         let steps = [50usize, 100, 200, 400, 800, 1600, 3200, 6400];
         let tolerances = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10];
-        let mut lines: Vec<(String, Vec<Run>)> = [
-            ("RK4", Integrator::Rk4),
-            ("implicit midpoint", Integrator::ImplicitMidpoint),
-            ("generalised-α", Integrator::GeneralisedAlpha),
-            ("Radau IIA", Integrator::RadauIIA),
-        ]
-        .into_iter()
-        .map(|(name, i)| (format!("{name}, fixed h"), steps.iter().map(|&n| Run::Fixed(i, n)).collect()))
-        .collect();
-        for (name, method) in [
-            ("Dormand–Prince 5(4)", Adaptive::DormandPrince),
-            ("generalised-α", Adaptive::GeneralisedAlpha),
-            ("Radau IIA 5(3)", Adaptive::RadauIIA),
-        ] {
-            lines.push((format!("{name}, tolerance"), tolerances.iter().map(|&t| Run::Adaptive(method, t)).collect()));
+        let mut lines: Vec<(String, Engine, Vec<Run>)> = Vec::new();
+        for engine in [Engine::Absolute, Engine::Relative] {
+            for (name, i) in [
+                ("RK4", Integrator::Rk4),
+                ("implicit midpoint", Integrator::ImplicitMidpoint),
+                ("generalised-α", Integrator::GeneralisedAlpha),
+                ("Radau IIA", Integrator::RadauIIA),
+            ] {
+                let runs = steps.iter().map(|&n| Run::Fixed(i, n)).collect();
+                lines.push((format!("{name}, fixed h, {}", engine.word()), engine, runs));
+            }
+            for (name, method) in [
+                ("Dormand–Prince 5(4)", Adaptive::DormandPrince),
+                ("generalised-α", Adaptive::GeneralisedAlpha),
+                ("Radau IIA 5(3)", Adaptive::RadauIIA),
+            ] {
+                let runs = tolerances.iter().map(|&t| Run::Adaptive(method, t)).collect();
+                lines.push((format!("{name}, tolerance, {}", engine.word()), engine, runs));
+            }
         }
         let mut out = Vec::new();
-        for (name, runs) in lines {
+        for (name, engine, runs) in lines {
             let mut points = Vec::new();
             let mut failed = Vec::new();
             for run in runs {
-                match self.timed(run) {
+                match self.timed(engine, run) {
                     Ok((time, end)) => points.push((time, error(&end))),
                     Err(e) => failed.push(format!("{run:?}: {e}")),
                 }

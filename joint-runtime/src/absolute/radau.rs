@@ -34,7 +34,7 @@ use super::midpoint::{RowTerms, add_row_terms};
 use super::second_order::TermStorage;
 use super::solver::j_mul_into;
 use crate::analysis::{AnalysisError, velocity_vector_into};
-use crate::dynamics::radau::{ALPHA, BETA, GAMMA, RadauHistory, RadauHost};
+use crate::dynamics::radau::{ALPHA, BETA, Bodies, GAMMA, RadauHistory, RadauHost};
 use crate::dynamics::{AppliedLoads, NewtonMatrix, mass_times_into};
 use crate::scene::{Scene, SparseJacobian, SystemState};
 
@@ -140,22 +140,32 @@ impl<const NB: usize, const NV: usize, const M: usize> RadauScratch<NB, NV, M> {
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> RadauHost<NB, NV>
+impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> RadauHost<NV>
     for AbsoluteSimulation<'_, S, L, NB, NV, M, NNZ>
 where
     S: Scene<NB, NV, M> + SparseJacobian<NB, NNZ>,
     L: AppliedLoads<NB>,
 {
+    type Group = Bodies<NB>;
+    type Error = AnalysisError;
     /// The matrices live in the workspace.
     type Jacobian = ();
     /// The step `h` the workspace's systems were factorised for.
     type Factors = f64;
 
+    fn error(e: AnalysisError) -> AnalysisError {
+        e
+    }
+
+    fn group(&self) -> &Bodies<NB> {
+        &Bodies
+    }
+
     fn newton_limits(&self) -> (usize, f64) {
         (self.options.newton_max_iterations, self.options.newton_tolerance)
     }
 
-    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, ()>> {
+    fn history(&mut self) -> &mut Option<RadauHistory<SystemState<NB>, NV, ()>> {
         &mut self.radau_history
     }
 

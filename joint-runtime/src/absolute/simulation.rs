@@ -74,13 +74,13 @@ pub struct AbsoluteSimulation<
     pub(super) alpha: Option<Boxed<SceneAlpha<S, NB, NV, M, NNZ>>>,
     /// Radau IIA's matrices on that pattern, and its history.
     pub(super) radau: Option<Boxed<SceneRadau<S, NB, NV, M, NNZ>>>,
-    pub(super) radau_history: Boxed<Option<RadauHistory<NB, NV, ()>>>,
+    pub(super) radau_history: Boxed<Option<RadauHistory<SystemState<NB>, NV, ()>>>,
     /// The dynamics a Radau step's start solved, and where (its stages
     /// start from them rather than solving the start again), and its host's
     /// vectors.
     pub(super) radau_scratch: Option<Boxed<RadauScratch<NB, NV, M>>>,
     /// A Radau step's states and stages.
-    pub(super) radau_work: Option<Boxed<RadauWork<NB, NV>>>,
+    pub(super) radau_work: Option<Boxed<RadauWork<SystemState<NB>, NV>>>,
     /// The implicit midpoint rule's iterate (with `alpha`).
     pub(super) midpoint: Option<Boxed<MidpointWork<NB, NV, M, NNZ>>>,
     /// Generalised-α's iterate and Newton vectors (with `alpha`).
@@ -533,7 +533,7 @@ where
     /// [`advance_radau`](Self::advance_radau) on the taken-out work `w`.
     fn radau_started(
         &mut self,
-        w: &mut RadauWork<NB, NV>,
+        w: &mut RadauWork<SystemState<NB>, NV>,
         state: &mut SystemState<NB>,
         h: f64,
         report: &mut StepReport,

@@ -80,12 +80,13 @@
 //! would keep fifth-order velocities. The error control shrinks such steps
 //! until Newton converges.
 
-use nalgebra::{SVector, Vector3};
+use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
-use super::adaptive::{Tolerance, increment_error};
+use super::adaptive::{Timed, Tolerance, increment_error};
 use super::{displaced_into, newton_done};
 use crate::absolute::buf::{Boxed, at_rest, boxed_with, zero_state, zeros};
 use crate::analysis::{AnalysisError, velocity_vector_into};
+use crate::linalg::Lu;
 use crate::scene::SystemState;
 
 #[cfg(doc)]
@@ -136,44 +137,130 @@ pub(crate) struct RadauStep {
 /// (the collocation polynomial extrapolated, as RADAU5), if the next step
 /// starts where this one was accepted; and the Jacobian it used (`J`: the
 /// dense path's matrices, or nothing where the host keeps them).
-#[derive(Clone, Copy)]
-pub(crate) struct RadauHistory<const NB: usize, const NV: usize, J> {
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RadauHistory<Y, const NV: usize, J> {
     /// The accepted (projected) end of the step, once `accepted`.
-    end: SystemState<NB>,
+    end: Y,
     accepted: bool,
     h: f64,
     zu: Stages<NV>,
     zv: Stages<NV>,
     /// The state the Jacobian was evaluated at, and the largest contraction
     /// of the last Newton iteration that used it (infinite after a failure).
-    at: SystemState<NB>,
+    at: Y,
     theta: f64,
     jacobian: J,
 }
 
-/// What the Radau step needs of a simulation (the one simulation, and the
-/// tests' dense reference): the accelerations under the step's rule for redundant
-/// rows, the Jacobian of the index-1 equations, and the real and complex
-/// stage systems `(μ − [[0, I], [A_q, A_v]]) (x, y) = (r, s)` factorised and
-/// solved.
-pub(crate) trait RadauHost<const NB: usize, const NV: usize> {
+/// The group a Radau step moves on: its state, `y0 ⊕ u` with velocities `v`,
+/// the rates `U̇` of the position increments, and the error norm of a step's
+/// increments. The bodies' states ([`Bodies`]) and a tree's joint
+/// coordinates (`relative/radau.rs`) are two such groups.
+pub(crate) trait RadauGroup<const NV: usize> {
+    /// The state a step advances.
+    type State: Timed + PartialEq;
+    /// `y0 ⊕ u` (the positions), with velocities `v`, at `t`, into `out`.
+    fn displaced_into(
+        &self,
+        y0: &Self::State,
+        u: &SVector<f64, NV>,
+        v: &SVector<f64, NV>,
+        t: f64,
+        out: &mut Self::State,
+    );
+    /// The state's velocities, into `out`.
+    fn velocity_into(&self, y: &Self::State, out: &mut SVector<f64, NV>);
+    /// `U̇` at the increment `u` with velocities `v`, into `out`.
+    fn position_rates_into(&self, u: &SVector<f64, NV>, v: &SVector<f64, NV>, out: &mut SVector<f64, NV>);
+    /// The error norm of the position increments `e` and velocity
+    /// increments `ev` of a step from `y0` to `y1`.
+    fn increment_error(
+        &self,
+        y0: &Self::State,
+        y1: &Self::State,
+        e: &SVector<f64, NV>,
+        ev: &SVector<f64, NV>,
+        tolerance: Tolerance,
+    ) -> f64;
+}
+
+/// The bodies' states as a [`RadauGroup`]: each body's increment is its
+/// translation and its rotation vector in its own frame.
+pub(crate) struct Bodies<const NB: usize>;
+
+impl<const NB: usize, const NV: usize> RadauGroup<NV> for Bodies<NB> {
+    type State = SystemState<NB>;
+
+    fn displaced_into(
+        &self,
+        y0: &SystemState<NB>,
+        u: &SVector<f64, NV>,
+        v: &SVector<f64, NV>,
+        t: f64,
+        out: &mut SystemState<NB>,
+    ) {
+        displaced_into(y0, u, 1.0, v, t, out);
+    }
+
+    fn velocity_into(&self, y: &SystemState<NB>, out: &mut SVector<f64, NV>) {
+        velocity_vector_into(y, out);
+    }
+
+    fn position_rates_into(&self, u: &SVector<f64, NV>, v: &SVector<f64, NV>, out: &mut SVector<f64, NV>) {
+        body_position_rates_into(u, v, out);
+    }
+
+    fn increment_error(
+        &self,
+        y0: &SystemState<NB>,
+        y1: &SystemState<NB>,
+        e: &SVector<f64, NV>,
+        ev: &SVector<f64, NV>,
+        tolerance: Tolerance,
+    ) -> f64 {
+        increment_error(y0, y1, e, ev, tolerance)
+    }
+}
+
+/// The state a host's steps advance.
+pub(crate) type StateOf<H, const NV: usize> = <<H as RadauHost<NV>>::Group as RadauGroup<NV>>::State;
+
+/// What the Radau step needs of a simulation (the absolute one, a tree's,
+/// and the tests' dense reference): its group, the accelerations under the
+/// step's rule for redundant rows, the Jacobian of the index-1 equations,
+/// and the real and complex stage systems `(μ − [[0, I], [A_q, A_v]]) (x, y)
+/// = (r, s)` factorised and solved.
+pub(crate) trait RadauHost<const NV: usize> {
+    /// The group the steps move on.
+    type Group: RadauGroup<NV>;
     /// The Jacobian's matrices, where the host keeps them in the history.
     type Jacobian: Copy;
     /// The two factorised systems of one step.
     type Factors;
+    /// The host's error.
+    type Error;
+    /// The driver's own failures (Newton not converging) in the host's terms.
+    fn error(e: AnalysisError) -> Self::Error;
+    /// The group.
+    fn group(&self) -> &Self::Group;
     /// Newton's iteration cap and tolerance at fixed steps.
     fn newton_limits(&self) -> (usize, f64);
+    /// Whether error-controlled steps stop Newton at RADAU5's `κ` in the
+    /// error norm (else at the fixed steps' tolerance).
+    fn scaled_stop(&self) -> bool {
+        true
+    }
     /// The history, kept between steps.
-    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, Self::Jacobian>>;
+    fn history(&mut self) -> &mut Option<RadauHistory<StateOf<Self, NV>, NV, Self::Jacobian>>;
     /// The accelerations at the step's start `y0` (whose rule the stages
     /// keep), into `out`.
-    fn start(&mut self, y0: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError>;
+    fn start(&mut self, y0: &StateOf<Self, NV>, out: &mut SVector<f64, NV>) -> Result<(), Self::Error>;
     /// The accelerations at a stage, under the rule of the start, into `out`.
-    fn accelerations(&mut self, state: &SystemState<NB>, out: &mut SVector<f64, NV>) -> Result<(), AnalysisError>;
+    fn accelerations(&mut self, state: &StateOf<Self, NV>, out: &mut SVector<f64, NV>) -> Result<(), Self::Error>;
     /// The Jacobian at the start `y0`, and the dynamics evaluations spent.
-    fn jacobian(&mut self, y0: &SystemState<NB>) -> Result<(Self::Jacobian, usize), AnalysisError>;
+    fn jacobian(&mut self, y0: &StateOf<Self, NV>) -> Result<(Self::Jacobian, usize), Self::Error>;
     /// Factorises the two systems of a step `h` on `jacobian`.
-    fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, AnalysisError>;
+    fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, Self::Error>;
     /// `(γ̂/h − [[0, I], [A_q, A_v]])⁻¹ (r, s)` for `rs = (r, s)`, into
     /// `xy = (x, y)`.
     fn solve_real(
@@ -201,10 +288,10 @@ pub(crate) trait RadauHost<const NB: usize, const NV: usize> {
 /// estimate's vectors. The sparse simulation keeps it boxed, so a step's
 /// frames hold none of the scene's size.
 #[derive(Clone, Debug)]
-pub(crate) struct RadauWork<const NB: usize, const NV: usize> {
-    y0: SystemState<NB>,
-    y1: SystemState<NB>,
-    stage: SystemState<NB>,
+pub(crate) struct RadauWork<Y, const NV: usize> {
+    y0: Y,
+    y1: Y,
+    stage: Y,
     v0: SVector<f64, NV>,
     a0: SVector<f64, NV>,
     v: SVector<f64, NV>,
@@ -227,40 +314,24 @@ pub(crate) struct RadauWork<const NB: usize, const NV: usize> {
     s: SVector<f64, NV>,
 }
 
-impl<const NB: usize, const NV: usize> RadauWork<NB, NV> {
+impl<Y: Copy, const NV: usize> RadauWork<Y, NV> {
     /// The step's start, where [`step_radau_in`] reads it.
-    pub(crate) fn start_mut(&mut self) -> &mut SystemState<NB> {
+    pub(crate) fn start_mut(&mut self) -> &mut Y {
         &mut self.y0
     }
 
     /// The step's end, where [`step_radau_in`] leaves it.
-    pub(crate) fn end_mut(&mut self) -> &mut SystemState<NB> {
+    pub(crate) fn end_mut(&mut self) -> &mut Y {
         &mut self.y1
     }
 
-    /// Zeros at states at rest (the dense path's, on its stack).
-    #[cfg(feature = "__dense_reference")]
-    pub(crate) fn new() -> Self {
-        let mut w = const { Self::zeros() };
-        w.states_at_rest();
-        w
-    }
-
-    /// Zeros at states at rest, boxed (with `alloc`) and written in the
-    /// heap (`absolute::buf`).
-    pub(crate) fn boxed() -> Boxed<Self> {
-        let mut w = boxed_with(|| const { Self::zeros() });
-        w.states_at_rest();
-        w
-    }
-
-    /// Zeros, the states' Euler parameters too: a constant.
-    const fn zeros() -> Self {
+    /// Zeros, every state `y`.
+    pub(crate) const fn at(y: Y) -> Self {
         let z = [zeros(); 3];
         RadauWork {
-            y0: zero_state(),
-            y1: zero_state(),
-            stage: zero_state(),
+            y0: y,
+            y1: y,
+            stage: y,
             v0: zeros(),
             a0: zeros(),
             v: zeros(),
@@ -282,6 +353,29 @@ impl<const NB: usize, const NV: usize> RadauWork<NB, NV> {
             r: zeros(),
             s: zeros(),
         }
+    }
+}
+
+impl<const NB: usize, const NV: usize> RadauWork<SystemState<NB>, NV> {
+    /// Zeros at states at rest (the dense path's, on its stack).
+    #[cfg(feature = "__dense_reference")]
+    pub(crate) fn new() -> Self {
+        let mut w = const { Self::zeros() };
+        w.states_at_rest();
+        w
+    }
+
+    /// Zeros at states at rest, boxed (with `alloc`) and written in the
+    /// heap (`absolute::buf`).
+    pub(crate) fn boxed() -> Boxed<Self> {
+        let mut w = boxed_with(|| const { Self::zeros() });
+        w.states_at_rest();
+        w
+    }
+
+    /// Zeros, the states' Euler parameters too: a constant.
+    const fn zeros() -> Self {
+        Self::at(zero_state())
     }
 
     fn states_at_rest(&mut self) {
@@ -309,13 +403,13 @@ enum Stop {
 /// estimated. The stages are kept in the host's history (not yet accepted).
 /// Every vector lives in `w`, written in place (the same operations as
 /// sums of whole vectors, entry by entry).
-pub(crate) fn step_radau<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+pub(crate) fn step_radau<H: RadauHost<NV>, const NV: usize>(
     host: &mut H,
-    w: &mut RadauWork<NB, NV>,
-    state: &mut SystemState<NB>,
+    w: &mut RadauWork<StateOf<H, NV>, NV>,
+    state: &mut StateOf<H, NV>,
     h: f64,
     tolerance: Option<Tolerance>,
-) -> Result<RadauStep, AnalysisError> {
+) -> Result<RadauStep, H::Error> {
     w.y0.clone_from(state);
     let step = step_radau_in(host, w, h, tolerance)?;
     state.clone_from(&w.y1);
@@ -324,13 +418,13 @@ pub(crate) fn step_radau<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>
 
 /// [`step_radau`] from the start in the work ([`RadauWork::start_mut`]), its
 /// end left there ([`RadauWork::end_mut`]).
-pub(crate) fn step_radau_in<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+pub(crate) fn step_radau_in<H: RadauHost<NV>, const NV: usize>(
     host: &mut H,
-    w: &mut RadauWork<NB, NV>,
+    w: &mut RadauWork<StateOf<H, NV>, NV>,
     h: f64,
     tolerance: Option<Tolerance>,
-) -> Result<RadauStep, AnalysisError> {
-    velocity_vector_into(&w.y0, &mut w.v0);
+) -> Result<RadauStep, H::Error> {
+    host.group().velocity_into(&w.y0, &mut w.v0);
     host.start(&w.y0, &mut w.a0)?;
     starting_values(host.history().as_ref(), w, h);
     let mut step = RadauStep { iterations: 0, matrices: 1, evaluations: 1, error: 0.0 };
@@ -351,7 +445,7 @@ pub(crate) fn step_radau_in<H: RadauHost<NB, NV>, const NB: usize, const NV: usi
     // same state, and no other step keeps it (θ infinite until Newton
     // converges).
     let Some(jacobian) = pending(host.history(), w, h, fresh) else {
-        return Err(AnalysisError::BadOption { name: "Radau history" });
+        return Err(H::error(AnalysisError::BadOption { name: "Radau history" }));
     };
     let factors = host.factor(&jacobian, h)?;
     // RADAU5's mapping: the estimate is of the embedded third-order
@@ -362,11 +456,11 @@ pub(crate) fn step_radau_in<H: RadauHost<NB, NV>, const NB: usize, const NV: usi
     });
     let (max_iterations, newton_tolerance) = host.newton_limits();
     let stop = match tolerance {
-        Some(t) => {
+        Some(t) if host.scaled_stop() => {
             let kappa = (10.0 * f64::EPSILON / t.rtol).max(libm::sqrt(t.rtol).min(0.03));
             Stop::Scaled { kappa, tolerance: t }
         }
-        None => Stop::Relative(newton_tolerance),
+        _ => Stop::Relative(newton_tolerance),
     };
     let newton = Newton { h, stop, max_iterations };
     let theta = radau_newton(host, w, &newton, &factors, &mut step)?;
@@ -378,17 +472,17 @@ pub(crate) fn step_radau_in<H: RadauHost<NB, NV>, const NB: usize, const NV: usi
         past.theta = theta;
     }
     add_into(&w.v0, &w.zv[2], &mut w.v);
-    displaced_into(&w.y0, &w.zu[2], 1.0, &w.v, w.y0.t + h, &mut w.y1);
+    host.group().displaced_into(&w.y0, &w.zu[2], &w.v, w.y0.time() + h, &mut w.y1);
     if let Some(tol) = tolerance {
         step.error = radau_estimate(host, w, h, &factors, tol, &mut step)?;
     }
     Ok(step)
 }
 
-impl<const NB: usize, const NV: usize, J> RadauHistory<NB, NV, J> {
+impl<Y: Timed, const NV: usize, J> RadauHistory<Y, NV, J> {
     /// The step was accepted at `state` (projected): the next step starts
     /// from its stages if it starts there.
-    pub(crate) fn accept(&mut self, state: &SystemState<NB>) {
+    pub(crate) fn accept(&mut self, state: &Y) {
         self.end.clone_from(state);
         self.accepted = true;
     }
@@ -397,7 +491,7 @@ impl<const NB: usize, const NV: usize, J> RadauHistory<NB, NV, J> {
     /// starts from its stages until a step writes it again.
     fn forget(&mut self) {
         self.accepted = false;
-        self.at.t = f64::NAN;
+        self.at.set_time(f64::NAN);
         self.theta = f64::INFINITY;
     }
 }
@@ -407,9 +501,9 @@ impl<const NB: usize, const NV: usize, J> RadauHistory<NB, NV, J> {
 /// the `fresh` Jacobian evaluated at `w.y0`, or keeping the one it has.
 /// Returns the Jacobian (`None`: no history and none fresh, which the caller
 /// never asks).
-fn pending<J: Copy, const NB: usize, const NV: usize>(
-    history: &mut Option<RadauHistory<NB, NV, J>>,
-    w: &RadauWork<NB, NV>,
+fn pending<J: Copy, Y: Timed, const NV: usize>(
+    history: &mut Option<RadauHistory<Y, NV, J>>,
+    w: &RadauWork<Y, NV>,
     h: f64,
     fresh: Option<J>,
 ) -> Option<J> {
@@ -439,9 +533,9 @@ fn pending<J: Copy, const NB: usize, const NV: usize>(
 /// A simulation's first Radau history, once, in a frame of its own.
 #[cold]
 #[inline(never)]
-fn first_history<J, const NB: usize, const NV: usize>(
-    history: &mut Option<RadauHistory<NB, NV, J>>,
-    w: &RadauWork<NB, NV>,
+fn first_history<J, Y: Timed, const NV: usize>(
+    history: &mut Option<RadauHistory<Y, NV, J>>,
+    w: &RadauWork<Y, NV>,
     h: f64,
     jacobian: J,
 ) {
@@ -452,9 +546,9 @@ fn first_history<J, const NB: usize, const NV: usize>(
 /// The stages Newton starts from, into `w.zu`, `w.zv`: the last accepted
 /// step's collocation polynomial extrapolated to this step if it ended at
 /// `w.y0`, else positions moving at the start's velocities.
-fn starting_values<J, const NB: usize, const NV: usize>(
-    history: Option<&RadauHistory<NB, NV, J>>,
-    w: &mut RadauWork<NB, NV>,
+fn starting_values<J, Y: PartialEq, const NV: usize>(
+    history: Option<&RadauHistory<Y, NV, J>>,
+    w: &mut RadauWork<Y, NV>,
     h: f64,
 ) {
     match history {
@@ -488,20 +582,23 @@ struct Newton {
 /// Simplified Newton on the transformed stage equations from the stages in
 /// `w`; leaves the converged stages there and returns the largest
 /// contraction seen.
-fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+fn radau_newton<H: RadauHost<NV>, const NV: usize>(
     host: &mut H,
-    w: &mut RadauWork<NB, NV>,
+    w: &mut RadauWork<StateOf<H, NV>, NV>,
     newton: &Newton,
     factors: &H::Factors,
     step: &mut RadauStep,
-) -> Result<f64, AnalysisError> {
+) -> Result<f64, H::Error> {
     let Newton { h, stop, max_iterations } = *newton;
     mix_into(&TI, &w.zu, &mut w.wu);
     mix_into(&TI, &w.zv, &mut w.wv);
     let (mut last, mut contraction) = (f64::INFINITY, 0.0f64);
     loop {
         if step.iterations >= max_iterations {
-            return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: last });
+            return Err(H::error(AnalysisError::ImplicitNotConverged {
+                iterations: step.iterations,
+                correction: last,
+            }));
         }
         // F at the stages, transformed: G = (T⁻¹ ⊗ I) F(Z), into `dz` (free here).
         for (i, c) in C.iter().enumerate() {
@@ -510,9 +607,9 @@ fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
                 continue;
             };
             add_into(v0, zv, v);
-            displaced_into(y0, zu, 1.0, v, y0.t + c * h, stage);
+            host.group().displaced_into(y0, zu, v, y0.time() + c * h, stage);
             host.accelerations(stage, fv)?;
-            position_rates_into(zu, v, fu);
+            host.group().position_rates_into(zu, v, fu);
         }
         step.evaluations += 3;
         mix_into(&TI, &w.fu, &mut w.dzu);
@@ -537,7 +634,7 @@ fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
         mix_into(&T, &w.dv, &mut w.dzv);
         let (size, bound) = match stop {
             Stop::Relative(tolerance) => (euclidean(&w.dzu, &w.dzv), tolerance * (1.0 + euclidean(&w.zu, &w.zv))),
-            Stop::Scaled { kappa, tolerance } => (stage_norm(&w.y0, &w.dzu, &w.dzv, tolerance), kappa),
+            Stop::Scaled { kappa, tolerance } => (stage_norm(host.group(), &w.y0, &w.dzu, &w.dzv, tolerance), kappa),
         };
         let theta = size / last;
         if step.iterations >= 2 {
@@ -554,7 +651,10 @@ fn radau_newton<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
             return Ok(contraction);
         }
         if !size.is_finite() || (step.iterations >= 2 && theta >= 1.0) {
-            return Err(AnalysisError::ImplicitNotConverged { iterations: step.iterations, correction: size });
+            return Err(H::error(AnalysisError::ImplicitNotConverged {
+                iterations: step.iterations,
+                correction: size,
+            }));
         }
         last = size;
     }
@@ -580,14 +680,14 @@ fn residual_in_place<const NV: usize>(g: &mut Stages<NV>, w: &Stages<NV>, h: f64
 /// RADAU5's error norm of the step from `w.y0` (its rates `w.v0`, `w.a0`)
 /// to `w.y1` with the stage increments `w.zu`, `w.zv` (see the module
 /// documentation).
-fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
+fn radau_estimate<H: RadauHost<NV>, const NV: usize>(
     host: &mut H,
-    w: &mut RadauWork<NB, NV>,
+    w: &mut RadauWork<StateOf<H, NV>, NV>,
     h: f64,
     factors: &H::Factors,
     tolerance: Tolerance,
     step: &mut RadauStep,
-) -> Result<f64, AnalysisError> {
+) -> Result<f64, H::Error> {
     let weigh = |z: &Stages<NV>, out: &mut SVector<f64, NV>| {
         for (o, ((a, b), c)) in out
             .as_mut_slice()
@@ -602,20 +702,20 @@ fn radau_estimate<H: RadauHost<NB, NV>, const NB: usize, const NV: usize>(
     add_into(&w.v0, &w.pu, &mut w.r);
     add_into(&w.a0, &w.pv, &mut w.s);
     host.solve_real(factors, (&w.r, &w.s), (&mut w.eu, &mut w.ev));
-    let err = increment_error(&w.y0, &w.y1, &w.eu, &w.ev, tolerance);
+    let err = host.group().increment_error(&w.y0, &w.y1, &w.eu, &w.ev, tolerance);
     if err <= 1.0 {
         return Ok(err);
     }
     // The stiff components' overestimate removed: f at y_n + e.
     add_into(&w.v0, &w.ev, &mut w.v);
-    displaced_into(&w.y0, &w.eu, 1.0, &w.v, w.y0.t, &mut w.stage);
+    host.group().displaced_into(&w.y0, &w.eu, &w.v, w.y0.time(), &mut w.stage);
     host.accelerations(&w.stage, &mut w.a)?;
     step.evaluations += 1;
-    position_rates_into(&w.eu, &w.v, &mut w.r);
+    host.group().position_rates_into(&w.eu, &w.v, &mut w.r);
     w.r += &w.pu;
     add_into(&w.a, &w.pv, &mut w.s);
     host.solve_real(factors, (&w.r, &w.s), (&mut w.eu, &mut w.ev));
-    Ok(increment_error(&w.y0, &w.y1, &w.eu, &w.ev, tolerance))
+    Ok(host.group().increment_error(&w.y0, &w.y1, &w.eu, &w.ev, tolerance))
 }
 
 /// `out = a + b`, entry by entry.
@@ -655,9 +755,9 @@ fn combine_into<const NV: usize>(c: &[f64; 3], x: &Stages<NV>, out: &mut SVector
     }
 }
 
-/// `U̇` at the increment `u` with velocities `v`, into `out`: `ṙ` for the
-/// translations, `J_r(u_θ)⁻¹ ω'` for the rotations.
-fn position_rates_into<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>, out: &mut SVector<f64, NV>) {
+/// A body's `U̇` at the increment `u` with velocities `v`, into `out`: `ṙ`
+/// for the translations, `J_r(u_θ)⁻¹ ω'` for the rotations.
+fn body_position_rates_into<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, NV>, out: &mut SVector<f64, NV>) {
     out.copy_from(v);
     for b in 0..NV / 6 {
         let at = |x: &SVector<f64, NV>, k: usize| x.get(6 * b + 3 + k).copied().unwrap_or(0.0);
@@ -674,7 +774,7 @@ fn position_rates_into<const NV: usize>(u: &SVector<f64, NV>, v: &SVector<f64, N
 
 /// `J_r(φ)⁻¹ ω = ω + ½ φ × ω + c(θ) φ × (φ × ω)`, `c = (1 − (θ/2) cot(θ/2))/θ²`,
 /// by its series below `θ = 0.1` (where the closed form cancels).
-fn inverse_right_jacobian_times(phi: &Vector3<f64>, omega: &Vector3<f64>) -> Vector3<f64> {
+pub(crate) fn inverse_right_jacobian_times(phi: &Vector3<f64>, omega: &Vector3<f64>) -> Vector3<f64> {
     let t2 = phi.norm_squared();
     let c = if t2 < 1e-2 {
         1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30_240.0 + t2 / 1_209_600.0))
@@ -687,19 +787,72 @@ fn inverse_right_jacobian_times(phi: &Vector3<f64>, omega: &Vector3<f64>) -> Vec
 }
 
 /// The error norm of the three stages' increments, from `y0`.
-fn stage_norm<const NB: usize, const NV: usize>(
-    y0: &SystemState<NB>,
+fn stage_norm<G: RadauGroup<NV>, const NV: usize>(
+    group: &G,
+    y0: &G::State,
     u: &Stages<NV>,
     v: &Stages<NV>,
     tolerance: Tolerance,
 ) -> f64 {
-    let sum: f64 = (0..3).map(|i| libm::pow(increment_error(y0, y0, &u[i], &v[i], tolerance), 2.0)).sum();
+    let sum: f64 = (0..3).map(|i| libm::pow(group.increment_error(y0, y0, &u[i], &v[i], tolerance), 2.0)).sum();
     libm::sqrt(sum / 3.0)
 }
 
 /// `‖(u, v)‖₂` over the three stages.
 fn euclidean<const NV: usize>(u: &Stages<NV>, v: &Stages<NV>) -> f64 {
     libm::sqrt(u.iter().chain(v.iter()).map(|x| x.norm_squared()).sum::<f64>())
+}
+
+/// The two factorised systems of a step `h` on dense `A_q`, `A_v` (the
+/// tree's, and the dense reference's): `K(μ) = μ² I − μ A_v − A_q` at
+/// `μ = γ̂/h` and at `μ = (α + iβ)/h`.
+pub(crate) struct DenseFactors<const NV: usize> {
+    h: f64,
+    real: Lu<NV>,
+    complex: Lu<NV, Complex<f64>>,
+    av: SMatrix<f64, NV, NV>,
+}
+
+impl<const NV: usize> DenseFactors<NV> {
+    pub(crate) fn new(aq: &SMatrix<f64, NV, NV>, av: &SMatrix<f64, NV, NV>, h: f64) -> Result<Self, AnalysisError> {
+        let mu = GAMMA / h;
+        let real = Lu::new(&(SMatrix::<f64, NV, NV>::identity() * (mu * mu) - av * mu - aq))?;
+        let mu = Complex::new(ALPHA, BETA) / h;
+        let complex =
+            SMatrix::<Complex<f64>, NV, NV>::identity() * (mu * mu) - av.map(real_part) * mu - aq.map(real_part);
+        Ok(DenseFactors { h, real, complex: Lu::new(&complex)?, av: *av })
+    }
+
+    /// `(μ − [[0, I], [A_q, A_v]])⁻¹ (r, s)` at the real `μ = γ̂/h`.
+    pub(crate) fn solve_real(
+        &self,
+        r: &SVector<f64, NV>,
+        s: &SVector<f64, NV>,
+    ) -> (SVector<f64, NV>, SVector<f64, NV>) {
+        let mu = GAMMA / self.h;
+        let x = self.real.solve(&(s + r * mu - self.av * r));
+        (x, x * mu - r)
+    }
+
+    /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
+    /// imaginary parts of `x`, then of `y`.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn solve_complex(
+        &self,
+        (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),
+    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
+        let mu = Complex::new(ALPHA, BETA) / self.h;
+        let r = r2.zip_map(r3, Complex::new);
+        let ar = (self.av * r2).zip_map(&(self.av * r3), Complex::new);
+        let x = self.complex.solve(&(s2.zip_map(s3, Complex::new) + r * mu - ar));
+        let y = x * mu - r;
+        ((x.map(|z| z.re), x.map(|z| z.im)), (y.map(|z| z.re), y.map(|z| z.im)))
+    }
+}
+/// `x + 0i`.
+fn real_part(x: f64) -> Complex<f64> {
+    Complex::new(x, 0.0)
 }
 
 #[cfg(test)]

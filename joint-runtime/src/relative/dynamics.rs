@@ -39,6 +39,9 @@ fn project(s: &Subspace, f: &Vector6<f64>) -> Vector6<f64> {
 }
 
 /// The first three of a joint's padded numbers (a joint other than a free one).
+// Inlined: out of line LTO left it without `nounwind`, a landing pad in
+// Radau IIA's step the no-panic proof counts.
+#[inline(always)]
 fn three(x: &Vector6<f64>) -> Vector3<f64> {
     x.fixed_rows::<3>(0).into_owned()
 }
@@ -145,8 +148,10 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     /// parent (`(0, −g)` at the ground).
     fn parent_acceleration(&self, kin: &Kinematics<NB>, k: usize, acc: &[Vector6<f64>; NB]) -> Vector6<f64> {
         let ground = || join(&Vector3::zeros(), &(-self.gravity));
-        let a_p = self.parent[k].and_then(|p| acc.get(p).copied()).unwrap_or_else(ground);
-        kin.x[k].motion(&a_p)
+        // Through `get`: out of line (Radau IIA's stages) the bounds on `k`
+        // are not the caller's loop's, and an index kept a panic path.
+        let a_p = self.parent.get(k).copied().flatten().and_then(|p| acc.get(p).copied()).unwrap_or_else(ground);
+        kin.x.get(k).map_or_else(Vector6::zeros, |x| x.motion(&a_p))
     }
 
     /// The joint accelerations `v̇` under joint forces `tau` (torques about a
@@ -228,8 +233,14 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
             let qdd = if self.joints[k].kind == TreeJointKind::Free {
                 project(s, &(free[k] - a))
             } else {
-                let u_t_a = Vector3::from_fn(|i, _| if i < s.n { art[k].u_cols[i].dot(&a) } else { 0.0 });
-                let qdd = art[k].d_inv * (art[k].u - u_t_a);
+                // The row taken out of the closure: `from_fn` left out of
+                // line (Radau IIA's stages) kept a bounds check on `art[k]`.
+                let ak = &art[k];
+                let u_t_a = Vector3::from_fn(|i, _| match ak.u_cols.get(i) {
+                    Some(u) if i < s.n => u.dot(&a),
+                    _ => 0.0,
+                });
+                let qdd = ak.d_inv * (ak.u - u_t_a);
                 Vector6::new(qdd.x, qdd.y, qdd.z, 0.0, 0.0, 0.0)
             };
             acc[k] = a + expand(s, &qdd);

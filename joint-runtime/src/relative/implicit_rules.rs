@@ -49,6 +49,8 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
+use crate::dynamics::adaptive::{IntegrationReport, Tolerance};
+use crate::dynamics::radau::RadauGroup;
 use crate::dynamics::{AppliedLoads, Coefficients, Integrator, ModifiedNewton, NewtonMatrix, StepReport};
 use crate::linalg::{Lu, PivotedCholesky};
 
@@ -59,6 +61,8 @@ pub(super) struct AlphaMemory<const NQ: usize, const NV: usize> {
     end: TreeState<NQ, NV>,
     vdot: SVector<f64, NV>,
     a: SVector<f64, NV>,
+    /// The pseudo-acceleration the step started from: the error estimate's.
+    a_start: SVector<f64, NV>,
 }
 
 /// Which rule, with what it reads of the past.
@@ -141,11 +145,25 @@ impl<
         h: f64,
         tau: &SVector<f64, NV>,
     ) -> Result<StepReport, TreeError> {
+        let alpha = self.options().integrator == Integrator::GeneralisedAlpha;
+        self.rule_step(state, h, tau, alpha)
+    }
+
+    /// [`implicit_rule_step`](Self::implicit_rule_step) by generalised-α
+    /// (`alpha`) or the midpoint rule, whatever the options' integrator.
+    #[inline(always)]
+    fn rule_step(
+        &mut self,
+        state: &mut TreeState<NQ, NV>,
+        h: f64,
+        tau: &SVector<f64, NV>,
+        alpha: bool,
+    ) -> Result<StepReport, TreeError> {
         let mut kept = self.newton.take().filter(|&(length, _)| length == h).map(|(_, lu)| lu);
         // One call site for the Newton iteration: a second try only after a kept matrix failed.
         loop {
             let reused = kept.is_some();
-            match self.rule_newton(state, h, tau, kept.take()) {
+            match self.rule_newton(state, (h, alpha), tau, kept.take()) {
                 // Not converged, or an iterate the dynamics refused: afresh.
                 Err(_) if reused => continue,
                 result => return result,
@@ -159,14 +177,14 @@ impl<
     fn rule_newton(
         &mut self,
         state: &mut TreeState<NQ, NV>,
-        h: f64,
+        (h, alpha): (f64, bool),
         tau: &SVector<f64, NV>,
         kept: Option<Lu<NV>>,
     ) -> Result<StepReport, TreeError> {
         let (a0, first) = self.constrained(state, tau, None)?;
         // Predictors: the explicit midpoint velocity; the last acceleration.
-        let (rule, mut x) = match self.options().integrator {
-            Integrator::GeneralisedAlpha => {
+        let (rule, mut x) = match alpha {
+            true => {
                 let c = Coefficients::checked(self.options().spectral_radius)
                     .map_err(|_| TreeError::BadOption { name: "spectral_radius" })?;
                 let (vdot, a) = match self.alpha {
@@ -175,7 +193,7 @@ impl<
                 };
                 (Rule::Alpha { c, vdot, a }, vdot)
             }
-            _ => (Rule::Midpoint, state.v + a0 * (0.5 * h)),
+            false => (Rule::Midpoint, state.v + a0 * (0.5 * h)),
         };
         let start = Start { state, h, tau, order: first.as_ref(), rule };
         let mut r = self.rule_residual(&start, &x)?;
@@ -186,7 +204,7 @@ impl<
         }
         let (_, s_v, _) = start.scales();
         loop {
-            newton.next().map_err(not_converged)?;
+            newton.next().map_err(tree_error)?;
             let lu = match factor {
                 Some(lu) if !newton.stale() => lu,
                 _ => {
@@ -201,13 +219,13 @@ impl<
             r = self.rule_residual(&start, &x)?;
             // Measured as the velocity it moves, against the velocity's size.
             let (_, v, _) = start.point(&x);
-            if newton.converged(dx.norm() * s_v, 1.0 + v.norm()).map_err(not_converged)? {
+            if newton.converged(dx.norm() * s_v, 1.0 + v.norm()).map_err(tree_error)? {
                 break;
             }
         }
         let (next, (projection_iterations, constraint_residual, velocity_residual)) = self.rule_end(&start, &x)?;
-        if let Rule::Alpha { .. } = start.rule {
-            self.alpha = Some(AlphaMemory { end: next, vdot: x, a: start.pseudo(&x) });
+        if let Rule::Alpha { a: a_start, .. } = start.rule {
+            self.alpha = Some(AlphaMemory { end: next, vdot: x, a: start.pseudo(&x), a_start });
         }
         *state = next;
         self.newton = factor.map(|lu| (h, lu));
@@ -219,6 +237,37 @@ impl<
             constraint_residual,
             velocity_residual,
         })
+    }
+
+    /// One generalised-α step of `h` from `y0` with no joint forces, its
+    /// end projected, and its error norm: Géradin and Cardona's estimate of
+    /// the absolute engine's error control (`dynamics/adaptive.rs`),
+    /// `(β − 1/6) h² Δa` for the positions and `(γ − ½) h Δa` for the
+    /// velocities, `Δa` the step's change of pseudo-acceleration, in the
+    /// norm of Radau IIA's (`radau.rs`). A step the control refuses, or one
+    /// that fails, leaves the memory the next step starts from as it was.
+    pub(super) fn alpha_trial(
+        &mut self,
+        y0: &TreeState<NQ, NV>,
+        h: f64,
+        tolerance: Tolerance,
+        report: &mut IntegrationReport,
+    ) -> Result<(TreeState<NQ, NV>, f64), TreeError> {
+        let saved = self.alpha;
+        let mut end = *y0;
+        let step = self.rule_step(&mut end, h, &SVector::zeros(), true).inspect_err(|_| self.alpha = saved)?;
+        report.newton_iterations += step.newton_iterations;
+        report.newton_matrices += step.newton_matrices;
+        report.evaluations += step.newton_iterations + 1;
+        let c = Coefficients::checked(self.options().spectral_radius)
+            .map_err(|_| TreeError::BadOption { name: "spectral_radius" })?;
+        let change = self.alpha.map_or(SVector::zeros(), |m| m.a - m.a_start);
+        let (e, ev) = (change * ((c.beta - 1.0 / 6.0) * h * h), change * ((c.gamma - 0.5) * h));
+        let err = RadauGroup::increment_error(self.tree(), y0, &end, &e, &ev, tolerance);
+        if err.is_nan() || err > 1.0 {
+            self.alpha = saved;
+        }
+        Ok((end, err))
     }
 
     /// The step's end at the converged `x`, projected, and what the
@@ -318,12 +367,14 @@ impl<
     }
 }
 
-/// Newton's failure in the engine's terms.
-fn not_converged(e: crate::analysis::AnalysisError) -> TreeError {
+/// Newton's failure (or the Radau driver's) in the engine's terms.
+pub(super) fn tree_error(e: crate::analysis::AnalysisError) -> TreeError {
+    use crate::analysis::AnalysisError;
     match e {
-        crate::analysis::AnalysisError::ImplicitNotConverged { iterations, correction } => {
+        AnalysisError::ImplicitNotConverged { iterations, correction } => {
             TreeError::NotConverged { iterations, correction }
         }
+        AnalysisError::BadOption { name } => TreeError::BadOption { name },
         _ => TreeError::NonFinite,
     }
 }

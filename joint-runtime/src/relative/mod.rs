@@ -118,6 +118,7 @@ mod kinematics;
 mod linear;
 mod projected;
 mod proximal;
+mod radau;
 mod recursion;
 mod simulation;
 mod soft;

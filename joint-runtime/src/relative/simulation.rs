@@ -10,6 +10,7 @@ use core::cell::Cell;
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
 use super::implicit_rules::AlphaMemory;
+use super::radau::TreeRadauHistory;
 use super::soft::Softness;
 use super::tangent::{get, put_quaternion, put_three, quaternion_at, set, three, unit_at};
 use super::topology::{Tree, TreeError};
@@ -62,6 +63,9 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
     pub(super) newton: Option<(f64, Lu<NV>)>,
     /// What generalised-α's last step carries to the next.
     pub(super) alpha: Option<AlphaMemory<NQ, NV>>,
+    /// What Radau IIA's last step carries to the next: its stages and
+    /// Jacobian (`radau.rs`).
+    pub(super) radau: Option<TreeRadauHistory<NQ, NV>>,
 }
 
 /// `M⁻¹ Jᵀ` and the rank-revealing factor of `J M⁻¹ Jᵀ` at one state: its
@@ -88,7 +92,18 @@ impl<'a, S: TreeScene<NB, NQ, NV, NC>, const NB: usize, const NQ: usize, const N
         let last = Cell::new(None);
         let tree = Tree::of(scene)?;
         let soft = Softness::new::<S, NB, NQ, NV>(&tree)?;
-        Ok(TreeSimulation { scene, tree, springs: &[], loads: NoLoads, options, last, soft, newton: None, alpha: None })
+        Ok(TreeSimulation {
+            scene,
+            tree,
+            springs: &[],
+            loads: NoLoads,
+            options,
+            last,
+            soft,
+            newton: None,
+            alpha: None,
+            radau: None,
+        })
     }
 }
 
@@ -110,33 +125,26 @@ impl<
     /// same closure drives both coordinate choices of a scene.
     pub fn with_loads<L2: AppliedLoads<NB>>(self, loads: L2) -> TreeSimulation<'a, S, NB, NQ, NV, NC, L2> {
         let TreeSimulation { scene, tree, springs, options, last, soft, .. } = self;
-        TreeSimulation { scene, tree, springs, loads, options, last, soft, newton: None, alpha: None }
+        TreeSimulation { scene, tree, springs, loads, options, last, soft, newton: None, alpha: None, radau: None }
     }
 
     /// The same simulation with `options` (the absolute `Simulation`'s):
-    /// the integrator ([`Integrator::Rk4`], [`Integrator::ImplicitMidpoint`]
-    /// or [`Integrator::GeneralisedAlpha`] with its spectral radius, the
-    /// implicit ones with their Newton options: `implicit_rules.rs`),
+    /// the integrator ([`Integrator::Rk4`], [`Integrator::ImplicitMidpoint`],
+    /// [`Integrator::GeneralisedAlpha`] with its spectral radius, or
+    /// [`Integrator::RadauIIA`]; the implicit ones with their Newton
+    /// options: `implicit_rules.rs`, `radau.rs`),
     /// `stabilisation` (Baumgarte on the closure rows),
     /// `projection` (`None`: the loops are not projected after a step; the
     /// tolerance bounds the largest closure row) and `rank_tolerance` (the
     /// redundant closure rows) are honoured.
     ///
     /// # Errors
-    /// [`TreeError::NotOffered`] for Radau IIA (with where it is offered);
     /// [`TreeError::BadOption`] naming the option: a non-finite or negative
     /// Baumgarte coefficient, a projection, rank or Newton tolerance that
     /// is not positive and finite, no Newton iterations, a spectral radius
     /// outside `[0, 1]`.
     pub fn with_options(mut self, options: SimulationOptions) -> Result<Self, TreeError> {
         let positive = |x: f64| x.is_finite() && x > 0.0;
-        if options.integrator == Integrator::RadauIIA {
-            return Err(TreeError::NotOffered {
-                what: "Radau IIA as `integrator` (its steps are RK4, the implicit midpoint rule or generalised-α)",
-                instead: "step a stiff tree with `Integrator::GeneralisedAlpha`, `Integrator::ImplicitMidpoint` or \
-                          `implicit_step_with`, or declare `coordinates = absolute` for Radau IIA",
-            });
-        }
         if !positive(options.newton_tolerance) || options.newton_max_iterations == 0 {
             return Err(TreeError::BadOption { name: "newton_tolerance" });
         }
@@ -155,7 +163,7 @@ impl<
             return Err(TreeError::BadOption { name: "rank_tolerance" });
         }
         self.options = options;
-        (self.newton, self.alpha) = (None, None);
+        (self.newton, self.alpha, self.radau) = (None, None, None);
         Ok(self)
     }
 
@@ -231,7 +239,7 @@ impl<
             }
         }
         self.springs = springs;
-        (self.newton, self.alpha) = (None, None);
+        (self.newton, self.alpha, self.radau) = (None, None, None);
         Ok(self)
     }
 
@@ -530,8 +538,9 @@ impl<
 
     /// One step of length `h` under joint forces `tau`, held over the step
     /// (a controller's zero-order hold), by the options' integrator: RK4
-    /// (the default), the implicit midpoint rule or generalised-α
-    /// (`implicit_rules.rs`: their Newton counts in the report). The state is left unchanged on error:
+    /// (the default), the implicit midpoint rule, generalised-α
+    /// (`implicit_rules.rs`) or Radau IIA (`radau.rs`), the implicit ones'
+    /// Newton counts in the report. The state is left unchanged on error:
     /// [`TreeError::Diverged`] when the step is too long for the dynamics'
     /// stiffness (its end past [`DIVERGED`] or a later stage's dynamics
     /// failing), [`TreeError::NotConverged`] when an implicit rule's
@@ -549,8 +558,12 @@ impl<
             return Err(TreeError::NonFinite);
         }
         self.check_closed(state)?;
-        if matches!(self.options.integrator, Integrator::ImplicitMidpoint | Integrator::GeneralisedAlpha) {
-            return self.implicit_rule_step(state, h, tau);
+        match self.options.integrator {
+            Integrator::ImplicitMidpoint | Integrator::GeneralisedAlpha => {
+                return self.implicit_rule_step(state, h, tau);
+            }
+            Integrator::RadauIIA => return self.radau_step(state, h, tau),
+            _ => {}
         }
         // Every stage drops the closure rows the first dropped: a redundant
         // row switching between stages would break the method's order.
@@ -606,8 +619,11 @@ impl<
     /// rule, error norm, [`IntegrationReport`]) on `(q, v)`, each accepted
     /// step's quaternions renormalised and its loops closed as
     /// [`TreeSimulation::step`] does. `method` is
-    /// [`Adaptive::DormandPrince`] (the implicit ones are the absolute
-    /// path's so far: [`TreeError::NotOffered`] says so). No joint
+    /// [`Adaptive::DormandPrince`], [`Adaptive::RadauIIA`] (RADAU5's
+    /// error estimate and step-size rule, `radau.rs`) or
+    /// [`Adaptive::GeneralisedAlpha`] (Géradin and Cardona's estimate, as
+    /// the absolute engine's; its ρ∞ from the options, `implicit_rules.rs`).
+    /// No joint
     /// forces: a controller's act through
     /// [`with_loads`](TreeSimulation::with_loads) or
     /// [`step_with`](TreeSimulation::step_with). The state is left at the
@@ -637,13 +653,6 @@ impl<
         method: Adaptive,
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, TreeError> {
-        if method != Adaptive::DormandPrince {
-            return Err(TreeError::NotOffered {
-                what: "this adaptive method (Dormand–Prince only)",
-                instead: "use `Adaptive::DormandPrince`, or declare `coordinates = absolute` for generalised-α and \
-                          Radau IIA with error control",
-            });
-        }
         integrate(self, state, t_end, method, tolerance)
     }
 }
@@ -747,7 +756,11 @@ impl StepError for TreeError {
     fn retried(&self) -> bool {
         matches!(
             self,
-            TreeError::NonFinite | TreeError::Closure { .. } | TreeError::Singular { .. } | TreeError::Diverged { .. }
+            TreeError::NonFinite
+                | TreeError::Closure { .. }
+                | TreeError::Singular { .. }
+                | TreeError::Diverged { .. }
+                | TreeError::NotConverged { .. }
         )
     }
 }
@@ -772,14 +785,61 @@ impl<
         self.check_closed(state)
     }
 
-    /// Dormand–Prince on `(q, v)`: seven stages (the later six dropping the
-    /// closure rows the first dropped), the fifth-order state, and the root
-    /// mean square of the embedded error over `q` and `v`.
+    /// Radau IIA (`radau.rs`), or Dormand–Prince on `(q, v)`.
     fn trial(
         &mut self,
         y0: &TreeState<NQ, NV>,
         h: f64,
-        _method: Adaptive,
+        method: Adaptive,
+        tolerance: Tolerance,
+        report: &mut IntegrationReport,
+    ) -> Result<(TreeState<NQ, NV>, f64), TreeError> {
+        match method {
+            Adaptive::RadauIIA => {
+                let (end, step) = self.radau_trial(y0, h, &SVector::zeros(), Some(tolerance))?;
+                report.newton_iterations += step.iterations;
+                report.newton_matrices += step.matrices;
+                report.evaluations += step.evaluations;
+                Ok((end, step.error))
+            }
+            Adaptive::GeneralisedAlpha => self.alpha_trial(y0, h, tolerance, report),
+            _ => self.dormand_prince_trial(y0, h, tolerance, report),
+        }
+    }
+
+    fn accept(&mut self, next: TreeState<NQ, NV>, method: Adaptive) -> Result<TreeState<NQ, NV>, TreeError> {
+        let mut next = next;
+        match method {
+            // Its trial projected the end, where its memory continues.
+            Adaptive::GeneralisedAlpha => {}
+            Adaptive::RadauIIA => {
+                self.finish(&mut next)?;
+                self.radau_accepted(&next);
+            }
+            _ => {
+                self.finish(&mut next)?;
+            }
+        }
+        Ok(next)
+    }
+}
+
+impl<
+    S: TreeScene<NB, NQ, NV, NC>,
+    L: AppliedLoads<NB>,
+    const NB: usize,
+    const NQ: usize,
+    const NV: usize,
+    const NC: usize,
+> TreeSimulation<'_, S, NB, NQ, NV, NC, L>
+{
+    /// Dormand–Prince on `(q, v)`: seven stages (the later six dropping the
+    /// closure rows the first dropped), the fifth-order state, and the root
+    /// mean square of the embedded error over `q` and `v`.
+    fn dormand_prince_trial(
+        &mut self,
+        y0: &TreeState<NQ, NV>,
+        h: f64,
         tolerance: Tolerance,
         report: &mut IntegrationReport,
     ) -> Result<(TreeState<NQ, NV>, f64), TreeError> {
@@ -810,12 +870,6 @@ impl<
         let sum: f64 = (0..NQ).map(|i| squared(eq[i], y0.q[i], y.q[i])).sum::<f64>()
             + (0..NV).map(|i| squared(ev[i], y0.v[i], y.v[i])).sum::<f64>();
         Ok((y, libm::sqrt(sum / (NQ + NV).max(1) as f64)))
-    }
-
-    fn accept(&mut self, next: TreeState<NQ, NV>, _method: Adaptive) -> Result<TreeState<NQ, NV>, TreeError> {
-        let mut next = next;
-        self.finish(&mut next)?;
-        Ok(next)
     }
 }
 

@@ -39,5 +39,6 @@ mod tree_implicit;
 mod tree_implicit_rules;
 mod tree_joints;
 mod tree_linear;
+mod tree_radau;
 mod tree_reactions;
 mod urdf;

@@ -18,7 +18,7 @@ use crate::floating::{Drone, drone_state};
 #[scene(gravity = [0, 0, 0], coordinates = relative)]
 #[body(rotor, mass = 1.0, inertia = [0.01, 0.01, 0.01])]
 #[joint(pin = revolute(ground, rotor), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [0, 0, 0], stiffness = 1e4, spring_rest = 0.1)]
-struct Rotor;
+pub(crate) struct Rotor;
 
 fn midpoint(matrix: NewtonMatrix) -> SimulationOptions {
     implicit(Integrator::ImplicitMidpoint, matrix)
@@ -107,8 +107,9 @@ fn generalised_alpha_follows_its_recurrence_and_damps_a_stiff_spring() {
     assert!(alpha < 1e-9 && (midpoint - 200.0).abs() < 1e-6, "{alpha} J and {midpoint} J left of 200");
 }
 
-/// The end of `steps` steps of `h` from `start` with `options`.
-fn run<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+/// The end of `steps` steps of `h` from `start` with `options`, and the
+/// Newton iterations they took.
+pub(crate) fn run<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
     scene: &S,
     options: SimulationOptions,
     start: TreeState<NQ, NV>,
@@ -171,7 +172,7 @@ fn a_floating_tree_converges_at_second_order() {
 /// constrained dynamics at the midpoint, the end projected.
 #[derive(Scene)]
 #[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
-struct HardFourBar;
+pub(crate) struct HardFourBar;
 
 #[test]
 fn a_loop_converges_at_second_order() {
@@ -187,7 +188,7 @@ fn a_loop_converges_at_second_order() {
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base)]
 #[contact(fl = point(FL_FOOT); fr = point(FR_FOOT); hl = point(HL_FOOT); hr = point(HR_FOOT))]
-struct SoloFeet;
+pub(crate) struct SoloFeet;
 
 /// A quadruped on its four feet (a floating base, twelve contact rows, the
 /// feet's velocities projected out after each step): the constrained

@@ -40,7 +40,7 @@ pub struct DenseSimulation<'a, S, L, const NB: usize, const NV: usize, const M: 
     /// What generalised-α's last step left for the next.
     pub(super) history: Option<generalised_alpha::AlphaHistory<NB, NV, M>>,
     /// Radau IIA's last stages (the next step's starting values).
-    pub(super) radau: Option<RadauHistory<NB, NV, DenseJacobian<NV>>>,
+    pub(super) radau: Option<RadauHistory<SystemState<NB>, NV, DenseJacobian<NV>>>,
     /// The options (may be changed between steps).
     pub options: SimulationOptions,
 }

@@ -1,13 +1,12 @@
 //! Radau IIA on the dense path: `A_q`, `A_v` dense, the stage systems by [`Lu`].
 
-use nalgebra::{Complex, SMatrix, SVector};
+use nalgebra::{SMatrix, SVector};
 
 use super::displaced;
 use super::{DenseSimulation, Factored, StepRule};
 use crate::analysis::{AnalysisError, velocity_vector};
 use crate::dynamics::radau::*;
 use crate::dynamics::{AppliedLoads, NewtonMatrix};
-use crate::linalg::Lu;
 use crate::scene::{Scene, SystemState};
 
 /// `A_q` and `A_v`, dense.
@@ -29,19 +28,29 @@ impl<'r, 'a, S, L, const NB: usize, const NV: usize, const M: usize> DenseRadau<
     }
 }
 
-impl<S, L, const NB: usize, const NV: usize, const M: usize> RadauHost<NB, NV> for DenseRadau<'_, '_, S, L, NB, NV, M>
+impl<S, L, const NB: usize, const NV: usize, const M: usize> RadauHost<NV> for DenseRadau<'_, '_, S, L, NB, NV, M>
 where
     S: Scene<NB, NV, M>,
     L: AppliedLoads<NB>,
 {
+    type Group = Bodies<NB>;
+    type Error = AnalysisError;
     type Jacobian = DenseJacobian<NV>;
-    type Factors = Factors<NV>;
+    type Factors = DenseFactors<NV>;
+
+    fn error(e: AnalysisError) -> AnalysisError {
+        e
+    }
+
+    fn group(&self) -> &Bodies<NB> {
+        &Bodies
+    }
 
     fn newton_limits(&self) -> (usize, f64) {
         (self.sim.options.newton_max_iterations, self.sim.options.newton_tolerance)
     }
 
-    fn history(&mut self) -> &mut Option<RadauHistory<NB, NV, Self::Jacobian>> {
+    fn history(&mut self) -> &mut Option<RadauHistory<SystemState<NB>, NV, Self::Jacobian>> {
         &mut self.sim.radau
     }
 
@@ -67,7 +76,7 @@ where
     }
 
     fn factor(&mut self, jacobian: &Self::Jacobian, h: f64) -> Result<Self::Factors, AnalysisError> {
-        Factors::new(&jacobian.0, &jacobian.1, h)
+        DenseFactors::new(&jacobian.0, &jacobian.1, h)
     }
 
     fn solve_real(
@@ -124,50 +133,4 @@ where
         }
         Ok((aq, av, 2 * NV))
     }
-}
-/// The two factorised systems of a step `h`: `K(μ) = μ² I − μ A_v − A_q` at
-/// `μ = γ̂/h` and at `μ = (α + iβ)/h`.
-pub(super) struct Factors<const NV: usize> {
-    h: f64,
-    real: Lu<NV>,
-    complex: Lu<NV, Complex<f64>>,
-    av: SMatrix<f64, NV, NV>,
-}
-
-impl<const NV: usize> Factors<NV> {
-    fn new(aq: &SMatrix<f64, NV, NV>, av: &SMatrix<f64, NV, NV>, h: f64) -> Result<Self, AnalysisError> {
-        let mu = GAMMA / h;
-        let real = Lu::new(&(SMatrix::<f64, NV, NV>::identity() * (mu * mu) - av * mu - aq))?;
-        let mu = Complex::new(ALPHA, BETA) / h;
-        let complex =
-            SMatrix::<Complex<f64>, NV, NV>::identity() * (mu * mu) - av.map(real_part) * mu - aq.map(real_part);
-        Ok(Factors { h, real, complex: Lu::new(&complex)?, av: *av })
-    }
-
-    /// `(μ − [[0, I], [A_q, A_v]])⁻¹ (r, s)` at the real `μ = γ̂/h`.
-    fn solve_real(&self, r: &SVector<f64, NV>, s: &SVector<f64, NV>) -> (SVector<f64, NV>, SVector<f64, NV>) {
-        let mu = GAMMA / self.h;
-        let x = self.real.solve(&(s + r * mu - self.av * r));
-        (x, x * mu - r)
-    }
-
-    /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
-    /// imaginary parts of `x`, then of `y`.
-    #[allow(clippy::type_complexity)]
-    fn solve_complex(
-        &self,
-        (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
-        (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),
-    ) -> ((SVector<f64, NV>, SVector<f64, NV>), (SVector<f64, NV>, SVector<f64, NV>)) {
-        let mu = Complex::new(ALPHA, BETA) / self.h;
-        let r = r2.zip_map(r3, Complex::new);
-        let ar = (self.av * r2).zip_map(&(self.av * r3), Complex::new);
-        let x = self.complex.solve(&(s2.zip_map(s3, Complex::new) + r * mu - ar));
-        let y = x * mu - r;
-        ((x.map(|z| z.re), x.map(|z| z.im)), (y.map(|z| z.re), y.map(|z| z.im)))
-    }
-}
-/// `x + 0i`.
-fn real_part(x: f64) -> Complex<f64> {
-    Complex::new(x, 0.0)
 }
