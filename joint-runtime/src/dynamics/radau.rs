@@ -823,12 +823,32 @@ impl<const NV: usize> DenseFactors<NV> {
         Ok(DenseFactors { h, real, complex: Lu::new(&complex)?, av: *av })
     }
 
-    /// `(μ − [[0, I], [A_q, A_v]])⁻¹ (r, s)` at the real `μ = γ̂/h`.
-    pub(crate) fn solve_real(
+    /// [`solve_real`](Self::solve_real) into `(x, y)`: a host's
+    /// [`RadauHost::solve_real`].
+    pub(crate) fn solve_real_into(
         &self,
-        r: &SVector<f64, NV>,
-        s: &SVector<f64, NV>,
-    ) -> (SVector<f64, NV>, SVector<f64, NV>) {
+        (r, s): (&SVector<f64, NV>, &SVector<f64, NV>),
+        (x, y): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    ) {
+        (*x, *y) = self.solve_real(r, s);
+    }
+
+    /// [`solve_complex`](Self::solve_complex) into the real and imaginary
+    /// parts of `x` and `y`: a host's [`RadauHost::solve_complex`].
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn solve_complex_into(
+        &self,
+        r: (&SVector<f64, NV>, &SVector<f64, NV>),
+        s: (&SVector<f64, NV>, &SVector<f64, NV>),
+        x: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+        y: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
+    ) {
+        let ((xr, xi), (yr, yi)) = self.solve_complex(r, s);
+        (*x.0, *x.1, *y.0, *y.1) = (xr, xi, yr, yi);
+    }
+
+    /// `(μ − [[0, I], [A_q, A_v]])⁻¹ (r, s)` at the real `μ = γ̂/h`.
+    fn solve_real(&self, r: &SVector<f64, NV>, s: &SVector<f64, NV>) -> (SVector<f64, NV>, SVector<f64, NV>) {
         let mu = GAMMA / self.h;
         let x = self.real.solve(&(s + r * mu - self.av * r));
         (x, x * mu - r)
@@ -837,7 +857,7 @@ impl<const NV: usize> DenseFactors<NV> {
     /// The same at `μ = (α + iβ)/h` for `(r₂ + i r₃, s₂ + i s₃)`: the real and
     /// imaginary parts of `x`, then of `y`.
     #[allow(clippy::type_complexity)]
-    pub(crate) fn solve_complex(
+    fn solve_complex(
         &self,
         (r2, r3): (&SVector<f64, NV>, &SVector<f64, NV>),
         (s2, s3): (&SVector<f64, NV>, &SVector<f64, NV>),

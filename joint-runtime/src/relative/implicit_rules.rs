@@ -181,15 +181,22 @@ impl<
         tau: &SVector<f64, NV>,
         kept: Option<Lu<NV>>,
     ) -> Result<StepReport, TreeError> {
-        let (a0, first) = self.constrained(state, tau, None)?;
+        // The start's dynamics: the midpoint's predictor, a fresh
+        // generalised-α start, and the rows a loop drops. A continuing
+        // generalised-α step on a tree without rows needs none of them.
+        let memory = self.alpha.filter(|m| alpha && m.end == *state);
+        let (a0, first) = match memory {
+            Some(m) if NC == 0 => (m.vdot, None),
+            _ => self.constrained(state, tau, None)?,
+        };
         // Predictors: the explicit midpoint velocity; the last acceleration.
         let (rule, mut x) = match alpha {
             true => {
                 let c = Coefficients::checked(self.options().spectral_radius)
                     .map_err(|_| TreeError::BadOption { name: "spectral_radius" })?;
-                let (vdot, a) = match self.alpha {
-                    Some(m) if m.end == *state => (m.vdot, m.a),
-                    _ => (a0, a0),
+                let (vdot, a) = match memory {
+                    Some(m) => (m.vdot, m.a),
+                    None => (a0, a0),
                 };
                 (Rule::Alpha { c, vdot, a }, vdot)
             }

@@ -212,7 +212,7 @@ where
         (r, s): (&SVector<f64, NV>, &SVector<f64, NV>),
         (x, y): (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
     ) {
-        (*x, *y) = factors.solve_real(r, s);
+        factors.solve_real_into((r, s), (x, y));
     }
 
     fn solve_complex(
@@ -223,8 +223,7 @@ where
         x: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
         y: (&mut SVector<f64, NV>, &mut SVector<f64, NV>),
     ) {
-        let ((xr, xi), (yr, yi)) = factors.solve_complex(r, s);
-        (*x.0, *x.1, *y.0, *y.1) = (xr, xi, yr, yi);
+        factors.solve_complex_into(r, s, x, y);
     }
 }
 

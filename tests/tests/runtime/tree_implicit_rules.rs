@@ -174,14 +174,18 @@ fn a_floating_tree_converges_at_second_order() {
 #[scene(mjcf = "data/mjcf/four_bar.xml", equality = hard)]
 pub(crate) struct HardFourBar;
 
-#[test]
-fn a_loop_converges_at_second_order() {
-    // Off its upright balance: the crank turned 0.3 rad, the loop closed.
+/// The four-bar off its upright balance: the crank turned 0.3 rad, the
+/// loop closed.
+pub(crate) fn four_bar_start() -> TreeState<3, 3> {
     let sim = TreeSimulation::new(&HardFourBar).unwrap();
     let mut guess = sim.tree().zero_state();
     guess.q[0] = 0.3;
-    let start = sim.assemble(&guess).unwrap();
-    second_order(&HardFourBar, start, (0.5, 0.025));
+    sim.assemble(&guess).unwrap()
+}
+
+#[test]
+fn a_loop_converges_at_second_order() {
+    second_order(&HardFourBar, four_bar_start(), (0.5, 0.025));
 }
 
 /// The floating Solo12 from its URDF file on its four feet.
@@ -195,12 +199,16 @@ pub(crate) struct SoloFeet;
 /// dynamics' exact derivatives make the Newton matrix.
 #[test]
 fn a_robot_on_its_feet_converges_at_second_order() {
+    second_order(&SoloFeet, solo_start(), (0.1, 0.01));
+}
+
+/// The Solo12 30 cm up, its feet on the ground and its joints moving.
+pub(crate) fn solo_start() -> TreeState<19, 18> {
     let sim = TreeSimulation::new(&SoloFeet).unwrap();
     let mut guess = sim.tree().zero_state();
     guess.q[2] = 0.3;
     for (k, x) in guess.v.iter_mut().enumerate() {
         *x = 0.5 * (k as f64).sin();
     }
-    let start = sim.assemble(&guess).unwrap();
-    second_order(&SoloFeet, start, (0.1, 0.01));
+    sim.assemble(&guess).unwrap()
 }

@@ -9,7 +9,7 @@ use joint_runtime::nalgebra::{Matrix2, SVector, Vector2};
 use joint_runtime::relative::{TreeScene, TreeSimulation, TreeState};
 
 use crate::floating::{Drone, drone_state};
-use crate::tree_implicit_rules::{HardFourBar, Rotor, SoloFeet, run};
+use crate::tree_implicit_rules::{HardFourBar, Rotor, SoloFeet, four_bar_start, run, solo_start};
 
 fn radau(matrix: NewtonMatrix) -> SimulationOptions {
     SimulationOptions::default().with_integrator(Integrator::RadauIIA).with_newton_matrix(matrix)
@@ -88,24 +88,13 @@ fn a_floating_tree_converges_at_fifth_order() {
 /// constrained dynamics at every stage, the end projected.
 #[test]
 fn a_loop_converges_at_fifth_order() {
-    let sim = TreeSimulation::new(&HardFourBar).unwrap();
-    let mut guess = sim.tree().zero_state();
-    guess.q[0] = 0.3;
-    let start = sim.assemble(&guess).unwrap();
-    fifth_order(&HardFourBar, start, (0.5, 0.05));
+    fifth_order(&HardFourBar, four_bar_start(), (0.5, 0.05));
 }
 
 /// The floating Solo12 on its four feet.
 #[test]
 fn a_robot_on_its_feet_converges_at_fifth_order() {
-    let sim = TreeSimulation::new(&SoloFeet).unwrap();
-    let mut guess = sim.tree().zero_state();
-    guess.q[2] = 0.3;
-    for (k, x) in guess.v.iter_mut().enumerate() {
-        *x = 0.5 * (k as f64).sin();
-    }
-    let start = sim.assemble(&guess).unwrap();
-    fifth_order(&SoloFeet, start, (0.1, 0.02));
+    fifth_order(&SoloFeet, solo_start(), (0.1, 0.02));
 }
 
 /// Error control: the drone's end at two tolerances against a fine RK4
@@ -124,11 +113,8 @@ fn error_control_follows_the_tolerance() {
         assert!(report.newton_matrices >= 1 && report.accepted > 2, "{report:?}");
         last = error;
     }
-    let sim = TreeSimulation::new(&HardFourBar).unwrap();
-    let mut guess = sim.tree().zero_state();
-    guess.q[0] = 0.3;
-    let mut state = sim.assemble(&guess).unwrap();
-    let mut sim = sim;
+    let mut sim = TreeSimulation::new(&HardFourBar).unwrap();
+    let mut state = four_bar_start();
     sim.integrate(&mut state, 0.5, Adaptive::RadauIIA, Tolerance { rtol: 1e-8, atol: 1e-8 }).unwrap();
     let rows = sim.closure_rows(&state);
     assert!(rows.phi.amax() < 1e-12 && (rows.jacobian * state.v).amax() < 1e-12, "{}", rows.phi.amax());
