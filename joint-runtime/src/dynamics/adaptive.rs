@@ -302,10 +302,21 @@ pub(crate) fn alpha_estimate<const NB: usize, const NV: usize>(
 ) -> f64 {
     report.newton_iterations += iterations;
     report.newton_matrices += matrices;
-    let (beta, gamma) = super::generalised_alpha::newmark(spectral_radius);
-    let e = da * ((beta - 1.0 / 6.0) * h * h);
-    let ev = da * ((gamma - 0.5) * h);
+    let (e, ev) = alpha_error_increments(da, h, spectral_radius);
     increment_error(y0, y1, &e, &ev, tolerance)
+}
+
+/// Géradin and Cardona's estimate of a generalised-α step whose
+/// pseudo-acceleration changed by `da`: `(β − 1/6) h² da` for the
+/// positions, `(γ − ½) h da` for the velocities (both engines' error
+/// control; see the module docs).
+pub(crate) fn alpha_error_increments<const NV: usize>(
+    da: &SVector<f64, NV>,
+    h: f64,
+    spectral_radius: f64,
+) -> (SVector<f64, NV>, SVector<f64, NV>) {
+    let (beta, gamma) = super::generalised_alpha::newmark(spectral_radius);
+    (da * ((beta - 1.0 / 6.0) * h * h), da * ((gamma - 0.5) * h))
 }
 
 /// Dormand–Prince's error norm over `r`, `p` and the velocities.

@@ -49,7 +49,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
-use crate::dynamics::adaptive::{IntegrationReport, Tolerance};
+use crate::dynamics::adaptive::{IntegrationReport, Tolerance, alpha_error_increments};
 use crate::dynamics::radau::RadauGroup;
 use crate::dynamics::{AppliedLoads, Coefficients, Integrator, ModifiedNewton, NewtonMatrix, StepReport};
 use crate::linalg::{Lu, PivotedCholesky};
@@ -266,10 +266,8 @@ impl<
         report.newton_iterations += step.newton_iterations;
         report.newton_matrices += step.newton_matrices;
         report.evaluations += step.newton_iterations + 1;
-        let c = Coefficients::checked(self.options().spectral_radius)
-            .map_err(|_| TreeError::BadOption { name: "spectral_radius" })?;
         let change = self.alpha.map_or(SVector::zeros(), |m| m.a - m.a_start);
-        let (e, ev) = (change * ((c.beta - 1.0 / 6.0) * h * h), change * ((c.gamma - 0.5) * h));
+        let (e, ev) = alpha_error_increments(&change, h, self.options().spectral_radius);
         let err = RadauGroup::increment_error(self.tree(), y0, &end, &e, &ev, tolerance);
         if err.is_nan() || err > 1.0 {
             self.alpha = saved;

@@ -132,6 +132,9 @@ pub(super) struct TreeRadau<'r, 'a, S, L, const NB: usize, const NQ: usize, cons
     sim: &'r mut TreeSimulation<'a, S, NB, NQ, NV, NC, L>,
     tau: SVector<f64, NV>,
     order: Option<PivotedCholesky<NC>>,
+    /// The start's accelerations, which a differenced Jacobian at the
+    /// start reads rather than evaluates again.
+    a0: SVector<f64, NV>,
 }
 
 // The methods that evaluate the dynamics are inlined into the step, as the
@@ -176,7 +179,7 @@ where
     #[inline(always)]
     fn start(&mut self, y0: &TreeState<NQ, NV>, out: &mut SVector<f64, NV>) -> Result<(), TreeError> {
         let (a, first) = self.sim.constrained(y0, &self.tau, None)?;
-        (*out, self.order) = (a, first);
+        (*out, self.order, self.a0) = (a, first, a);
         Ok(())
     }
 
@@ -232,12 +235,12 @@ where
     S: TreeScene<NB, NQ, NV, NC>,
     L: AppliedLoads<NB>,
 {
-    /// `A_q`, `A_v` by forward differences of the dynamics under the start's
-    /// rule, and the `2 NV + 1` evaluations spent.
+    /// `A_q`, `A_v` at the step's start `y0` by forward differences of the
+    /// dynamics under its rule (from its accelerations, which `start`
+    /// kept), and the `2 NV` evaluations spent.
     #[inline(always)]
     fn jacobian_differences(&mut self, y0: &TreeState<NQ, NV>) -> Result<(TreeJacobian<NV>, usize), TreeError> {
-        let mut a0 = SVector::<f64, NV>::zeros();
-        self.accelerations(y0, &mut a0)?;
+        let a0 = self.a0;
         let (mut aq, mut av) = (SMatrix::<f64, NV, NV>::zeros(), SMatrix::<f64, NV, NV>::zeros());
         let mut a = SVector::<f64, NV>::zeros();
         // √ε steps: the forward difference's best.
@@ -255,7 +258,7 @@ where
             self.accelerations(&moved, &mut a)?;
             v.copy_from(&((a - a0) / eps));
         }
-        Ok(((aq, av), 2 * NV + 1))
+        Ok(((aq, av), 2 * NV))
     }
 }
 
@@ -281,7 +284,7 @@ impl<
         tolerance: Option<Tolerance>,
     ) -> Result<(TreeState<NQ, NV>, crate::dynamics::radau::RadauStep), TreeError> {
         let mut work = RadauWork::at(*state);
-        let mut host = TreeRadau { sim: self, tau: *tau, order: None };
+        let mut host = TreeRadau { sim: self, tau: *tau, order: None, a0: SVector::zeros() };
         let step = step_radau_in(&mut host, &mut work, h, tolerance)?;
         Ok((*work.end_mut(), step))
     }
