@@ -29,7 +29,7 @@ const STEPS: usize = 500;
 /// The N-four-bar with three loops (`joint_examples::scaling::ladder_scene!`
 /// with `second_order`).
 #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-#[scene(gravity = [0, -9.81, 0], second_order)]
+#[scene(coordinates = absolute, gravity = [0, -9.81, 0], second_order)]
 #[body(crank[4], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
 #[body(coupler[3], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
 #[joint(pin[i in 0..4] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [i, 0, 0], rho2 = [0, -0.5, 0])]

@@ -20,7 +20,9 @@
 //! `INTEGRATOR=alpha`, `midpoint` or `radau` the steps are that implicit
 //! integrator's (RK4 otherwise), so that their stack can be measured too.
 //! With `COORDINATES=relative` the chains, arms and loops run in relative
-//! coordinates (`joint_runtime::relative`, RK4, the same start converted); with
+//! coordinates (`joint_runtime::relative`, RK4, the same start converted);
+//! `COORDINATES=default` runs the 6-bar arm declared with no word about
+//! coordinates, through the one `Simulation::new` (whatever the scene gets); with
 //! `MEASURE=dynamics` as well, `STEPS` calls of inverse dynamics and of the
 //! mass matrix are timed instead (ns per call, at the state a MuJoCo harness
 //! can time `mj_inverse` and `mj_fullM` at).
@@ -38,7 +40,7 @@ use std::time::Instant;
 use joint_examples::double_cardan::{Arrangement, DoubleCardan, FreeDoubleCardan, Geometry, Phasing};
 use joint_examples::scaling::chain_start;
 use joint_examples::{bricard, four_bar};
-use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, SimulationOptions};
+use joint_runtime::dynamics::{AbsoluteSimulation, Integrator, NoLoads, Simulation, SimulationOptions};
 use joint_runtime::nalgebra::{UnitQuaternion, Vector3};
 use joint_runtime::relative::{TreeScene, TreeSimulation};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
@@ -89,6 +91,19 @@ arm_scene!(
     (j11, 9, 10, [0, 0, 1]),
     (j12, 10, 11, [0, 1, 0])
 );
+
+/// The 6-bar arm as a newcomer declares it: no word about coordinates
+/// (`COORDINATES=default`, made by the one `Simulation::new`).
+#[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
+#[scene(gravity = [0, 0, -9.81])]
+#[body(bar[6], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
+#[joint(base = revolute(ground, bar[0]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j2 = revolute(bar[0], bar[1]), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j3 = revolute(bar[1], bar[2]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j4 = revolute(bar[2], bar[3]), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j5 = revolute(bar[3], bar[4]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+#[joint(j6 = revolute(bar[4], bar[5]), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
+struct Arm6Undeclared;
 
 /// The arm's start: bar `i` centred at `(i + 0.5, 0, 0)`, unrotated, at rest.
 fn arm_start<const NB: usize>() -> SystemState<NB> {
@@ -162,10 +177,24 @@ fn run_tree<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usiz
 where
     S: TreeScene<NB, NQ, NV, NC>,
 {
-    let mut sim = Box::new(TreeSimulation::new(scene)?);
+    let sim = Box::new(TreeSimulation::new(scene)?);
     if std::env::var("MEASURE").as_deref() == Ok("dynamics") {
         return time_dynamics(name, &sim, steps, rounds);
     }
+    time_tree(name, sim, start, steps, rounds)
+}
+
+/// The steps of [`run_tree`] on a simulation made already.
+fn time_tree<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
+    name: &str,
+    mut sim: Box<TreeSimulation<S, NB, NQ, NV, NC>>,
+    start: SystemState<NB>,
+    steps: usize,
+    rounds: usize,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    S: TreeScene<NB, NQ, NV, NC>,
+{
     let start = sim.tree().tree_state(&start, 1e-12)?;
     let mut end = start;
     let mut us = Vec::with_capacity(rounds);
@@ -266,6 +295,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rounds: usize = args.get(3).map_or(Ok(3), |s| s.parse())?;
     let name = format!("{kind}{n}");
     let relative = std::env::var("COORDINATES").as_deref() == Ok("relative");
+    if std::env::var("COORDINATES").as_deref() == Ok("default") {
+        let options = SimulationOptions::default();
+        let sim = Simulation::new(&Arm6Undeclared, NoLoads, &[], options)?.into_engine();
+        return time_tree("arm6-default", Box::new(sim), arm_start(), steps, rounds);
+    }
     // Each chain and arm in the coordinates asked for.
     macro_rules! go {
         ($scene:expr, $start:expr) => {

@@ -26,13 +26,20 @@ use joint_runtime::nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 
 /// Declares the chain of `$n` bars (scene options after the size:
-/// `second_order` for the terms generalised-α needs, `coordinates = relative`).
+/// `second_order` for the terms generalised-α needs; absolute coordinates
+/// unless `coordinates = ..` comes first among them).
 #[macro_export]
 macro_rules! chain_scene {
+    ($name:ident, $n:tt, coordinates = $c:ident $(, $($option:tt)+)?) => {
+        $crate::chain_scene!(@ $name, $n, coordinates = $c $(, $($option)+)?);
+    };
     ($name:ident, $n:tt $(, $($option:tt)+)?) => {
+        $crate::chain_scene!(@ $name, $n, coordinates = absolute $(, $($option)+)?);
+    };
+    (@ $name:ident, $n:tt, $($option:tt)+) => {
         /// A chain of bars on spherical joints (see the module docs).
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81] $(, $($option)+)?)]
+        #[scene(gravity = [0, 0, -9.81], $($option)+)]
         #[body(bar[$n], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
         #[joint(ball[i in 1..$n] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
@@ -46,7 +53,7 @@ macro_rules! ladder_scene {
     ($name:ident, $n:tt, $cranks:tt $(, $option:ident)?) => {
         /// The N-four-bar: cranks pinned to the ground, couplers between them.
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, -9.81, 0] $(, $option)?)]
+        #[scene(gravity = [0, -9.81, 0], coordinates = absolute $(, $option)?)]
         #[body(crank[$cranks], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
         #[body(coupler[$n], mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 0.08333333333333333])]
         #[joint(pin[i in 0..$cranks] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [i, 0, 0], rho2 = [0, -0.5, 0])]
@@ -62,7 +69,7 @@ macro_rules! tree_scene {
     ($name:ident, $k:tt $(, $option:ident)?) => {
         /// A spine of bars with a rib hanging from each.
         #[derive(joint_runtime::Scene, Clone, Copy, Debug, Default)]
-        #[scene(gravity = [0, 0, -9.81] $(, $option)?)]
+        #[scene(gravity = [0, 0, -9.81], coordinates = absolute $(, $option)?)]
         #[body(spine[$k], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[body(rib[$k], mass = 1.0, inertia = [0.00125, 0.08395833333333333, 0.08395833333333333])]
         #[joint(pivot = spherical(ground, spine[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]

@@ -50,8 +50,9 @@ pub fn derive_joint(input: proc_macro::TokenStream) -> proc_macro::TokenStream {
 /// struct Pendulum;
 /// ```
 ///
-/// `#[scene(..)]` options: `gravity = [x, y, z]`, `coordinates = absolute |
-/// relative | both`, `second_order`, and for a robot's file (features `urdf`,
+/// `#[scene(..)]` options: `gravity = [x, y, z]`, `coordinates = relative |
+/// absolute | both` (relative, a tree of the joints' freedoms, unless the
+/// scene says otherwise), `second_order`, and for a robot's file (features `urdf`,
 /// `mjcf`) `urdf = "path"` or `mjcf = "path"` (relative to the crate, or else to the source file),
 /// `floating_base` (URDF: the root link floats), `file_damping` (URDF: its
 /// `<dynamics damping>` in the dynamics), `mimic = coupled |

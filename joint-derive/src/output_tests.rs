@@ -502,7 +502,7 @@ fn scene_cardan_shaft() {
     check_with(
         "scene_cardan_shaft",
         parse_quote! {
-            #[scene(gravity = [0, 0, -9.81])]
+            #[scene(gravity = [0, 0, -9.81], coordinates = absolute)]
             #[body(input, mass = 1.0, inertia = [0.01, 0.1, 0.1])]
             #[body(output, mass = 1.0, inertia = [0.01, 0.1, 0.1])]
             #[joint(bearing_in = revolute(ground, input), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0])]

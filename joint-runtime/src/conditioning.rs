@@ -128,6 +128,7 @@ impl<const NV: usize> Conditioning<NV> {
 ///
 /// /// A link hinged at the origin about y: mobility 1.
 /// #[derive(Scene)]
+/// #[scene(coordinates = absolute)]
 /// #[body(link, mass = 1.0, inertia = [0.0833, 0.0833, 0.001])]
 /// #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 /// struct Pendulum;

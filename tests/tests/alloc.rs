@@ -96,7 +96,7 @@ struct Motor<F> {
 /// A double pendulum with a driven first hinge and a spring-free second one
 /// (with its second-order terms: the implicit integrators' exact matrices).
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], second_order)]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
 #[body(upper, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[body(lower, mass = 0.5, inertia = [0.05, 0.05, 0.005])]
 #[joint(top = revolute(ground, upper), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]

@@ -185,7 +185,7 @@ fn build_time(n: usize, second: bool) -> Result<(f64, Option<f64>), String> {
     std::fs::write(dir.join("Cargo.toml"), manifest).map_err(|e| e.to_string())?;
     let main = format!(
         "use joint_runtime::dynamics::{{NoLoads, Simulation, SimulationOptions}};\n\
-         #[derive(joint_runtime::Scene)]\n#[scene(gravity = [0, 0, -9.81]{option})]\n\
+         #[derive(joint_runtime::Scene)]\n#[scene(gravity = [0, 0, -9.81], coordinates = absolute{option})]\n\
          #[body(bar[{n}], mass = 1.0, inertia = [0.00125, 0.084, 0.084])]\n\
          #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]\n\
          #[joint(ball[i in 1..{n}] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]\n\

@@ -134,7 +134,7 @@ pub(super) fn read(
         errors.at(
             lit.span(),
             "the file's equalities are soft as MuJoCo makes them, which is modelled in relative coordinates only; \
-             expected `coordinates = relative` (a file's default), or `equality = hard` to read them as ideal \
+             expected `coordinates = relative` (the default), or `equality = hard` to read them as ideal \
              constraints",
         );
     }
@@ -145,7 +145,7 @@ pub(super) fn read(
             lit.span(),
             format!(
                 "the file couples joint `{}` to another; couplings are rows in relative coordinates only: expected \
-                 `coordinates = relative` (a file's default), or `mimic = independent` to read them as independent \
+                 `coordinates = relative` (the default), or `mimic = independent` to read them as independent \
                  joints",
                 c.name
             ),

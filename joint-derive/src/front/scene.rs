@@ -280,10 +280,10 @@ pub struct SceneDecl {
     pub time_types: Vec<syn::Type>,
     /// `#[scene(second_order)]`: where it was asked for.
     pub second_order: Option<Span>,
-    /// `#[scene(coordinates = relative | both)]`: the joints as a tree,
-    /// parents first.
+    /// Relative coordinates (`coordinates = relative`, the default, or
+    /// `both`): the joints as a tree, parents first.
     pub tree: Option<Vec<super::tree::TreeEdge>>,
-    /// Whether the absolute impls are wanted (`absolute`, the default, and `both`).
+    /// Whether the absolute impls are wanted (`coordinates = absolute` or `both`).
     pub absolute: bool,
     /// Files read (`urdf = ".."`), absolute: the output includes them so that
     /// cargo rebuilds when they change.
@@ -326,13 +326,13 @@ pub struct SceneShape {
     pub bodies: Vec<BodyName>,
     /// Rows of all joints.
     pub rows: usize,
-    /// With `coordinates = relative`: the tree's coordinates and velocities
+    /// In relative coordinates (the default): the tree's coordinates and velocities
     /// (the joints that are not tree joints count none; read from the
     /// attributes alone, a joint of a tree kind that closes a loop counts
     /// too: the derive puts the spanning tree's sizes here when it has them).
     pub tree: Option<(usize, usize)>,
-    /// Whether the absolute impls are derived (not `coordinates = relative`):
-    /// the one `Simulation` then runs the absolute engine.
+    /// Whether the absolute impls are derived (`coordinates = absolute` or
+    /// `both`): with `absolute` the one `Simulation` runs the absolute engine.
     pub absolute: bool,
     /// The robot file's format key (`urdf`, `mjcf`), if the scene names one:
     /// the stub then has the file's constants too, empty.
@@ -379,14 +379,10 @@ pub fn shape(input: &syn::DeriveInput) -> Option<SceneShape> {
         (None, Some(_)) => Some("mjcf"),
         (None, None) => None,
     };
-    let file = format.is_some();
-    let relative = match coordinates.as_deref() {
-        Some(word) => matches!(word, "relative" | "both"),
-        None => file,
-    };
+    let relative = coordinates.as_deref().is_none_or(|word| matches!(word, "relative" | "both"));
     let tree = relative.then_some((tree.0 + 7 * floating, tree.1 + 6 * floating));
-    let absolute = coordinates.as_deref().map_or(!file, |word| word != "relative");
-    (!bodies.is_empty() || file).then_some(SceneShape { bodies, rows, tree, absolute, file: format })
+    let absolute = coordinates.as_deref().is_some_and(|word| word != "relative");
+    (!bodies.is_empty() || format.is_some()).then_some(SceneShape { bodies, rows, tree, absolute, file: format })
 }
 
 /// The value of `#[scene(.., KEY = VALUE, ..)]` as a word (an identifier's
@@ -521,7 +517,7 @@ pub fn parse(input: &syn::DeriveInput) -> syn::Result<SceneDecl> {
     let named = super::contact::Named { bodies: &scene.bodies, links: links.collect() };
     scene.contacts = super::contact::parse(input, &named, &mut errors);
     if let (Some(c), None) = (scene.contacts.first(), relative) {
-        let message = "contacts are rows on a tree; expected `#[scene(coordinates = relative)]` (or `both`)";
+        let message = "contacts are rows on a tree; expected `coordinates = relative` (the default) or `both`";
         errors.at(c.name.span(), message);
     }
     if relative.is_some() && errors.is_empty() {
@@ -712,15 +708,14 @@ fn scene_options(input: &syn::DeriveInput, fields: &Fields, errors: &mut Errors)
     }
     let gravity = gravity.take().map(|(q, _)| q);
     let file = file.take().map(|(file, _)| file);
-    // A robot's file is a tree: relative coordinates unless asked otherwise.
+    // A scene that does not choose runs on the tree, its file's or its
+    // attributes': the engine that reaches an accuracy soonest on trees and
+    // most loops (the guide's "Choosing coordinates" has the measurements).
     let (relative, absolute) = match coordinates.take() {
         Some((c, span)) if c == "relative" => (Some(span), false),
         Some((c, span)) if c == "both" => (Some(span), true),
         Some(_) => (None, true),
-        None => match &file {
-            Some((_, path)) => (Some(path.span()), false),
-            None => (None, true),
-        },
+        None => (Some(file.as_ref().map_or(input.ident.span(), |(_, path)| path.span())), false),
     };
     let reading = Reading {
         floating_base: floating_base.take().map(|(_, span)| span),

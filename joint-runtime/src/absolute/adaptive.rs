@@ -40,7 +40,7 @@ where
     ///
     /// /// A bar hanging from a spherical joint at the origin.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81])]
+    /// #[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
     /// #[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
     /// #[joint(pivot = spherical(ground, bar), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     /// struct Pendulum;

@@ -77,7 +77,7 @@ impl<const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Differe
 /// use joint_runtime::{OmegaBody, Scene, SparseJacobian, SystemState};
 ///
 /// #[derive(Scene)]
-/// #[scene(gravity = [0, 0, -9.81], second_order)]
+/// #[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
 /// #[body(upper, mass = 1.0, inertia = [0.08, 0.08, 0.001])]
 /// #[body(lower, mass = 1.0, inertia = [0.08, 0.08, 0.001])]
 /// #[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]

@@ -67,7 +67,7 @@ where
     /// use joint_runtime::{OmegaBody, Scene, SystemState};
     ///
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], second_order)]
+    /// #[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
     /// #[body(link, mass = 1.0, inertia = [0.0833, 0.0833, 0.001])]
     /// #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
     /// struct Pendulum;

@@ -25,6 +25,7 @@ use crate::scene::{Scene, SparseJacobian, SystemState};
 ///
 /// /// A link hinged at the origin about y, its centre of mass 0.5 m along x.
 /// #[derive(Scene)]
+/// #[scene(coordinates = absolute)]
 /// #[body(link, mass = 1.0, inertia = [0.01, 0.1, 0.1])]
 /// #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
 /// struct Pendulum;

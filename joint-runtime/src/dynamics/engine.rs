@@ -30,7 +30,7 @@ use crate::{Scene, SparseJacobian, SystemState};
 /// }
 ///
 /// #[derive(Scene)]
-/// #[scene(gravity = [0, 0, -9.81])]
+/// #[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 /// #[body(bar, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
 /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
 /// struct Absolute;

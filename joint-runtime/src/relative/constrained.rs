@@ -239,7 +239,7 @@ impl<
     ///
     /// /// A bar pinned at one end about y, its other end held by a point contact.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[scene(gravity = [0, 0, -9.81])]
     /// #[body(bar, mass = 2.0, inertia = [0.001, 0.1, 0.1])]
     /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     /// #[contact(tip = point(bar), at = [0.5, 0, 0])]
@@ -356,7 +356,7 @@ impl<
     ///
     /// /// A bar pinned at one end about y, its other end on a point contact.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[scene(gravity = [0, 0, -9.81])]
     /// #[body(bar, mass = 2.0, inertia = [0.001, 0.1, 0.1])]
     /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     /// #[contact(tip = point(bar), at = [0.5, 0, 0])]

@@ -187,7 +187,7 @@ impl<
     ///
     /// /// A bar of 1 m pinned at its end about y.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative, second_order)]
+    /// #[scene(gravity = [0, 0, -9.81], second_order)]
     /// #[body(bar, mass = 2.0, inertia = [0.001, 0.1, 0.1])]
     /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     /// struct Bar;

@@ -82,7 +82,7 @@ impl<
     ///
     /// /// A light bar on a hinge, held at 0.5 rad by a stiff PD law.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[scene(gravity = [0, 0, -9.81])]
     /// #[body(bar, mass = 0.1, inertia = [0.0001, 0.002, 0.002])]
     /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.1, 0, 0])]
     /// struct Bar;

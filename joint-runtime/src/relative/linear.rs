@@ -65,7 +65,7 @@ impl<
     ///
     /// /// A bar of 1 m pinned at its end about y, hanging at θ = π/2.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[scene(gravity = [0, 0, -9.81])]
     /// #[body(bar, mass = 1.0, inertia = [0.001, 0.08, 0.08])]
     /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     /// struct Bar;

@@ -635,7 +635,7 @@ impl<
     /// use joint_runtime::relative::TreeSimulation;
     ///
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[scene(gravity = [0, 0, -9.81])]
     /// #[body(bar, mass = 1.0, inertia = [0.001, 0.0833, 0.0833])]
     /// #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     /// struct Pendulum;

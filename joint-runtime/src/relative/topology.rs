@@ -407,7 +407,7 @@ impl<const NB: usize, const NQ: usize, const NV: usize> Tree<NB, NQ, NV> {
     ///
     /// /// An arm on a ball joint with a hand on a hinge.
     /// #[derive(Scene)]
-    /// #[scene(gravity = [0, 0, -9.81], coordinates = relative)]
+    /// #[scene(gravity = [0, 0, -9.81])]
     /// #[body(arm, mass = 1.0, inertia = [0.08, 0.08, 0.01])]
     /// #[body(hand, mass = 0.2, inertia = [0.001, 0.001, 0.001])]
     /// #[joint(shoulder = spherical(ground, arm), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]

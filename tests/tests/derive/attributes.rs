@@ -75,14 +75,14 @@ fn a_joint_with_named_constants_reads_them_in_any_scalar() {
 
 /// A pendulum whose data are named constants.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -consts::G])]
+#[scene(coordinates = absolute, gravity = [0, 0, -consts::G])]
 #[body(rod, mass = 2.0 * RA, inertia = [RA, RA, consts::D / 40.0])]
 #[joint(hinge = revolute(ground, rod), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0], rho2 = [0, 0, consts::D + 0.25])]
 struct NamedPendulum;
 
 /// The same pendulum with the numbers written out.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(rod, mass = 0.014, inertia = [0.007, 0.007, 0.00625])]
 #[joint(hinge = revolute(ground, rod), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 struct LiteralPendulum;
@@ -104,7 +104,7 @@ fn a_scene_with_named_constants_is_the_scene_with_their_values() {
 /// (`−∫ x y dm`: the box's long extent along (1, 1, 0)/√2 puts positive
 /// `x y` mass there). Six entries are the tensor's, in that order.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(turned, mass = 2.0, inertia = [2, 2, 3.5, -1, 0, 0])]
 #[joint(pin = spherical(ground, turned), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
 struct TurnedBox;

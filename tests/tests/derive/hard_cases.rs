@@ -138,7 +138,7 @@ fn tiny_offsets_and_short_axes() {
 
 /// A Cardan shaft like `examples/src/cardan.rs`'s, but accepting any bend.
 #[derive(Scene, Clone, Copy, Debug)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(input, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[body(output, mass = 2.0, inertia = [0.001, 0.17, 0.17])]
 #[joint(input_bearing = revolute(ground, input), axis1 = [1, 0, 0], axis2 = [1, 0, 0], rho1 = [-0.5, 0, 0], rho2 = [0, 0, 0])]

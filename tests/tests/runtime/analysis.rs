@@ -14,7 +14,7 @@ use joint_tests::scenes::hanging_rods;
 /// Three rods of length 1 (m = 1, I = diag(1/12, 1/12, 1e-3)) hanging from the
 /// origin along −z, ball joints between.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(link0, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[body(link1, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[body(link2, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
@@ -27,7 +27,7 @@ struct Chain;
 /// second declaration reads its points from fields: the derive rejects a row that
 /// repeats another at compile time, so the repetition is made at run time.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(link0, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[body(link1, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[body(link2, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
@@ -139,6 +139,7 @@ fn non_finite_input_names_body_and_field() {
 /// One rod (length 1) whose top is held at the origin and whose bottom is held 5 m
 /// below it: impossible.
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(rod, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[joint(top = spherical(ground, rod), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 #[joint(bottom = spherical(ground, rod), rho1 = [0, 0, -5], rho2 = [0, 0, -0.5])]
@@ -181,6 +182,7 @@ fn impossible_configuration_is_a_clear_error() {
 /// A pendulum on a hinge about the ground z axis, driven to the angle θ(t): no
 /// degree of freedom left. The centre of mass is 1 m from the hinge along body x.
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(crank, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[joint(hinge = revolute(ground, crank), f = [1, 0, 0], g = [0, 1, 0], h = [0, 0, 1], rho1 = [0, 0, 0], rho2 = [-1, 0, 0])]
 #[joint(motor = rotational_driver(ground, crank), f = [1, 0, 0], g = [0, 1, 0], k = [1, 0, 0], theta = drive)]

@@ -17,7 +17,7 @@ const G: f64 = 9.81;
 
 /// A bob (mass `mass`, I = 0.01) 1 m below a ball joint at the origin.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], second_order)]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
 #[body(bob, mass = mass, inertia = [0.01, 0.01, 0.01])]
 #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
 pub(crate) struct Pendulum {
@@ -38,7 +38,7 @@ pub(crate) fn swung(angle: f64) -> SystemState<1> {
 /// Two rods of length 1 (m = 1, I = diag(1/12, 1/12, 1e-3)) hanging from the
 /// origin, ball joints.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], second_order)]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
 #[body(upper, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[body(lower, mass = 1.0, inertia = [0.08333333333333333, 0.08333333333333333, 1e-3])]
 #[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
@@ -382,7 +382,7 @@ fn integrate_meets_the_tolerance() {
 #[test]
 fn unphysical_inertia_at_run_time_is_refused_by_body() {
     #[derive(Scene)]
-    #[scene(gravity = [0, 0, -9.81])]
+    #[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
     #[body(rod, mass = mass, inertia = moments)]
     #[joint(pin = spherical(ground, rod), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
     struct Rod {

@@ -228,6 +228,7 @@ fn compare_paths<L: AppliedLoads<2> + Copy>(loads: L, springs: &[SpringDamper], 
 #[test]
 fn sparse_linearise_without_second_order_is_an_error() {
     #[derive(Scene)]
+    #[scene(coordinates = absolute)]
     #[body(bob, mass = 1.0, inertia = [1, 1, 1])]
     #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
     struct Plain;
@@ -254,6 +255,7 @@ fn at_an_equilibrium_minimal_coordinates_lose_nothing() {
 #[test]
 fn linearise_without_second_order_is_an_error() {
     #[derive(Scene)]
+    #[scene(coordinates = absolute)]
     #[body(bob, mass = 1.0, inertia = [1, 1, 1])]
     #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
     struct Plain;

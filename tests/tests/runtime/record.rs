@@ -11,7 +11,7 @@ use joint_tests::scenes::hanging_rods;
 
 /// Two rods hanging from the origin; the lower rod's point is a field.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(upper, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[body(lower, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]

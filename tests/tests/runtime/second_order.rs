@@ -14,7 +14,7 @@ use joint_tests::second_order::worst_error;
 /// A driven four-bar with a pendulum hung from the coupler: revolute, spherical,
 /// distance and a rotational driver, a closed loop.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81], second_order)]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
 #[body(crank, mass = 1.0, inertia = [0.1, 0.2, 0.3])]
 #[body(coupler, mass = 2.0, inertia = [0.2, 0.3, 0.4])]
 #[body(rocker, mass = 1.5, inertia = [0.3, 0.2, 0.1])]
@@ -50,6 +50,7 @@ fn scene_second_order_terms_match_differences_of_j_and_gamma() {
 #[test]
 fn scenes_without_the_option_give_none() {
     #[derive(Scene)]
+    #[scene(coordinates = absolute)]
     #[body(bob, mass = 1.0, inertia = [1, 1, 1])]
     #[joint(pivot = spherical(ground, bob), rho1 = [0, 0, 0], rho2 = [0, 0, 1])]
     struct Plain;

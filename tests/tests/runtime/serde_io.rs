@@ -134,6 +134,7 @@ fn values_and_results_round_trip() {
 /// A pendulum on a revolute joint and a ball joint further along the hinge's
 /// axis (two bearings of one shaft): three rows are redundant.
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(link, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[joint(hinge = revolute(ground, link), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 #[joint(ball = spherical(ground, link), rho1 = [0, 0.2, 0], rho2 = [0, 0.2, 0.5])]

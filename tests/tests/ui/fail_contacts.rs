@@ -33,6 +33,7 @@ struct FrameBetweenBodies;
 struct BadAxes;
 
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(bar, mass = 1.0, inertia = [0.1, 0.1, 0.1])]
 #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
 #[contact(tip = point(bar))]

@@ -4,6 +4,7 @@ use joint_runtime::Scene;
 // coordinates only, each a number at least zero (a spring's rest any
 // number), a spring on a joint of one freedom.
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(bar, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[joint(pin = revolute(ground, bar), axis1 = [0, 1, 0], axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5], damping = 0.1)]
 struct Absolute;

@@ -2,7 +2,7 @@ use joint_runtime::nalgebra::Vector3;
 use joint_runtime::{AxisFrame, Ramp, Scene};
 
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(link, mass = 1.0, inertia = [0.1, 0.1, 0.01])]
 #[body(bob, mass = mass, inertia = moments)]
 #[joint(hinge = revolute(ground, link), axis1 = axis, axis2 = [0, 1, 0], rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]

@@ -2,13 +2,14 @@ use joint_runtime::Scene;
 
 // Rows of bodies and of joints: a chain of 40 links and a ladder of four-bar loops.
 #[derive(Scene)]
-#[scene(gravity = [0, 0, -9.81])]
+#[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
 #[body(link[40], mass = 1.0, inertia = [0.0833, 0.0833, 0.001])]
 #[joint(top = spherical(ground, link[0]), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5])]
 #[joint(hinge[i in 1..40] = spherical(link[i - 1], link[i]), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])]
 struct Chain;
 
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(crank[5], mass = 1.0, inertia = [0.1, 0.1, 0.1])]
 #[body(coupler[4], mass = 1.0, inertia = [0.1, 0.1, 0.1])]
 #[joint(pin[i in 0..=4] = revolute(ground, crank[i]), axis1 = [0, 0, 1], axis2 = [0, 0, 1], rho1 = [i, 0, 0], rho2 = [0, -0.5, 0])]
@@ -19,6 +20,7 @@ struct Ladder;
 // Several entries in one attribute, separated by `;` (rustc stops near 128
 // attributes on one item).
 #[derive(Scene)]
+#[scene(coordinates = absolute)]
 #[body(upper, mass = 1.0, inertia = [0.1, 0.1, 0.1]; lower, mass = 2.0, inertia = [0.2, 0.2, 0.2])]
 #[joint(shoulder = spherical(ground, upper), rho1 = [0, 0, 0], rho2 = [0, 0, 0.5];
         elbow = spherical(upper, lower), rho1 = [0, 0, -0.5], rho2 = [0, 0, 0.5])]

@@ -27,7 +27,7 @@ mod scenes {
 
     /// Four bars hanging on spherical joints, with `second_order`.
     #[derive(joint_runtime::Scene)]
-    #[scene(gravity = [0, 0, -9.81], second_order)]
+    #[scene(coordinates = absolute, gravity = [0, 0, -9.81], second_order)]
     #[body(bar[4], mass = 1.0, inertia = [0.00125, 0.084, 0.084])]
     #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     #[joint(ball[i in 1..4] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
@@ -35,7 +35,7 @@ mod scenes {
 
     /// The same chain without `second_order`.
     #[derive(joint_runtime::Scene)]
-    #[scene(gravity = [0, 0, -9.81])]
+    #[scene(coordinates = absolute, gravity = [0, 0, -9.81])]
     #[body(bar[4], mass = 1.0, inertia = [0.00125, 0.084, 0.084])]
     #[joint(pivot = spherical(ground, bar[0]), rho1 = [0, 0, 0], rho2 = [-0.5, 0, 0])]
     #[joint(ball[i in 1..4] = spherical(bar[i - 1], bar[i]), rho1 = [0.5, 0, 0], rho2 = [-0.5, 0, 0])]
