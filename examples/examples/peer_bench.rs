@@ -177,17 +177,17 @@ fn run_tree<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usiz
 where
     S: TreeScene<NB, NQ, NV, NC>,
 {
-    let sim = Box::new(TreeSimulation::new(scene)?);
+    let mut sim = Box::new(TreeSimulation::new(scene)?);
     if std::env::var("MEASURE").as_deref() == Ok("dynamics") {
         return time_dynamics(name, &sim, steps, rounds);
     }
-    time_tree(name, sim, start, steps, rounds)
+    time_tree(name, &mut sim, start, steps, rounds)
 }
 
 /// The steps of [`run_tree`] on a simulation made already.
 fn time_tree<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
     name: &str,
-    mut sim: Box<TreeSimulation<S, NB, NQ, NV, NC>>,
+    sim: &mut TreeSimulation<S, NB, NQ, NV, NC>,
     start: SystemState<NB>,
     steps: usize,
     rounds: usize,
@@ -297,8 +297,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let relative = std::env::var("COORDINATES").as_deref() == Ok("relative");
     if std::env::var("COORDINATES").as_deref() == Ok("default") {
         let options = SimulationOptions::default();
-        let sim = Simulation::new(&Arm6Undeclared, NoLoads, &[], options)?.into_engine();
-        return time_tree("arm6-default", Box::new(sim), arm_start(), steps, rounds);
+        let mut sim = Box::new(Simulation::new(&Arm6Undeclared, NoLoads, &[], options)?.into_engine());
+        return time_tree("arm6-default", &mut sim, arm_start(), steps, rounds);
     }
     // Each chain and arm in the coordinates asked for.
     macro_rules! go {

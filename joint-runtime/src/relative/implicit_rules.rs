@@ -17,11 +17,12 @@
 //!   `t_n + h`, `b = 0`, `k = 1`; the coefficients from the options'
 //!   spectral radius ρ∞, as on the absolute engine. `(v̇, a)` carry to the
 //!   next step when it starts where this one ended (otherwise the method
-//!   starts afresh, `a_n = v̇_n` at the start). It is written on the
-//!   index-1 equations, as the midpoint rule: the loops' constrained
-//!   dynamics, their end projected (the absolute engine's generalised-α is
-//!   index-3, `Φ = 0` solved at the step's end, where the tree's loops are
-//!   closed by the projection instead).
+//!   starts afresh, `a_n = v̇_n` at the start). On a tree whose rows are
+//!   all loops or couplings it runs at index 3 (`implicit_rules/index3.rs`:
+//!   `Φ = 0` at the step's end is one of Newton's equations, as on the
+//!   absolute engine); with contacts or soft rows, on the index-1 equations
+//!   as the midpoint rule, the loops' constrained dynamics, the end
+//!   projected.
 //!
 //! `q̈` is the tree's dynamics, on a loop the constrained ones (Baumgarte's
 //! terms as the options say, the rows the start dropped dropped at every
@@ -46,6 +47,8 @@
 //! a factor 10. A step that fails from a kept matrix is taken again from a
 //! fresh one.
 
+pub(super) mod index3;
+
 use nalgebra::{SMatrix, SVector};
 
 use super::{ForwardDerivatives, InverseDerivatives, TreeError, TreeScene, TreeSimulation, TreeState};
@@ -57,12 +60,24 @@ use crate::linalg::{Lu, PivotedCholesky};
 /// What generalised-α carries from a step to the next: the state it ended
 /// at, its acceleration and pseudo-acceleration.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct AlphaMemory<const NQ: usize, const NV: usize> {
+pub(super) struct AlphaMemory<const NQ: usize, const NV: usize, const NC: usize> {
     end: TreeState<NQ, NV>,
     vdot: SVector<f64, NV>,
     a: SVector<f64, NV>,
     /// The pseudo-acceleration the step started from: the error estimate's.
     a_start: SVector<f64, NV>,
+    /// The loops' forces at index 3 (`index3.rs`), zero at index 1.
+    lambda: SVector<f64, NC>,
+    /// The step's length.
+    h: f64,
+}
+
+/// The implicit rules' last Newton matrix, factorised: the index-1 rules'
+/// `∂R/∂x`, or index-3 generalised-α's saddle-point matrix (`index3.rs`).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum KeptMatrix<const NV: usize, const NC: usize> {
+    Rule(Lu<NV>),
+    Index3(index3::Matrix<NV, NC>),
 }
 
 /// Which rule, with what it reads of the past.
@@ -146,20 +161,27 @@ impl<
         tau: &SVector<f64, NV>,
     ) -> Result<StepReport, TreeError> {
         let alpha = self.options().integrator == Integrator::GeneralisedAlpha;
-        self.rule_step(state, h, tau, alpha)
+        self.rule_step(state, h, tau, (alpha, false))
     }
 
     /// [`implicit_rule_step`](Self::implicit_rule_step) by generalised-α
-    /// (`alpha`) or the midpoint rule, whatever the options' integrator.
+    /// (`alpha`) or the midpoint rule, whatever the options' integrator;
+    /// `controlled`: a step of error control.
     #[inline(always)]
     fn rule_step(
         &mut self,
         state: &mut TreeState<NQ, NV>,
         h: f64,
         tau: &SVector<f64, NV>,
-        alpha: bool,
+        (alpha, controlled): (bool, bool),
     ) -> Result<StepReport, TreeError> {
-        let mut kept = self.newton.take().filter(|&(length, _)| length == h).map(|(_, lu)| lu);
+        if alpha && self.index3() {
+            return self.index3_step(state, h, tau, controlled);
+        }
+        let mut kept = match self.newton.take() {
+            Some((length, KeptMatrix::Rule(lu))) if length == h => Some(lu),
+            _ => None,
+        };
         // One call site for the Newton iteration: a second try only after a kept matrix failed.
         loop {
             let reused = kept.is_some();
@@ -232,10 +254,11 @@ impl<
         }
         let (next, (projection_iterations, constraint_residual, velocity_residual)) = self.rule_end(&start, &x)?;
         if let Rule::Alpha { a: a_start, .. } = start.rule {
-            self.alpha = Some(AlphaMemory { end: next, vdot: x, a: start.pseudo(&x), a_start });
+            let lambda = SVector::zeros();
+            self.alpha = Some(AlphaMemory { end: next, vdot: x, a: start.pseudo(&x), a_start, lambda, h });
         }
         *state = next;
-        self.newton = factor.map(|lu| (h, lu));
+        self.newton = factor.map(|lu| (h, KeptMatrix::Rule(lu)));
         let (newton_iterations, newton_matrices) = newton.counts();
         Ok(StepReport {
             newton_iterations,
@@ -262,7 +285,7 @@ impl<
     ) -> Result<(TreeState<NQ, NV>, f64), TreeError> {
         let saved = self.alpha;
         let mut end = *y0;
-        let step = self.rule_step(&mut end, h, &SVector::zeros(), true).inspect_err(|_| self.alpha = saved)?;
+        let step = self.rule_step(&mut end, h, &SVector::zeros(), (true, true)).inspect_err(|_| self.alpha = saved)?;
         report.newton_iterations += step.newton_iterations;
         report.newton_matrices += step.newton_matrices;
         report.evaluations += step.newton_iterations + 1;

@@ -53,7 +53,7 @@ impl<
         out: &mut StepJacobian<NV>,
     ) -> Result<(), TreeError> {
         let raw = *end;
-        let (done, _, _) = self.close(end, self.projection(), false)?;
+        let (done, _, _) = self.close(end, self.projection(), (false, true))?;
         let rows = self.held_rows(&raw);
         let saddle = self.saddle(&raw.q, &rows.jacobian, None, None)?;
         let mut m = Block::<NV>::zeros();

@@ -9,7 +9,7 @@ use core::cell::Cell;
 
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
-use super::implicit_rules::AlphaMemory;
+use super::implicit_rules::{AlphaMemory, KeptMatrix};
 use super::radau::TreeRadauHistory;
 use super::soft::Softness;
 use super::tangent::{get, put_quaternion, put_three, quaternion_at, set, three, unit_at};
@@ -22,7 +22,7 @@ use crate::dynamics::{
     Adaptive, AppliedLoads, Attachment, Energy, IntegrationReport, Integrator, Loads, NoLoads, SimulationOptions,
     SpringDamper, Stabilisation, StepReport, Tolerance,
 };
-use crate::linalg::{Lu, PivotedCholesky};
+use crate::linalg::PivotedCholesky;
 
 /// Newton iterations of [`TreeSimulation::assemble`].
 const ASSEMBLY_ITERATIONS: usize = 50;
@@ -60,9 +60,9 @@ pub struct TreeSimulation<'a, S, const NB: usize, const NQ: usize, const NV: usi
     /// The implicit rules' last Newton matrix, factorised, and the step
     /// length it was built for: the next step of that length starts from
     /// it (`implicit_rules.rs`).
-    pub(super) newton: Option<(f64, Lu<NV>)>,
+    pub(super) newton: Option<(f64, KeptMatrix<NV, NC>)>,
     /// What generalised-α's last step carries to the next.
-    pub(super) alpha: Option<AlphaMemory<NQ, NV>>,
+    pub(super) alpha: Option<AlphaMemory<NQ, NV, NC>>,
     /// What Radau IIA's last step carries to the next: its stages and
     /// Jacobian (`radau.rs`).
     pub(super) radau: Option<TreeRadauHistory<NQ, NV>>,
@@ -251,7 +251,7 @@ impl<
 
     /// The springs' and the user's loads as joint forces (zero without
     /// either): their wrenches on the bodies carried to the root.
-    fn applied_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
+    pub(super) fn applied_forces(&mut self, state: &TreeState<NQ, NV>) -> SVector<f64, NV> {
         if self.springs.is_empty() && L::NONE {
             return SVector::zeros();
         }
@@ -399,9 +399,9 @@ impl<
     /// Closes the loops after a step: `q` onto `Φ(q, t) = 0` by simplified
     /// Newton in the mass metric (one factor), then `v` onto
     /// `J v + Φ_t = 0` with that factor.
-    fn project(&self, state: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
+    fn project(&self, state: &mut TreeState<NQ, NV>, velocities: bool) -> Result<Closed, TreeError> {
         match self.options.projection {
-            Some(_) => self.close(state, self.projection(), false),
+            Some(_) => self.close(state, self.projection(), (false, velocities)),
             None => Ok((0, 0.0, 0.0)),
         }
     }
@@ -415,17 +415,17 @@ impl<
         let mut state = *guess;
         self.tree.normalise(&mut state.q);
         let (tolerance, _, floor) = self.projection();
-        self.close(&mut state, (tolerance, ASSEMBLY_ITERATIONS, floor), true)?;
+        self.close(&mut state, (tolerance, ASSEMBLY_ITERATIONS, floor), (true, true))?;
         Ok(state)
     }
 
-    /// Newton on `Φ(q, t) = 0` (`refactor`: full, else simplified), then the
-    /// velocity projection with the last factor.
+    /// Newton on `Φ(q, t) = 0` (`refactor`: full, else simplified), then,
+    /// with `velocities`, the velocity projection with the last factor.
     pub(super) fn close(
         &self,
         state: &mut TreeState<NQ, NV>,
         (tolerance, iterations, floor): Projection,
-        refactor: bool,
+        (refactor, velocities): (bool, bool),
     ) -> Result<Closed, TreeError> {
         if NC == 0 {
             return Ok((0, 0.0, 0.0));
@@ -459,7 +459,12 @@ impl<
         // refactoring: one more solve on the residual it leaves takes
         // `J v + Φ_t` from O(|δq| |drift|) to round-off.
         let mut drift = rows.jacobian * state.v + rows.phi_t;
-        for _ in 0..if done > 0 && !refactor { 2 } else { 1 } {
+        let solves = match (velocities, done > 0 && !refactor) {
+            (false, _) => 0,
+            (true, true) => 2,
+            (true, false) => 1,
+        };
+        for _ in 0..solves {
             let correction = saddle.correction(&drift);
             state.v -= correction;
             drift -= rows.jacobian * correction;
@@ -597,8 +602,15 @@ impl<
     /// A step's end: quaternions back to unit length, loops closed, every
     /// number finite.
     pub(super) fn finish(&self, next: &mut TreeState<NQ, NV>) -> Result<Closed, TreeError> {
+        self.finish_with(next, true)
+    }
+
+    /// [`finish`](Self::finish), the velocities projected only with
+    /// `velocities` (index-3 generalised-α leaves its own: projecting them
+    /// raised its error on the press fiftyfold, `implicit_rules/index3.rs`).
+    pub(super) fn finish_with(&self, next: &mut TreeState<NQ, NV>, velocities: bool) -> Result<Closed, TreeError> {
         self.tree.normalise(&mut next.q);
-        let closed = self.project(next).map_err(|e| e.at_stage(next.t))?;
+        let closed = self.project(next, velocities).map_err(|e| e.at_stage(next.t))?;
         diverged(next)?;
         self.last.set(Some(*next));
         Ok(closed)

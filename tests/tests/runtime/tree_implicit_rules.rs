@@ -132,7 +132,7 @@ where
 
 /// Second order against a fine RK4 run (halving the step divides the
 /// error by 3.5–4.5), and the same end from both Newton matrices, the exact
-/// one in no more iterations than the differenced one.
+/// one in no more iterations than the differenced one but one in ten steps.
 fn second_order<S, const NB: usize, const NQ: usize, const NV: usize, const NC: usize>(
     scene: &S,
     start: TreeState<NQ, NV>,
@@ -150,8 +150,13 @@ fn second_order<S, const NB: usize, const NQ: usize, const NV: usize, const NC: 
             let differenced = implicit(integrator, NewtonMatrix::FiniteDifferences);
             let (other, more) = run(scene, differenced, start, (coarse, steps));
             assert!((end.q - other.q).amax() < 1e-9 && (end.v - other.v).amax() < 1e-8, "{integrator:?}");
-            // The exact matrix converges at least as fast as the differenced one.
-            assert!(iterations <= more, "{integrator:?}: {iterations} iterations against {more} at h = {coarse}");
+            // The exact matrix converges as fast as the differenced one: kept
+            // across steps, the two are rebuilt at different steps, which
+            // moves a count by an iteration now and then.
+            assert!(
+                iterations <= more + steps / 10,
+                "{integrator:?}: {iterations} iterations against {more} at h = {coarse}"
+            );
             *error = (end.q - fine.q).amax().max((end.v - fine.v).amax() * coarse);
         }
     }
@@ -211,4 +216,36 @@ pub(crate) fn solo_start() -> TreeState<19, 18> {
         *x = 0.5 * (k as f64).sin();
     }
     sim.assemble(&guess).unwrap()
+}
+
+/// Generalised-α on a loop is index 3: `Φ(q_{n+1}) = 0` is one of its
+/// Newton equations, so with the projection switched off the hard
+/// four-bar's loop stays closed to Newton's tolerance over 200 steps of
+/// 10 ms (the midpoint rule, at index 1, drifts off it), with both Newton
+/// matrices, and the forces it carries between steps are the constrained
+/// dynamics' (the run ends where the projected run ends, to 1e-9).
+#[test]
+fn generalised_alpha_holds_a_loop_closed_at_index_3() {
+    let unprojected = |integrator, matrix| {
+        let mut options = implicit(integrator, matrix);
+        options.projection = None;
+        options
+    };
+    let sim = TreeSimulation::new(&HardFourBar).unwrap();
+    let loop_error = |end: &TreeState<3, 3>| sim.closure_rows(end).phi.amax();
+    for matrix in [NewtonMatrix::Generated, NewtonMatrix::FiniteDifferences] {
+        let (end, _) =
+            run(&HardFourBar, unprojected(Integrator::GeneralisedAlpha, matrix), four_bar_start(), (0.01, 200));
+        assert!(loop_error(&end) < 1e-9, "{matrix:?}: |Φ| = {:e}", loop_error(&end));
+        let projected =
+            run(&HardFourBar, implicit(Integrator::GeneralisedAlpha, matrix), four_bar_start(), (0.01, 200)).0;
+        assert!((end.q - projected.q).amax() < 1e-9, "{matrix:?}: {} {}", end.q, projected.q);
+    }
+    let (drifted, _) = run(
+        &HardFourBar,
+        unprojected(Integrator::ImplicitMidpoint, NewtonMatrix::Generated),
+        four_bar_start(),
+        (0.01, 200),
+    );
+    assert!(loop_error(&drifted) > 1e-7, "the index-1 rule drifts: |Φ| = {:e}", loop_error(&drifted));
 }
