@@ -7,6 +7,7 @@
 mod animation;
 mod bricard;
 mod cardan;
+mod default_coordinates;
 mod double_cardan;
 mod four_bar;
 mod handwritten;

@@ -305,6 +305,14 @@ impl<
         start: &Start<'_, NQ, NV, NC>,
         x: &SVector<f64, NV>,
     ) -> Result<(TreeState<NQ, NV>, (usize, f64, f64)), TreeError> {
+        let (mut next, _) = self.end_state(start, x);
+        let closed = self.finish(&mut next)?;
+        Ok((next, closed))
+    }
+
+    /// The step's end at `x` before any projection, `q_n ⊕ Δ` with a
+    /// floating base's offset turned halfway along the step, and `Δ`.
+    fn end_state(&self, start: &Start<'_, NQ, NV, NC>, x: &SVector<f64, NV>) -> (TreeState<NQ, NV>, SVector<f64, NV>) {
         let (h, from) = (start.h, start.state);
         let (delta, v) = match start.rule {
             Rule::Midpoint => (x * h, x * 2.0 - from.v),
@@ -317,8 +325,7 @@ impl<
         self.tree().displace(&mut half, &(delta * 0.5));
         let mut next = TreeState { q: from.q, v, t: from.t + h };
         self.tree().displace_through(&mut next.q, &delta, &half);
-        let closed = self.finish(&mut next)?;
-        Ok((next, closed))
+        (next, delta)
     }
 
     /// The state the rule evaluates the dynamics at, for `x`.

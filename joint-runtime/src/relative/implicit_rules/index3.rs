@@ -184,7 +184,7 @@ impl<
                 break;
             }
         }
-        let (mut next, _) = self.index3_point(&start, &x);
+        let (mut next, _) = self.end_state(&start, &x);
         let unprojected = next.v;
         let closed = self.finish_with(&mut next, controlled)?;
         let (projection_iterations, constraint_residual, velocity_residual) = closed;
@@ -212,22 +212,6 @@ impl<
         Ok(state.v - before)
     }
 
-    /// The step's end at `x`, `q_n ⊕ Δ(x)` as every rule's end moves (a
-    /// floating base's offset by the rotation halfway along the turn), and
-    /// `Δ`.
-    fn index3_point(
-        &self,
-        start: &Start<'_, NQ, NV, NC>,
-        x: &SVector<f64, NV>,
-    ) -> (TreeState<NQ, NV>, SVector<f64, NV>) {
-        let (delta, v, t) = start.point(x);
-        let mut half = start.state.q;
-        self.tree().displace(&mut half, &(delta * 0.5));
-        let mut q = start.state.q;
-        self.tree().displace_through(&mut q, &delta, &half);
-        (TreeState { q, v, t }, delta)
-    }
-
     /// `(R₁, R₂)` at `(x, λ)`, the rows not held left out.
     #[inline(always)]
     fn index3_residual(
@@ -237,7 +221,7 @@ impl<
         lambda: &SVector<f64, NC>,
         mask: &[bool; NC],
     ) -> Result<(SVector<f64, NV>, SVector<f64, NC>), TreeError> {
-        let (at, _) = self.index3_point(start, x);
+        let (at, _) = self.end_state(start, x);
         let applied = start.tau + self.applied_forces(&at);
         let rows = self.closure_rows(&at);
         let mut jacobian = rows.jacobian;
@@ -265,7 +249,7 @@ impl<
         mask: &[bool; NC],
         r1: &SVector<f64, NV>,
     ) -> Result<Matrix<NV, NC>, TreeError> {
-        let (at, delta) = self.index3_point(start, x);
+        let (at, delta) = self.end_state(start, x);
         let (_, right) = self.displace_derivative(&delta);
         let mut jacobian = self.closure_rows(&at).jacobian;
         mask_rows(mask, &mut jacobian);
