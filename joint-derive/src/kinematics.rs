@@ -258,6 +258,13 @@ impl Kinematics {
         self.frames.push(Frame { a, r, omega: None, euler: None, body_rate: None });
     }
 
+    /// Body `body`'s frame (the scene's bodies in order; the ground is not
+    /// one): its rotation's entries and its centre.
+    pub fn pose(&self, body: usize) -> ([[Id; 3]; 3], V3) {
+        let f = &self.frames[body + 1];
+        (f.a, f.r)
+    }
+
     /// The ground frame alone: no inputs, no rules.
     fn empty() -> Self {
         let mut g = Graph::new();

@@ -240,7 +240,7 @@ fn print(
     let engine = match (&s.tree, s.contacts.is_empty()) {
         (Some(edges), false) => {
             let (nq, nv) = super::tree::sizes(edges);
-            Engine::Tree([s.bodies.len(), nq, nv, loops.map_or(0, |(d, _, _)| d.phi.len())])
+            Engine::Tree([s.bodies.len(), nq, nv, loops.map_or(0, |l| l.derived.phi.len())])
         }
         _ => Engine::Absolute([s.bodies.len(), 6 * s.bodies.len(), d.phi.len(), csr.columns.len()]),
     };
@@ -557,7 +557,7 @@ fn tree_only(
     let alias = state_alias(input, &nb);
     let tree = super::tree::print(input, s, edges, &generics, loops);
     let (nq, nv) = super::tree::sizes(edges);
-    let nc = loops.map_or(0, |(d, _, _)| d.phi.len());
+    let nc = loops.map_or(0, |l| l.derived.phi.len());
     let simulate = simulate(input, &generics, Engine::Tree([s.bodies.len(), nq, nv, nc]));
     let file = file_constants(input, &generics, s);
     quote! {

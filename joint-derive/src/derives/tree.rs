@@ -66,8 +66,10 @@ pub fn print(
         }
         None => (None, None, None),
     };
-    let (closure, nc) = loops.map_or((TokenStream::new(), 0), |(d, blocks, second)| {
-        crate::tree::closure::print(d, blocks, second.as_ref(), s)
+    let (closure, nc) = loops.map_or((TokenStream::new(), 0), |l| {
+        let (mut rows, nc) = crate::tree::closure::print(&l.derived, &l.blocks, l.second.as_ref(), s);
+        rows.extend(crate::tree::wrench::print(&l.bodies, s.bodies.len()));
+        (rows, nc)
     });
     // A file's gravity compensation (MJCF `gravcomp`), its bodies first.
     let held = s.file.as_ref().map(|f| f.compensation.clone()).unwrap_or_default();

@@ -31,10 +31,29 @@ use crate::kinematics::{Input, Kinematics, V3};
 use crate::lower::{Block, Derived, Naming, lower_rows, param_nodes};
 use crate::second_order::SecondOrderNodes;
 use crate::tree::aba::{Builder, joint, kind_offsets, parent_edges};
+use crate::tree::wrench::BodyRows;
 
-/// A tree's closures derived in its coordinates, their row blocks and
-/// their second-order terms (what the constrained dynamics' derivatives take).
-pub type Loops = (Derived, Vec<Block>, Option<SecondOrderNodes>);
+/// A tree's closures derived in its coordinates, their row blocks, their
+/// second-order terms (what the constrained dynamics' derivatives take) and
+/// their rows on their bodies (what their reactions take).
+pub struct Loops {
+    /// The rows in the tree's coordinates: `Φ`, `J`, `γ`, `Φ_t`.
+    pub derived: Derived,
+    /// Each closing joint's, coupling's and contact's rows among them.
+    pub blocks: Vec<Block>,
+    /// `K = ∂(Jᵀλ)/∂q` and the other second-order terms.
+    pub second: Option<SecondOrderNodes>,
+    /// The same rows on their two bodies' `ṙ, ω'` (`wrench.rs`).
+    pub bodies: BodyRows,
+}
+
+/// How a loop is closed: what `wrench.rs` lowers again on the bodies.
+pub enum Closing {
+    /// A soft weld's six rows (`weld_rows`) between its bodies' points.
+    Weld { bodies: [Option<usize>; 2], points: [V3Num; 2], torquescale: f64 },
+    /// Joint `joint`'s catalogue rows, those in `kept` (the tree keeps the others).
+    Rows { joint: usize, kept: Vec<usize> },
+}
 
 /// A constant row at most this far from zero is one the tree keeps (a
 /// planar loop's out-of-plane rows fold to exact zeros; this allows for a
@@ -53,14 +72,17 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
     let mut bindings = Vec::new();
     let (mut phi, mut blocks) = (Vec::new(), Vec::new());
     let mut errors = crate::front::context::Errors::new();
+    let mut closings = Vec::new();
     for &i in &loops {
         let j = &s.joints[i];
         // A soft weld's rows are MuJoCo's, not the catalogue's (`weld_rows`).
         if let Some((points, soft)) = s.soft.iter().find(|w| w.joint == j.label()).and_then(|w| Some((w.weld?, w.soft)))
         {
             let start = phi.len();
-            phi.extend(weld_rows(&mut k, &poses, [j.bodies[0], j.bodies[1]], points, soft.torquescale));
+            let bodies = [j.bodies[0], j.bodies[1]];
+            phi.extend(weld_rows(&mut k, &poses, bodies, points, soft.torquescale));
             blocks.push(Block { name: j.label(), start, rows: 6 });
+            closings.push(Closing::Weld { bodies, points, torquescale: soft.torquescale });
             continue;
         }
         k.connect(j.bodies[0], j.bodies[1]);
@@ -68,6 +90,7 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
         let values = param_nodes(&mut k, j.kind, &j.params, Naming::ByField { joint: &prefix }, &mut bindings);
         let rows = lower_rows(&mut k, j.kind, &values, &[], j.kind_span);
         let start = phi.len();
+        let mut kept = Vec::new();
         for (n, &row) in rows.phi.iter().enumerate() {
             match k.g.as_const(row) {
                 Some(c) if c.abs() <= KEPT => {}
@@ -80,10 +103,14 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
                         n + 1
                     ),
                 ),
-                None => phi.push(row),
+                None => {
+                    phi.push(row);
+                    kept.push(n);
+                }
             }
         }
         blocks.push(Block { name: j.label(), start, rows: phi.len() - start });
+        closings.push(Closing::Rows { joint: i, kept });
     }
     // A follower's row: `q_f − (m q_l + o)`, linear in the coordinates.
     let (qa, _) = kind_offsets(edges.iter().map(|e| e.kind));
@@ -125,7 +152,8 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
     }
     let mut d = Derived { kinematics: k, phi, phi_t, jacobian, gamma, bindings, singularity: None };
     let second = crate::second_order::derive(&mut d, true, None).dense;
-    Ok(Some((d, blocks, second)))
+    let bodies = crate::tree::wrench::derive(s, &closings)?;
+    Ok(Some(Loops { derived: d, blocks, second, bodies }))
 }
 
 /// A soft weld's six rows as MuJoCo 4.0 makes them: its points apart
@@ -137,7 +165,7 @@ pub fn derive(s: &SceneDecl, edges: &[TreeEdge], (nq, nv): (usize, usize)) -> sy
 /// the same rows turned, which leaves its accelerations as they are (the
 /// three share their weight and the impedance reads their norm). No row is
 /// dropped: a row the tree keeps by construction is a zero with a zero `J`.
-fn weld_rows(
+pub(crate) fn weld_rows(
     k: &mut Kinematics,
     poses: &[crate::tree::contact::Pose],
     bodies: [Option<usize>; 2],
@@ -179,7 +207,7 @@ fn weld_rows(
 }
 
 /// A point's three numbers.
-type V3Num = [f64; 3];
+pub(crate) type V3Num = [f64; 3];
 
 /// Every body's frame from the tree's coordinates, in body order (also
 /// returned: the contacts' rows start from them). A joint whose points and

@@ -8,7 +8,9 @@
 //!   by the engine in the tree's coordinates;
 //! - `contact`: a contact's rows at the velocity level;
 //! - `derivatives`: the inverse dynamics' derivatives written out
-//!   (`second_order`).
+//!   (`second_order`);
+//! - `wrench`: the closures' rows again on their bodies' own velocities,
+//!   what their reactions need.
 //!
 //! `derives::tree` prints the `TreeScene` impl from them.
 
@@ -16,3 +18,4 @@ pub mod aba;
 pub mod closure;
 pub mod contact;
 pub mod derivatives;
+pub mod wrench;

@@ -119,6 +119,7 @@ mod linear;
 mod projected;
 mod proximal;
 mod radau;
+mod reactions;
 mod recursion;
 mod simulation;
 mod soft;
@@ -416,6 +417,25 @@ pub trait TreeScene<const NB: usize, const NQ: usize, const NV: usize, const NC:
     fn closure_rows(&self, state: &TreeState<NQ, NV>, geometry: &TreeGeometry<NB>) -> ClosureRows<NC, NV> {
         let _ = (state, geometry);
         ClosureRows::zeros()
+    }
+    /// Each block of [`CLOSURES`](Self::CLOSURES)'s two bodies, whose
+    /// columns [`closure_body_rows`](Self::closure_body_rows) holds: a
+    /// loop's joint's bodies, a contact's held body then the one holding it
+    /// (`None`: the ground); a coupling acts on joints and has neither.
+    const CLOSURE_ENDS: &'static [[Option<usize>; 2]] = &[];
+    /// The closure rows on their bodies at `state` (the tree's state as
+    /// bodies, [`Tree::system_state`]), derived by the engine from the same
+    /// rows as [`closure_rows`](Self::closure_rows): row `r`'s first six
+    /// entries are `∂Φ̇_r/∂(ṙ, ω')` of its block's first body in
+    /// [`CLOSURE_ENDS`](Self::CLOSURE_ENDS) (`ṙ` the centre's velocity in
+    /// the world's components, `ω'` in the body's), the next six its
+    /// second's; zeros for the ground and a coupling. So a row's force
+    /// `λ_r` loads the bodies with `J_bᵀ λ`, which is what a loop's
+    /// reactions need ([`TreeSimulation::closure_reactions`]).
+    #[inline]
+    fn closure_body_rows(&self, state: &crate::SystemState<NB>) -> SMatrix<f64, NC, 12> {
+        let _ = state;
+        SMatrix::zeros()
     }
     /// The closure rows' second-order terms at `state`, derived by the
     /// engine: `K = ∂(Jᵀλ)/∂q`, `∂(J u)/∂q`, `∂γ/∂q`, `∂γ/∂v`, `∂Φ_t/∂q`,

@@ -16,7 +16,6 @@ use super::tangent::{get, put_quaternion, put_three, quaternion_at, set, three, 
 use super::topology::{Tree, TreeError};
 use super::{TreeJointKind, TreeScene, TreeState};
 use crate::SystemState;
-use crate::dynamics::Reaction;
 use crate::dynamics::adaptive::{A, AdaptiveSteps, C, E, StepError, Timed, integrate};
 use crate::dynamics::{
     Adaptive, AppliedLoads, Attachment, Energy, IntegrationReport, Integrator, Loads, NoLoads, SimulationOptions,
@@ -31,6 +30,11 @@ const ASSEMBLY_ITERATIONS: usize = 50;
 /// Newton iterations, and the round-off floor it accepts (`1e3 ×` the
 /// tolerance, as the absolute `Simulation`'s).
 pub(super) type Projection = (f64, usize, f64);
+
+/// The constrained accelerations `v̇`, the rows' forces `λ` and the pivot
+/// order of their factor (none without rows).
+pub(super) type Constrained<const NV: usize, const NC: usize> =
+    (SVector<f64, NV>, SVector<f64, NC>, Option<PivotedCholesky<NC>>);
 
 /// What closing the loops did: Newton iterations, `‖Φ‖₂` and
 /// `‖J v + Φ_t‖₂` at the end.
@@ -261,7 +265,7 @@ impl<
 
     /// The springs' and the user's loads on each joint's child, in its link
     /// frame (moment about the joint point); zero without either.
-    fn body_wrenches(&mut self, state: &TreeState<NQ, NV>) -> [Vector6<f64>; NB] {
+    pub(super) fn body_wrenches(&mut self, state: &TreeState<NQ, NV>) -> [Vector6<f64>; NB] {
         let mut out = [Vector6::zeros(); NB];
         if self.springs.is_empty() && L::NONE {
             return out;
@@ -318,10 +322,23 @@ impl<
         tau: &SVector<f64, NV>,
         order: Option<&PivotedCholesky<NC>>,
     ) -> Result<(SVector<f64, NV>, Option<PivotedCholesky<NC>>), TreeError> {
+        let (vdot, _, factor) = self.constrained_forces(state, tau, order)?;
+        Ok((vdot, factor))
+    }
+
+    /// [`constrained`](Self::constrained) with the rows' forces `λ`
+    /// (`M v̇ + b = τ + Jᵀλ`; zero without rows).
+    #[inline(always)]
+    pub(super) fn constrained_forces(
+        &mut self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        order: Option<&PivotedCholesky<NC>>,
+    ) -> Result<Constrained<NV, NC>, TreeError> {
         let applied = tau + self.applied_forces(state);
         let free = self.tree_dynamics(state, &applied)?;
         if NC == 0 {
-            return Ok((free, None));
+            return Ok((free, SVector::zeros(), None));
         }
         let rows = self.scene.closure_rows(state, &self.tree.geometry);
         let soft = self.soft.any().then(|| self.soft.terms::<S, NB, NQ, NV>(&rows, &state.v));
@@ -338,8 +355,8 @@ impl<
         if let Some(terms) = &soft {
             self.soft.target(terms, &mut gamma);
         }
-        let vdot = free + saddle.correction(&(gamma - rows.jacobian * free));
-        Ok((vdot, Some(saddle.factor)))
+        let lambda = saddle.factor.solve(&(gamma - rows.jacobian * free));
+        Ok((free + saddle.minv_jt * lambda, lambda, Some(saddle.factor)))
     }
 
     /// `M⁻¹ Jᵀ` and the factor of `J M⁻¹ Jᵀ + R` (in `order`'s pivots when
@@ -666,44 +683,6 @@ impl<
         tolerance: Tolerance,
     ) -> Result<IntegrationReport, TreeError> {
         integrate(self, state, t_end, method, tolerance)
-    }
-}
-
-impl<'a, S: TreeScene<NB, NQ, NV>, L: AppliedLoads<NB>, const NB: usize, const NQ: usize, const NV: usize>
-    TreeSimulation<'a, S, NB, NQ, NV, 0, L>
-{
-    /// Each tree joint's reaction on its child at `state` under joint forces
-    /// `tau`, the springs and the user's loads acting: entry `k` is joint
-    /// `k`'s (tree order; its child is `tree().joints()[k].child`), the
-    /// whole wrench the parent exerts through it, the joint's own forces
-    /// included (their share along its freedoms is `tau`). As the absolute
-    /// [`AbsoluteSimulation::reactions`](crate::dynamics::AbsoluteSimulation::reactions)
-    /// gives them: force in inertial components through the child's centre
-    /// of mass, torque about it in the child's components; the parent
-    /// feels the opposite. From the recursive Newton–Euler algorithm on the
-    /// accelerations of [`forward_dynamics`](TreeSimulation::forward_dynamics).
-    /// Only for trees without loops (a closure's wrench on its bodies is not
-    /// derived).
-    pub fn reactions(
-        &mut self,
-        state: &TreeState<NQ, NV>,
-        tau: &SVector<f64, NV>,
-    ) -> Result<[Reaction; NB], TreeError> {
-        let vdot = self.forward_dynamics(state, tau)?;
-        let mut external = self.body_wrenches(state);
-        if let Some(held) = self.tree.compensation_wrenches(&state.q) {
-            external.iter_mut().zip(held).for_each(|(e, h)| *e += h);
-        }
-        let (_, f) = self.tree.joint_wrenches(state, &vdot, Some(&external));
-        let poses = self.tree.link_poses(&state.q);
-        let mut out = [Reaction::default(); NB];
-        for (k, (wrench, (a, _))) in f.iter().zip(poses).enumerate() {
-            let (n, force) = (wrench.fixed_rows::<3>(0).into_owned(), wrench.fixed_rows::<3>(3).into_owned());
-            // The moment moved from the joint point to the centre of mass.
-            let torque = n + self.tree.joints[k].rho_child.cross(&force);
-            out[k] = Reaction { force: a * force, torque };
-        }
-        Ok(out)
     }
 }
 

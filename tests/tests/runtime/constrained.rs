@@ -22,20 +22,20 @@ use crate::urdf::numbers;
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base)]
 #[contact(fl = point(FL_FOOT); fr = point(FR_FOOT); hl = point(HL_FOOT); hr = point(HR_FOOT))]
-struct SoloFeet;
+pub(crate) struct SoloFeet;
 
 /// The same feet in their own axes: a trot holds two of them.
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/solo12.urdf", floating_base)]
 #[contact(fl = point(FL_FOOT), axes = local; fr = point(FR_FOOT), axes = local)]
 #[contact(hl = point(HL_FOOT), axes = local; hr = point(HR_FOOT), axes = local)]
-struct SoloLocal;
+pub(crate) struct SoloLocal;
 
 /// The UR5's tool welded to the world, in the tool's axes.
 #[derive(Scene)]
 #[scene(gravity = [0, 0, -9.81], urdf = "data/robots/ur5.urdf")]
 #[contact(weld = frame(tool0), axes = local)]
-struct Ur5Weld;
+pub(crate) struct Ur5Weld;
 
 // The kit's four-bar: bars of 1 kg/m, radius 0.02, crank 0.3, coupler 1.0,
 // rocker 0.8, ground pivots 1 m apart, every joint about y.

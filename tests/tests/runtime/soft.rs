@@ -44,7 +44,7 @@ struct SoftWelded;
 /// hinge's, and a slider welded to the world.
 #[derive(Scene)]
 #[scene(mjcf = "data/mjcf/soft_weld.xml")]
-struct SoftWeld;
+pub(crate) struct SoftWeld;
 
 /// `soft_reference.json`'s entry `key`.
 fn reference(key: &str) -> serde_json::Value {
