@@ -70,6 +70,10 @@ pub(super) struct AlphaMemory<const NQ: usize, const NV: usize, const NC: usize>
     lambda: SVector<f64, NC>,
     /// The step's length.
     h: f64,
+    /// Whether the end's velocities were projected onto `J v + Φ_t = 0`
+    /// (every end but a fixed-step index-3 one): a step of another length
+    /// then starts from them as they are (`index3.rs`).
+    projected: bool,
 }
 
 /// The implicit rules' last Newton matrix, factorised: the index-1 rules'
@@ -178,19 +182,11 @@ impl<
         if alpha && self.index3() {
             return self.index3_step(state, h, tau, controlled);
         }
-        let mut kept = match self.newton.take() {
+        let kept = match self.newton.take() {
             Some((length, KeptMatrix::Rule(lu))) if length == h => Some(lu),
             _ => None,
         };
-        // One call site for the Newton iteration: a second try only after a kept matrix failed.
-        loop {
-            let reused = kept.is_some();
-            match self.rule_newton(state, (h, alpha), tau, kept.take()) {
-                // Not converged, or an iterate the dynamics refused: afresh.
-                Err(_) if reused => continue,
-                result => return result,
-            }
-        }
+        afresh_on_failure(kept, |kept| self.rule_newton(state, (h, alpha), tau, kept))
     }
 
     /// The step by modified Newton from `kept` (or a matrix built at the
@@ -255,7 +251,8 @@ impl<
         let (next, (projection_iterations, constraint_residual, velocity_residual)) = self.rule_end(&start, &x)?;
         if let Rule::Alpha { a: a_start, .. } = start.rule {
             let lambda = SVector::zeros();
-            self.alpha = Some(AlphaMemory { end: next, vdot: x, a: start.pseudo(&x), a_start, lambda, h });
+            let a = start.pseudo(&x);
+            self.alpha = Some(AlphaMemory { end: next, vdot: x, a, a_start, lambda, h, projected: true });
         }
         *state = next;
         self.newton = factor.map(|lu| (h, KeptMatrix::Rule(lu)));
@@ -381,7 +378,7 @@ impl<
         Lu::new(&matrix).map_err(|_| TreeError::Singular { joint })
     }
 
-    /// `∂R/∂x` by forward differences, column by column.
+    /// `∂R/∂x` by forward differences.
     #[inline(always)]
     fn residual_differences(
         &mut self,
@@ -389,16 +386,43 @@ impl<
         x: &SVector<f64, NV>,
         r: &SVector<f64, NV>,
     ) -> Result<SMatrix<f64, NV, NV>, TreeError> {
-        let mut out = SMatrix::<f64, NV, NV>::zeros();
-        for k in 0..NV {
-            // √ε relative to the unknown: the forward difference's best step.
-            let eps = 1.4901161193847656e-8 * (1.0 + x[k].abs());
-            let mut moved = *x;
-            moved[k] += eps;
-            let column = (self.rule_residual(start, &moved)? - r) / eps;
-            out.set_column(k, &column);
+        forward_differences(x, r, |moved| self.rule_residual(start, moved))
+    }
+}
+
+/// `∂R/∂x` at `x` by forward differences, column by column, from the
+/// residual `r` there: what both rules' matrices fall back to.
+#[inline(always)]
+fn forward_differences<const NV: usize>(
+    x: &SVector<f64, NV>,
+    r: &SVector<f64, NV>,
+    mut residual: impl FnMut(&SVector<f64, NV>) -> Result<SVector<f64, NV>, TreeError>,
+) -> Result<SMatrix<f64, NV, NV>, TreeError> {
+    let mut out = SMatrix::<f64, NV, NV>::zeros();
+    for k in 0..NV {
+        // √ε relative to the unknown: the forward difference's best step.
+        let eps = 1.4901161193847656e-8 * (1.0 + x[k].abs());
+        let mut moved = *x;
+        moved[k] += eps;
+        out.set_column(k, &((residual(&moved)? - r) / eps));
+    }
+    Ok(out)
+}
+
+/// A step from `kept`, the last step's Newton matrix (one call site for
+/// the iteration): taken again from a fresh matrix when it fails from a
+/// kept one (not converged, or an iterate the dynamics refused).
+#[inline(always)]
+fn afresh_on_failure<K>(
+    mut kept: Option<K>,
+    mut step: impl FnMut(Option<K>) -> Result<StepReport, TreeError>,
+) -> Result<StepReport, TreeError> {
+    loop {
+        let reused = kept.is_some();
+        match step(kept.take()) {
+            Err(_) if reused => continue,
+            result => return result,
         }
-        Ok(out)
     }
 }
 
