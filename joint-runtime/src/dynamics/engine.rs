@@ -7,7 +7,7 @@
 //! ([`Engine::State`]) and converts it to and from the bodies' poses, and a
 //! [`Simulation`] implements it by its engine's.
 
-use super::{Adaptive, AppliedLoads, Energy, IntegrationReport, Simulate, Simulation, StepReport, Tolerance};
+use super::{Adaptive, AppliedLoads, Energy, IntegrationReport, Reaction, Simulate, Simulation, StepReport, Tolerance};
 use crate::absolute::AbsoluteSimulation;
 use crate::analysis::AnalysisError;
 use crate::relative::{TreeError, TreeScene, TreeSimulation, TreeState};
@@ -67,8 +67,8 @@ pub trait Engine<const NB: usize> {
     /// `state` is unchanged on error.
     fn step(&mut self, state: &mut Self::State, h: f64) -> Result<StepReport, Self::Error>;
 
-    /// To `t_end` by error-controlled steps of `method` (Dormand–Prince on
-    /// both engines; the absolute one also offers the implicit methods).
+    /// To `t_end` by error-controlled steps of `method` (Dormand–Prince,
+    /// Radau IIA or generalised-α, on both engines).
     ///
     /// # Errors
     /// The engine's, or a method it does not offer, by name.
@@ -91,6 +91,21 @@ pub trait Engine<const NB: usize> {
 
     /// The bodies' poses and velocities of the engine's state.
     fn system_state(&self, state: &Self::State) -> SystemState<NB>;
+
+    /// The joint named `joint`'s reaction on every body at `state` (on its
+    /// two bodies; zeros elsewhere) under the simulation's loads and
+    /// springs, no joint forces: the [`Reaction`] convention, force in the
+    /// world's components through each body's centre, torque about it in
+    /// the body's. Every joint of the scene by its name, loop-closing ones
+    /// included (and, in relative coordinates, a contact); `None` for a
+    /// name the scene does not have. Both engines give the same numbers
+    /// wherever the dynamics determine them (an overconstrained loop's
+    /// redundant rows carry a force neither determines:
+    /// [`TreeSimulation::closure_reactions`]).
+    ///
+    /// # Errors
+    /// The engine's dynamics'.
+    fn reaction(&mut self, state: &Self::State, joint: &str) -> Result<Option<[Reaction; NB]>, Self::Error>;
 }
 
 impl<S, L, const NB: usize, const NV: usize, const M: usize, const NNZ: usize> Engine<NB>
@@ -126,6 +141,12 @@ where
 
     fn system_state(&self, state: &SystemState<NB>) -> SystemState<NB> {
         AbsoluteSimulation::system_state(self, state)
+    }
+
+    fn reaction(&mut self, state: &SystemState<NB>, joint: &str) -> Result<Option<[Reaction; NB]>, AnalysisError> {
+        let Some(block) = S::BLOCKS.iter().find(|b| b.name == joint) else { return Ok(None) };
+        let lambda = self.dynamics(state)?.lambda;
+        Ok(Some(self.reactions(state, &lambda, block)))
     }
 }
 
@@ -163,6 +184,10 @@ where
     fn system_state(&self, state: &TreeState<NQ, NV>) -> SystemState<NB> {
         TreeSimulation::system_state(self, state)
     }
+
+    fn reaction(&mut self, state: &TreeState<NQ, NV>, joint: &str) -> Result<Option<[Reaction; NB]>, TreeError> {
+        self.joint_reaction(state, &nalgebra::SVector::zeros(), joint)
+    }
 }
 
 /// A [`Simulation`] is the engine it wraps.
@@ -197,5 +222,9 @@ where
 
     fn system_state(&self, state: &Self::State) -> SystemState<NB> {
         (**self).system_state(state)
+    }
+
+    fn reaction(&mut self, state: &Self::State, joint: &str) -> Result<Option<[Reaction; NB]>, Self::Error> {
+        (**self).reaction(state, joint)
     }
 }

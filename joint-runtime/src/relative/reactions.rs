@@ -132,6 +132,48 @@ impl<
         self.closure_wrenches(state, lambda, Some(block))
     }
 
+    /// The joint named `joint`'s reaction on every body at `state` under
+    /// joint forces `tau`: on its two bodies (zeros elsewhere), as the
+    /// absolute engine's [`reactions`](crate::dynamics::AbsoluteSimulation::reactions)
+    /// of its block gives them. A tree joint's on its child is
+    /// [`reactions`](Self::reactions)' entry, its parent feels the
+    /// opposite wrench at the joint point; a loop's closing joint's and a
+    /// contact's are [`closure_reactions`](Self::closure_reactions)'. `None`
+    /// for a name that is neither (a floating body's free joint has none).
+    pub fn joint_reaction(
+        &mut self,
+        state: &TreeState<NQ, NV>,
+        tau: &SVector<f64, NV>,
+        joint: &str,
+    ) -> Result<Option<[Reaction; NB]>, TreeError> {
+        if let Some(block) = S::CLOSURES.iter().find(|b| b.name == joint) {
+            let lambda = self.closure_forces(state, tau)?;
+            return Ok(Some(self.closure_wrenches(state, &lambda, Some(block))));
+        }
+        let Some(k) = self.tree().joints().iter().position(|j| j.name == joint) else { return Ok(None) };
+        let on_child = self.reactions(state, tau)?;
+        let (Some(tree_joint), Some(&reaction)) = (self.tree().joints().get(k), on_child.get(k)) else {
+            return Ok(None);
+        };
+        let bodies = self.tree().system_state(state).bodies;
+        let mut out = [Reaction::default(); NB];
+        let Some(child) = bodies.get(tree_joint.child) else { return Ok(None) };
+        if let Some(slot) = out.get_mut(tree_joint.child) {
+            *slot = reaction;
+        }
+        if let (Some(p), Some(parent)) = (tree_joint.parent, tree_joint.parent.and_then(|p| bodies.get(p))) {
+            // The moment about the joint point, then about the parent's centre, in its axes.
+            let to_point = child.rotation() * tree_joint.rho_child;
+            let at_point = child.rotation() * reaction.torque - to_point.cross(&reaction.force);
+            let arm = child.r + to_point - parent.r;
+            let torque = parent.rotation().inverse() * (-at_point - arm.cross(&reaction.force));
+            if let Some(slot) = out.get_mut(p) {
+                *slot = Reaction { force: -reaction.force, torque };
+            }
+        }
+        Ok(Some(out))
+    }
+
     /// `J_bᵀ λ` on every body from the closure blocks (only `block` when given).
     fn closure_wrenches(
         &self,

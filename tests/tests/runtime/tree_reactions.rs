@@ -1,13 +1,14 @@
 //! The reactions of tree joints (`TreeSimulation::reactions`, from the
 //! recursive Newton–Euler algorithm) and of loops' closing joints
-//! (`TreeSimulation::closure_reactions`, `J_bᵀ λ` on the derive's body rows)
+//! (`TreeSimulation::closure_reactions`, `J_bᵀ λ` on the derive's body rows),
+//! and every joint's on both its bodies by name (`Engine::reaction`),
 //! against the absolute scene's reactions (`−J_kᵀ λ_k` of each joint's rows)
 //! on the same declaration, with user loads and springs acting; a floating
 //! body's free joint carries nothing; the share along a joint's freedom is
 //! its joint force.
 
 use joint_runtime::dynamics::{
-    AbsoluteSimulation, AppliedLoads, Attachment, Loads, NoLoads, Reaction, SimulationOptions, SpringDamper,
+    AbsoluteSimulation, AppliedLoads, Attachment, Engine, Loads, NoLoads, Reaction, SimulationOptions, SpringDamper,
 };
 use joint_runtime::nalgebra::{SVector, Vector3};
 use joint_runtime::relative::{TreeJointKind, TreeScene, TreeSimulation, TreeState};
@@ -63,6 +64,16 @@ where
         };
         assert_same(&mine[k], &theirs, &format!("joint `{}`", joint.name));
         largest = largest.max(theirs.force.norm());
+    }
+    // Every joint by name through `Engine::reaction`, both bodies.
+    for block in <S as Scene<NB, NV6, M>>::BLOCKS {
+        let mine = Engine::reaction(&mut relative, tree_state, block.name).unwrap();
+        let theirs = Engine::reaction(&mut absolute, &system, block.name).unwrap().unwrap();
+        // A joint the tree folds away entirely would have none; these all have one.
+        let mine = mine.unwrap_or_else(|| panic!("no reaction of `{}`", block.name));
+        for (body, (mine, theirs)) in mine.iter().zip(&theirs).enumerate() {
+            assert_same(mine, theirs, &format!("joint `{}` on body {body}", block.name));
+        }
     }
     for block in <S as TreeScene<NB, NQ, NV, NC>>::CLOSURES {
         let (mine, theirs) = (
