@@ -43,7 +43,7 @@ pub fn derive(s: &SceneDecl, closings: &[Closing]) -> syn::Result<BodyRows> {
     let mut k = Kinematics::scene(Formulation::OmegaBody, &names);
     let poses: Vec<_> = (0..s.bodies.len()).map(|b| k.pose(b)).collect();
     let mut bindings = Vec::new();
-    let (mut rows, mut ends) = (Vec::new(), Vec::new());
+    let (mut lowered_rows, mut ends) = (Vec::new(), Vec::new());
     for closing in closings {
         let (bodies, phi) = match closing {
             Closing::Weld { bodies, points, torquescale } => {
@@ -58,14 +58,18 @@ pub fn derive(s: &SceneDecl, closings: &[Closing]) -> syn::Result<BodyRows> {
                 ([j.bodies[0], j.bodies[1]], kept.iter().map(|&n| lowered.phi[n]).collect())
             }
         };
-        // The body-frame rules, as the absolute scene derives its J with.
-        let mut rules = k.body_view().unwrap_or_else(|| k.rules.clone());
-        for row in phi {
-            let rate = rules.dt(&mut k.g, row);
-            let full = grad(&mut k.g, rate, &k.velocities.clone());
-            rows.push(twelve(&mut k, full, bodies));
-        }
+        lowered_rows.extend(phi.into_iter().map(|row| (row, bodies)));
         ends.push(bodies);
+    }
+    // The body-frame rules, as the absolute scene derives its J with: built
+    // once every row is lowered, their memo shared by all rows.
+    let mut rules = k.body_view().unwrap_or_else(|| k.rules.clone());
+    let velocities = k.velocities.clone();
+    let mut rows = Vec::new();
+    for (row, bodies) in lowered_rows {
+        let rate = rules.dt(&mut k.g, row);
+        let full = grad(&mut k.g, rate, &velocities);
+        rows.push(twelve(&mut k, full, bodies));
     }
     for _ in &s.couplings {
         let zero = k.g.zero();
